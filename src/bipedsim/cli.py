@@ -1,0 +1,122 @@
+"""The ``bipedsim`` command.
+
+Each subcommand is a function ``cmd_<name>(args) -> int`` registered in :data:`COMMANDS`. Errors a
+user can cause are :class:`~bipedsim.errors.BipedsimError`: the message is printed to stderr and the
+exit status is 2, without a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from bipedsim import __version__
+from bipedsim.errors import BipedsimError
+
+Command = Callable[[argparse.Namespace], int]
+
+
+def _scale_arg(text: str) -> float | str:
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+# ---------------------------------------------------------------------- info
+def info_dict(path: str, scale: float | str | None = None, up: str | None = None) -> dict[str, object]:
+    """Facts about a BVH file: joints, frames, timing, rotation orders, unit, up axis, root speed."""
+    from bipedsim.motion.bvh import read_bvh
+    from bipedsim.motion.conventions import horizontal_axes
+
+    motion, info = read_bvh(path, scale=scale, up=up)
+    m = motion.to_project_frame()
+    h = list(horizontal_axes(m.up))
+    root = m.root_translation[:, h]
+    path_len = float(np.linalg.norm(np.diff(root, axis=0), axis=1).sum()) if m.num_frames > 1 else 0.0
+    net = float(np.linalg.norm(root[-1] - root[0]))
+    d = info.to_dict()
+    d.update({
+        "duration_s": m.duration,
+        "joint_names": list(m.skeleton.names),
+        "root_path_m": path_len,
+        "root_displacement_m": net,
+        "root_speed_mps": path_len / m.duration if m.duration > 0 else 0.0,
+    })
+    return d
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    from bipedsim.data import builtin_walk_path
+
+    path = args.file or str(builtin_walk_path())
+    d = info_dict(path, scale=args.scale, up=args.up)
+    if args.json:
+        print(json.dumps(d, indent=2))
+        return 0
+    orders = ", ".join(f"{k} x{v}" for k, v in d["rotation_orders"].items())  # type: ignore[union-attr]
+    six = d["position_channels"]
+    print(f"file        {d['path']}")
+    print(f"joints      {d['num_joints']}  (end sites: {d['end_sites']})")
+    print(f"frames      {d['num_frames']} at {d['fps']:.4g} fps (frame time {d['frame_time']:.6g} s), "
+          f"duration {d['duration_s']:.3f} s")
+    print(f"rotations   {orders}")
+    if six:
+        modes = ", ".join(f"{k}: {v}" for k, v in six.items())  # type: ignore[union-attr]
+        print(f"positions   {len(six)} joint(s) with position channels -- {modes}")
+    print(f"unit        {d['unit_name']} = {d['unit_scale']:.6g} m/unit ({d['unit_source']}: {d['unit_reason']})")
+    print(f"height      {d['height_m']:.3f} m ({'upright' if d['upright'] else 'not upright: largest extent'})")
+    print(f"up axis     {str(d['up']).upper()} ({d['up_source']}: {d['up_reason']})")
+    print(f"root        path {d['root_path_m']:.3f} m, net {d['root_displacement_m']:.3f} m, "
+          f"speed {d['root_speed_mps']:.3f} m/s")
+    print(f"text        line endings {d['line_endings']}, final newline {'yes' if d['final_newline'] else 'no'}")
+    return 0
+
+
+def _add_info(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("info", help="describe a BVH file (joints, frames, units, up axis, speed)")
+    p.add_argument("file", nargs="?", help="BVH file (default: the built-in reference walk)")
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    p.add_argument("--scale", type=_scale_arg, default=None,
+                   help="metres per file unit, or a unit name (m, dm, cm, mm, inch, cmu, ft); "
+                        "guessed when omitted")
+    p.add_argument("--up", choices=("y", "z"), default=None, help="the file's up axis (guessed when omitted)")
+    p.set_defaults(func=cmd_info)
+
+
+#: Subcommand registrars, in the order ``--help`` lists them.
+COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_info]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="bipedsim", description="Physics-based character simulation on MuJoCo.")
+    parser.add_argument("--version", action="version", version=f"bipedsim {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for register in COMMANDS:
+        register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args))
+    except BipedsimError as exc:
+        print(f"bipedsim {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"bipedsim {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

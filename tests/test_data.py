@@ -1,0 +1,17 @@
+"""Shipped data is what the package's generators make."""
+
+from __future__ import annotations
+
+from bipedsim.data import BUILTIN_WALK, builtin_walk_text
+from bipedsim.motion import read_bvh
+
+
+def test_builtin_walk_regenerates_identically() -> None:
+    assert BUILTIN_WALK.read_text() == builtin_walk_text()
+
+
+def test_builtin_walk_reads_as_about_50_frames_per_cycle() -> None:
+    m, info = read_bvh(BUILTIN_WALK)
+    assert info.unit_name == "cm" and info.up == "y"
+    cycle_s = 2 * 60.0 / 110.0
+    assert round(cycle_s / m.frame_time) == 50

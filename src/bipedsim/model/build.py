@@ -1,0 +1,92 @@
+"""One entry point for building bodies: profile dispatch, summary, file output."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from bipedsim.errors import ModelError
+from bipedsim.model.plan import BodyPlanSet, ModelBuilder, model_hash, plan_from_model
+from bipedsim.model.profile import CreatureProfile, HumanoidProfile, load_profile
+from bipedsim.motion.motion import Motion
+
+
+@dataclass
+class BuiltModel:
+    """A built body: its MJCF text, the compiled model and the plan it came from."""
+
+    xml: str
+    model: mujoco.MjModel
+    plan: BodyPlanSet
+
+    @property
+    def hash(self) -> str:
+        return model_hash(self.xml)
+
+    def summary(self) -> dict[str, Any]:
+        """Bodies, DOFs, actuators, total mass (kg) and standing height (m)."""
+        m = self.model
+        data = mujoco.MjData(m)
+        mujoco.mj_kinematics(m, data)
+        top = max(data.geom_xpos[g][2] + float(np.max(m.geom_size[g])) for g in range(m.ngeom)
+                  if m.geom_bodyid[g] > 0)
+        return {"name": self.plan.name, "profile": self.plan.profile, "bodies": int(m.nbody - 1),
+                "dofs": int(m.nv), "actuated_dofs": int(m.nu), "joints": int(m.njnt),
+                "total_mass_kg": float(np.sum(m.body_mass)), "height_m": float(top),
+                "timestep_s": float(m.opt.timestep), "hash": self.hash}
+
+    def write(self, path: str | os.PathLike[str]) -> None:
+        from bipedsim.io import atomic_write_text
+
+        atomic_write_text(path, self.xml)
+
+
+def build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfile | CreatureProfile = "humanoid",
+                *, total_mass: float | None = None, mapping: Any = None, name: str | None = None) -> BuiltModel:
+    """Build a body for a motion's skeleton. ``motion`` in the project frame (metres, Z up).
+
+    ``profile``: ``"humanoid"``, ``"creature"``, a profile YAML path, or a loaded profile.
+    ``total_mass`` (kg) scales every segment. ``mapping``: a :class:`~bipedsim.model.naming.MapFile`
+    (humanoid only).
+    """
+    if total_mass is not None and not total_mass > 0:
+        raise ModelError(f"total mass must be > 0 kg, got {total_mass}")
+    prof = profile if isinstance(profile, HumanoidProfile | CreatureProfile) else load_profile(profile)
+    if motion.up != "z" or motion.unit != 1.0:
+        motion = motion.to_project_frame()
+    if isinstance(prof, HumanoidProfile):
+        from bipedsim.model.humanoid import humanoid_plan
+
+        plan = humanoid_plan(motion, prof, mapping=mapping, total_mass=total_mass, name=name or "humanoid")
+    else:
+        if mapping is not None:
+            raise ModelError("a joint mapping applies to the humanoid profile only")
+        from bipedsim.model.creature import creature_plan
+
+        plan = creature_plan(motion, prof, total_mass=total_mass, name=name or "creature")
+    builder = ModelBuilder(plan)
+    xml = builder.xml()
+    try:
+        model = mujoco.MjModel.from_xml_string(xml)
+    except ValueError as exc:  # pragma: no cover - a builder bug, not user input
+        raise ModelError(f"the generated MJCF does not compile: {exc}") from None
+    return BuiltModel(xml=xml, model=model, plan=plan)
+
+
+def load_model(path: str | os.PathLike[str]) -> BuiltModel:
+    """Load an MJCF file written by bipedsim (its body plan travels inside it)."""
+    p = Path(path)
+    try:
+        xml = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ModelError(f"{p}: cannot read: {exc.strerror or exc}") from None
+    try:
+        model = mujoco.MjModel.from_xml_string(xml)
+    except ValueError as exc:
+        raise ModelError(f"{p}: not a valid MJCF model: {exc}") from None
+    return BuiltModel(xml=xml, model=model, plan=plan_from_model(model))

@@ -1,0 +1,251 @@
+"""Recognising humanoid skeletons from their joint names.
+
+Handles the usual conventions -- CMU (``Hips/LeftUpLeg/LeftLeg/LeftFoot``), Daz/Poser
+(``hip/lThigh/lShin/lFoot``), 3ds-Max style (``LeftHip/LeftKnee/LeftAnkle``), Mixamo
+(``mixamorig:LeftUpLeg``), Bandai-style (``joint_*``, ``*_L``), MakeHuman (``upperleg01.L``), Blender
+(``thigh.L``) -- and anything else through a user mapping YAML.
+
+A name is split into a side (left/right/none) and a base word with digits and separators removed;
+the base is matched against role synonyms. Structure settles the rest: the upper arm is the topmost
+arm-like ancestor of the elbow, the chest is where both arms meet, the pelvis is where both legs meet.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+
+from bipedsim import config
+from bipedsim.errors import ModelError
+from bipedsim.motion.skeleton import Skeleton
+
+SIDES = ("left", "right")
+
+#: Role synonyms, tried in order: an earlier group wins over a later one on the same side.
+LEG_ROLES: dict[str, list[list[str]]] = {
+    "thigh": [["upleg", "upperleg", "thigh", "uleg"], ["hip"]],
+    "knee": [["leg", "knee", "shin", "lowleg", "loleg", "lowerleg", "calf", "lleg"]],
+    "ankle": [["foot", "ankle"]],
+    "toe": [["toe", "toebase", "toes", "ball"]],
+}
+ARM_ROLES: dict[str, list[list[str]]] = {
+    "upper_arm": [["arm", "uparm", "upperarm", "shldr", "uarm"], ["shoulder"]],
+    "elbow": [["forearm", "elbow", "lowarm", "loarm", "lowerarm", "larm"]],
+    "wrist": [["hand", "wrist"]],
+}
+HEAD_WORDS = ["head"]
+NECK_WORDS = ["neck"]
+
+_SIDE_RULES = [
+    (re.compile(r"^(left|right)[_\-. ]?(.*)$", re.I), lambda m: (m.group(1).lower(), m.group(2))),
+    (re.compile(r"^(.*?)[_\-. ]?(left|right)$", re.I), lambda m: (m.group(2).lower(), m.group(1))),
+    (re.compile(r"^(.*?)[_.\-]([LR])$"), lambda m: ("left" if m.group(2) == "L" else "right", m.group(1))),
+    (re.compile(r"^(.*?)[_.\-]([lr])$"), lambda m: ("left" if m.group(2) == "l" else "right", m.group(1))),
+    (re.compile(r"^(.*?)(LT|RT)$"), lambda m: ("left" if m.group(2) == "LT" else "right", m.group(1))),
+    (re.compile(r"^([lL])([A-Z].*)$"), lambda m: ("left", m.group(2))),
+    (re.compile(r"^([rR])([A-Z].*)$"), lambda m: ("right", m.group(2))),
+]
+
+
+def split_name(name: str) -> tuple[str, str]:
+    """(side, base): side is ``left``/``right``/``""``; base lower-case with namespace, ``joint``
+    prefix, digits and separators removed (``mixamorig:LeftUpLeg`` -> ``("left", "upleg")``)."""
+    n = name.split(":")[-1].split("|")[-1]
+    n = re.sub(r"^joint[_\-. ]?", "", n, flags=re.I)
+    side = ""
+    for pat, fn in _SIDE_RULES:
+        m = pat.match(n)
+        if m:
+            side, n = fn(m)
+            break
+    base = re.sub(r"[^a-z]", "", n.lower())
+    return side, base
+
+
+@dataclass
+class HumanoidMap:
+    """Which source joints play which role. Sides are ``left``/``right``; arms may be absent."""
+
+    pelvis: str
+    torso_base: str
+    chest: str
+    neck: str
+    head: str
+    legs: dict[str, dict[str, str | None]] = field(default_factory=dict)  # side -> role -> joint
+    arms: dict[str, dict[str, str]] = field(default_factory=dict)
+
+    def used_joints(self) -> set[str]:
+        out = {self.pelvis, self.torso_base, self.chest, self.neck, self.head}
+        for d in (*self.legs.values(), *self.arms.values()):
+            out.update(v for v in d.values() if v)
+        return out
+
+
+@dataclass(frozen=True)
+class MapFile:
+    """User mapping YAML: any role may be given; the rest is recognised from names."""
+
+    pelvis: str | None = None
+    torso_base: str | None = None
+    chest: str | None = None
+    neck: str | None = None
+    head: str | None = None
+    left: dict[str, str] = field(default_factory=dict)
+    right: dict[str, str] = field(default_factory=dict)
+
+    def validate(self) -> None:
+        allowed = set(LEG_ROLES) | set(ARM_ROLES)
+        for side in SIDES:
+            for role in getattr(self, side):
+                if role not in allowed:
+                    raise ValueError(f"{side}.{role}: unknown role; allowed: {', '.join(sorted(allowed))}")
+
+
+def load_map(path: str | os.PathLike[str], skeleton: Skeleton) -> MapFile:
+    """Load a mapping YAML and check every joint it names exists in ``skeleton``."""
+    m = config.load(MapFile, path)
+    names = set(skeleton.names)
+    named = [(k, v) for k in ("pelvis", "torso_base", "chest", "neck", "head") if (v := getattr(m, k))]
+    named += [(f"{s}.{r}", v) for s in SIDES for r, v in getattr(m, s).items()]
+    for key, joint in named:
+        if joint not in names:
+            from bipedsim.errors import ConfigError
+
+            close = sorted(n for n in names if n.lower()[:3] == str(joint).lower()[:3])[:5]
+            hint = f"; similar: {', '.join(close)}" if close else ""
+            raise ConfigError(f"names joint {joint!r}, which the skeleton does not have{hint}",
+                              path=path, key=key)
+    return m
+
+
+def _ancestors(sk: Skeleton, j: int) -> list[int]:
+    out = []
+    while j >= 0:
+        out.append(j)
+        j = int(sk.parents[j])
+    return out  # j, parent, ..., root
+
+
+def _lca(sk: Skeleton, a: int, b: int) -> int:
+    anc = set(_ancestors(sk, a))
+    for j in _ancestors(sk, b):
+        if j in anc:
+            return j
+    return 0
+
+
+def _match(base: str, words: list[str]) -> bool:
+    return base in words
+
+
+def _topmost_on_chain(sk: Skeleton, start: int, words_groups: list[list[str]], side: str,
+                      stop: int | None = None) -> int | None:
+    """Walk from ``start`` up to the root; among ancestors matching the first group with hits, the
+    topmost of the contiguous run nearest ``start``."""
+    chain = _ancestors(sk, start)[1:]
+    if stop is not None and stop in chain:
+        chain = chain[:chain.index(stop)]
+    for words in words_groups:
+        hits = [j for j in chain if split_name(sk.names[j]) == (side, _one(words, sk.names[j], side))]
+        if hits:
+            # contiguous run nearest start: lowerarm02 -> lowerarm01 -> ... pick the topmost of it
+            first = hits[0]
+            run = [first]
+            for j in chain[chain.index(first) + 1:]:
+                s, b = split_name(sk.names[j])
+                if s == side and b in words:
+                    run.append(j)
+                else:
+                    break
+            return run[-1]
+    return None
+
+
+def _one(words: list[str], name: str, side: str) -> str | None:
+    s, b = split_name(name)
+    return b if (s == side and b in words) else None
+
+
+def _find_first(sk: Skeleton, side: str, words: list[str], under: int | None = None) -> int | None:
+    cands = [j for j in range(sk.num_joints) if _one(words, sk.names[j], side) is not None]
+    if under is not None:
+        cands = [j for j in cands if under in _ancestors(sk, j)]
+    if not cands:
+        return None
+    depth = sk.depth()
+    return min(cands, key=lambda j: (depth[j], j))
+
+
+def recognise_humanoid(sk: Skeleton, mapping: MapFile | None = None) -> HumanoidMap:
+    """Find the humanoid roles in a skeleton; raise :class:`ModelError` saying what is missing."""
+    mp = mapping or MapFile()
+    idx = {n: i for i, n in enumerate(sk.names)}
+    legs: dict[str, dict[str, str | None]] = {}
+    arms: dict[str, dict[str, str]] = {}
+    for side in SIDES:
+        given = getattr(mp, side)
+        # legs: ankle first, then walk up
+        ankle = idx[given["ankle"]] if "ankle" in given else _find_first(sk, side, LEG_ROLES["ankle"][0])
+        knee = thigh = None
+        if ankle is not None:
+            knee = idx[given["knee"]] if "knee" in given else _topmost_on_chain(sk, ankle, LEG_ROLES["knee"], side)
+            if knee is not None:
+                thigh = (idx[given["thigh"]] if "thigh" in given
+                         else _topmost_on_chain(sk, knee, LEG_ROLES["thigh"], side))
+        if ankle is None or knee is None or thigh is None:
+            missing = [r for r, v in (("thigh", thigh), ("knee", knee), ("ankle", ankle)) if v is None]
+            raise ModelError(
+                f"no {side} leg: could not find the {side} {', '.join(missing)} joint(s) by name "
+                f"(looked for names like {side.capitalize()}UpLeg/{side.capitalize()}Leg/"
+                f"{side.capitalize()}Foot, {side[0]}Thigh/{side[0]}Shin, thigh.{side[0].upper()}); "
+                f"the humanoid profile needs two legs -- give a mapping YAML with --map, or use the "
+                f"creature profile")
+        toe = idx[given["toe"]] if "toe" in given else _find_first(sk, side, LEG_ROLES["toe"][0], under=ankle)
+        legs[side] = {"thigh": sk.names[thigh], "knee": sk.names[knee], "ankle": sk.names[ankle],
+                      "toe": None if toe is None else sk.names[toe]}
+        wrist = idx[given["wrist"]] if "wrist" in given else _find_first(sk, side, ARM_ROLES["wrist"][0])
+        if wrist is None:
+            continue
+        elbow = idx[given["elbow"]] if "elbow" in given else _topmost_on_chain(sk, wrist, ARM_ROLES["elbow"], side)
+        if elbow is None:
+            continue
+        upper = (idx[given["upper_arm"]] if "upper_arm" in given
+                 else _topmost_on_chain(sk, elbow, ARM_ROLES["upper_arm"], side))
+        if upper is None:
+            upper = int(sk.parents[elbow])
+        arms[side] = {"upper_arm": sk.names[upper], "elbow": sk.names[elbow], "wrist": sk.names[wrist]}
+    if len(arms) == 1:
+        arms = {}  # one arm only: drop both, the body stays symmetric
+
+    th_l, th_r = idx[legs["left"]["thigh"]], idx[legs["right"]["thigh"]]  # type: ignore[index]
+    pelvis = idx[mp.pelvis] if mp.pelvis else _lca(sk, th_l, th_r)
+    head = idx[mp.head] if mp.head else _find_first(sk, "", HEAD_WORDS)
+    if arms:
+        ua_l, ua_r = idx[arms["left"]["upper_arm"]], idx[arms["right"]["upper_arm"]]
+        chest = idx[mp.chest] if mp.chest else _lca(sk, ua_l, ua_r)
+    elif head is not None:
+        chest = idx[mp.chest] if mp.chest else int(sk.parents[head])
+    else:
+        raise ModelError("found legs but neither arms nor a head: cannot tell where the torso is; "
+                         "give chest: in a mapping YAML (--map)")
+    if chest == pelvis or pelvis in _ancestors(sk, chest)[1:] and chest in (th_l, th_r):
+        raise ModelError(f"torso not found: the arms meet at {sk.names[chest]!r}, which is the pelvis; "
+                         f"give chest: in a mapping YAML (--map)")
+    if head is None:
+        head = chest
+    if mp.neck:
+        neck = idx[mp.neck]
+    else:
+        neck = _topmost_on_chain(sk, head, [NECK_WORDS], "", stop=chest)
+        if neck is None:
+            neck = head
+    if mp.torso_base:
+        torso_base = idx[mp.torso_base]
+    else:
+        a = _lca(sk, pelvis, chest)
+        path = _ancestors(sk, chest)
+        path = path[:path.index(a)]  # chest ... child of a
+        torso_base = path[-1] if path else chest
+    return HumanoidMap(pelvis=sk.names[pelvis], torso_base=sk.names[torso_base], chest=sk.names[chest],
+                       neck=sk.names[neck], head=sk.names[head], legs=legs, arms=arms)

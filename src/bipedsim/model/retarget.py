@@ -1,0 +1,300 @@
+"""Retargeting: a :class:`Motion` onto a built model, giving a :class:`ReferenceClip`.
+
+Each body's world orientation is fitted to the source motion (see :class:`~bipedsim.model.plan.FitPlan`):
+
+- ``kabsch``: the rotation that best carries the body's rest-pose points (relative to its origin) onto
+  where the motion puts them (least squares, SVD), lightly regularised toward a reference joint's
+  rotation so it stays defined when the points are nearly collinear;
+- ``aim``: a reference rotation turned by the smallest rotation that makes the bone point where the
+  motion's does (keeps the reference's twist);
+- ``twobone``: aim at the middle joint, with the twist that puts the end joint in the plane of the
+  child's hinge -- so a 3-DOF hip plus a 1-DOF knee reproduce knee and ankle positions exactly (same
+  for shoulder + elbow).
+
+Local rotations ``G_parent^T G_body`` are then split into the body's joints: hinge sets by intrinsic
+Euler decomposition on their axes, single hinges by the twist about their axis, ball joints as
+quaternions. Velocities come from ``mj_differentiatePos`` (central differences on the manifold).
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial.transform import Rotation
+
+from bipedsim.errors import ModelError
+from bipedsim.model.clip import ReferenceClip, contact_labels, gait_events
+from bipedsim.model.plan import BodyPlanSet, model_hash, plan_from_model
+from bipedsim.model.source import SourcePoints, motion_points, rest_points
+from bipedsim.motion.motion import Motion
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Weight of the reference rotation in a Kabsch fit, relative to 1 m of point spread.
+KABSCH_REF_WEIGHT = 1e-3
+#: Below this bend (rad) between the two bones, ``twobone`` keeps the reference twist.
+TWOBONE_MIN_BEND = np.radians(2.0)
+
+
+def _unit(v: FloatArray) -> FloatArray:
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
+
+
+def _min_rotation(a: FloatArray, b: FloatArray) -> FloatArray:
+    """(T, 3, 3) smallest rotations taking directions ``a`` to ``b`` (T, 3)."""
+    a, b = _unit(a), _unit(b)
+    axis = np.cross(a, b)
+    s = np.linalg.norm(axis, axis=-1)
+    c = np.sum(a * b, axis=-1)
+    angle = np.arctan2(s, c)
+    # antiparallel: any axis perpendicular to a
+    perp = np.cross(a, np.array([1.0, 0.0, 0.0]))
+    perp = np.where(np.linalg.norm(perp, axis=-1, keepdims=True) < 1e-6,
+                    np.cross(a, np.array([0.0, 1.0, 0.0])), perp)
+    axis = np.where((s < 1e-9)[:, None], _unit(perp), axis / np.maximum(s, 1e-12)[:, None])
+    return Rotation.from_rotvec(axis * angle[:, None]).as_matrix()
+
+
+def _kabsch(rest_vecs: FloatArray, cur_vecs: FloatArray, ref: FloatArray) -> FloatArray:
+    """(T, 3, 3) rotations minimising sum |R r_i - c_i|^2 (+ a small pull toward ``ref``).
+
+    rest_vecs (N, 3), cur_vecs (T, N, 3), ref (T, 3, 3)."""
+    h = np.einsum("ni,tnj->tij", rest_vecs, cur_vecs)
+    scale = max(float(np.sum(rest_vecs ** 2)), 1e-6)
+    h = h + KABSCH_REF_WEIGHT * scale * np.transpose(ref, (0, 2, 1))  # pairs e_k -> ref e_k
+    u, _, vt = np.linalg.svd(h)
+    v = np.transpose(vt, (0, 2, 1))
+    d = np.sign(np.linalg.det(v @ np.transpose(u, (0, 2, 1))))
+    dm = np.zeros((len(h), 3, 3))
+    dm[:, 0, 0] = 1.0
+    dm[:, 1, 1] = 1.0
+    dm[:, 2, 2] = d
+    return v @ dm @ np.transpose(u, (0, 2, 1))
+
+
+def _twobone_twist(g: FloatArray, u: FloatArray, w: FloatArray, axis0: FloatArray,
+                   child0: FloatArray) -> FloatArray:
+    """Twist ``g`` (T, 3, 3) about the bone ``u`` so the child's hinge, rotating the rest child bone
+    ``child0`` about ``g @ axis0``, can reach the child bone ``w``: the hinge axis must make the same
+    angle with ``w`` as ``axis0`` makes with ``child0``. Of the two twists that do, the smaller."""
+    uh = _unit(u)
+    wh = _unit(w)
+    a = np.einsum("tij,j->ti", g, axis0 / np.linalg.norm(axis0))
+    along = np.sum(a * uh, axis=-1, keepdims=True)
+    ap = a - along * uh
+    bp = np.cross(uh, ap)
+    cos_beta = float(np.dot(axis0, child0) / (np.linalg.norm(axis0) * np.linalg.norm(child0)))
+    big_a = np.sum(ap * wh, axis=-1)
+    big_b = np.sum(bp * wh, axis=-1)
+    c = cos_beta - along[:, 0] * np.sum(uh * wh, axis=-1)
+    r = np.hypot(big_a, big_b)
+    base = np.arctan2(big_b, big_a)
+    delta = np.arccos(np.clip(c / np.maximum(r, 1e-12), -1.0, 1.0))
+    cands = np.stack([base + delta, base - delta], axis=1)
+    cands = (cands + np.pi) % (2 * np.pi) - np.pi
+    phi = np.take_along_axis(cands, np.argmin(np.abs(cands), axis=1)[:, None], axis=1)[:, 0]
+    bend = np.linalg.norm(np.cross(uh, wh), axis=-1)
+    phi = np.where((r > 1e-9) & (bend > np.sin(TWOBONE_MIN_BEND)) | (abs(cos_beta) > 0.05), phi, 0.0)
+    return Rotation.from_rotvec(uh * phi[:, None]).as_matrix() @ g
+
+
+def fit_orientations(plan: BodyPlanSet, pts: SourcePoints, rest: SourcePoints) -> dict[str, FloatArray]:
+    """World rotation matrices (T, 3, 3) of every body over the motion."""
+    out: dict[str, FloatArray] = {}
+    n = pts.positions.shape[0]
+    for b in plan.bodies:
+        f = b.fit
+        if f is None:
+            raise ModelError(f"body {b.name!r} has no fit plan")
+        if f.ref == "parent":
+            ref = out[b.parent] if b.parent else np.tile(np.eye(3), (n, 1, 1))
+        elif f.ref.startswith("bvh:"):
+            ref = pts.rotation(f.ref[4:])
+        else:
+            ref = np.tile(np.eye(3), (n, 1, 1))
+        o_rest, o_cur = rest[f.origin], pts[f.origin]
+        if f.method == "kabsch":
+            rv = np.stack([rest[p] - o_rest for p in f.points])
+            cv = np.stack([pts[p] - o_cur for p in f.points], axis=1)
+            g = _kabsch(rv, cv, ref)
+        elif f.method in ("aim", "twobone"):
+            u0 = rest[f.points[0]] - o_rest
+            u = pts[f.points[0]] - o_cur
+            g = _min_rotation(np.einsum("tij,j->ti", ref, u0), u) @ ref
+            if f.method == "twobone":
+                assert f.hinge_axis is not None
+                g = _twobone_twist(g, u, pts[f.points[1]] - pts[f.points[0]], np.asarray(f.hinge_axis),
+                                   rest[f.points[1]] - rest[f.points[0]])
+        elif f.method == "hinge":
+            # rotate the parent's frame about the hinge until the bone points at the motion's point
+            assert f.hinge_axis is not None
+            a = _unit(np.einsum("tij,j->ti", ref, np.asarray(f.hinge_axis)))
+            s0 = np.einsum("tij,j->ti", ref, rest[f.points[0]] - o_rest)
+            w = pts[f.points[0]] - o_cur
+            p0 = s0 - np.sum(s0 * a, axis=-1, keepdims=True) * a
+            p1 = w - np.sum(w * a, axis=-1, keepdims=True) * a
+            theta = np.arctan2(np.sum(a * np.cross(p0, p1), axis=-1), np.sum(p0 * p1, axis=-1))
+            g = Rotation.from_rotvec(a * theta[:, None]).as_matrix() @ ref
+        else:
+            raise ModelError(f"body {b.name!r}: unknown fit method {f.method!r}")
+        out[b.name] = g
+    return out
+
+
+def _hinge_angles(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
+    """(T, k) hinge angles reproducing local rotations (T, 3, 3) with hinges on ``axes`` in order."""
+    if len(axes) == 1:
+        q = Rotation.from_matrix(local).as_quat()  # x y z w
+        a = axes[0] / np.linalg.norm(axes[0])
+        ang = 2.0 * np.arctan2(q[:, :3] @ a, q[:, 3])
+        return ((ang + np.pi) % (2 * np.pi) - np.pi)[:, None]
+    letters, signs = [], []
+    for a in axes:
+        k = int(np.argmax(np.abs(a)))
+        if not np.isclose(abs(a[k]), 1.0):
+            raise ModelError("hinge sets need axes along x, y or z")
+        letters.append("xyz"[k])
+        signs.append(np.sign(a[k]))
+    seq = "".join(letters)
+    if len(seq) == 2:
+        seq += next(c for c in "xyz" if c not in seq)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        eul = Rotation.from_matrix(local).as_euler(seq.upper())
+    return eul[:, :len(axes)] * np.array(signs)
+
+
+def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None = None,
+             xml: str | None = None, contact_height: float = 0.03, contact_speed: float = 0.3,
+             source: str = "") -> ReferenceClip:
+    """Retarget a motion (project frame: metres, Z up) onto a model built by bipedsim.
+
+    ``contact_height`` (m) and ``contact_speed`` (m/s): a foot is in contact on a frame when its
+    lowest point is below the height and it moves slower than the speed.
+    """
+    plan = plan or plan_from_model(model)
+    if list(motion.skeleton.names) != list(plan.source_names):
+        raise ModelError("this motion's skeleton is not the one the model was built from "
+                         f"({motion.num_joints} joints vs {len(plan.source_names)}); convert its BVH first")
+    rest = rest_points(motion).turned(plan.heading_yaw)
+    pts = motion_points(motion).turned(plan.heading_yaw)
+    g = fit_orientations(plan, pts, rest)
+    t = motion.num_frames
+    qpos = np.zeros((t, model.nq))
+    names = {b.name: b for b in plan.bodies}
+    for b in plan.bodies:
+        if b.parent is None:
+            qpos[:, 0:3] = pts[b.source]
+            qpos[:, 3:7] = Rotation.from_matrix(g[b.name]).as_quat(scalar_first=True)
+            continue
+        local = np.transpose(g[b.parent], (0, 2, 1)) @ g[b.name]
+        if not b.joints:
+            continue
+        if b.joints[0].kind == "ball":
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, b.joints[0].name)
+            adr = model.jnt_qposadr[jid]
+            qpos[:, adr:adr + 4] = Rotation.from_matrix(local).as_quat(scalar_first=True)
+            continue
+        ang = _hinge_angles(local, [np.asarray(j.axis) for j in b.joints])
+        for k, j in enumerate(b.joints):
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+            qpos[:, model.jnt_qposadr[jid]] = ang[:, k]
+    del names
+    # floor: the lowest point any foot reaches over the clip touches z = 0
+    feet = plan.foot_bodies or [b.name for b in plan.bodies]
+    low, fpos = foot_heights(model, qpos, feet)
+    lift = -float(np.min(low))
+    qpos[:, 2] += lift
+    low = low + lift
+    fpos[..., 2] += lift
+    qvel = velocities(model, qpos, motion.frame_time)
+    contacts = contact_labels(low, fpos, motion.frame_time, contact_height, contact_speed)
+    side_feet = _foot_groups(plan, feet)
+    grouped = np.stack([contacts[:, [feet.index(f) for f in fs]].any(axis=1) for fs in side_feet.values()],
+                       axis=1)
+    return ReferenceClip(qpos=qpos, qvel=qvel, frame_time=motion.frame_time, contacts=grouped,
+                         foot_names=list(side_feet), foot_heights=_group_min(low, feet, side_feet),
+                         events=gait_events(grouped, list(side_feet)),
+                         model_hash=model_hash(xml) if xml is not None else "",
+                         joint_names=[model.joint(i).name for i in range(model.njnt)], source=source,
+                         vertical_shift=lift)
+
+
+def _foot_groups(plan: BodyPlanSet, feet: list[str]) -> dict[str, list[str]]:
+    """Humanoid feet group by side (foot + toe); creature end effectors stand alone."""
+    if plan.profile == "humanoid":
+        return {s: [f for f in feet if f.startswith(s + "_")] for s in ("left", "right")}
+    return {f: [f] for f in feet}
+
+
+def _group_min(low: FloatArray, feet: list[str], groups: dict[str, list[str]]) -> FloatArray:
+    return np.stack([low[:, [feet.index(f) for f in fs]].min(axis=1) for fs in groups.values()], axis=1)
+
+
+def foot_heights(model: mujoco.MjModel, qpos: FloatArray, feet: list[str]) -> tuple[FloatArray, FloatArray]:
+    """Lowest point (T, F) of each foot body's geoms and the body positions (T, F, 3) per frame."""
+    data = mujoco.MjData(model)
+    bids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f) for f in feet]
+    geoms = [[gi for gi in range(model.ngeom) if model.geom_bodyid[gi] == b] for b in bids]
+    low = np.zeros((len(qpos), len(feet)))
+    pos = np.zeros((len(qpos), len(feet), 3))
+    for t, q in enumerate(qpos):
+        data.qpos[:] = q
+        mujoco.mj_kinematics(model, data)
+        for k, gl in enumerate(geoms):
+            low[t, k] = min(geom_lowest_z(model, data, gi) for gi in gl)
+            pos[t, k] = data.xpos[bids[k]]
+    return low, pos
+
+
+def geom_lowest_z(model: mujoco.MjModel, data: mujoco.MjData, gi: int) -> float:
+    """Lowest world z of a geom (box, capsule or sphere) in the current pose."""
+    c = data.geom_xpos[gi]
+    r = data.geom_xmat[gi].reshape(3, 3)
+    s = model.geom_size[gi]
+    typ = model.geom_type[gi]
+    if typ == mujoco.mjtGeom.mjGEOM_BOX:
+        return float(c[2] - np.abs(r[2]) @ s)
+    if typ == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        return float(c[2] - abs(r[2, 2]) * s[1] - s[0])
+    return float(c[2] - s[0])
+
+
+def velocities(model: mujoco.MjModel, qpos: FloatArray, dt: float) -> FloatArray:
+    """(T, nv) joint velocities: central differences on the configuration manifold."""
+    t = len(qpos)
+    qvel = np.zeros((t, model.nv))
+    if t < 2:
+        return qvel
+    v = np.zeros(model.nv)
+    for i in range(t):
+        a, b = max(i - 1, 0), min(i + 1, t - 1)
+        mujoco.mj_differentiatePos(model, v, (b - a) * dt, qpos[a], qpos[b])
+        qvel[i] = v
+    return qvel
+
+
+def marker_positions(model: mujoco.MjModel, clip: ReferenceClip, plan: BodyPlanSet) -> dict[str, FloatArray]:
+    """Model positions (T, 3) of the source joints the reduction kept (kinematic replay)."""
+    data = mujoco.MjData(model)
+    markers = plan.extra.get("markers", {})
+    out = {k: np.zeros((clip.num_frames, 3)) for k in markers}
+    for t in range(clip.num_frames):
+        data.qpos[:] = clip.qpos[t]
+        mujoco.mj_kinematics(model, data)
+        for src, (kind, name) in markers.items():
+            if kind == "body":
+                out[src][t] = data.xpos[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)]
+            else:
+                out[src][t] = data.site_xpos[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, name)]
+    return out
+
+
+def source_marker_positions(motion: Motion, clip: ReferenceClip, plan: BodyPlanSet) -> dict[str, FloatArray]:
+    """The same joints' positions in the source motion, in the model's frame (turned, lifted)."""
+    pts = motion_points(motion).turned(plan.heading_yaw)
+    lift = np.array([0.0, 0.0, clip.vertical_shift])
+    return {src: pts[src] + lift for src in plan.extra.get("markers", {})}

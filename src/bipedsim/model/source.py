@@ -1,0 +1,85 @@
+"""Named points of a source skeleton (joints and End Sites) in the rest pose or over a motion."""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial.transform import Rotation
+
+from bipedsim.motion.motion import Motion
+from bipedsim.motion.skeleton import Skeleton
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def _yaw_matrix(yaw: float) -> FloatArray:
+    return Rotation.from_rotvec([0.0, 0.0, yaw]).as_matrix()
+
+
+class SourcePoints:
+    """Positions of joints (by name) and End Sites (``"<joint>/end<k>"``), for one pose (N, 3) or
+    over frames (T, N, 3), with the joints' global rotations (T, J, 3, 3) when known."""
+
+    def __init__(self, skeleton: Skeleton, positions: FloatArray, rotations: FloatArray | None = None) -> None:
+        self.skeleton = skeleton
+        self.positions = positions
+        self.rotations = rotations
+        names = list(skeleton.names)
+        count: dict[int, int] = {}
+        for p in skeleton.end_site_parents:
+            k = count.get(int(p), 0)
+            names.append(f"{skeleton.names[int(p)]}/end{k}")
+            count[int(p)] = k + 1
+        self.names = names
+        self.index = {n: i for i, n in enumerate(names)}
+
+    def __getitem__(self, name: str) -> FloatArray:
+        return self.positions[..., self.index[name], :]
+
+    def rotation(self, joint: str) -> FloatArray:
+        assert self.rotations is not None
+        return self.rotations[..., self.skeleton.index(joint), :, :]
+
+    def turned(self, yaw: float) -> SourcePoints:
+        """The same points with the world turned by ``yaw`` rad about +z."""
+        r = _yaw_matrix(yaw)
+        rot = None if self.rotations is None else np.einsum("ij,...jk->...ik", r, self.rotations)
+        return SourcePoints(self.skeleton, self.positions @ r.T, rot)
+
+    def shifted(self, delta: FloatArray) -> SourcePoints:
+        return SourcePoints(self.skeleton, self.positions + delta, self.rotations)
+
+    def tip(self, joint: str) -> str:
+        """The point that ends a joint's bone: its first End Site, else its farthest descendant."""
+        sk = self.skeleton
+        j = sk.index(joint)
+        end = f"{joint}/end0"
+        if end in self.index:
+            return end
+        sub = [i for i in sk.subtree(j) if i != j]
+        if not sub:
+            return joint
+        rest = self.positions if self.positions.ndim == 2 else self.positions[0]
+        d = [np.linalg.norm(rest[i] - rest[j]) for i in sub]
+        return sk.names[sub[int(np.argmax(d))]]
+
+
+def rest_points(motion: Motion) -> SourcePoints:
+    """Joint and End Site positions of the skeleton's rest pose (all rotations identity, root at the
+    origin), in the motion's frame."""
+    sk = motion.skeleton
+    rest = Motion(skeleton=sk, frame_time=1.0, root_translation=np.zeros((1, 3)),
+                  rotations=np.tile([0.0, 0.0, 0.0, 1.0], (1, sk.num_joints, 1)), unit=motion.unit,
+                  up=motion.up)
+    pos, rot = rest.fk()
+    ends = rest.end_site_positions()
+    return SourcePoints(sk, np.concatenate([pos, ends], axis=1)[0], rot[0])
+
+
+def motion_points(motion: Motion) -> SourcePoints:
+    """Joint and End Site positions and joint rotations on every frame."""
+    pos, rot = motion.fk()
+    sk = motion.skeleton
+    p = sk.end_site_parents
+    ends = pos[:, p] + np.einsum("teij,ej->tei", rot[:, p], sk.end_site_offsets)
+    return SourcePoints(sk, np.concatenate([pos, ends], axis=1), rot)

@@ -88,8 +88,59 @@ def _add_info(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_info)
 
 
+# ---------------------------------------------------------------------- convert
+def cmd_convert(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from bipedsim.model import build_model, retarget
+    from bipedsim.model.naming import load_map
+    from bipedsim.motion.bvh import read_bvh
+
+    motion, info = read_bvh(args.input, scale=args.scale, up=args.up)
+    motion = motion.to_project_frame()
+    mapping = load_map(args.map, motion.skeleton) if args.map else None
+    profile = args.profile_file or args.profile
+    built = build_model(motion, profile, total_mass=args.mass, mapping=mapping, name=Path(args.output).stem)
+    built.write(args.output)
+    summary = built.summary()
+    summary.update({"source": str(args.input), "output": str(args.output),
+                    "unit": f"{info.unit_name} ({info.unit_source})", "up": f"{info.up} ({info.up_source})"})
+    if args.clip:
+        clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=str(args.input))
+        clip.save(args.clip)
+        summary["clip"] = {"path": str(args.clip), "frames": clip.num_frames,
+                           "trimmed_frames": clip.trimmed_frames,
+                           "strikes": {f: len(e["strike"]) for f, e in clip.events.items()}}
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print(f"wrote {args.output}: {summary['bodies']} bodies, {summary['dofs']} DOFs "
+              f"({summary['actuated_dofs']} actuated), {summary['total_mass_kg']:.1f} kg, "
+              f"{summary['height_m']:.2f} m tall, profile {summary['profile']}, timestep {summary['timestep_s']} s")
+        if args.clip:
+            c = summary["clip"]
+            print(f"wrote {args.clip}: {c['frames']} frames, foot strikes {c['strikes']}"
+                  + (f", dropped {c['trimmed_frames']} leading glitch frame(s)" if c["trimmed_frames"] else ""))
+    return 0
+
+
+def _add_convert(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("convert", help="build an MJCF body from a BVH skeleton (and its reference clip)")
+    p.add_argument("input", help="BVH file")
+    p.add_argument("-o", "--output", required=True, help="MJCF file to write")
+    p.add_argument("--profile", choices=("humanoid", "creature"), default="humanoid")
+    p.add_argument("--profile-file", default=None, help="a profile YAML (overrides --profile)")
+    p.add_argument("--mass", type=float, default=None, help="total body mass in kg (scales every segment)")
+    p.add_argument("--map", default=None, help="mapping YAML naming the humanoid roles' joints")
+    p.add_argument("--clip", default=None, help="also retarget the motion and write this .npz reference clip")
+    p.add_argument("--scale", type=_scale_arg, default=None, help="metres per file unit or a unit name")
+    p.add_argument("--up", choices=("y", "z"), default=None, help="the file's up axis")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=cmd_convert)
+
+
 #: Subcommand registrars, in the order ``--help`` lists them.
-COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_info]
+COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_info, _add_convert]
 
 
 def build_parser() -> argparse.ArgumentParser:

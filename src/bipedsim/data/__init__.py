@@ -30,10 +30,39 @@ def builtin_walk_text() -> str:
     return bvh_text(walk_bvh_motion(), precision=SHIPPED_BVH_PRECISION)
 
 
-def regenerate(folder: Path = DATA_DIR) -> list[Path]:
-    """Write every generated data file into ``folder``; returns the paths written."""
+#: The built-in humanoid, built from the built-in walk's skeleton with the default profile.
+BUILTIN_HUMANOID = DATA_DIR.parent.parent.parent / "models" / "mjcf" / "humanoid.xml"
+
+
+def builtin_humanoid_xml() -> str:
+    """The built-in humanoid's MJCF text, built afresh from the shipped walk."""
+    from bipedsim.model import build_model
+    from bipedsim.motion import load_bvh
+
+    return build_model(load_bvh(BUILTIN_WALK), "humanoid", name="humanoid").xml
+
+
+def builtin_humanoid_path() -> Path:
+    """The checked-in ``models/mjcf/humanoid.xml`` when running from a checkout, else a copy built
+    into the user's cache folder on first use."""
+    if BUILTIN_HUMANOID.is_file():
+        return BUILTIN_HUMANOID
+    import os
+
+    from bipedsim.io import atomic_write_text
+
+    cache = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "bipedsim" / "humanoid.xml"
+    if not cache.is_file():
+        atomic_write_text(cache, builtin_humanoid_xml())
+    return cache
+
+
+def regenerate(folder: Path = DATA_DIR, models: Path | None = None) -> list[Path]:
+    """Write every generated data file (the walk into ``folder``, the humanoid into ``models``)."""
     from bipedsim.io import atomic_write_text
 
     out = folder / BUILTIN_WALK.name
     atomic_write_text(out, builtin_walk_text())
-    return [out]
+    hum = (models or BUILTIN_HUMANOID.parent) / BUILTIN_HUMANOID.name
+    atomic_write_text(hum, builtin_humanoid_xml())
+    return [out, hum]

@@ -32,6 +32,8 @@ class ReferenceClip:
         joint_names: the model's joint names, in order.
         source: where the motion came from (a path, "generated", ...).
         vertical_shift: metres added to the root height so the lowest foot touches the floor.
+        trimmed_frames: leading source frames dropped as a glitch (e.g. a T-pose before the take).
+        floor_slope: (dz/dx, dz/dy) of the capture's floor, removed from the root height.
     """
 
     qpos: FloatArray
@@ -45,6 +47,8 @@ class ReferenceClip:
     joint_names: list[str] = field(default_factory=list)
     source: str = ""
     vertical_shift: float = 0.0
+    trimmed_frames: int = 0
+    floor_slope: tuple[float, float] = (0.0, 0.0)
 
     @property
     def num_frames(self) -> int:
@@ -60,7 +64,8 @@ class ReferenceClip:
 
         meta = {"frame_time": self.frame_time, "foot_names": self.foot_names, "events": self.events,
                 "model_hash": self.model_hash, "joint_names": self.joint_names, "source": self.source,
-                "vertical_shift": self.vertical_shift, "format": "bipedsim.ReferenceClip/1"}
+                "vertical_shift": self.vertical_shift, "trimmed_frames": self.trimmed_frames,
+                "floor_slope": list(self.floor_slope), "format": "bipedsim.ReferenceClip/1"}
         buf = io.BytesIO()
         np.savez_compressed(buf, qpos=self.qpos, qvel=self.qvel, contacts=self.contacts,
                             foot_heights=self.foot_heights, meta=np.array(json.dumps(meta)))
@@ -76,7 +81,9 @@ class ReferenceClip:
                                      foot_heights=z["foot_heights"], frame_time=meta["frame_time"],
                                      foot_names=meta["foot_names"], events=meta["events"],
                                      model_hash=meta["model_hash"], joint_names=meta["joint_names"],
-                                     source=meta["source"], vertical_shift=meta["vertical_shift"])
+                                     source=meta["source"], vertical_shift=meta["vertical_shift"],
+                                     trimmed_frames=meta.get("trimmed_frames", 0),
+                                     floor_slope=tuple(meta.get("floor_slope", (0.0, 0.0))))
         except (OSError, KeyError, ValueError) as exc:
             raise ModelError(f"{path}: not a bipedsim reference clip ({exc})") from None
         if expect_hash is not None and clip.model_hash and clip.model_hash != expect_hash:
@@ -85,15 +92,23 @@ class ReferenceClip:
         return clip
 
 
-def contact_labels(low: FloatArray, pos: FloatArray, dt: float, height: float, speed: float) -> npt.NDArray[np.bool_]:
-    """(T, F) contact flags: lowest point below ``height`` (m) and horizontal speed below ``speed``
-    (m/s, central differences)."""
-    if len(pos) > 1:
-        vel = np.gradient(pos[..., :2], dt, axis=0)
-        sp = np.linalg.norm(vel, axis=-1)
-    else:
-        sp = np.zeros(low.shape)
-    return (low < height) & (sp < speed)
+#: Percentile of a foot's heights taken as its resting level on the floor.
+STANCE_LEVEL_PERCENTILE = 5.0
+
+
+def foot_speeds(pos: FloatArray, dt: float) -> FloatArray:
+    """(T, F) horizontal speeds (m/s) of foot positions (T, F, 3), central differences."""
+    if len(pos) < 2:
+        return np.zeros(pos.shape[:2])
+    return np.linalg.norm(np.gradient(pos[..., :2], dt, axis=0), axis=-1)
+
+
+def contact_labels(low: FloatArray, sp: FloatArray, height: float, speed: float) -> npt.NDArray[np.bool_]:
+    """(T, F) contact flags: lowest point within ``height`` (m) of that foot's resting level (its
+    5th-percentile height: captures often leave one foot's geometry a little off the floor) and
+    horizontal speed below ``speed`` (m/s, central differences)."""
+    level = np.percentile(low, STANCE_LEVEL_PERCENTILE, axis=0) if len(low) else 0.0
+    return (low < level + height) & (sp < speed)
 
 
 def gait_events(contacts: npt.NDArray[np.bool_], feet: list[str]) -> dict[str, dict[str, list[int]]]:

@@ -16,7 +16,7 @@ from bipedsim.errors import ModelError
 from bipedsim.model.naming import HumanoidMap, MapFile, recognise_humanoid
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
 from bipedsim.model.profile import HumanoidProfile, JointSpec
-from bipedsim.model.source import SourcePoints, rest_points
+from bipedsim.model.source import SourcePoints, motion_points, rest_points
 from bipedsim.motion.motion import Motion
 
 FloatArray = npt.NDArray[np.float64]
@@ -97,66 +97,118 @@ def _facing_yaw(pts: SourcePoints, hm: HumanoidMap) -> float:
     return float(-np.arctan2(fwd[1], fwd[0]))
 
 
+#: Weight of the neck against the shoulders when fitting the torso's orientation: the shoulders
+#: are where the arms hang, so they matter more than the neck base.
+NECK_FIT_WEIGHT = 0.05
+#: Calibration passes for the rigid pelvis and torso (fit, average, refit).
+CALIBRATION_PASSES = 3
+#: Further passes that centre each point between its extremes (minimax instead of least squares).
+MIDRANGE_PASSES = 3
+
+
+def calibrate_rigid(pts: SourcePoints, origin: str, points: list[str], ref_joint: str,
+                    rest_vecs: FloatArray, weights: FloatArray | None = None) -> FloatArray:
+    """Where a rigid body's points sit relative to its origin, as the motion shows them on average.
+
+    The source may move these points relative to each other (CMU's hip helper joints, clavicles,
+    several spine links); a rigid body cannot. Fit the body's orientation on every frame, express the
+    points in that frame, average, and repeat: the result is the rigid layout closest to the motion.
+    """
+    from bipedsim.model.retarget import kabsch
+
+    cur = np.stack([pts[p] - pts[origin] for p in points], axis=1)
+    ref = pts.rotation(ref_joint)
+    vecs = rest_vecs
+    for k in range(CALIBRATION_PASSES + MIDRANGE_PASSES):
+        r = kabsch(vecs, cur, ref, weights)
+        local = np.einsum("tji,tnj->tni", r, cur)
+        # mean first; then the midrange, which minimises the worst frame's error per axis
+        vecs = local.mean(axis=0) if k < CALIBRATION_PASSES else 0.5 * (local.min(axis=0) + local.max(axis=0))
+    return vecs
+
+
 def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile | None = None,
                   total_mass: float | None = None, name: str = "humanoid") -> BodyPlanSet:
-    """The humanoid body plan for a motion's skeleton (motion in the project frame: m, Z up)."""
+    """The humanoid body plan for a motion's skeleton (motion in the project frame: m, Z up).
+
+    Limb geometry comes from the skeleton's rest pose; the layout of the rigid pelvis (hips, spine
+    base) and torso (neck, shoulders) is calibrated on the motion (:func:`calibrate_rigid`).
+    """
     sk = motion.skeleton
     hm = recognise_humanoid(sk, mapping)
     pts0 = rest_points(motion)
     yaw = _facing_yaw(pts0, hm)
-    pts = pts0.turned(yaw)
+    rest = pts0.turned(yaw)
+    moving = motion_points(motion).turned(yaw)
     g = profile.geometry
     bodies: list[BodyPlan] = []
     markers: dict[str, list[str]] = {}
-
-    def P(n: str) -> FloatArray:  # noqa: N802 - a point, as in the equations
-        return pts[n]
+    legs = hm.legs
+    thl, thr = legs["left"]["thigh"], legs["right"]["thigh"]
+    assert thl and thr
 
     def gains(group: str) -> tuple[float, float]:
         kp, kd = profile.gains[group]
         return float(kp), float(kd)
 
-    def bone(a: str, b: str, what: str) -> FloatArray:
-        v = P(b) - P(a)
+    def vec(a: str, b: str) -> FloatArray:
+        return rest[b] - rest[a]
+
+    def check(v: FloatArray, a: str, b: str, what: str) -> FloatArray:
         if np.linalg.norm(v) < MIN_BONE_M:
             raise ModelError(f"zero-length bone: {what} from {a!r} to {b!r} is "
                              f"{np.linalg.norm(v) * 1000:.1f} mm long (need >= {MIN_BONE_M * 1000:.0f} mm)")
         return v
 
-    legs = hm.legs
-    # ----------------------------------------------------------------- pelvis
-    thl, thr = legs["left"]["thigh"], legs["right"]["thigh"]
-    assert thl and thr
-    bone(thl, thr, "pelvis width")
-    origin = P(hm.pelvis)
-    bodies.append(BodyPlan(
-        name="pelvis", parent=None, pos=list(origin), source=hm.pelvis, segment="pelvis",
-        geoms=[_capsule(P(thl), P(thr), origin, g.pelvis_radius, profile.masses["pelvis"])],
-        fit=FitPlan(method="kabsch", origin=hm.pelvis, points=[thl, thr, hm.torso_base],
-                    ref=f"bvh:{hm.pelvis}")))
-    markers[hm.pelvis] = ["body", "pelvis"]
-    # ----------------------------------------------------------------- torso and head
-    torso_bone = bone(hm.torso_base, hm.neck, "torso")
-    kp, kd = gains("spine")
+    # ----------------------------------------------------------------- model geometry Q
+    Q: dict[str, FloatArray] = {hm.pelvis: rest[hm.pelvis]}
+    pelvis_pts = [thl, thr, hm.torso_base]
+    pv = calibrate_rigid(moving, hm.pelvis, pelvis_pts, hm.pelvis,
+                         np.stack([vec(hm.pelvis, p) for p in pelvis_pts]))
+    for p_, v in zip(pelvis_pts, pv):
+        Q[p_] = Q[hm.pelvis] + v
+    check(Q[thr] - Q[thl], thl, thr, "pelvis width")
     torso_pts = [hm.neck] + [hm.arms[s]["upper_arm"] for s in ("left", "right") if s in hm.arms]
     if len(torso_pts) == 1:
         torso_pts.append(hm.chest)
+    torso_w = np.array([NECK_FIT_WEIGHT] + [1.0] * (len(torso_pts) - 1))
+    tv = calibrate_rigid(moving, hm.torso_base, torso_pts, hm.chest,
+                         np.stack([vec(hm.torso_base, p) for p in torso_pts]), torso_w)
+    for p_, v in zip(torso_pts, tv):
+        Q[p_] = Q[hm.torso_base] + v
+    head_top = rest.tip(hm.head)
+    Q[head_top] = Q[hm.neck] + vec(hm.neck, head_top)
+
+    def chain(a: str, b: str) -> None:
+        Q[b] = Q[a] + vec(a, b)
+
+    # ----------------------------------------------------------------- pelvis, torso, head
+    origin = Q[hm.pelvis]
     bodies.append(BodyPlan(
-        name="torso", parent="pelvis", pos=list(P(hm.torso_base)), source=hm.torso_base, segment="torso",
+        name="pelvis", parent=None, pos=list(origin), source=hm.pelvis, segment="pelvis",
+        geoms=[_capsule(Q[thl], Q[thr], origin, g.pelvis_radius, profile.masses["pelvis"])],
+        fit=FitPlan(method="kabsch", origin=hm.pelvis, points=pelvis_pts, ref=f"bvh:{hm.pelvis}",
+                    rest_vectors=[list(v) for v in pv])))
+    markers[hm.pelvis] = ["body", "pelvis"]
+    torso_bone = check(Q[hm.neck] - Q[hm.torso_base], hm.torso_base, hm.neck, "torso")
+    kp, kd = gains("spine")
+    bodies.append(BodyPlan(
+        name="torso", parent="pelvis", pos=list(Q[hm.torso_base]), source=hm.torso_base, segment="torso",
         joints=_hinges("spine", profile.joints["spine"], torso_bone, False, kp, kd, "spine"),
-        geoms=[_capsule(P(hm.torso_base), P(hm.neck), P(hm.torso_base), g.torso_radius,
+        geoms=[_capsule(Q[hm.torso_base], Q[hm.neck], Q[hm.torso_base], g.torso_radius,
                         profile.masses["torso"])],
-        fit=FitPlan(method="kabsch", origin=hm.torso_base, points=torso_pts, ref=f"bvh:{hm.chest}")))
-    head_top = pts.tip(hm.head)
-    head_bone = bone(hm.neck, head_top, "neck to head top")
+        fit=FitPlan(method="kabsch", origin=hm.torso_base, points=torso_pts, ref=f"bvh:{hm.chest}",
+                    rest_vectors=[list(v) for v in tv], weights=list(torso_w))))
+    head_bone = check(vec(hm.neck, head_top), hm.neck, head_top, "neck to head top")
     kp, kd = gains("neck")
-    centre = P(hm.neck) + 0.6 * (P(head_top) - P(hm.neck))
+    centre = Q[hm.neck] + 0.6 * head_bone
     bodies.append(BodyPlan(
-        name="head", parent="torso", pos=list(P(hm.neck)), source=hm.neck, segment="head",
+        name="head", parent="torso", pos=list(Q[hm.neck]), source=hm.neck, segment="head",
         joints=_hinges("neck", profile.joints["neck"], head_bone, False, kp, kd, "neck"),
-        geoms=[GeomPlan(kind="sphere", size=[g.head_radius], pos=list(centre - P(hm.neck)),
+        geoms=[GeomPlan(kind="sphere", size=[g.head_radius], pos=list(centre - Q[hm.neck]),
                         mass=profile.masses["head"])],
-        fit=FitPlan(method="aim", origin=hm.neck, points=[head_top], ref=f"bvh:{hm.head}")))
+        fit=FitPlan(method="aim", origin=hm.neck, points=[head_top], ref=f"bvh:{hm.head}",
+                    rest_vectors=[list(head_bone)])))
     # ----------------------------------------------------------------- arms
     for side in ("left", "right"):
         if side not in hm.arms:
@@ -164,23 +216,26 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
         arm = hm.arms[side]
         mirror = side == "right"
         sh, el, wr = arm["upper_arm"], arm["elbow"], arm["wrist"]
-        ub, lb = bone(sh, el, f"{side} upper arm"), bone(el, wr, f"{side} lower arm")
+        chain(sh, el)
+        chain(el, wr)
+        ub = check(vec(sh, el), sh, el, f"{side} upper arm")
+        lb = check(vec(el, wr), el, wr, f"{side} lower arm")
         elbow_joint = _hinges(f"{side}_elbow", profile.joints["elbow"], lb, mirror, *gains("elbow"),
                               "elbow", parent_bone=ub)
         kp, kd = gains("shoulder")
         bodies.append(BodyPlan(
-            name=f"{side}_upper_arm", parent="torso", pos=list(P(sh)), source=sh, segment="upper_arm",
+            name=f"{side}_upper_arm", parent="torso", pos=list(Q[sh]), source=sh, segment="upper_arm",
             joints=_hinges(f"{side}_shoulder", profile.joints["shoulder"], ub, mirror, kp, kd, "shoulder"),
-            geoms=[_capsule(P(sh), P(el), P(sh), g.upper_arm_radius, profile.masses["upper_arm"])],
+            geoms=[_capsule(Q[sh], Q[el], Q[sh], g.upper_arm_radius, profile.masses["upper_arm"])],
             fit=FitPlan(method="twobone", origin=sh, points=[el, wr], ref=f"bvh:{sh}",
-                        hinge_axis=elbow_joint[0].axis)))
+                        hinge_axis=elbow_joint[0].axis, rest_vectors=[list(ub), list(lb)])))
         bodies.append(BodyPlan(
-            name=f"{side}_lower_arm", parent=f"{side}_upper_arm", pos=list(P(el)), source=el,
+            name=f"{side}_lower_arm", parent=f"{side}_upper_arm", pos=list(Q[el]), source=el,
             segment="lower_arm", joints=elbow_joint,
-            geoms=[_capsule(P(el), P(wr), P(el), g.lower_arm_radius, profile.masses["lower_arm"])],
-            sites=[SitePlan(name=f"{side}_wrist", pos=list(P(wr) - P(el)))],
+            geoms=[_capsule(Q[el], Q[wr], Q[el], g.lower_arm_radius, profile.masses["lower_arm"])],
+            sites=[SitePlan(name=f"{side}_wrist", pos=list(lb))],
             fit=FitPlan(method="hinge", origin=el, points=[wr], ref="parent",
-                        hinge_axis=elbow_joint[0].axis)))
+                        hinge_axis=elbow_joint[0].axis, rest_vectors=[list(lb)])))
         markers[sh] = ["body", f"{side}_upper_arm"]
         markers[el] = ["body", f"{side}_lower_arm"]
         markers[wr] = ["site", f"{side}_wrist"]
@@ -190,68 +245,81 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
         mirror = side == "right"
         th, kn, an, toe = leg["thigh"], leg["knee"], leg["ankle"], leg["toe"]
         assert th and kn and an
-        tb, sb = bone(th, kn, f"{side} thigh"), bone(kn, an, f"{side} shin")
+        chain(th, kn)
+        chain(kn, an)
+        tb = check(vec(th, kn), th, kn, f"{side} thigh")
+        sb = check(vec(kn, an), kn, an, f"{side} shin")
         knee_joint = _hinges(f"{side}_knee", profile.joints["knee"], sb, mirror, *gains("knee"), "knee",
                              parent_bone=tb)
         bodies.append(BodyPlan(
-            name=f"{side}_thigh", parent="pelvis", pos=list(P(th)), source=th, segment="thigh",
+            name=f"{side}_thigh", parent="pelvis", pos=list(Q[th]), source=th, segment="thigh",
             joints=_hinges(f"{side}_hip", profile.joints["hip"], tb, mirror, *gains("hip"), "hip"),
-            geoms=[_capsule(P(th), P(kn), P(th), g.thigh_radius, profile.masses["thigh"])],
+            geoms=[_capsule(Q[th], Q[kn], Q[th], g.thigh_radius, profile.masses["thigh"])],
             fit=FitPlan(method="twobone", origin=th, points=[kn, an], ref=f"bvh:{th}",
-                        hinge_axis=knee_joint[0].axis)))
+                        hinge_axis=knee_joint[0].axis, rest_vectors=[list(tb), list(sb)])))
         bodies.append(BodyPlan(
-            name=f"{side}_shin", parent=f"{side}_thigh", pos=list(P(kn)), source=kn, segment="shin",
+            name=f"{side}_shin", parent=f"{side}_thigh", pos=list(Q[kn]), source=kn, segment="shin",
             joints=knee_joint,
-            geoms=[_capsule(P(kn), P(an), P(kn), g.shin_radius, profile.masses["shin"])],
+            geoms=[_capsule(Q[kn], Q[an], Q[kn], g.shin_radius, profile.masses["shin"])],
             fit=FitPlan(method="hinge", origin=kn, points=[an], ref="parent",
-                        hinge_axis=knee_joint[0].axis)))
+                        hinge_axis=knee_joint[0].axis, rest_vectors=[list(sb)])))
         markers[th] = ["body", f"{side}_thigh"]
         markers[kn] = ["body", f"{side}_shin"]
         markers[an] = ["body", f"{side}_foot"]
         # feet: the sole sits at the lowest rest-pose point of the foot chain
-        tip = pts.tip(toe) if toe else pts.tip(an)
-        front = P(toe) if toe else P(tip)
-        bone(an, toe or tip, f"{side} foot")
-        sole = min(P(an)[2] - 0.03, P(tip)[2], front[2])
+        tip = rest.tip(toe) if toe else rest.tip(an)
+        front_name = toe or tip
+        chain(an, front_name)
+        if toe:
+            chain(toe, tip)
+        else:
+            Q[tip] = Q[front_name]
+        front = Q[front_name]
+        check(front - Q[an], an, front_name, f"{side} foot")
+        sole = min(Q[an][2] - 0.03, Q[tip][2], front[2])
         ankle_spec = profile.joints["ankle"]
         if profile.ankle_2dof:
             ankle_spec = JointSpec(axes=[*ankle_spec.axes, "x"],
                                    range=[*ankle_spec.range, list(profile.ankle_x_range)],
                                    torque=ankle_spec.torque)
         kp, kd = gains("ankle")
-        heel_x = P(an)[0] - g.heel_length
+        heel_x = Q[an][0] - g.heel_length
         x1 = front[0]
-        top = P(an)[2] + g.foot_top
+        top = Q[an][2] + g.foot_top
         foot_mass = profile.masses["foot"] + (0.0 if toe else profile.masses["toe"])
         half = [max((x1 - heel_x) / 2, 0.02), g.foot_width / 2, max((top - sole) / 2, 0.01)]
-        centre = np.array([(heel_x + x1) / 2, P(an)[1], (top + sole) / 2])
+        centre = np.array([(heel_x + x1) / 2, Q[an][1], (top + sole) / 2])
         touch_c = np.array([centre[0], centre[1], sole + TOUCH_MARGIN_M / 2])
         bodies.append(BodyPlan(
-            name=f"{side}_foot", parent=f"{side}_shin", pos=list(P(an)), source=an, segment="foot",
+            name=f"{side}_foot", parent=f"{side}_shin", pos=list(Q[an]), source=an, segment="foot",
             is_foot=True,
-            joints=_hinges(f"{side}_ankle", ankle_spec, front - P(an), mirror, kp, kd, "ankle"),
-            geoms=[GeomPlan(kind="box", size=half, pos=list(centre - P(an)), mass=foot_mass,
+            joints=_hinges(f"{side}_ankle", ankle_spec, front - Q[an], mirror, kp, kd, "ankle"),
+            geoms=[GeomPlan(kind="box", size=half, pos=list(centre - Q[an]), mass=foot_mass,
                             name=f"{side}_foot_geom")],
-            sites=[SitePlan(name=f"{side}_foot_touch", pos=list(touch_c - P(an)), kind="box", touch=True,
+            sites=[SitePlan(name=f"{side}_foot_touch", pos=list(touch_c - Q[an]), kind="box", touch=True,
                             size=[half[0] + 0.005, half[1] + 0.005, TOUCH_MARGIN_M * 1.5])],
-            fit=FitPlan(method="aim", origin=an, points=[toe or tip], ref=f"bvh:{an}")))
+            fit=FitPlan(method="aim", origin=an, points=[front_name], ref=f"bvh:{an}",
+                        rest_vectors=[list(front - Q[an])])))
         if toe:
-            x2 = max(P(tip)[0], P(toe)[0] + 0.03)
-            ttop = max(P(toe)[2] + 0.01, sole + 0.03)
-            thalf = [(x2 - P(toe)[0]) / 2, g.foot_width / 2, (ttop - sole) / 2]
-            tc = np.array([(x2 + P(toe)[0]) / 2, P(toe)[1], (ttop + sole) / 2])
+            x2 = max(Q[tip][0], Q[toe][0] + 0.03)
+            ttop = max(Q[toe][2] + 0.01, sole + 0.03)
+            thalf = [(x2 - Q[toe][0]) / 2, g.foot_width / 2, (ttop - sole) / 2]
+            tc = np.array([(x2 + Q[toe][0]) / 2, Q[toe][1], (ttop + sole) / 2])
             ttc = np.array([tc[0], tc[1], sole + TOUCH_MARGIN_M / 2])
-            bone(toe, tip, f"{side} toe") if np.linalg.norm(P(tip) - P(toe)) > 0 else None
+            tip_vec = Q[tip] - Q[toe]
+            if np.linalg.norm(tip_vec) < MIN_BONE_M:
+                tip_vec = np.array([0.03, 0.0, 0.0])
             bodies.append(BodyPlan(
-                name=f"{side}_toe", parent=f"{side}_foot", pos=list(P(toe)), source=toe, segment="toe",
+                name=f"{side}_toe", parent=f"{side}_foot", pos=list(Q[toe]), source=toe, segment="toe",
                 is_foot=True,
                 joints=_hinges(f"{side}_toe", profile.joints["toe"], np.array([1.0, 0, 0]), mirror,
                                *gains("toe"), "toe"),
-                geoms=[GeomPlan(kind="box", size=thalf, pos=list(tc - P(toe)), mass=profile.masses["toe"],
+                geoms=[GeomPlan(kind="box", size=thalf, pos=list(tc - Q[toe]), mass=profile.masses["toe"],
                                 name=f"{side}_toe_geom")],
-                sites=[SitePlan(name=f"{side}_toe_touch", pos=list(ttc - P(toe)), kind="box", touch=True,
+                sites=[SitePlan(name=f"{side}_toe_touch", pos=list(ttc - Q[toe]), kind="box", touch=True,
                                 size=[thalf[0] + 0.005, thalf[1] + 0.005, TOUCH_MARGIN_M * 1.5])],
-                fit=FitPlan(method="aim", origin=toe, points=[tip], ref=f"bvh:{toe}")))
+                fit=FitPlan(method="aim", origin=toe, points=[tip], ref=f"bvh:{toe}",
+                            rest_vectors=[list(tip_vec)])))
     # ----------------------------------------------------------------- mass scaling
     target = total_mass if total_mass is not None else profile.total_mass
     if target is not None:
@@ -261,10 +329,14 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
         for b in bodies:
             for gm in b.geoms:
                 gm.mass *= target / built
-    # stand the rest pose on the floor
+    # stand the zero pose on the floor
     lift = -min(b.pos[2] + gm.pos[2] - gm.size[2] for b in bodies for gm in b.geoms if gm.kind == "box")
     for b in bodies:
         b.pos[2] += lift
+    for b in bodies:
+        b.pos = [float(v) for v in b.pos]
+        if b.fit:
+            b.fit.rest_vectors = [[float(x) for x in v] for v in b.fit.rest_vectors]
     from dataclasses import asdict
 
     return BodyPlanSet(name=name, profile="humanoid", bodies=bodies, heading_yaw=yaw,

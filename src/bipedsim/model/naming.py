@@ -38,8 +38,8 @@ HEAD_WORDS = ["head"]
 NECK_WORDS = ["neck"]
 
 _SIDE_RULES = [
-    (re.compile(r"^(left|right)[_\-. ]?(.*)$", re.I), lambda m: (m.group(1).lower(), m.group(2))),
-    (re.compile(r"^(.*?)[_\-. ]?(left|right)$", re.I), lambda m: (m.group(2).lower(), m.group(1))),
+    (re.compile(r"^(left|right)[_\-. ]?(.*)$", re.IGNORECASE), lambda m: (m.group(1).lower(), m.group(2))),
+    (re.compile(r"^(.*?)[_\-. ]?(left|right)$", re.IGNORECASE), lambda m: (m.group(2).lower(), m.group(1))),
     (re.compile(r"^(.*?)[_.\-]([LR])$"), lambda m: ("left" if m.group(2) == "L" else "right", m.group(1))),
     (re.compile(r"^(.*?)[_.\-]([lr])$"), lambda m: ("left" if m.group(2) == "l" else "right", m.group(1))),
     (re.compile(r"^(.*?)(LT|RT)$"), lambda m: ("left" if m.group(2) == "LT" else "right", m.group(1))),
@@ -52,7 +52,7 @@ def split_name(name: str) -> tuple[str, str]:
     """(side, base): side is ``left``/``right``/``""``; base lower-case with namespace, ``joint``
     prefix, digits and separators removed (``mixamorig:LeftUpLeg`` -> ``("left", "upleg")``)."""
     n = name.split(":")[-1].split("|")[-1]
-    n = re.sub(r"^joint[_\-. ]?", "", n, flags=re.I)
+    n = re.sub(r"^joint[_\-. ]?", "", n, flags=re.IGNORECASE)
     side = ""
     for pat, fn in _SIDE_RULES:
         m = pat.match(n)

@@ -83,6 +83,10 @@ class FitPlan:
     points: list[str] = field(default_factory=list)
     ref: str = ""
     hinge_axis: list[float] | None = None
+    #: the points' positions relative to ``origin`` in the model's zero pose (m, world axes); for
+    #: ``twobone`` a second entry is ``points[1] - points[0]``
+    rest_vectors: list[list[float]] = field(default_factory=list)
+    weights: list[float] | None = None
 
 
 @dataclass
@@ -163,7 +167,8 @@ class ModelBuilder:
 
     def _floor(self, sim: SimOptions) -> None:
         w = self.spec.worldbody
-        w.add_light(name="sun", pos=[0, 0, 6], dir=[0, -0.3, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, castshadow=True,
+        w.add_light(name="sun", pos=[0, 0, 6], dir=[0, -0.3, -1],
+                    type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, castshadow=True,
                     diffuse=[0.8, 0.8, 0.8])
         self.spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
                               builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.35, 0.4, 0.45],
@@ -196,7 +201,7 @@ class ModelBuilder:
             self.attach_joints(body, b.joints, sim)
             self.attach_geoms(body, b.geoms, sim)
             for s in b.sites:
-                site = body.add_site(name=s.name, pos=_r(s.pos), size=_r(s.size + [0, 0])[:3],
+                body.add_site(name=s.name, pos=_r(s.pos), size=_r(s.size + [0, 0])[:3],
                                      type=getattr(mujoco.mjtGeom, f"mjGEOM_{s.kind.upper()}"),
                                      rgba=[0.9, 0.5, 0.1, 0.0 if s.touch else 0.6])
                 if s.touch:
@@ -231,9 +236,9 @@ class ModelBuilder:
 
     def attach_geoms(self, body: Any, geoms: list[GeomPlan], sim: SimOptions) -> None:
         for g in geoms:
-            kw: dict[str, Any] = dict(contype=BODY_CONTYPE, conaffinity=BODY_CONAFFINITY,
-                                      friction=list(sim.friction), solref=list(sim.solref),
-                                      solimp=list(sim.solimp), condim=3, rgba=[0.75, 0.62, 0.5, 1.0])
+            kw: dict[str, Any] = {"contype": BODY_CONTYPE, "conaffinity": BODY_CONAFFINITY,
+                                      "friction": list(sim.friction), "solref": list(sim.solref),
+                                      "solimp": list(sim.solimp), "condim": 3, "rgba": [0.75, 0.62, 0.5, 1.0]}
             if g.name:
                 kw["name"] = g.name
             if g.mass > 0:

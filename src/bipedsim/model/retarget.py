@@ -24,9 +24,9 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
-from bipedsim.model.clip import ReferenceClip, contact_labels, gait_events
+from bipedsim.model.clip import ReferenceClip, contact_labels, foot_speeds, gait_events
 from bipedsim.model.plan import BodyPlanSet, model_hash, plan_from_model
-from bipedsim.model.source import SourcePoints, motion_points, rest_points
+from bipedsim.model.source import SourcePoints, motion_points
 from bipedsim.motion.motion import Motion
 
 FloatArray = npt.NDArray[np.float64]
@@ -56,11 +56,13 @@ def _min_rotation(a: FloatArray, b: FloatArray) -> FloatArray:
     return Rotation.from_rotvec(axis * angle[:, None]).as_matrix()
 
 
-def _kabsch(rest_vecs: FloatArray, cur_vecs: FloatArray, ref: FloatArray) -> FloatArray:
-    """(T, 3, 3) rotations minimising sum |R r_i - c_i|^2 (+ a small pull toward ``ref``).
+def kabsch(rest_vecs: FloatArray, cur_vecs: FloatArray, ref: FloatArray,
+           weights: FloatArray | None = None) -> FloatArray:
+    """(T, 3, 3) rotations minimising sum w_i |R r_i - c_i|^2 (+ a small pull toward ``ref``).
 
     rest_vecs (N, 3), cur_vecs (T, N, 3), ref (T, 3, 3)."""
-    h = np.einsum("ni,tnj->tij", rest_vecs, cur_vecs)
+    w = np.ones(len(rest_vecs)) if weights is None else np.asarray(weights, dtype=float)
+    h = np.einsum("n,ni,tnj->tij", w, rest_vecs, cur_vecs)
     scale = max(float(np.sum(rest_vecs ** 2)), 1e-6)
     h = h + KABSCH_REF_WEIGHT * scale * np.transpose(ref, (0, 2, 1))  # pairs e_k -> ref e_k
     u, _, vt = np.linalg.svd(h)
@@ -99,7 +101,7 @@ def _twobone_twist(g: FloatArray, u: FloatArray, w: FloatArray, axis0: FloatArra
     return Rotation.from_rotvec(uh * phi[:, None]).as_matrix() @ g
 
 
-def fit_orientations(plan: BodyPlanSet, pts: SourcePoints, rest: SourcePoints) -> dict[str, FloatArray]:
+def fit_orientations(plan: BodyPlanSet, pts: SourcePoints) -> dict[str, FloatArray]:
     """World rotation matrices (T, 3, 3) of every body over the motion."""
     out: dict[str, FloatArray] = {}
     n = pts.positions.shape[0]
@@ -113,24 +115,25 @@ def fit_orientations(plan: BodyPlanSet, pts: SourcePoints, rest: SourcePoints) -
             ref = pts.rotation(f.ref[4:])
         else:
             ref = np.tile(np.eye(3), (n, 1, 1))
-        o_rest, o_cur = rest[f.origin], pts[f.origin]
-        if f.method == "kabsch":
-            rv = np.stack([rest[p] - o_rest for p in f.points])
+        o_cur = pts[f.origin]
+        rv = np.asarray(f.rest_vectors, dtype=float)
+        if f.method == "ref":
+            g = ref.copy()
+        elif f.method == "kabsch":
             cv = np.stack([pts[p] - o_cur for p in f.points], axis=1)
-            g = _kabsch(rv, cv, ref)
+            g = kabsch(rv, cv, ref, f.weights)
         elif f.method in ("aim", "twobone"):
-            u0 = rest[f.points[0]] - o_rest
+            u0 = rv[0]
             u = pts[f.points[0]] - o_cur
             g = _min_rotation(np.einsum("tij,j->ti", ref, u0), u) @ ref
             if f.method == "twobone":
                 assert f.hinge_axis is not None
-                g = _twobone_twist(g, u, pts[f.points[1]] - pts[f.points[0]], np.asarray(f.hinge_axis),
-                                   rest[f.points[1]] - rest[f.points[0]])
+                g = _twobone_twist(g, u, pts[f.points[1]] - pts[f.points[0]], np.asarray(f.hinge_axis), rv[1])
         elif f.method == "hinge":
             # rotate the parent's frame about the hinge until the bone points at the motion's point
             assert f.hinge_axis is not None
             a = _unit(np.einsum("tij,j->ti", ref, np.asarray(f.hinge_axis)))
-            s0 = np.einsum("tij,j->ti", ref, rest[f.points[0]] - o_rest)
+            s0 = np.einsum("tij,j->ti", ref, rv[0])
             w = pts[f.points[0]] - o_cur
             p0 = s0 - np.sum(s0 * a, axis=-1, keepdims=True) * a
             p1 = w - np.sum(w * a, axis=-1, keepdims=True) * a
@@ -169,19 +172,23 @@ def _hinge_angles(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
 
 def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None = None,
              xml: str | None = None, contact_height: float = 0.03, contact_speed: float = 0.3,
-             source: str = "") -> ReferenceClip:
+             source: str = "", trim_glitches: bool = True) -> ReferenceClip:
     """Retarget a motion (project frame: metres, Z up) onto a model built by bipedsim.
 
     ``contact_height`` (m) and ``contact_speed`` (m/s): a foot is in contact on a frame when its
-    lowest point is below the height and it moves slower than the speed.
+    lowest point is below the height and it moves slower than the speed. With ``trim_glitches``,
+    leading frames that jump away from the rest of the take (the T-pose frame some releases start
+    with) are dropped; ``clip.trimmed_frames`` says how many.
     """
     plan = plan or plan_from_model(model)
+    trimmed = leading_glitch_frames(motion) if trim_glitches else 0
+    if trimmed:
+        motion = motion[trimmed:]
     if list(motion.skeleton.names) != list(plan.source_names):
         raise ModelError("this motion's skeleton is not the one the model was built from "
                          f"({motion.num_joints} joints vs {len(plan.source_names)}); convert its BVH first")
-    rest = rest_points(motion).turned(plan.heading_yaw)
     pts = motion_points(motion).turned(plan.heading_yaw)
-    g = fit_orientations(plan, pts, rest)
+    g = fit_orientations(plan, pts)
     t = motion.num_frames
     qpos = np.zeros((t, model.nq))
     names = {b.name: b for b in plan.bodies}
@@ -203,24 +210,87 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
             jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
             qpos[:, model.jnt_qposadr[jid]] = ang[:, k]
     del names
-    # floor: the lowest point any foot reaches over the clip touches z = 0
+    # floor: level a tilted capture floor, then the lowest point any foot reaches touches z = 0
     feet = plan.foot_bodies or [b.name for b in plan.bodies]
     low, fpos = foot_heights(model, qpos, feet)
+    tilt = floor_tilt(low, fpos, motion.frame_time, contact_speed)
+    if tilt is not None:
+        dz = -(tilt[0] * qpos[:, 0] + tilt[1] * qpos[:, 1])
+        qpos[:, 2] += dz
+        low = low + dz[:, None]
+        fpos[..., 2] += dz[:, None]
     lift = -float(np.min(low))
     qpos[:, 2] += lift
     low = low + lift
     fpos[..., 2] += lift
     qvel = velocities(model, qpos, motion.frame_time)
-    contacts = contact_labels(low, fpos, motion.frame_time, contact_height, contact_speed)
     side_feet = _foot_groups(plan, feet)
-    grouped = np.stack([contacts[:, [feet.index(f) for f in fs]].any(axis=1) for fs in side_feet.values()],
-                       axis=1)
+    low_g = _group_min(low, feet, side_feet)
+    speed_g = _group_min(foot_speeds(fpos, motion.frame_time), feet, side_feet)
+    grouped = contact_labels(low_g, speed_g, contact_height, contact_speed)
     return ReferenceClip(qpos=qpos, qvel=qvel, frame_time=motion.frame_time, contacts=grouped,
-                         foot_names=list(side_feet), foot_heights=_group_min(low, feet, side_feet),
+                         foot_names=list(side_feet), foot_heights=low_g,
                          events=gait_events(grouped, list(side_feet)),
                          model_hash=model_hash(xml) if xml is not None else "",
                          joint_names=[model.joint(i).name for i in range(model.njnt)], source=source,
-                         vertical_shift=lift)
+                         vertical_shift=lift, trimmed_frames=trimmed,
+                         floor_slope=(0.0, 0.0) if tilt is None else tilt)
+
+
+#: Minimum stance samples and horizontal spread (m) for fitting the capture's floor plane.
+FLOOR_FIT_MIN_SAMPLES = 20
+FLOOR_FIT_MIN_SPREAD_M = 0.5
+#: Largest floor slope (rise per metre) corrected; steeper means real terrain, not a tilted capture.
+FLOOR_FIT_MAX_SLOPE = 0.05
+
+
+def floor_tilt(low: FloatArray, pos: FloatArray, dt: float, speed: float) -> tuple[float, float] | None:
+    """Slope (dz/dx, dz/dy) of the floor under the stance feet, or None if it cannot be told.
+
+    Stance samples: a foot moving slower than ``speed`` and in the lowest 30 % of its heights. The
+    plane is fitted by least squares, refitted without samples more than 2 cm off.
+    """
+    if len(low) < 3:
+        return None
+    sp = np.linalg.norm(np.gradient(pos[..., :2], dt, axis=0), axis=-1)
+    mask = (sp < speed) & (low <= np.percentile(low, 30, axis=0))
+    xy, z = pos[..., :2][mask], low[mask]
+    if len(z) < FLOOR_FIT_MIN_SAMPLES:
+        return None
+    # fit the slope only along directions the feet actually cover (a straight walk spans one)
+    centred = xy - xy.mean(axis=0)
+    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
+    spread = 4.0 * sv / np.sqrt(len(z))  # ~ the samples' extent along each principal direction
+    dirs = vt[spread >= FLOOR_FIT_MIN_SPREAD_M]
+    if len(dirs) == 0:
+        return None
+    a = np.concatenate([centred @ dirs.T, np.ones((len(z), 1))], axis=1)
+    coef = np.linalg.lstsq(a, z, rcond=None)[0]
+    keep = np.abs(a @ coef - z) < 0.02
+    if keep.sum() >= FLOOR_FIT_MIN_SAMPLES:
+        coef = np.linalg.lstsq(a[keep], z[keep], rcond=None)[0]
+    slope = coef[:-1] @ dirs  # back to (dz/dx, dz/dy)
+    if np.hypot(*slope) > FLOOR_FIT_MAX_SLOPE:
+        return None
+    return float(slope[0]), float(slope[1])
+
+
+def leading_glitch_frames(motion: Motion, jump: float = 10.0, settle: float = 3.0, limit: int = 10) -> int:
+    """How many first frames are not part of the take (a T-pose frame, or a few frames blending out
+    of one, as some releases start with): the first frame-to-frame pose change must exceed ``jump`` x
+    the clip's median change, and frames are dropped while the change stays above ``settle`` x."""
+    if motion.num_frames < 4 * limit:
+        return 0
+    pos = motion.fk()[0]
+    rel = pos - pos[:, :1]
+    step = np.linalg.norm(np.diff(rel, axis=0), axis=-1).max(axis=1)
+    med = float(np.median(step)) + 1e-9
+    if step[0] <= jump * med:
+        return 0
+    n = 1
+    while n < limit and step[n] > settle * med:
+        n += 1
+    return n
 
 
 def _foot_groups(plan: BodyPlanSet, feet: list[str]) -> dict[str, list[str]]:
@@ -295,6 +365,12 @@ def marker_positions(model: mujoco.MjModel, clip: ReferenceClip, plan: BodyPlanS
 
 def source_marker_positions(motion: Motion, clip: ReferenceClip, plan: BodyPlanSet) -> dict[str, FloatArray]:
     """The same joints' positions in the source motion, in the model's frame (turned, lifted)."""
+    motion = motion[clip.trimmed_frames:]
     pts = motion_points(motion).turned(plan.heading_yaw)
-    lift = np.array([0.0, 0.0, clip.vertical_shift])
-    return {src: pts[src] + lift for src in plan.extra.get("markers", {})}
+    out = {}
+    for src in plan.extra.get("markers", {}):
+        p = pts[src].copy()
+        root = pts[plan.bodies[0].source]
+        p[:, 2] += clip.vertical_shift - clip.floor_slope[0] * root[:, 0] - clip.floor_slope[1] * root[:, 1]
+        out[src] = p
+    return out

@@ -66,14 +66,19 @@ class SourcePoints:
 
 def rest_points(motion: Motion) -> SourcePoints:
     """Joint and End Site positions of the skeleton's rest pose (all rotations identity, root at the
-    origin), in the motion's frame."""
+    origin), in the motion's frame. Joints with position channels sit at their median animated
+    translation rather than their OFFSET: that is where the motion actually holds them."""
     sk = motion.skeleton
+    if motion.translations is not None:
+        offsets = np.median(motion.translations, axis=0)
+        offsets[0] = sk.offsets[0]
+        sk = sk.replace(offsets=offsets)
     rest = Motion(skeleton=sk, frame_time=1.0, root_translation=np.zeros((1, 3)),
                   rotations=np.tile([0.0, 0.0, 0.0, 1.0], (1, sk.num_joints, 1)), unit=motion.unit,
                   up=motion.up)
     pos, rot = rest.fk()
     ends = rest.end_site_positions()
-    return SourcePoints(sk, np.concatenate([pos, ends], axis=1)[0], rot[0])
+    return SourcePoints(motion.skeleton, np.concatenate([pos, ends], axis=1)[0], rot[0])
 
 
 def motion_points(motion: Motion) -> SourcePoints:

@@ -84,7 +84,17 @@ def _hinges(prefix: str, spec: JointSpec, bone: FloatArray, mirror: bool, kp: fl
     return joints
 
 
-def _capsule(a: FloatArray, b: FloatArray, origin: FloatArray, radius: float, mass: float) -> GeomPlan:
+#: Limb capsules stop this many radii short of the distal joint, so a shin's rounded end does not
+#: reach below the ankle (a foot flat on the floor must not let the shin touch it).
+DISTAL_INSET = 1.0
+
+
+def _capsule(a: FloatArray, b: FloatArray, origin: FloatArray, radius: float, mass: float,
+             inset: bool = False) -> GeomPlan:
+    if inset:
+        v = b - a
+        n = float(np.linalg.norm(v))
+        b = b - v / max(n, 1e-9) * min(DISTAL_INSET * radius, 0.3 * n)
     return GeomPlan(kind="capsule", size=[radius], fromto=[*(a - origin), *(b - origin)], mass=mass)
 
 
@@ -232,7 +242,7 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
         bodies.append(BodyPlan(
             name=f"{side}_lower_arm", parent=f"{side}_upper_arm", pos=list(Q[el]), source=el,
             segment="lower_arm", joints=elbow_joint,
-            geoms=[_capsule(Q[el], Q[wr], Q[el], g.lower_arm_radius, profile.masses["lower_arm"])],
+            geoms=[_capsule(Q[el], Q[wr], Q[el], g.lower_arm_radius, profile.masses["lower_arm"], inset=True)],
             sites=[SitePlan(name=f"{side}_wrist", pos=list(lb))],
             fit=FitPlan(method="hinge", origin=el, points=[wr], ref="parent",
                         hinge_axis=elbow_joint[0].axis, rest_vectors=[list(lb)])))
@@ -260,7 +270,7 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
         bodies.append(BodyPlan(
             name=f"{side}_shin", parent=f"{side}_thigh", pos=list(Q[kn]), source=kn, segment="shin",
             joints=knee_joint,
-            geoms=[_capsule(Q[kn], Q[an], Q[kn], g.shin_radius, profile.masses["shin"])],
+            geoms=[_capsule(Q[kn], Q[an], Q[kn], g.shin_radius, profile.masses["shin"], inset=True)],
             fit=FitPlan(method="hinge", origin=kn, points=[an], ref="parent",
                         hinge_axis=knee_joint[0].axis, rest_vectors=[list(sb)])))
         markers[th] = ["body", f"{side}_thigh"]

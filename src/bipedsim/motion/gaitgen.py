@@ -34,7 +34,7 @@ UPPER_ARM_M = 0.261
 LOWER_ARM_M = 0.309
 #: Stance-leg extension at its longest (fraction of the full leg length); < 1 keeps the knee off its
 #: singularity so the physics can track it.
-MAX_LEG_EXTENSION = 0.96
+MAX_LEG_EXTENSION = 0.985
 #: Torso yaw against the arm swing (rad of twist per rad of swing).
 TORSO_TWIST = 0.12
 

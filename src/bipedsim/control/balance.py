@@ -1,0 +1,117 @@
+"""SIMBICON balance equations (the paper's eq. 2-6), as plain functions.
+
+Frames: world, Z up; "heading frame": world turned about Z by the character's heading (x forward,
+y left). Torques (N*m) are world vectors unless said otherwise.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def pd_torque(kp: FloatArray | float, kd: FloatArray | float, target: FloatArray, q: FloatArray,
+              qdot: FloatArray, qdot_target: FloatArray | float = 0.0) -> FloatArray:
+    """Eq. 1: tau = kp (theta_d - theta) - kd (theta_dot - theta_dot_d); with ``qdot_target = 0`` the
+    paper's absolute-velocity damping."""
+    return kp * (target - q) - kd * (qdot - qdot_target)
+
+
+def feedback_angle(theta0: float, cd: float, cv: float, d: float, v: float, limit: float = np.inf) -> float:
+    """Eq. 6: theta_d = theta_d0 + c_d d + c_v v, the feedback part clipped to +-``limit`` rad."""
+    return theta0 + float(np.clip(cd * d + cv * v, -limit, limit))
+
+
+def rotvec_error(r_desired: FloatArray, r_actual: FloatArray) -> FloatArray:
+    """World rotation vector (rad) turning ``r_actual`` into ``r_desired`` (3x3 matrices)."""
+    e = r_desired @ r_actual.T
+    cos = np.clip((np.trace(e) - 1.0) * 0.5, -1.0, 1.0)
+    ang = np.arccos(cos)
+    w = np.array([e[2, 1] - e[1, 2], e[0, 2] - e[2, 0], e[1, 0] - e[0, 1]])
+    s = np.sin(ang)
+    if s < 1e-9:
+        return 0.5 * w if ang < 1.0 else _rotvec_pi(e)
+    return w * (ang / (2.0 * s))
+
+
+def _rotvec_pi(e: FloatArray) -> FloatArray:
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_matrix(e).as_rotvec()
+
+
+def torso_torque(kp: float, kd: float, r_desired: FloatArray, r_actual: FloatArray, omega: FloatArray,
+                 omega_desired: FloatArray | None = None) -> FloatArray:
+    """World-frame PD torque (N*m) that turns the torso toward ``r_desired``."""
+    w = omega if omega_desired is None else omega - omega_desired
+    return kp * rotvec_error(r_desired, r_actual) - kd * w
+
+
+def stance_share(force_stance: float, force_swing: float) -> float:
+    """gamma_f: the share of the vertical ground reaction force carried by the stance foot (A)."""
+    total = force_stance + force_swing
+    if total <= 1e-9:
+        return 1.0
+    return float(np.clip(force_stance / total, 0.0, 1.0))
+
+
+def hip_torques(tau_torso: FloatArray, tau_swing: FloatArray, gamma: float,
+                redistribute: bool = True) -> tuple[FloatArray, FloatArray]:
+    """Eq. 2-5: world torques (stance hip A, swing hip B) the hip actuators apply to the thighs.
+
+    The hips push back on the pelvis with minus those torques, so the pelvis receives ``tau_torso``
+    exactly when ``tau_A + tau_B = -tau_torso``. Reading (CONTROLLER.md): the swing hip keeps its
+    own tracking torque ``tau_swing`` and adds its share of the remainder,
+    ``tau_r = -(tau_torso + tau_swing)``: ``tau_A = gamma tau_r``, ``tau_B = tau_swing + (1-gamma) tau_r``.
+    In single support gamma = 1 and this is eq. 2, ``tau_A = -tau_torso - tau_B``. Without
+    redistribution the stance hip takes all of ``tau_r`` whatever the load.
+    """
+    tau_r = -(tau_torso + tau_swing)
+    g = gamma if redistribute else 1.0
+    return g * tau_r, tau_swing + (1.0 - g) * tau_r
+
+
+def world_to_hinges(axes: FloatArray, tau_world: FloatArray) -> FloatArray:
+    """Hinge torques producing a world torque across a joint: tau_k = a_k . T (a_k world axes, k x 3).
+
+    For a torque T applied to the child and -T to the parent, each hinge's generalized force is the
+    component of T along its axis (the Jacobian transpose)."""
+    return axes @ tau_world
+
+
+def hinges_to_world(axes: FloatArray, tau_hinge: FloatArray) -> FloatArray:
+    """The world torque whose hinge components are ``tau_hinge`` (inverse of :func:`world_to_hinges`
+    for three independent axes; least squares otherwise)."""
+    return np.linalg.lstsq(axes, tau_hinge, rcond=None)[0]
+
+
+def yaw_matrix(yaw: float) -> FloatArray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def heading_of(r: FloatArray) -> float:
+    """Yaw (rad) of a body's x axis projected on the floor."""
+    return float(np.arctan2(r[1, 0], r[0, 0]))
+
+
+def axis_rotation(axis: FloatArray, angle: float) -> FloatArray:
+    """Rodrigues: rotation matrix about a unit ``axis`` by ``angle`` rad."""
+    x, y, z = axis
+    c, s = np.cos(angle), np.sin(angle)
+    t = 1.0 - c
+    return np.array([[c + x * x * t, x * y * t - z * s, x * z * t + y * s],
+                     [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
+                     [z * x * t - y * s, z * y * t + x * s, c + z * z * t]])
+
+
+def euler_from_matrix(r: FloatArray, order: tuple[int, int, int]) -> tuple[float, float, float]:
+    """Intrinsic Tait-Bryan angles (a, b, c) with r = R_i(a) R_j(b) R_k(c), axes i, j, k distinct."""
+    i, j, k = order
+    s = 1.0 if (i, j, k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
+    b = float(np.arcsin(np.clip(s * r[i, k], -1.0, 1.0)))
+    a = float(np.arctan2(-s * r[j, k], r[k, k]))
+    c = float(np.arctan2(-s * r[i, j], r[i, i]))
+    return a, b, c

@@ -1,0 +1,170 @@
+"""Controller configuration: ``controllers/*.yaml`` validated into typed objects.
+
+Every key is checked; unknown keys, wrong types and impossible values (negative gains, reversed
+limits, a fade that never ends) are rejected with the file and the dotted key named.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from bipedsim import config
+
+CONTROLLER_DIR = Path(__file__).resolve().parents[3] / "controllers"
+PD_MODES = ("pd", "pd_ref_velocity")
+SOURCES = ("clip", "pose")
+
+
+@dataclass(frozen=True)
+class Gain:
+    """PD gains of one joint group (kp N*m/rad, kd N*m*s/rad) and an optional torque limit (N*m,
+    ``null`` keeps the model's)."""
+
+    kp: float = field(default=300.0, metadata={"min": 0.0})
+    kd: float = field(default=30.0, metadata={"min": 0.0})
+    torque_limit: float | None = field(default=None, metadata={"gt": 0.0})
+
+
+@dataclass(frozen=True)
+class PDConfig:
+    """Eq. 1: tau = kp (theta_d - theta) - kd theta_dot (``pd``, the paper's absolute damping) or
+    - kd (theta_dot - theta_dot_d) (``pd_ref_velocity``). With ``implicit_damping`` the -kd theta_dot
+    term is MuJoCo joint damping, integrated implicitly (``implicitfast``): it lets kd grow without
+    shrinking the timestep (explicit damping of a thigh's twist, whose inertia is tiny, is unstable at
+    2 ms). That damping is passive: it acts on the stance hip too, beside the balance law's torque,
+    and is not cut by torque limits."""
+
+    mode: str = field(default="pd", metadata={"choices": PD_MODES})
+    implicit_damping: bool = True
+    #: feedforward: hold every swinging part against gravity (MuJoCo's bias forces) and let the
+    #: stance knee and ankle carry their share (gamma) of the body weight (J^T f); not in the paper
+    gravity_compensation: bool = True
+    gains: dict[str, Gain] = field(default_factory=dict)
+    joint_gains: dict[str, Gain] = field(default_factory=dict)
+    #: per joint, targets are clipped to [lo, hi] rad
+    target_limits: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    def validate(self) -> None:
+        for j, (lo, hi) in self.target_limits.items():
+            if lo >= hi:
+                raise ValueError(f"target_limits.{j}: limits reversed or empty: [{lo}, {hi}] (need lo < hi)")
+
+
+@dataclass(frozen=True)
+class FSMConfig:
+    """Four states: 1-2 right stance / left swing, 3-4 left stance / right swing. States 1 and 3
+    last ``state1_time`` s (``null``: the reference's double-support-to-mid-swing share); 2 and 4 end
+    when the swing foot's vertical force exceeds ``contact_force`` N, after at least
+    ``min_swing_time`` s."""
+
+    state1_time: float | None = field(default=None, metadata={"gt": 0.0})
+    min_swing_time: float = field(default=0.1, metadata={"min": 0.0})
+    contact_force: float = field(default=30.0, metadata={"gt": 0.0})
+    max_wait: float = field(default=0.4, metadata={"min": 0.0})
+
+
+@dataclass(frozen=True)
+class PlaneGains:
+    cd: float = 0.5
+    cv: float = 0.2
+
+
+@dataclass(frozen=True)
+class BalanceConfig:
+    """SIMBICON balance: world-frame torso (pelvis) control through the stance hip, swing-hip
+    feedback theta_d = theta_d0 + c_d d + c_v v per plane, contact-weighted redistribution."""
+
+    enabled: bool = True
+    feedback: bool = True
+    sagittal: PlaneGains = field(default_factory=lambda: PlaneGains(0.5, 0.2))
+    coronal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.3))
+    torso_kp: float = field(default=1000.0, metadata={"min": 0.0})
+    torso_kd: float = field(default=100.0, metadata={"min": 0.0})
+    heading_kp: float = field(default=300.0, metadata={"min": 0.0})
+    swing_hip_world: bool = True
+    redistribution: bool = True
+    max_feedback: float = field(default=0.6, metadata={"gt": 0.0})
+    relative: bool = True  # feedback on deviations from the reference's own d and v
+
+    def validate(self) -> None:
+        pass
+
+
+@dataclass(frozen=True)
+class FadeConfig:
+    """Sec. 4.4: while an external force acts, tracking gains drop to ``min_scale`` of their value;
+    afterwards they return linearly over ``fade_in`` s. Balance stays on."""
+
+    enabled: bool = True
+    min_scale: float = field(default=0.3, metadata={"min": 0.0, "max": 1.0})
+    fade_in: float = field(default=0.5, metadata={"gt": 0.0})
+
+
+@dataclass(frozen=True)
+class ResyncConfig:
+    """Eq. 7-8, at every foot strike: M = P_c / P_r (simulated step time over the reference's).
+    M > 1 moves the reference back, M < 1 forward, by ``gain`` x the distance (frames) to the
+    reference's strike frame of that foot, at most ``max_frames``; ``hold`` pauses the reference at a
+    strike frame while the swing foot has not landed (up to the FSM's ``max_wait``)."""
+
+    enabled: bool = True
+    gain: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
+    max_frames: float = field(default=25.0, metadata={"min": 0.0})
+    hold: bool = True
+
+
+@dataclass(frozen=True)
+class PoseState:
+    """SIMBICON key pose of one state (rad): swing hip (world, sagittal), knees, ankles, torso."""
+
+    swing_hip: float = 0.0
+    swing_knee: float = 0.0
+    swing_ankle: float = 0.0
+    stance_knee: float = 0.0
+    stance_ankle: float = 0.0
+    torso: float = 0.0
+
+
+@dataclass(frozen=True)
+class PoseGait:
+    """SIMBICON's classic per-state key poses: state A (timed) then state B (until contact)."""
+
+    state_a: PoseState = field(default_factory=lambda: PoseState(0.5, 1.1, 0.6, 0.05, 0.0, 0.0))
+    state_b: PoseState = field(default_factory=lambda: PoseState(-0.1, 0.05, 0.15, 0.1, 0.0, 0.0))
+    state_a_time: float = field(default=0.3, metadata={"gt": 0.0})
+    elbow: float = -0.3
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    """The whole controller."""
+
+    name: str = "default"
+    source: str = field(default="clip", metadata={"choices": SOURCES})
+    control_dt: float | None = field(default=None, metadata={"gt": 0.0})
+    pd: PDConfig = field(default_factory=PDConfig)
+    fsm: FSMConfig = field(default_factory=FSMConfig)
+    balance: BalanceConfig = field(default_factory=BalanceConfig)
+    fade: FadeConfig = field(default_factory=FadeConfig)
+    resync: ResyncConfig = field(default_factory=ResyncConfig)
+    pose_gait: PoseGait = field(default_factory=PoseGait)
+
+    def validate(self) -> None:
+        from bipedsim.model.profile import JOINT_GROUPS
+
+        for g in self.pd.gains:
+            if g not in JOINT_GROUPS and g != "ball":
+                raise ValueError(f"pd.gains.{g}: unknown joint group; groups are {', '.join(JOINT_GROUPS)}, ball")
+
+
+def load_controller(path: str | os.PathLike[str] | None = None) -> ControllerConfig:
+    """A controller YAML file, or the default one (``controllers/default.yaml``, shipped in the
+    package as well)."""
+    if path is None:
+        p = CONTROLLER_DIR / "default.yaml"
+        if not p.is_file():
+            p = Path(__file__).resolve().parent.parent / "profiles" / "controller_default.yaml"
+        path = p
+    return config.load(ControllerConfig, path)

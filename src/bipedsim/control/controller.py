@@ -1,0 +1,319 @@
+"""The :class:`Controller`: PD tracking + gait FSM + SIMBICON balance + fade + resynchronisation.
+
+One call maps (model, data, time) to actuator controls (joint torques, N*m). Per control step:
+
+1. FSM update from the swing foot's touch sensor; on a foot strike, resynchronise the reference.
+2. Advance the reference frame F by dt / frame_time (held at a strike frame while the swing foot is
+   late, if configured).
+3. PD tracking (eq. 1) of every hinge toward the reference, scaled by the fade factor.
+4. Balance (when enabled): world-frame pelvis torque tau_torso; the swing hip tracks a world-frame
+   thigh target turned by the feedback theta_d0 + c_d d + c_v v (eq. 6) in the sagittal and coronal
+   planes; the stance hip takes the rest, redistributed by the feet's load (eq. 2-5).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from bipedsim.control.balance import (axis_rotation, euler_from_matrix, feedback_angle, heading_of,
+                                      hinges_to_world, hip_torques, stance_share, world_to_hinges,
+                                      yaw_matrix)
+from bipedsim.control.config import ControllerConfig
+from bipedsim.control.fsm import GaitFSM
+from bipedsim.control.reference import SIDES, GaitSource, Hinges
+from bipedsim.errors import ConfigError, ModelError
+from bipedsim.model.plan import BodyPlanSet
+
+FloatArray = npt.NDArray[np.float64]
+Y_AXIS = np.array([0.0, 1.0, 0.0])
+X_AXIS = np.array([1.0, 0.0, 0.0])
+
+
+@dataclass
+class ResyncEvent:
+    time: float
+    foot: str
+    frame_before: float
+    frame_after: float
+    ratio: float  #: M = P_c / P_r
+
+
+@dataclass
+class ControllerState:
+    """What the controller did on its last step (for recording and plots)."""
+
+    frame: float = 0.0
+    fsm_state: int = 1
+    gamma: float = 1.0
+    fade: float = 1.0
+    feedback_sagittal: float = 0.0
+    feedback_coronal: float = 0.0
+    tau_torso: FloatArray = field(default_factory=lambda: np.zeros(3))
+    holding: bool = False
+
+
+class Controller:
+    def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: ControllerConfig) -> None:
+        if plan.profile != "humanoid":
+            raise ModelError("the balance controller drives humanoid bodies (two legs, a pelvis)")
+        self.model = model
+        self.plan = plan
+        self.source = source
+        self.cfg = cfg
+        self.h = Hinges.of(model, plan)
+        n = len(self.h.names)
+        self.kp = np.zeros(n)
+        self.kd = np.zeros(n)
+        self.limit = np.abs(model.actuator_ctrlrange[self.h.actuator, 1]).copy()
+        jplan = {j.name: j for b in plan.bodies for j in b.joints}
+        for i, name in enumerate(self.h.names):
+            g = cfg.pd.gains.get(self.h.groups[i])
+            kp, kd = (g.kp, g.kd) if g else (jplan[name].kp, jplan[name].kd)
+            lim = g.torque_limit if g and g.torque_limit else None
+            jg = cfg.pd.joint_gains.get(name)
+            if jg:
+                kp, kd = jg.kp, jg.kd
+                lim = jg.torque_limit or lim
+            self.kp[i], self.kd[i] = kp, kd
+            if lim:
+                self.limit[i] = lim
+        unknown = [j for j in (*cfg.pd.joint_gains, *cfg.pd.target_limits) if j not in self.h.names]
+        if unknown:
+            raise ConfigError(f"names joint {unknown[0]!r}, which the model does not have; hinges are "
+                              f"{', '.join(self.h.names)}", key="pd.joint_gains")
+        self.tlo = np.full(n, -np.inf)
+        self.thi = np.full(n, np.inf)
+        for j, (lo, hi) in cfg.pd.target_limits.items():
+            self.tlo[self.h.index(j)], self.thi[self.h.index(j)] = lo, hi
+        # hips: hinge indices, world-axis joint ids, Euler decomposition of their axis sets
+        self.hip = {}
+        for s in SIDES:
+            names = [f"{s}_hip_y", f"{s}_hip_x", f"{s}_hip_z"]
+            idx = np.array([self.h.index(x) for x in names])
+            axes = [np.asarray(jplan[x].axis) for x in names]
+            order = tuple(int(np.argmax(np.abs(a))) for a in axes)
+            signs = np.array([np.sign(a[k]) for a, k in zip(axes, order)])
+            self.hip[s] = (idx, self.h.jid[idx], order, signs)
+        self.is_hip = np.zeros(n, dtype=bool)
+        for s in SIDES:
+            self.is_hip[self.hip[s][0]] = True
+        # implicit damping: MuJoCo's joint damping carries kd for every joint but the hips
+        self.implicit = cfg.pd.implicit_damping
+        self.base_damping = model.dof_damping.copy()
+        self.pelvis = model.body("pelvis").id
+        self.foot_body = {s: model.body(f"{s}_foot").id for s in SIDES}
+        # stance-leg joints below the hip (knee, ankle, toe) per side, for weight support
+        self.leg_low = {s: np.array([i for i, n in enumerate(self.h.names)
+                                     if n.startswith(f"{s}_") and n.split("_", 1)[1] in ("knee", "ankle", "ankle_y",
+                                                                                         "ankle_x", "toe")])
+                        for s in SIDES}
+        self.weight = float(np.sum(model.body_mass) * -model.opt.gravity[2])
+        self.jacp = np.zeros((3, model.nv))
+        self.touch = {s: [model.sensor_adr[model.sensor(f"touch_{b}_touch").id]
+                          for b in (f"{s}_foot", f"{s}_toe") if _has_sensor(model, f"touch_{b}_touch")]
+                      for s in SIDES}
+        self.fsm = GaitFSM(state1_time=cfg.fsm.state1_time or source.state1_time(),
+                           min_swing_time=cfg.fsm.min_swing_time, contact_force=cfg.fsm.contact_force)
+        self.state = ControllerState()
+        self.frame = source.loop_start
+        self.heading_target = 0.0
+        self.fade = 1.0
+        self.force_active = False
+        self.force_ended_at: float | None = None
+        self.last_strike_time = 0.0
+        self.last_strike_frame = source.loop_start
+        self.wait_time = 0.0
+        self.resyncs: list[ResyncEvent] = []
+        self.ctrl = np.zeros(model.nu)
+        self._apply_damping(1.0)
+
+    # ------------------------------------------------------------------ setup
+    def _apply_damping(self, scale: float) -> None:
+        d = self.base_damping.copy()
+        if self.implicit:
+            d[self.h.dadr] += scale * self.kd
+        self.model.dof_damping[:] = d
+
+    def restore_model(self) -> None:
+        """Undo the damping this controller put into the model."""
+        self.model.dof_damping[:] = self.base_damping
+
+    def reset(self, data: mujoco.MjData, frame: float | None = None, t: float = 0.0) -> None:
+        """Start: reference at ``frame`` (default: the loop start, a right-foot strike), state 1."""
+        self.frame = self.source.loop_start if frame is None else frame
+        self.fsm.state, self.fsm.time_in_state, self.fsm.step_time = 1, 0.0, 0.0
+        self.fsm.strikes.clear()
+        self.resyncs.clear()
+        self.heading_target = heading_of(data.xmat[self.pelvis].reshape(3, 3))
+        self.last_strike_time, self.last_strike_frame = t, self.frame
+        self.fade = 1.0
+        self._apply_damping(1.0)
+
+    # ------------------------------------------------------------------ external force and fade
+    def set_external_force(self, active: bool, t: float) -> None:
+        """Tell the controller whether an external force (a push) acts now (sec. 4.4)."""
+        if self.force_active and not active:
+            self.force_ended_at = t
+        self.force_active = active
+
+    def _update_fade(self, t: float) -> None:
+        f = self.cfg.fade
+        if not f.enabled:
+            scale = 1.0
+        elif self.force_active:
+            scale = f.min_scale
+        elif self.force_ended_at is not None:
+            u = (t - self.force_ended_at) / f.fade_in
+            scale = 1.0 if u >= 1.0 else f.min_scale + (1.0 - f.min_scale) * u
+        else:
+            scale = 1.0
+        if scale != self.fade:
+            self.fade = scale
+            self._apply_damping(scale)
+
+    # ------------------------------------------------------------------ resync
+    def _resync(self, foot: str, t: float) -> None:
+        src = self.source
+        target = src.nearest_strike(self.frame, foot)
+        p_c = t - self.last_strike_time
+        before = self.frame
+        ratio = 1.0
+        if target is not None:
+            p_r = max((target - self.last_strike_frame) * src.frame_time, 1e-6)
+            ratio = p_c / p_r
+            if self.cfg.resync.enabled:
+                delta = np.clip(self.cfg.resync.gain * (target - self.frame), -self.cfg.resync.max_frames,
+                                self.cfg.resync.max_frames)
+                self.frame += float(delta)
+            self.last_strike_frame = target
+        self.last_strike_time = t
+        self.resyncs.append(ResyncEvent(t, foot, before, self.frame, ratio))
+
+    # ------------------------------------------------------------------ the control law
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, dt: float) -> FloatArray:
+        cfg = self.cfg
+        src = self.source
+        self._update_fade(t)
+        fsm = self.fsm
+        swing_force = float(sum(data.sensordata[a] for a in self.touch[fsm.swing]))
+        struck = fsm.update(dt, t, swing_force)
+        if struck is not None:
+            self._resync(struck, t)
+            self.wait_time = 0.0
+        # advance the reference, holding at the swing foot's strike frame while it has not landed
+        nxt = self.frame + dt / src.frame_time
+        holding = False
+        if cfg.resync.hold and fsm.state in (2, 4):
+            exp = src.next_strike(self.frame, fsm.swing)
+            if exp is not None and nxt >= exp and self.wait_time < cfg.fsm.max_wait:
+                nxt = exp - 1e-6
+                holding = True
+                self.wait_time += dt
+        self.frame = nxt
+        q_d, qd_d = src.hinge_targets(self.frame, fsm.state)
+        np.clip(q_d, self.tlo, self.thi, out=q_d)
+        q = data.qpos[self.h.qadr]
+        qd = data.qvel[self.h.dadr]
+        a = self.fade
+        vel_term = qd - qd_d if cfg.pd.mode == "pd_ref_velocity" else qd
+        if self.implicit:
+            # the -kd qdot part is MuJoCo joint damping (implicit); only the rest is computed here
+            tau = a * self.kp * (q_d - q)
+            if cfg.pd.mode == "pd_ref_velocity":
+                tau += a * self.kd * qd_d
+        else:
+            tau = a * (self.kp * (q_d - q) - self.kd * vel_term)
+        if cfg.pd.gravity_compensation:
+            tau += self._gravity(data)
+        st = self.state
+        st.frame, st.fsm_state, st.fade, st.holding = self.frame, fsm.state, a, holding
+        if cfg.balance.enabled:
+            self._balance(data, q, qd, q_d, tau)
+        np.clip(tau, -self.limit, self.limit, out=tau)
+        self.ctrl[self.h.actuator] = tau
+        return self.ctrl
+
+    def _gravity(self, data: mujoco.MjData) -> FloatArray:
+        """Feedforward torques: MuJoCo's bias forces hold each distal subtree against gravity (right for
+        swinging limbs, the spine, arms); the legs in contact instead carry their share of the body
+        weight, tau = -J^T f with f = share x weight up at the ankle (knee, ankle, toe only: the hips
+        belong to the balance law)."""
+        ff = data.qfrc_bias[self.h.dadr].copy()
+        forces = {s: float(sum(data.sensordata[x] for x in self.touch[s])) for s in SIDES}
+        total = forces["left"] + forces["right"]
+        for s in SIDES:
+            idx = self.leg_low[s]
+            share = forces[s] / total if total > 1e-6 else (1.0 if s == self.fsm.stance else 0.0)
+            if share <= 0.0:
+                continue
+            mujoco.mj_jac(self.model, data, self.jacp, None, data.xpos[self.foot_body[s]], self.foot_body[s])
+            f = np.array([0.0, 0.0, share * self.weight])
+            ff[idx] = -(self.jacp[:, self.h.dadr[idx]].T @ f)
+        return ff
+
+    def _balance(self, data: mujoco.MjData, q: FloatArray, qd: FloatArray, q_d: FloatArray, tau: FloatArray) -> None:
+        cfg, b, src, fsm = self.cfg, self.cfg.balance, self.source, self.fsm
+        stance, swing = fsm.stance, fsm.swing
+        r_p = data.xmat[self.pelvis].reshape(3, 3)
+        heading = heading_of(r_p)
+        ry = yaw_matrix(heading)
+        # torso (pelvis) in the world frame: reference pitch/roll, the walk's straight heading
+        r_d = yaw_matrix(self.heading_target) @ src.pelvis_target(self.frame, fsm.state)
+        e = _rotvec(r_d @ r_p.T)
+        omega = r_p @ data.qvel[3:6]
+        tau_torso = np.array([b.torso_kp * e[0], b.torso_kp * e[1], b.heading_kp * e[2]]) - b.torso_kd * omega
+        # swing hip: world-frame thigh target turned by the feedback (eq. 6)
+        mujoco.mj_subtreeVel(self.model, data)
+        com = data.subtree_com[self.pelvis]
+        vcom = data.subtree_linvel[self.pelvis]
+        ank = data.xpos[self.foot_body[stance]]
+        d = (ry.T @ (com - ank))[:2]
+        v = (ry.T @ vcom)[:2]
+        if b.relative:
+            d_ref, v_ref = src.com_reference(self.frame, stance)
+            d, v = d - d_ref, v - v_ref
+        if b.feedback:
+            fs = feedback_angle(0.0, b.sagittal.cd, b.sagittal.cv, d[0], v[0], b.max_feedback)
+            fc = feedback_angle(0.0, b.coronal.cd, b.coronal.cv, d[1], v[1], b.max_feedback)
+        else:
+            fs = fc = 0.0
+        self.state.feedback_sagittal, self.state.feedback_coronal = fs, fc
+        idx_b, jid_b, order_b, sign_b = self.hip[swing]
+        idx_a, jid_a, _, _ = self.hip[stance]
+        if b.swing_hip_world:
+            r_fb = axis_rotation(ry @ Y_AXIS, -fs) @ axis_rotation(ry @ X_AXIS, fc)
+            r_thigh = r_fb @ ry @ src.thigh_target(self.frame, fsm.state, swing)
+            ang = np.array(euler_from_matrix(r_p.T @ r_thigh, order_b)) * sign_b
+            q_d[idx_b] = np.clip(ang, self.tlo[idx_b], self.thi[idx_b])
+            tau[idx_b] = self.fade * self.kp[idx_b] * (q_d[idx_b] - q[idx_b])
+            if not self.implicit:
+                tau[idx_b] -= self.fade * self.kd[idx_b] * qd[idx_b]
+        axes_b = data.xaxis[jid_b]
+        axes_a = data.xaxis[jid_a]
+        t_b = hinges_to_world(axes_b, tau[idx_b])
+        gamma = stance_share(float(sum(data.sensordata[x] for x in self.touch[stance])),
+                             float(sum(data.sensordata[x] for x in self.touch[swing])))
+        t_a, t_b_total = hip_torques(tau_torso, t_b, gamma, b.redistribution)
+        tau[idx_a] = world_to_hinges(axes_a, t_a)
+        tau[idx_b] = world_to_hinges(axes_b, t_b_total)
+        self.state.gamma = gamma
+        self.state.tau_torso = tau_torso
+
+
+def _has_sensor(model: mujoco.MjModel, name: str) -> bool:
+    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, name) >= 0
+
+
+def _rotvec(e: FloatArray) -> FloatArray:
+    """Rotation vector of a rotation matrix (rad)."""
+    cos = np.clip((e[0, 0] + e[1, 1] + e[2, 2] - 1.0) * 0.5, -1.0, 1.0)
+    ang = np.arccos(cos)
+    w = np.array([e[2, 1] - e[1, 2], e[0, 2] - e[2, 0], e[1, 0] - e[0, 1]])
+    s = np.sin(ang)
+    if s < 1e-6:
+        return 0.5 * w
+    return w * (ang / (2.0 * s))

@@ -1,0 +1,189 @@
+"""The rollout loop: controller + physics + fall detection + metrics -> :class:`Outcome`.
+
+``sim/`` never knows where a clip came from: it takes a model, its body plan, a gait source and a
+controller configuration.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from bipedsim.control.config import ControllerConfig
+from bipedsim.control.controller import Controller
+from bipedsim.control.reference import GaitSource
+from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
+
+FloatArray = npt.NDArray[np.float64]
+OUTCOMES = ("no_fall", "fall", "diverged")
+
+
+@dataclass(frozen=True)
+class FallCriteria:
+    """When the character has fallen (any criterion, checked every ``check_every`` s).
+
+    ``non_foot_contact``: a body other than the feet (and the ``allowed`` bodies) touches the floor.
+    ``pelvis_height_fraction``: pelvis below this fraction of its height at the start.
+    ``torso_tilt``: the torso's up axis more than this many rad from vertical.
+    """
+
+    non_foot_contact: bool = True
+    allowed: tuple[str, ...] = ()
+    pelvis_height_fraction: float = 0.55
+    torso_tilt: float = 1.0
+    check_every: float = 0.01
+
+
+@dataclass
+class Outcome:
+    """One rollout's verdict, metrics and provenance."""
+
+    outcome: str
+    sim_seconds: float
+    fall_time_s: float | None
+    fall_reason: str | None
+    foot_strikes: int
+    distance_m: float
+    mean_speed_mps: float
+    reference_speed_mps: float
+    tracking_rmse_rad: float
+    wall_seconds: float
+    steps: int
+    resyncs: int
+    mean_resync_ratio: float | None
+    config: dict[str, Any] = field(default_factory=dict)
+    seed: int = 0
+    versions: dict[str, str] = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        from dataclasses import asdict
+
+        return asdict(self)
+
+
+class FallDetector:
+    def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, crit: FallCriteria, data: mujoco.MjData) -> None:
+        self.crit = crit
+        self.floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, FLOOR_NAME)
+        ok_bodies = {model.body(b).id for b in (*plan.foot_bodies, *crit.allowed)}
+        self.bad_geom = np.array([model.geom_bodyid[g] not in ok_bodies and model.geom_bodyid[g] != 0
+                                  for g in range(model.ngeom)])
+        self.pelvis = model.body("pelvis").id
+        self.torso = model.body("torso").id if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso") >= 0 \
+            else self.pelvis
+        self.h0 = float(data.xpos[self.pelvis][2])
+        self.model = model
+
+    def check(self, data: mujoco.MjData) -> str | None:
+        c = self.crit
+        if c.non_foot_contact:
+            for i in range(data.ncon):
+                con = data.contact[i]
+                g1, g2 = con.geom1, con.geom2
+                if (g1 == self.floor and self.bad_geom[g2]) or (g2 == self.floor and self.bad_geom[g1]):
+                    other = g2 if g1 == self.floor else g1
+                    return f"{self.model.body(self.model.geom_bodyid[other]).name} touched the ground"
+        if data.xpos[self.pelvis][2] < c.pelvis_height_fraction * self.h0:
+            return f"pelvis below {c.pelvis_height_fraction:.2f} of its starting height"
+        up = data.xmat[self.torso].reshape(3, 3)[:, 2]
+        if np.arccos(np.clip(up[2], -1.0, 1.0)) > c.torso_tilt:
+            return f"torso tilted more than {c.torso_tilt:.2f} rad"
+        return None
+
+
+def diverged(data: mujoco.MjData) -> str | None:
+    if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
+        return "non-finite state (NaN/Inf)"
+    for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
+              mujoco.mjtWarning.mjWARN_BADCTRL):
+        if data.warning[w].number > 0:
+            return f"MuJoCo instability warning {mujoco.mjtWarning(w).name}"
+    return None
+
+
+@dataclass
+class RolloutSpec:
+    seconds: float = 10.0
+    seed: int = 0
+    control_dt: float | None = None
+    fall: FallCriteria = field(default_factory=FallCriteria)
+    start_frame: float | None = None
+
+
+#: A hook called after every control step: (t, data, controller) -> None. Pushes and recorders use it.
+Hook = Callable[[float, mujoco.MjData, Controller], None]
+
+
+def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: ControllerConfig,
+            spec: RolloutSpec, *, initial_qpos: FloatArray | None = None, initial_qvel: FloatArray | None = None,
+            hooks: list[Hook] | None = None, before_step: list[Hook] | None = None,
+            progress: Callable[[float], None] | None = None) -> tuple[Outcome, Controller]:
+    """Run one rollout. The model's state starts at ``initial_qpos``/``initial_qvel`` (the reference's
+    pose at its loop start when given by the caller). Returns the outcome and the controller."""
+    t0 = time.perf_counter()
+    data = mujoco.MjData(model)
+    if initial_qpos is not None:
+        data.qpos[:] = initial_qpos
+    if initial_qvel is not None:
+        data.qvel[:] = initial_qvel
+    mujoco.mj_forward(model, data)
+    ctrl = Controller(model, plan, source, cfg)
+    try:
+        ctrl.reset(data, spec.start_frame)
+        falls = FallDetector(model, plan, spec.fall, data)
+        dt = model.opt.timestep
+        cdt = spec.control_dt or cfg.control_dt or dt
+        every = max(1, int(round(cdt / dt)))
+        check_every = max(1, int(round(spec.fall.check_every / dt)))
+        n_steps = int(round(spec.seconds / dt))
+        start_xy = data.qpos[0:2].copy()
+        err2, n_err = 0.0, 0
+        outcome, fall_t, reason = "no_fall", None, None
+        step = 0
+        hooks = hooks or []
+        before_step = before_step or []
+        for step in range(n_steps):
+            t = step * dt
+            for hk in before_step:
+                hk(t, data, ctrl)
+            if step % every == 0:
+                u = ctrl(model, data, t, dt * every)
+                data.ctrl[:] = u
+                q_ref, _ = source.hinge_targets(ctrl.frame, ctrl.fsm.state)
+                e = data.qpos[ctrl.h.qadr] - q_ref
+                err2 += float(e @ e)
+                n_err += len(e)
+                for hk in hooks:
+                    hk(t, data, ctrl)
+            mujoco.mj_step(model, data)
+            bad = diverged(data)
+            if bad:
+                outcome, fall_t, reason = "diverged", (step + 1) * dt, bad
+                break
+            if (step + 1) % check_every == 0:
+                why = falls.check(data)
+                if why:
+                    outcome, fall_t, reason = "fall", (step + 1) * dt, why
+                    break
+            if progress and step % 500 == 0:
+                progress((step + 1) * dt)
+        sim_s = (step + 1) * dt
+        dist = float(np.linalg.norm(data.qpos[0:2] - start_xy)) if outcome != "diverged" else 0.0
+        ratios = [r.ratio for r in ctrl.resyncs]
+        result = Outcome(outcome=outcome, sim_seconds=sim_s, fall_time_s=fall_t, fall_reason=reason,
+                         foot_strikes=len(ctrl.fsm.strikes), distance_m=dist,
+                         mean_speed_mps=dist / sim_s if sim_s > 0 else 0.0,
+                         reference_speed_mps=source.speed(),
+                         tracking_rmse_rad=float(np.sqrt(err2 / max(n_err, 1))),
+                         wall_seconds=time.perf_counter() - t0, steps=step + 1, resyncs=len(ratios),
+                         mean_resync_ratio=float(np.mean(ratios)) if ratios else None, seed=spec.seed)
+        return result, ctrl
+    finally:
+        ctrl.restore_model()

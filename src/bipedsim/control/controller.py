@@ -104,6 +104,10 @@ class Controller:
         # implicit damping: MuJoCo's joint damping carries kd for every joint but the hips
         self.implicit = cfg.pd.implicit_damping
         self.base_damping = model.dof_damping.copy()
+        # the configuration's torque limits replace the model's actuator ranges while it runs
+        self.base_ctrlrange = model.actuator_ctrlrange.copy()
+        model.actuator_ctrlrange[self.h.actuator, 0] = -self.limit
+        model.actuator_ctrlrange[self.h.actuator, 1] = self.limit
         self.pelvis = model.body("pelvis").id
         self.foot_body = {s: model.body(f"{s}_foot").id for s in SIDES}
         # stance-leg joints below the hip (knee, ankle, toe) per side, for weight support
@@ -139,8 +143,9 @@ class Controller:
         self.model.dof_damping[:] = d
 
     def restore_model(self) -> None:
-        """Undo the damping this controller put into the model."""
+        """Undo the damping and torque ranges this controller put into the model."""
         self.model.dof_damping[:] = self.base_damping
+        self.model.actuator_ctrlrange[:] = self.base_ctrlrange
 
     def reset(self, data: mujoco.MjData, frame: float | None = None, t: float = 0.0) -> None:
         """Start: reference at ``frame`` (default: the loop start, a right-foot strike), state 1."""
@@ -199,7 +204,8 @@ class Controller:
         src = self.source
         self._update_fade(t)
         fsm = self.fsm
-        swing_force = float(sum(data.sensordata[a] for a in self.touch[fsm.swing]))
+        # a strike is the swing foot's sole landing; its toe brushing the floor at lift-off is not
+        swing_force = float(data.sensordata[self.touch[fsm.swing][0]])
         struck = fsm.update(dt, t, swing_force)
         if struck is not None:
             self._resync(struck, t)
@@ -232,7 +238,7 @@ class Controller:
         st = self.state
         st.frame, st.fsm_state, st.fade, st.holding = self.frame, fsm.state, a, holding
         if cfg.balance.enabled:
-            self._balance(data, q, qd, q_d, tau)
+            self._balance(data, q, qd, q_d, qd_d, tau)
         np.clip(tau, -self.limit, self.limit, out=tau)
         self.ctrl[self.h.actuator] = tau
         return self.ctrl
@@ -255,7 +261,8 @@ class Controller:
             ff[idx] = -(self.jacp[:, self.h.dadr[idx]].T @ f)
         return ff
 
-    def _balance(self, data: mujoco.MjData, q: FloatArray, qd: FloatArray, q_d: FloatArray, tau: FloatArray) -> None:
+    def _balance(self, data: mujoco.MjData, q: FloatArray, qd: FloatArray, q_d: FloatArray, qd_d: FloatArray,
+                 tau: FloatArray) -> None:
         cfg, b, src, fsm = self.cfg, self.cfg.balance, self.source, self.fsm
         stance, swing = fsm.stance, fsm.swing
         r_p = data.xmat[self.pelvis].reshape(3, 3)
@@ -288,10 +295,17 @@ class Controller:
             r_fb = axis_rotation(ry @ Y_AXIS, -fs) @ axis_rotation(ry @ X_AXIS, fc)
             r_thigh = r_fb @ ry @ src.thigh_target(self.frame, fsm.state, swing)
             ang = np.array(euler_from_matrix(r_p.T @ r_thigh, order_b)) * sign_b
+            # the world target sets where the thigh points; its twist about its own axis (the last
+            # hinge, applied after flexion and abduction) stays the reference's: turning the leg
+            # about itself does not place the foot, it only yaws the body
+            ang[2] = q_d[idx_b[2]]
             q_d[idx_b] = np.clip(ang, self.tlo[idx_b], self.thi[idx_b])
-            tau[idx_b] = self.fade * self.kp[idx_b] * (q_d[idx_b] - q[idx_b])
-            if not self.implicit:
-                tau[idx_b] -= self.fade * self.kd[idx_b] * qd[idx_b]
+            vel = qd[idx_b] - qd_d[idx_b] if cfg.pd.mode == "pd_ref_velocity" else qd[idx_b]
+            if self.implicit:  # joint damping supplies -kd qdot; add back +kd qdot_d if asked
+                vel = vel - qd[idx_b]
+            tau[idx_b] = self.fade * (self.kp[idx_b] * (q_d[idx_b] - q[idx_b]) - self.kd[idx_b] * vel)
+            if cfg.pd.gravity_compensation:
+                tau[idx_b] += data.qfrc_bias[self.h.dadr[idx_b]]
         axes_b = data.xaxis[jid_b]
         axes_a = data.xaxis[jid_a]
         t_b = hinges_to_world(axes_b, tau[idx_b])

@@ -178,7 +178,7 @@ class ModelBuilder:
         w.add_geom(name=FLOOR_NAME, type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
                    material="grid", contype=FLOOR_CONTYPE, conaffinity=FLOOR_CONAFFINITY,
                    friction=list(sim.friction), solref=list(sim.solref), solimp=list(sim.solimp),
-                   condim=3)
+                   condim=sim.condim)
 
     def build(self) -> mujoco.MjSpec:
         if self._built:

@@ -23,6 +23,8 @@ class SimOptions:
                             metadata={"choices": ("Euler", "implicit", "implicitfast", "RK4")})
     gravity: float = -9.8
     friction: tuple[float, float, float] = (1.5, 0.005, 0.0001)
+    #: contact dimensionality: 3 = sliding friction only; 4 adds torsional friction (friction[1], m)
+    condim: int = field(default=3, metadata={"choices": (1, 3, 4, 6)})
     solref: tuple[float, float] = (0.01, 1.0)
     solimp: tuple[float, float, float, float, float] = (0.9, 0.95, 0.001, 0.5, 2.0)
     joint_damping: float = field(default=0.5, metadata={"min": 0.0})

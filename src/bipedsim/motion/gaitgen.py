@@ -209,10 +209,10 @@ def generate_walk(params: WalkParams | None = None) -> Motion:
         rot[:, idx[f"{side}UpLeg"]] = r_hip.as_quat()
         rot[:, idx[f"{side}Leg"]] = r_knee.as_quat()
         rot[:, idx[f"{side}Foot"]] = r_ankle.as_quat()
-    # arms swing against the legs: the left arm goes forward while the right leg does
+    # arms swing against the legs: the right arm comes forward with the left leg (strike at t_step)
     swing = p.arm_swing * np.sin(np.pi * (t - t_step / 2) / t_step)
     for side, sign in (("Left", 1.0), ("Right", -1.0)):
-        a = -sign * swing  # negative pitch = forward
+        a = sign * swing  # negative pitch = forward: the left arm swings back as the left leg comes forward
         rot[:, idx[f"{side}Arm"]] = Rotation.from_euler("XY", np.stack(
             [np.full(n, sign * 0.08), a], axis=1)).as_quat()
         rot[:, idx[f"{side}ForeArm"]] = Rotation.from_euler(

@@ -81,9 +81,13 @@ class BalanceConfig:
     sagittal: PlaneGains = field(default_factory=lambda: PlaneGains(0.5, 0.2))
     coronal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.3))
     torso_kp: float = field(default=1000.0, metadata={"min": 0.0})
+    roll_kp: float | None = field(default=None, metadata={"min": 0.0})  #: null: torso_kp
     torso_kd: float = field(default=100.0, metadata={"min": 0.0})
     heading_kp: float = field(default=300.0, metadata={"min": 0.0})
     swing_hip_world: bool = True
+    #: ankles aim the feet at the reference's world (heading-frame) orientation, so a foot lands and
+    #: stays flat whatever the leg's tilt
+    feet_world: bool = True
     redistribution: bool = True
     max_feedback: float = field(default=0.6, metadata={"gt": 0.0})
     relative: bool = True  # feedback on deviations from the reference's own d and v

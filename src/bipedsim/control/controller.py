@@ -98,6 +98,14 @@ class Controller:
             order = tuple(int(np.argmax(np.abs(a))) for a in axes)
             signs = np.array([np.sign(a[k]) for a, k in zip(axes, order)])
             self.hip[s] = (idx, self.h.jid[idx], order, signs)
+        # ankles: hinge indices and Euler decomposition of their axes (1 or 2 hinges)
+        self.ankle = {}
+        for s in SIDES:
+            names = [x for x in (f"{s}_ankle", f"{s}_ankle_y", f"{s}_ankle_x") if x in self.h.names]
+            idx = np.array([self.h.index(x) for x in names])
+            axes = [np.asarray(jplan[x].axis) for x in names]
+            self.ankle[s] = (idx, axes)
+        self.shin_body = {s: model.body(f"{s}_shin").id for s in SIDES}
         self.is_hip = np.zeros(n, dtype=bool)
         for s in SIDES:
             self.is_hip[self.hip[s][0]] = True
@@ -150,7 +158,10 @@ class Controller:
     def reset(self, data: mujoco.MjData, frame: float | None = None, t: float = 0.0) -> None:
         """Start: reference at ``frame`` (default: the loop start, a right-foot strike), state 1."""
         self.frame = self.source.loop_start if frame is None else frame
-        self.fsm.state, self.fsm.time_in_state, self.fsm.step_time = 1, 0.0, 0.0
+        left = self.source.nearest_strike(self.frame, "left")
+        right = self.source.nearest_strike(self.frame, "right")
+        start_left = left is not None and right is not None and abs(left - self.frame) < abs(right - self.frame)
+        self.fsm.state, self.fsm.time_in_state, self.fsm.step_time = (3 if start_left else 1), 0.0, 0.0
         self.fsm.strikes.clear()
         self.resyncs.clear()
         self.heading_target = heading_of(data.xmat[self.pelvis].reshape(3, 3))
@@ -234,7 +245,8 @@ class Controller:
         else:
             tau = a * (self.kp * (q_d - q) - self.kd * vel_term)
         if cfg.pd.gravity_compensation:
-            tau += self._gravity(data)
+            self._ff = self._gravity(data)
+            tau += self._ff
         st = self.state
         st.frame, st.fsm_state, st.fade, st.holding = self.frame, fsm.state, a, holding
         if cfg.balance.enabled:
@@ -268,11 +280,13 @@ class Controller:
         r_p = data.xmat[self.pelvis].reshape(3, 3)
         heading = heading_of(r_p)
         ry = yaw_matrix(heading)
-        # torso (pelvis) in the world frame: reference pitch/roll, the walk's straight heading
+        # torso (pelvis) in the world frame: reference pitch/roll, the walk's straight heading; gains
+        # per heading-frame axis (roll about forward x, pitch about lateral y, yaw about z)
         r_d = yaw_matrix(self.heading_target) @ src.pelvis_target(self.frame, fsm.state)
-        e = _rotvec(r_d @ r_p.T)
-        omega = r_p @ data.qvel[3:6]
-        tau_torso = np.array([b.torso_kp * e[0], b.torso_kp * e[1], b.heading_kp * e[2]]) - b.torso_kd * omega
+        e = ry.T @ _rotvec(r_d @ r_p.T)
+        omega = ry.T @ (r_p @ data.qvel[3:6])
+        roll_kp = b.torso_kp if b.roll_kp is None else b.roll_kp
+        tau_torso = ry @ (np.array([roll_kp * e[0], b.torso_kp * e[1], b.heading_kp * e[2]]) - b.torso_kd * omega)
         # swing hip: world-frame thigh target turned by the feedback (eq. 6)
         mujoco.mj_subtreeVel(self.model, data)
         com = data.subtree_com[self.pelvis]
@@ -306,6 +320,23 @@ class Controller:
             tau[idx_b] = self.fade * (self.kp[idx_b] * (q_d[idx_b] - q[idx_b]) - self.kd[idx_b] * vel)
             if cfg.pd.gravity_compensation:
                 tau[idx_b] += data.qfrc_bias[self.h.dadr[idx_b]]
+        if b.feet_world:
+            for side in SIDES:
+                r_f = src.foot_target(self.frame, fsm.state, side)
+                if r_f is None:
+                    continue
+                idx, axes = self.ankle[side]
+                local = data.xmat[self.shin_body[side]].reshape(3, 3).T @ (ry @ r_f)
+                ang = _hinge_angles_small(local, axes)
+                q_d[idx] = np.clip(ang, self.tlo[idx], self.thi[idx])
+                tau[idx] = self.fade * self.kp[idx] * (q_d[idx] - q[idx])
+                if cfg.pd.mode == "pd_ref_velocity" or not self.implicit:
+                    vel = (qd[idx] - qd_d[idx]) if cfg.pd.mode == "pd_ref_velocity" else qd[idx]
+                    if self.implicit:
+                        vel = vel - qd[idx]
+                    tau[idx] -= self.fade * self.kd[idx] * vel
+                if cfg.pd.gravity_compensation:
+                    tau[idx] += self._ff[idx]
         axes_b = data.xaxis[jid_b]
         axes_a = data.xaxis[jid_a]
         t_b = hinges_to_world(axes_b, tau[idx_b])
@@ -316,6 +347,21 @@ class Controller:
         tau[idx_b] = world_to_hinges(axes_b, t_b_total)
         self.state.gamma = gamma
         self.state.tau_torso = tau_torso
+
+
+def _hinge_angles_small(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
+    """Angles of 1 or 2 hinges (applied in order) best reproducing a local rotation matrix."""
+    if len(axes) == 1:
+        a = axes[0] / np.linalg.norm(axes[0])
+        # twist of the rotation about the axis (swing-twist), from the rotation's skew part
+        w = np.array([local[2, 1] - local[1, 2], local[0, 2] - local[2, 0], local[1, 0] - local[0, 1]])
+        c = np.trace(local) - 1.0 - (a @ local @ a - 1.0)  # 2 cos(theta) restricted to the plane
+        return np.array([np.arctan2(a @ w, c)])
+    order = tuple(int(np.argmax(np.abs(x))) for x in axes)
+    signs = np.array([np.sign(x[k]) for x, k in zip(axes, order)])
+    third = next(k for k in range(3) if k not in order)
+    ang = euler_from_matrix(local, (order[0], order[1], third))
+    return np.array(ang[:2]) * signs
 
 
 def _has_sensor(model: mujoco.MjModel, name: str) -> bool:

@@ -71,6 +71,10 @@ class GaitSource:
     def thigh_target(self, f: float, state: int, side: str) -> FloatArray:
         raise NotImplementedError
 
+    def foot_target(self, f: float, state: int, side: str) -> FloatArray | None:
+        """Heading-free world orientation of a foot, or None to leave the ankle to joint tracking."""
+        return None
+
     def com_reference(self, f: float, stance: str) -> tuple[FloatArray, FloatArray]:
         """(d_ref, v_ref): COM minus stance ankle and COM velocity, heading frame, horizontal (m, m/s)."""
         return np.zeros(2), np.zeros(2)
@@ -125,6 +129,7 @@ class ClipSource(GaitSource):
         data = mujoco.MjData(model)
         pelvis = model.body("pelvis").id
         thighs = {s: model.body(f"{s}_thigh").id for s in SIDES}
+        self.foot_hf = {s: np.zeros((n, 3, 3)) for s in SIDES}
         feet = {s: model.body(f"{s}_foot").id for s in SIDES}
         self.pelvis_hf = np.zeros((n, 3, 3))
         self.thigh_hf = {s: np.zeros((n, 3, 3)) for s in SIDES}
@@ -141,6 +146,7 @@ class ClipSource(GaitSource):
             self.pelvis_hf[t] = ry @ r
             for s in SIDES:
                 self.thigh_hf[s][t] = ry @ data.xmat[thighs[s]].reshape(3, 3)
+                self.foot_hf[s][t] = ry @ data.xmat[feet[s]].reshape(3, 3)
                 ankle[s][t] = data.xpos[feet[s]]
             com[t] = data.subtree_com[pelvis]
         vel = np.gradient(com, self.frame_time, axis=0)
@@ -184,6 +190,9 @@ class ClipSource(GaitSource):
 
     def thigh_target(self, f: float, state: int, side: str) -> FloatArray:
         return self.thigh_hf[side][int(round(self.wrap(f))) % len(self.pelvis_hf)]
+
+    def foot_target(self, f: float, state: int, side: str) -> FloatArray | None:
+        return self.foot_hf[side][int(round(self.wrap(f))) % len(self.pelvis_hf)]
 
     def com_reference(self, f: float, stance: str) -> tuple[FloatArray, FloatArray]:
         return self._interp(self.d_ref[stance], f), self._interp(self.v_ref, f)

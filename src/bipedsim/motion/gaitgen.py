@@ -51,8 +51,14 @@ class WalkParams:
     cycles: int = 4
     foot_clearance: float = 0.06  #: swing-foot peak height above the ground (m)
     double_support: float = 0.1  #: fraction of each step with both feet down
-    pelvis_bob: float = 0.015  #: vertical pelvis motion, peak to mean (m)
-    pelvis_sway: float = 0.02  #: lateral pelvis motion toward the stance foot (m)
+    pelvis_bob: float = 0.0  #: vertical pelvis motion, peak to mean (m), on top of the pendulum
+    pelvis_sway: float = 0.02  #: lateral sway (m) for ``pelvis_profile: "sine"``
+    #: "lipm": the pelvis moves as a linear inverted pendulum over the stance foot (the centre of
+    #: pressure rolling from ``zmp_start`` to ``zmp_end`` m ahead of the ankle), so the walk is one
+    #: a physical body can follow with flat feet; "sine": constant speed with a sine sway
+    pelvis_profile: str = "lipm"
+    zmp_start: float = 0.0
+    zmp_end: float = 0.08
     arm_swing: float = 0.25  #: shoulder pitch amplitude (rad)
     elbow_bend: float = 0.35  #: mean elbow flexion (rad)
     step_width: float = 2 * HIP_HALF_WIDTH_M  #: lateral distance between the footprints (m)
@@ -142,6 +148,37 @@ def _foot_track(t: FloatArray, t_step: float, length: float, lateral: float, cle
     return pos, stance
 
 
+GRAVITY = 9.81
+
+
+def _lipm_pelvis(t: FloatArray, t_step: float, length: float, half_w: float, height: float,
+                 zmp_start: float, zmp_end: float) -> tuple[FloatArray, FloatArray]:
+    """Periodic linear-inverted-pendulum pelvis path (x, y) over alternating stance feet.
+
+    Step j (t in [j T, (j+1) T)) stands on foot x = j L, y = -w/2 (j even, right) or +w/2 (odd,
+    left). Sagittal: x'' = w^2 (x - p(t)), the centre of pressure p rolling linearly from
+    ``zmp_start`` to ``zmp_end`` ahead of the ankle; periodic: x(T) = x(0) + L, x'(T) = x'(0).
+    Lateral: y'' = w^2 (y - q) with q the stance foot; y(T) = -y(0), y'(T) = -y'(0).
+    """
+    w = np.sqrt(GRAVITY / height)
+    big_t = t_step
+    c, s = np.cosh(w * big_t), np.sinh(w * big_t)
+    r = (zmp_end - zmp_start) / big_t
+    p0 = zmp_start
+    b1 = p0 + r * big_t - p0 * c - (r / w) * s
+    b2 = r - p0 * w * s - r * c
+    x0, v0 = np.linalg.solve([[c - 1.0, s / w], [w * s, c - 1.0]], [length - b1, -b2])
+    q = -half_w  # right stance first
+    y0, vy0 = np.linalg.solve([[c + 1.0, s / w], [w * s, c + 1.0]], [-q * (1.0 - c), q * w * s])
+    j = np.floor(t / big_t + 1e-9)
+    tau = t - j * big_t
+    ch, sh = np.cosh(w * tau), np.sinh(w * tau)
+    x = j * length + p0 + r * tau + (x0 - p0) * ch + ((v0 - r) / w) * sh
+    sign = np.where(j % 2 == 0, 1.0, -1.0)  # left steps are the mirror image of right ones
+    y = sign * (q + (y0 - q) * ch + (vy0 / w) * sh)
+    return x, y
+
+
 def _leg_ik(d: FloatArray, l1: float, l2: float) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Hip (roll, pitch) and knee angles putting the ankle at ``d`` (T, 3) from the hip, pelvis frame.
 
@@ -180,22 +217,33 @@ def generate_walk(params: WalkParams | None = None) -> Motion:
     idx = {name: i for i, name in enumerate(sk.names)}
     half_w = p.step_width / 2.0
 
-    right, _r_stance = _foot_track(t, t_step, length, -half_w, p.foot_clearance, p.double_support, 0.0)
-    left, _l_stance = _foot_track(t, t_step, length, +half_w, p.foot_clearance, p.double_support, t_step)
+    right, r_stance = _foot_track(t, t_step, length, -half_w, p.foot_clearance, p.double_support, 0.0)
+    left, l_stance = _foot_track(t, t_step, length, +half_w, p.foot_clearance, p.double_support, t_step)
     # the right foot struck at t=0 at x=0; the left at t=-t_step at x=-L (before the clip started)
 
     leg = UPPER_LEG_M + LOWER_LEG_M
     reach = MAX_LEG_EXTENSION * leg
     lat = HIP_HALF_WIDTH_M - half_w
-    h_mean = np.sqrt(reach ** 2 - (length / 2) ** 2 - lat ** 2) + ANKLE_HEIGHT_M + HIP_DROP_M - p.pelvis_bob
     phase = 2 * np.pi * t / t_step  # one bob per step, highest at mid-stance
-    # At a right strike (t = 2k t_step) the feet are at x = 2kL (right, front) and 2kL - L (left,
-    # back): the pelvis sits halfway between them and leans toward the stance foot mid-stance.
-    root = np.stack([
-        speed * t - length / 2,
-        -p.pelvis_sway * np.sin(np.pi * t / t_step),
-        h_mean - p.pelvis_bob * np.cos(phase),
-    ], axis=1)
+    if p.pelvis_profile == "lipm":
+        # first guess of the height, then the pendulum, then the height the legs can reach
+        h = np.sqrt(reach ** 2 - (length / 2) ** 2) + ANKLE_HEIGHT_M + HIP_DROP_M
+        for _ in range(3):
+            px, py = _lipm_pelvis(t, t_step, length, half_w, h - ANKLE_HEIGHT_M, p.zmp_start, p.zmp_end)
+            dx = np.maximum(np.abs(px - right[:, 0]) * r_stance, np.abs(px - left[:, 0]) * l_stance).max()
+            h = np.sqrt(reach ** 2 - dx ** 2 - lat ** 2) + ANKLE_HEIGHT_M + HIP_DROP_M - p.pelvis_bob
+        root = np.stack([px, py, h - p.pelvis_bob * np.cos(phase)], axis=1)
+    elif p.pelvis_profile == "sine":
+        h_mean = np.sqrt(reach ** 2 - (length / 2) ** 2 - lat ** 2) + ANKLE_HEIGHT_M + HIP_DROP_M - p.pelvis_bob
+        # At a right strike (t = 2k t_step) the feet are at x = 2kL (right, front) and 2kL - L (left,
+        # back): the pelvis sits halfway between them and leans toward the stance foot mid-stance.
+        root = np.stack([
+            speed * t - length / 2,
+            -p.pelvis_sway * np.sin(np.pi * t / t_step),
+            h_mean - p.pelvis_bob * np.cos(phase),
+        ], axis=1)
+    else:
+        raise ModelError(f"WalkParams: pelvis_profile must be 'lipm' or 'sine', got {p.pelvis_profile!r}")
 
     rot = np.zeros((n, sk.num_joints, 4))
     rot[..., 3] = 1.0

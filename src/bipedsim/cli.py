@@ -139,8 +139,58 @@ def _add_convert(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_convert)
 
 
+# ---------------------------------------------------------------------- run
+def cmd_run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from bipedsim.sim.rollout import RolloutSpec
+    from bipedsim.sim.runner import load_scenario, run_scenario, write_outcome
+
+    if not args.seconds > 0:
+        from bipedsim.errors import ConfigError
+
+        raise ConfigError(f"must be a positive number of seconds, got {args.seconds}", key="--seconds")
+    sc = load_scenario(args.config, args.bvh, scale=args.scale, up=args.up, mass=args.mass)
+    spec = RolloutSpec(seconds=args.seconds, seed=args.seed, init_noise=args.init_noise)
+    bar = None
+    if args.seconds >= 5 and sys.stderr.isatty():
+        from tqdm import tqdm
+
+        bar = tqdm(total=args.seconds, unit="sim s", desc="bipedsim run", leave=False)
+
+    def progress(t: float) -> None:
+        if bar is not None:
+            bar.n = round(t, 2)
+            bar.refresh()
+
+    out, _ = run_scenario(sc, spec, progress=progress)
+    if bar is not None:
+        bar.close()
+    path = write_outcome(out, Path(args.out))
+    fall = f" at {out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else ""
+    print(f"{out.outcome}{fall}: {out.sim_seconds:.2f} s simulated in {out.wall_seconds:.1f} s, "
+          f"{out.foot_strikes} foot strikes, {out.distance_m:.2f} m at {out.mean_speed_mps:.2f} m/s "
+          f"(reference {out.reference_speed_mps:.2f} m/s), tracking RMSE {out.tracking_rmse_rad:.3f} rad")
+    print(f"wrote {path}")
+    return 0
+
+
+def _add_run(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("run", help="track a reference walk with the balance controller and report the outcome")
+    p.add_argument("config", nargs="?", default=None, help="controller YAML (default: controllers/default.yaml)")
+    p.add_argument("--bvh", default=None, help="reference BVH (default: the built-in walk on the built-in humanoid)")
+    p.add_argument("--seconds", type=float, default=10.0, help="simulated seconds (default 10)")
+    p.add_argument("--seed", type=int, default=0, help="random seed, recorded with the outcome")
+    p.add_argument("--init-noise", type=float, default=0.0, help="initial velocity noise (std) drawn from the seed")
+    p.add_argument("--out", default="bipedsim_run", help="output folder for outcome.json (default bipedsim_run)")
+    p.add_argument("--mass", type=float, default=None, help="total body mass in kg")
+    p.add_argument("--scale", type=_scale_arg, default=None, help="BVH metres per unit or unit name")
+    p.add_argument("--up", choices=("y", "z"), default=None, help="BVH up axis")
+    p.set_defaults(func=cmd_run)
+
+
 #: Subcommand registrars, in the order ``--help`` lists them.
-COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_info, _add_convert]
+COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_info, _add_convert, _add_run]
 
 
 def build_parser() -> argparse.ArgumentParser:

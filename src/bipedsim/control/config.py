@@ -90,7 +90,10 @@ class BalanceConfig:
     feet_world: bool = True
     redistribution: bool = True
     max_feedback: float = field(default=0.6, metadata={"gt": 0.0})
-    relative: bool = True  # feedback on deviations from the reference's own d and v
+    #: what d and v are measured against: "none" (SIMBICON: raw COM offset from the stance ankle and
+    #: raw COM velocity), "mean_velocity" (velocity relative to the reference's mean walking velocity),
+    #: "full" (deviations from the reference's own d and v on the current frame)
+    relative: str = field(default="mean_velocity", metadata={"choices": ("none", "mean_velocity", "full")})
 
     def validate(self) -> None:
         pass
@@ -116,6 +119,9 @@ class ResyncConfig:
     enabled: bool = True
     gain: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
     max_frames: float = field(default=25.0, metadata={"min": 0.0})
+    #: seconds over which the shift is applied (the reference plays faster or slower meanwhile);
+    #: 0 jumps at once, which jerks every target
+    spread: float = field(default=0.25, metadata={"min": 0.0})
     hold: bool = True
 
 

@@ -139,6 +139,7 @@ class Controller:
         self.last_strike_time = 0.0
         self.last_strike_frame = source.loop_start
         self.wait_time = 0.0
+        self.pending_shift = 0.0
         self.resyncs: list[ResyncEvent] = []
         self.ctrl = np.zeros(model.nu)
         self._apply_damping(1.0)
@@ -164,6 +165,7 @@ class Controller:
         self.fsm.state, self.fsm.time_in_state, self.fsm.step_time = (3 if start_left else 1), 0.0, 0.0
         self.fsm.strikes.clear()
         self.resyncs.clear()
+        self.pending_shift = 0.0
         self.heading_target = heading_of(data.xmat[self.pelvis].reshape(3, 3))
         self.last_strike_time, self.last_strike_frame = t, self.frame
         self.fade = 1.0
@@ -194,7 +196,8 @@ class Controller:
     # ------------------------------------------------------------------ resync
     def _resync(self, foot: str, t: float) -> None:
         src = self.source
-        target = src.nearest_strike(self.frame, foot)
+        # the reference strike this one matches: that foot's next strike after the last matched one
+        target = src.next_strike(self.last_strike_frame + 1e-3, foot)
         p_c = t - self.last_strike_time
         before = self.frame
         ratio = 1.0
@@ -204,7 +207,10 @@ class Controller:
             if self.cfg.resync.enabled:
                 delta = np.clip(self.cfg.resync.gain * (target - self.frame), -self.cfg.resync.max_frames,
                                 self.cfg.resync.max_frames)
-                self.frame += float(delta)
+                if self.cfg.resync.spread > 0:
+                    self.pending_shift = float(delta)
+                else:
+                    self.frame += float(delta)
             self.last_strike_frame = target
         self.last_strike_time = t
         self.resyncs.append(ResyncEvent(t, foot, before, self.frame, ratio))
@@ -223,6 +229,12 @@ class Controller:
             self.wait_time = 0.0
         # advance the reference, holding at the swing foot's strike frame while it has not landed
         nxt = self.frame + dt / src.frame_time
+        if self.pending_shift:
+            step = self.pending_shift * min(1.0, dt / cfg.resync.spread)
+            if abs(self.pending_shift - step) < 1e-9 or abs(step) >= abs(self.pending_shift):
+                step = self.pending_shift
+            nxt += step
+            self.pending_shift -= step
         holding = False
         if cfg.resync.hold and fsm.state in (2, 4):
             exp = src.next_strike(self.frame, fsm.swing)
@@ -294,9 +306,11 @@ class Controller:
         ank = data.xpos[self.foot_body[stance]]
         d = (ry.T @ (com - ank))[:2]
         v = (ry.T @ vcom)[:2]
-        if b.relative:
+        if b.relative == "full":
             d_ref, v_ref = src.com_reference(self.frame, stance)
             d, v = d - d_ref, v - v_ref
+        elif b.relative == "mean_velocity":
+            v = v - np.array([src.speed(), 0.0])
         if b.feedback:
             fs = feedback_angle(0.0, b.sagittal.cd, b.sagittal.cv, d[0], v[0], b.max_feedback)
             fc = feedback_angle(0.0, b.coronal.cd, b.coronal.cv, d[1], v[1], b.max_feedback)

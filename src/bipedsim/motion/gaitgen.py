@@ -226,12 +226,18 @@ def generate_walk(params: WalkParams | None = None) -> Motion:
     lat = HIP_HALF_WIDTH_M - half_w
     phase = 2 * np.pi * t / t_step  # one bob per step, highest at mid-stance
     if p.pelvis_profile == "lipm":
-        # first guess of the height, then the pendulum, then the height the legs can reach
+        # first guess of the height, then the pendulum, then the highest pelvis from which both
+        # ankles stay within reach on every frame (hip = pelvis - HIP_DROP_M)
         h = np.sqrt(reach ** 2 - (length / 2) ** 2) + ANKLE_HEIGHT_M + HIP_DROP_M
         for _ in range(3):
             px, py = _lipm_pelvis(t, t_step, length, half_w, h - ANKLE_HEIGHT_M, p.zmp_start, p.zmp_end)
-            dx = np.maximum(np.abs(px - right[:, 0]) * r_stance, np.abs(px - left[:, 0]) * l_stance).max()
-            h = np.sqrt(reach ** 2 - dx ** 2 - lat ** 2) + ANKLE_HEIGHT_M + HIP_DROP_M - p.pelvis_bob
+            limits = []
+            for foot in (left, right):
+                horiz2 = (px - foot[:, 0]) ** 2 + (HIP_HALF_WIDTH_M - abs(half_w)) ** 2
+                if np.any(horiz2 >= reach ** 2):
+                    raise ModelError("walk generator: a footprint is out of the leg's reach; shorten the step")
+                limits.append(foot[:, 2] + HIP_DROP_M + np.sqrt(reach ** 2 - horiz2))
+            h = float(np.min(limits)) - p.pelvis_bob
         root = np.stack([px, py, h - p.pelvis_bob * np.cos(phase)], axis=1)
     elif p.pelvis_profile == "sine":
         h_mean = np.sqrt(reach ** 2 - (length / 2) ** 2 - lat ** 2) + ANKLE_HEIGHT_M + HIP_DROP_M - p.pelvis_bob

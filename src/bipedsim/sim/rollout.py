@@ -112,6 +112,8 @@ def diverged(data: mujoco.MjData) -> str | None:
 class RolloutSpec:
     seconds: float = 10.0
     seed: int = 0
+    #: standard deviation (rad/s, m/s) of noise added to the initial velocities, drawn from ``seed``
+    init_noise: float = 0.0
     control_dt: float | None = None
     fall: FallCriteria = field(default_factory=FallCriteria)
     start_frame: float | None = None

@@ -1,0 +1,90 @@
+"""Assemble a rollout from user-level choices: a controller YAML, a BVH (or the built-in walk), a body
+profile. Used by ``bipedsim run`` and, later, sweeps and regression suites."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from bipedsim.config import to_dict
+from bipedsim.control.config import ControllerConfig, load_controller
+from bipedsim.control.reference import ClipSource, GaitSource, Hinges, PoseSource
+from bipedsim.io import atomic_write_json, versions
+from bipedsim.model.build import BuiltModel, build_model, load_model
+from bipedsim.model.clip import ReferenceClip
+from bipedsim.model.retarget import retarget
+from bipedsim.sim.rollout import Outcome, RolloutSpec, rollout
+
+
+@dataclass
+class Scenario:
+    """Everything one rollout needs."""
+
+    built: BuiltModel
+    clip: ReferenceClip
+    cfg: ControllerConfig
+    source_path: str
+    config_path: str | None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def gait_source(self) -> GaitSource:
+        h = Hinges.of(self.built.model, self.built.plan)
+        if self.cfg.source == "pose":
+            return PoseSource(self.cfg.pose_gait, h)
+        return ClipSource(self.clip, self.built.model, self.built.plan, h)
+
+
+def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.PathLike[str] | None = None, *,
+                  scale: float | str | None = None, up: str | None = None, mass: float | None = None) -> Scenario:
+    """The built-in humanoid and walk, or a body built from ``bvh`` and its motion retargeted onto it."""
+    from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
+    from bipedsim.motion.bvh import load_bvh
+
+    cfg = load_controller(config)
+    if bvh is None:
+        built = load_model(builtin_humanoid_path())
+        if mass is not None:
+            built = build_model(load_bvh(BUILTIN_WALK), "humanoid", total_mass=mass, name="humanoid")
+        motion = load_bvh(BUILTIN_WALK)
+        src = str(BUILTIN_WALK)
+    else:
+        motion = load_bvh(bvh, scale=scale, up=up)
+        built = build_model(motion, "humanoid", total_mass=mass, name=Path(bvh).stem)
+        src = str(bvh)
+    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src)
+    return Scenario(built=built, clip=clip, cfg=cfg, source_path=src,
+                    config_path=None if config is None else str(config))
+
+
+def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, before_step: list | None = None,
+                 progress: Any = None) -> tuple[Outcome, Any]:
+    """Run one rollout from the gait source's loop start (the reference pose and velocity there)."""
+    source = sc.gait_source()
+    frame = int(round(source.loop_start)) if isinstance(source, ClipSource) else 0
+    qpos0 = sc.clip.qpos[frame].copy()
+    qvel0 = sc.clip.qvel[frame].copy() if isinstance(source, ClipSource) else np.zeros(sc.built.model.nv)
+    if spec.seed and spec.init_noise > 0:
+        rng = np.random.default_rng(spec.seed)
+        qvel0 = qvel0 + rng.normal(scale=spec.init_noise, size=qvel0.shape)
+    out, ctrl = rollout(sc.built.model, sc.built.plan, source, sc.cfg, spec, initial_qpos=qpos0, initial_qvel=qvel0,
+                        hooks=hooks, before_step=before_step, progress=progress)
+    out.config = {"controller": to_dict(sc.cfg), "controller_file": sc.config_path, "reference": sc.source_path,
+                  "model": sc.built.plan.name, "model_hash": sc.built.hash, "seconds": spec.seconds,
+                  "fall": to_dict(spec.fall), "init_noise": spec.init_noise,
+                  "timestep_s": float(sc.built.model.opt.timestep)}
+    out.versions = versions()
+    return out, ctrl
+
+
+def write_outcome(out: Outcome, folder: str | os.PathLike[str]) -> Path:
+    path = Path(folder) / "outcome.json"
+    atomic_write_json(path, out.to_dict())
+    return path
+
+
+__all__ = ["Scenario", "load_scenario", "run_scenario", "write_outcome", "mujoco"]

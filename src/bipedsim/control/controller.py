@@ -85,8 +85,9 @@ class Controller:
         if unknown:
             raise ConfigError(f"names joint {unknown[0]!r}, which the model does not have; hinges are "
                               f"{', '.join(self.h.names)}", key="pd.joint_gains")
-        self.tlo = np.full(n, -np.inf)
-        self.thi = np.full(n, np.inf)
+        # targets stay inside the joints' ranges (a retargeted clip may reach past them)
+        self.tlo = model.jnt_range[self.h.jid, 0].copy()
+        self.thi = model.jnt_range[self.h.jid, 1].copy()
         for j, (lo, hi) in cfg.pd.target_limits.items():
             self.tlo[self.h.index(j)], self.thi[self.h.index(j)] = lo, hi
         # hips: hinge indices, world-axis joint ids, Euler decomposition of their axis sets

@@ -22,6 +22,8 @@ from bipedsim.model.plan import BodyPlanSet
 
 FloatArray = npt.NDArray[np.float64]
 SIDES = ("right", "left")
+#: A rollout starts this fraction of a step after the first right-foot strike of the loop.
+START_AFTER_STRIKE = 0.05
 
 
 @dataclass
@@ -210,6 +212,11 @@ class ClipSource(GaitSource):
     def nearest_strike(self, f: float, side: str) -> float | None:
         c = self._strikes_near(f, side)
         return float(c[np.argmin(np.abs(c - f))])
+
+    def start_frame(self) -> float:
+        """Where a rollout starts: just after the loop's first right-foot strike, when that foot
+        already carries weight (starting exactly on the strike frame leaves neither foot loaded)."""
+        return self.a + max(1.0, round(START_AFTER_STRIKE * self._step / self.frame_time))
 
     def state1_time(self) -> float:
         return 0.5 * self._step

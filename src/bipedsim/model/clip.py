@@ -111,6 +111,23 @@ def contact_labels(low: FloatArray, sp: FloatArray, height: float, speed: float)
     return (low < level + height) & (sp < speed)
 
 
+def debounce(contacts: npt.NDArray[np.bool_], dt: float, min_gap: float = 0.06,
+             min_contact: float = 0.12) -> npt.NDArray[np.bool_]:
+    """Contact flags without chatter: gaps shorter than ``min_gap`` s are filled, then contacts
+    shorter than ``min_contact`` s dropped (a foot brushing the floor is not a step)."""
+    out = contacts.copy()
+    gap, con = max(1, int(round(min_gap / dt))), max(1, int(round(min_contact / dt)))
+    for k in range(out.shape[1]):
+        c = out[:, k]
+        for value, length in ((False, gap), (True, con)):
+            runs = np.flatnonzero(np.diff(np.concatenate([[not value], c == value, [not value]]).astype(int)))
+            for start, stop in zip(runs[::2], runs[1::2]):
+                inner = start > 0 and stop < len(c)  # runs touching the clip's ends are kept
+                if stop - start < length and inner:
+                    c[start:stop] = not value
+    return out
+
+
 def gait_events(contacts: npt.NDArray[np.bool_], feet: list[str]) -> dict[str, dict[str, list[int]]]:
     """Frames where each foot's contact begins (``strike``) and ends (``liftoff``)."""
     out: dict[str, dict[str, list[int]]] = {}

@@ -238,7 +238,8 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
             joints=_hinges(f"{side}_shoulder", profile.joints["shoulder"], ub, mirror, kp, kd, "shoulder"),
             geoms=[_capsule(Q[sh], Q[el], Q[sh], g.upper_arm_radius, profile.masses["upper_arm"])],
             fit=FitPlan(method="twobone", origin=sh, points=[el, wr], ref=f"bvh:{sh}",
-                        hinge_axis=elbow_joint[0].axis, rest_vectors=[list(ub), list(lb)])))
+                        hinge_axis=elbow_joint[0].axis, rest_vectors=[list(ub), list(lb)],
+                        hinge_range=elbow_joint[0].range)))
         bodies.append(BodyPlan(
             name=f"{side}_lower_arm", parent=f"{side}_upper_arm", pos=list(Q[el]), source=el,
             segment="lower_arm", joints=elbow_joint,
@@ -266,7 +267,8 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
             joints=_hinges(f"{side}_hip", profile.joints["hip"], tb, mirror, *gains("hip"), "hip"),
             geoms=[_capsule(Q[th], Q[kn], Q[th], g.thigh_radius, profile.masses["thigh"])],
             fit=FitPlan(method="twobone", origin=th, points=[kn, an], ref=f"bvh:{th}",
-                        hinge_axis=knee_joint[0].axis, rest_vectors=[list(tb), list(sb)])))
+                        hinge_axis=knee_joint[0].axis, rest_vectors=[list(tb), list(sb)],
+                        hinge_range=knee_joint[0].range)))
         bodies.append(BodyPlan(
             name=f"{side}_shin", parent=f"{side}_thigh", pos=list(Q[kn]), source=kn, segment="shin",
             joints=knee_joint,

@@ -87,6 +87,9 @@ class FitPlan:
     #: ``twobone`` a second entry is ``points[1] - points[0]``
     rest_vectors: list[list[float]] = field(default_factory=list)
     weights: list[float] | None = None
+    #: ``twobone``: the child hinge's range (rad); of the two twists that reach the end point, the
+    #: one bending the child hinge inside this range wins (a knee bends forward, not backward)
+    hinge_range: list[float] | None = None
 
 
 @dataclass

@@ -24,7 +24,7 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
-from bipedsim.model.clip import ReferenceClip, contact_labels, foot_speeds, gait_events
+from bipedsim.model.clip import ReferenceClip, contact_labels, debounce, foot_speeds, gait_events
 from bipedsim.model.plan import BodyPlanSet, model_hash, plan_from_model
 from bipedsim.model.source import SourcePoints, motion_points
 from bipedsim.motion.motion import Motion
@@ -76,7 +76,7 @@ def kabsch(rest_vecs: FloatArray, cur_vecs: FloatArray, ref: FloatArray,
 
 
 def _twobone_twist(g: FloatArray, u: FloatArray, w: FloatArray, axis0: FloatArray,
-                   child0: FloatArray) -> FloatArray:
+                   child0: FloatArray, hinge_range: list[float] | None = None) -> FloatArray:
     """Twist ``g`` (T, 3, 3) about the bone ``u`` so the child's hinge, rotating the rest child bone
     ``child0`` about ``g @ axis0``, can reach the child bone ``w``: the hinge axis must make the same
     angle with ``w`` as ``axis0`` makes with ``child0``. Of the two twists that do, the smaller."""
@@ -95,7 +95,20 @@ def _twobone_twist(g: FloatArray, u: FloatArray, w: FloatArray, axis0: FloatArra
     delta = np.arccos(np.clip(c / np.maximum(r, 1e-12), -1.0, 1.0))
     cands = np.stack([base + delta, base - delta], axis=1)
     cands = (cands + np.pi) % (2 * np.pi) - np.pi
-    phi = np.take_along_axis(cands, np.argmin(np.abs(cands), axis=1)[:, None], axis=1)[:, 0]
+    cost = np.abs(cands)
+    if hinge_range is not None:
+        # prefer the twist whose child hinge angle lies in range (a knee bends forward, not back)
+        lo, hi = hinge_range
+        for k in range(2):
+            gk = Rotation.from_rotvec(uh * cands[:, k:k + 1]).as_matrix() @ g
+            ak = np.einsum("tij,j->ti", gk, axis0 / np.linalg.norm(axis0))
+            sk = np.einsum("tij,j->ti", gk, child0)
+            p0 = sk - np.sum(sk * ak, axis=-1, keepdims=True) * ak
+            p1 = wh - np.sum(wh * ak, axis=-1, keepdims=True) * ak
+            ang = np.arctan2(np.sum(ak * np.cross(p0, p1), axis=-1), np.sum(p0 * p1, axis=-1))
+            outside = np.maximum(lo - ang, 0.0) + np.maximum(ang - hi, 0.0)
+            cost[:, k] += 10.0 * outside
+    phi = np.take_along_axis(cands, np.argmin(cost, axis=1)[:, None], axis=1)[:, 0]
     bend = np.linalg.norm(np.cross(uh, wh), axis=-1)
     phi = np.where((r > 1e-9) & (bend > np.sin(TWOBONE_MIN_BEND)) | (abs(cos_beta) > 0.05), phi, 0.0)
     return Rotation.from_rotvec(uh * phi[:, None]).as_matrix() @ g
@@ -128,7 +141,8 @@ def fit_orientations(plan: BodyPlanSet, pts: SourcePoints) -> dict[str, FloatArr
             g = _min_rotation(np.einsum("tij,j->ti", ref, u0), u) @ ref
             if f.method == "twobone":
                 assert f.hinge_axis is not None
-                g = _twobone_twist(g, u, pts[f.points[1]] - pts[f.points[0]], np.asarray(f.hinge_axis), rv[1])
+                g = _twobone_twist(g, u, pts[f.points[1]] - pts[f.points[0]], np.asarray(f.hinge_axis), rv[1],
+                                   f.hinge_range)
         elif f.method == "hinge":
             # rotate the parent's frame about the hinge until the bone points at the motion's point
             assert f.hinge_axis is not None
@@ -171,7 +185,7 @@ def _hinge_angles(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
 
 
 def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None = None,
-             xml: str | None = None, contact_height: float = 0.03, contact_speed: float = 0.3,
+             xml: str | None = None, contact_height: float = 0.05, contact_speed: float = 0.5,
              source: str = "", trim_glitches: bool = True) -> ReferenceClip:
     """Retarget a motion (project frame: metres, Z up) onto a model built by bipedsim.
 
@@ -227,7 +241,7 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
     side_feet = _foot_groups(plan, feet)
     low_g = _group_min(low, feet, side_feet)
     speed_g = _group_min(foot_speeds(fpos, motion.frame_time), feet, side_feet)
-    grouped = contact_labels(low_g, speed_g, contact_height, contact_speed)
+    grouped = debounce(contact_labels(low_g, speed_g, contact_height, contact_speed), motion.frame_time)
     return ReferenceClip(qpos=qpos, qvel=qvel, frame_time=motion.frame_time, contacts=grouped,
                          foot_names=list(side_feet), foot_heights=low_g,
                          events=gait_events(grouped, list(side_feet)),

@@ -65,7 +65,11 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
                  progress: Any = None) -> tuple[Outcome, Any]:
     """Run one rollout from the gait source's loop start (the reference pose and velocity there)."""
     source = sc.gait_source()
-    frame = int(round(source.loop_start)) if isinstance(source, ClipSource) else 0
+    frame = int(round(source.start_frame())) if isinstance(source, ClipSource) else 0
+    if spec.start_frame is None and isinstance(source, ClipSource):
+        from dataclasses import replace
+
+        spec = replace(spec, start_frame=float(frame))
     qpos0 = sc.clip.qpos[frame].copy()
     qvel0 = sc.clip.qvel[frame].copy() if isinstance(source, ClipSource) else np.zeros(sc.built.model.nv)
     if spec.seed and spec.init_noise > 0:

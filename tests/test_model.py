@@ -124,9 +124,12 @@ def test_shared_humans_convert_simulate_and_replay(path: Path) -> None:
     # feet never sink more than 1 cm into the floor; contact labels follow foot height
     low, _ = foot_heights(b.model, clip.qpos, b.plan.foot_bodies)
     assert low.min() > -0.01
+    # (labels: within 5 cm of the foot's resting level and slower than 0.5 m/s, then debounced: gaps
+    # under 60 ms filled, touches under 120 ms dropped)
     level = np.percentile(clip.foot_heights, 5, axis=0)
-    assert np.all(clip.foot_heights[clip.contacts] < np.broadcast_to(level + 0.03, clip.contacts.shape)[clip.contacts])
-    assert not np.any(clip.contacts & (clip.foot_heights > level + 0.05))
+    near = clip.foot_heights < level + 0.05
+    assert (near[clip.contacts]).mean() > 0.95
+    assert not np.any(clip.contacts & (clip.foot_heights > level + 0.10))
 
 
 @pytest.mark.parametrize("path", shared_params("animal"))

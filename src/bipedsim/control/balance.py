@@ -21,7 +21,8 @@ def pd_torque(kp: FloatArray | float, kd: FloatArray | float, target: FloatArray
 
 def feedback_angle(theta0: float, cd: float, cv: float, d: float, v: float, limit: float = np.inf) -> float:
     """Eq. 6: theta_d = theta_d0 + c_d d + c_v v, the feedback part clipped to +-``limit`` rad."""
-    return theta0 + float(np.clip(cd * d + cv * v, -limit, limit))
+    fb = cd * float(d) + cv * float(v)
+    return theta0 + (limit if fb > limit else -limit if fb < -limit else fb)
 
 
 def rotvec_error(r_desired: FloatArray, r_actual: FloatArray) -> FloatArray:
@@ -83,7 +84,11 @@ def world_to_hinges(axes: FloatArray, tau_world: FloatArray) -> FloatArray:
 
 def hinges_to_world(axes: FloatArray, tau_hinge: FloatArray) -> FloatArray:
     """The world torque whose hinge components are ``tau_hinge`` (inverse of :func:`world_to_hinges`
-    for three independent axes; least squares otherwise)."""
+    for three independent axes; least squares when they are not)."""
+    if axes.shape == (3, 3):
+        det = np.linalg.det(axes)
+        if abs(det) > 1e-6:
+            return np.linalg.solve(axes, tau_hinge)
     return np.linalg.lstsq(axes, tau_hinge, rcond=None)[0]
 
 

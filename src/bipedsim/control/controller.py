@@ -19,9 +19,17 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.balance import (axis_rotation, euler_from_matrix, feedback_angle, heading_of,
-                                      hinges_to_world, hip_torques, stance_share, world_to_hinges,
-                                      yaw_matrix)
+from bipedsim.control.balance import (
+    axis_rotation,
+    euler_from_matrix,
+    feedback_angle,
+    heading_of,
+    hinges_to_world,
+    hip_torques,
+    stance_share,
+    world_to_hinges,
+    yaw_matrix,
+)
 from bipedsim.control.config import ControllerConfig
 from bipedsim.control.fsm import GaitFSM
 from bipedsim.control.reference import SIDES, GaitSource, Hinges
@@ -143,6 +151,7 @@ class Controller:
         self.pending_shift = 0.0
         self.resyncs: list[ResyncEvent] = []
         self.ctrl = np.zeros(model.nu)
+        self.tracking_error = np.zeros(n)
         self._apply_damping(1.0)
 
     # ------------------------------------------------------------------ setup
@@ -245,9 +254,10 @@ class Controller:
                 self.wait_time += dt
         self.frame = nxt
         q_d, qd_d = src.hinge_targets(self.frame, fsm.state)
-        np.clip(q_d, self.tlo, self.thi, out=q_d)
         q = data.qpos[self.h.qadr]
         qd = data.qvel[self.h.dadr]
+        self.tracking_error = q - q_d  # against the reference itself, before limits and balance
+        np.clip(q_d, self.tlo, self.thi, out=q_d)
         a = self.fade
         vel_term = qd - qd_d if cfg.pd.mode == "pd_ref_velocity" else qd
         if self.implicit:

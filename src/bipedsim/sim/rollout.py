@@ -98,6 +98,10 @@ class FallDetector:
         return None
 
 
+def sim_end(step: int, dt: float) -> float:
+    return (step + 1) * dt
+
+
 def diverged(data: mujoco.MjData) -> str | None:
     if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
         return "non-finite state (NaN/Inf)"
@@ -158,22 +162,25 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
             if step % every == 0:
                 u = ctrl(model, data, t, dt * every)
                 data.ctrl[:] = u
-                q_ref, _ = source.hinge_targets(ctrl.frame, ctrl.fsm.state)
-                e = data.qpos[ctrl.h.qadr] - q_ref
+                e = ctrl.tracking_error
                 err2 += float(e @ e)
                 n_err += len(e)
                 for hk in hooks:
                     hk(t, data, ctrl)
             mujoco.mj_step(model, data)
-            bad = diverged(data)
-            if bad:
-                outcome, fall_t, reason = "diverged", (step + 1) * dt, bad
-                break
             if (step + 1) % check_every == 0:
+                bad = diverged(data)
+                if bad:
+                    outcome, fall_t, reason = "diverged", (step + 1) * dt, bad
+                    break
                 why = falls.check(data)
                 if why:
                     outcome, fall_t, reason = "fall", (step + 1) * dt, why
                     break
+        if outcome == "no_fall":  # the last steps since a check
+            bad = diverged(data)
+            if bad:
+                outcome, fall_t, reason = "diverged", sim_end(step, dt), bad
             if progress and step % 500 == 0:
                 progress((step + 1) * dt)
         sim_s = (step + 1) * dt

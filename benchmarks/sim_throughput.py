@@ -1,0 +1,51 @@
+"""Control + physics throughput against raw ``mj_step`` on the same model, in one run.
+
+    python benchmarks/sim_throughput.py [--seconds 10]
+
+Prints steps per second for (a) raw mj_step with zero controls from the same start, (b) the full
+rollout (controller, fall checks, metrics), their ratio (target >= 0.5) and the real-time factor.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import mujoco
+
+from bipedsim.sim.rollout import RolloutSpec
+from bipedsim.sim.runner import load_scenario, run_scenario
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--seconds", type=float, default=10.0)
+    args = ap.parse_args()
+    sc = load_scenario()
+    model = sc.built.model
+    n = int(round(args.seconds / model.opt.timestep))
+    src = sc.gait_source()
+    f = int(src.start_frame())
+
+    data = mujoco.MjData(model)
+    data.qpos[:] = sc.clip.qpos[f]
+    data.qvel[:] = sc.clip.qvel[f]
+    mujoco.mj_forward(model, data)
+    t0 = time.perf_counter()
+    for _ in range(n):
+        mujoco.mj_step(model, data)
+    raw = n / (time.perf_counter() - t0)
+
+    out, _ = run_scenario(sc, RolloutSpec(seconds=args.seconds))
+    full = out.steps / out.wall_seconds
+    print(f"model: {model.nq} qpos, {model.nv} dof, {model.nu} actuators, timestep {model.opt.timestep} s")
+    print(f"raw mj_step          : {raw:10.0f} steps/s")
+    print(f"controller + physics : {full:10.0f} steps/s  ({out.outcome}, {out.sim_seconds:.1f} s simulated)")
+    print(f"ratio                : {full / raw:10.2f}  (target >= 0.5)")
+    print(f"real-time factor     : {full * model.opt.timestep:10.1f}x")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

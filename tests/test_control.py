@@ -1,0 +1,214 @@
+"""Controller equations (eq. 1-8), the FSM, configuration errors, and walking outcomes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from bipedsim.cli import main
+from bipedsim.control.balance import (
+    euler_from_matrix,
+    feedback_angle,
+    hinges_to_world,
+    hip_torques,
+    pd_torque,
+    stance_share,
+    torso_torque,
+    world_to_hinges,
+)
+from bipedsim.control.config import ControllerConfig, load_controller
+from bipedsim.control.controller import Controller
+from bipedsim.control.fsm import GaitFSM
+from bipedsim.errors import ConfigError
+from bipedsim.sim.rollout import RolloutSpec
+from bipedsim.sim.runner import load_scenario, run_scenario
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def test_pd_torque_eq1() -> None:
+    tau = pd_torque(np.array([300.0, 50.0]), np.array([30.0, 5.0]), np.array([0.5, -0.2]), np.array([0.1, 0.0]),
+                    np.array([2.0, -1.0]))
+    assert np.allclose(tau, [300 * 0.4 - 30 * 2.0, 50 * -0.2 - 5 * -1.0])
+    # with a reference velocity the damping acts on the velocity error
+    assert pd_torque(10.0, 2.0, 1.0, 1.0, 3.0, qdot_target=3.0) == 0.0
+
+
+def test_stance_hip_single_support_eq2() -> None:
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        t_torso, t_b = rng.normal(size=3) * 100, rng.normal(size=3) * 100
+        t_a, t_b_total = hip_torques(t_torso, t_b, gamma=1.0)
+        assert np.allclose(t_a, -t_torso - t_b) and np.allclose(t_b_total, t_b)
+
+
+@pytest.mark.parametrize("gamma", np.linspace(0.0, 1.0, 11))
+def test_hip_torques_sum_to_minus_torso_for_every_share(gamma: float) -> None:
+    rng = np.random.default_rng(int(gamma * 10))
+    t_torso, t_b = rng.normal(size=3) * 100, rng.normal(size=3) * 100
+    t_a, t_b_total = hip_torques(t_torso, t_b, gamma)
+    assert np.allclose(t_a + t_b_total, -t_torso)
+    # eq. 3-5: the remainder tau_r = -(tau_torso + tau_B) is split gamma : 1 - gamma
+    t_r = -(t_torso + t_b)
+    assert np.allclose(t_a, gamma * t_r) and np.allclose(t_b_total - t_b, (1 - gamma) * t_r)
+
+
+def test_stance_share_from_vertical_forces() -> None:
+    assert stance_share(300.0, 100.0) == pytest.approx(0.75)
+    assert stance_share(0.0, 0.0) == 1.0 and stance_share(0.0, 50.0) == 0.0
+
+
+def test_feedback_term_eq6() -> None:
+    assert feedback_angle(0.4, 0.5, 0.2, d=0.1, v=0.3) == pytest.approx(0.4 + 0.05 + 0.06)
+    assert feedback_angle(0.0, 0.5, 0.2, d=10.0, v=0.0, limit=0.6) == pytest.approx(0.6)
+
+
+def test_hinge_world_torque_mapping_round_trip() -> None:
+    axes = Rotation.random(1, random_state=3).as_matrix()[0]
+    t = np.array([10.0, -20.0, 5.0])
+    assert np.allclose(hinges_to_world(axes, world_to_hinges(axes, t)), t)
+
+
+def test_torso_torque_turns_toward_target() -> None:
+    r_d = Rotation.from_rotvec([0.0, 0.2, 0.0]).as_matrix()
+    tau = torso_torque(100.0, 10.0, r_d, np.eye(3), np.zeros(3))
+    assert np.allclose(tau, [0.0, 20.0, 0.0])
+
+
+@pytest.mark.parametrize("order", [(1, 0, 2), (0, 1, 2), (2, 0, 1), (0, 2, 1)])
+def test_euler_from_matrix_matches_scipy(order) -> None:
+    ang = np.array([0.3, -0.4, 0.7])
+    seq = "".join("XYZ"[k] for k in order)
+    r = Rotation.from_euler(seq, ang).as_matrix()
+    assert np.allclose(euler_from_matrix(r, order), ang)
+
+
+def test_fsm_timer_then_contact() -> None:
+    fsm = GaitFSM(state1_time=0.3, min_swing_time=0.4, contact_force=30.0)
+    t, dt = 0.0, 0.01
+    while fsm.state == 1:
+        assert fsm.update(dt, t, swing_force=1000.0) is None  # contact in state 1 is ignored
+        t += dt
+    assert fsm.state == 2 and t == pytest.approx(0.3, abs=dt)
+    assert fsm.update(dt, t, 1000.0) is None  # before the minimum swing time
+    while fsm.step_time < 0.4:
+        fsm.update(dt, t, 0.0)
+    assert fsm.update(dt, t, 10.0) is None  # below the contact threshold
+    assert fsm.update(dt, t, 50.0) == "left" and fsm.state == 3 and fsm.stance == "left"
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario()
+
+
+def test_resync_moves_reference_the_right_way(scenario) -> None:
+    from dataclasses import replace
+
+    import mujoco
+
+    cfg = replace(scenario.cfg, resync=replace(scenario.cfg.resync, enabled=True, gain=1.0, spread=0.0))
+    model = scenario.built.model
+    src = scenario.gait_source()
+    c = Controller(model, scenario.built.plan, src, cfg)
+    try:
+        data = mujoco.MjData(model)
+        c.reset(data, src.a)
+        strike = src.next_strike(src.a + 1e-3, "left")
+        step = strike - src.a
+        # the simulation lands late: the reference has run past its strike frame -> M > 1, move back
+        c.frame = strike + 5
+        c._resync("left", t=(step + 5) * src.frame_time)
+        ev = c.resyncs[-1]
+        assert ev.ratio > 1 and c.frame < ev.frame_before and c.frame == pytest.approx(strike)
+        # early landing of the next foot: M < 1, move forward
+        nxt = src.next_strike(strike + 1e-3, "right")
+        c.frame = nxt - 4
+        c._resync("right", t=(step + 5) * src.frame_time + (nxt - strike - 4) * src.frame_time * 0.8)
+        ev = c.resyncs[-1]
+        assert ev.ratio < 1 and c.frame > ev.frame_before and c.frame == pytest.approx(nxt)
+    finally:
+        c.restore_model()
+
+
+def test_default_walk_keeps_balance_10s(scenario) -> None:
+    out, _ = run_scenario(scenario, RolloutSpec(seconds=10.0))
+    assert out.outcome == "no_fall", out.fall_reason
+    assert out.foot_strikes >= 15
+    assert abs(out.mean_speed_mps - out.reference_speed_mps) <= 0.25 * out.reference_speed_mps
+    assert out.tracking_rmse_rad <= 0.15
+
+
+def test_balance_feedback_matters(scenario) -> None:
+    from dataclasses import replace
+
+    cfg = replace(scenario.cfg, balance=replace(scenario.cfg.balance, feedback=False))
+    sc = replace(scenario, cfg=cfg)
+    out, _ = run_scenario(sc, RolloutSpec(seconds=20.0))
+    assert out.outcome == "fall" and out.fall_time_s < 20.0
+
+
+@pytest.mark.slow
+def test_default_walk_60s(scenario) -> None:
+    out, _ = run_scenario(scenario, RolloutSpec(seconds=60.0))
+    assert out.outcome == "no_fall" and out.foot_strikes >= 80
+    assert abs(out.mean_speed_mps - out.reference_speed_mps) <= 0.25 * out.reference_speed_mps
+    assert out.tracking_rmse_rad <= 0.15
+
+
+def test_same_seed_same_result(scenario) -> None:
+    a, _ = run_scenario(scenario, RolloutSpec(seconds=2.0, seed=3, init_noise=0.05))
+    b, _ = run_scenario(scenario, RolloutSpec(seconds=2.0, seed=3, init_noise=0.05))
+    assert a.distance_m == b.distance_m and a.tracking_rmse_rad == b.tracking_rmse_rad
+
+
+# ---------------------------------------------------------------------- configuration
+def write_cfg(tmp_path: Path, text: str) -> Path:
+    p = tmp_path / "c.yaml"
+    p.write_text(text)
+    return p
+
+
+@pytest.mark.parametrize("text,key,message", [
+    ("pd:\n  gains:\n    hip: {kp: -5, kd: 1}\n", "pd.gains.hip.kp", "must be >= 0.0"),
+    ("pd:\n  gian: {}\n", "pd.gian", "unknown key"),
+    ("balance:\n  sagittal: {cd: fast}\n", "balance.sagittal.cd", "expected a number"),
+    ("pd:\n  target_limits: {left_knee: [1.0, 0.5]}\n", "pd.target_limits.left_knee", "limits reversed"),
+    ("fsm:\n  state1_time: 0\n", "fsm.state1_time", "must be > 0.0"),
+    ("fade:\n  min_scale: 2\n", "fade.min_scale", "must be <= 1.0"),
+    ("pd:\n  gains:\n    tail: {kp: 5}\n", "pd.gains.tail", "unknown joint group"),
+])
+def test_bad_controller_files(tmp_path: Path, text: str, key: str, message: str) -> None:
+    p = write_cfg(tmp_path, text)
+    with pytest.raises(ConfigError) as exc:
+        load_controller(p)
+    assert str(p) in str(exc.value) and key in str(exc.value) and message in str(exc.value)
+    assert main(["run", str(p), "--seconds", "0.1", "--out", str(tmp_path / "o")]) == 2
+
+
+def test_shipped_controllers_load_and_packaged_copy_matches() -> None:
+    for p in sorted((REPO / "controllers").glob("*.yaml")):
+        assert isinstance(load_controller(p), ControllerConfig)
+    packaged = REPO / "src" / "bipedsim" / "profiles" / "controller_default.yaml"
+    assert packaged.read_text() == (REPO / "controllers" / "default.yaml").read_text()
+
+
+def test_run_cli_writes_outcome(tmp_path: Path, capsys) -> None:
+    import json
+
+    assert main(["run", "--seconds", "1.5", "--seed", "7", "--out", str(tmp_path)]) == 0
+    d = json.loads((tmp_path / "outcome.json").read_text())
+    for k in ("outcome", "sim_seconds", "fall_time_s", "foot_strikes", "distance_m", "mean_speed_mps",
+              "tracking_rmse_rad", "config", "seed", "versions"):
+        assert k in d
+    assert d["seed"] == 7 and d["outcome"] in ("no_fall", "fall", "diverged")
+    assert d["versions"]["mujoco"] == "3.17.0" and d["config"]["controller"]["name"] == "default"
+
+
+def test_pose_gait_source_walks(tmp_path: Path) -> None:
+    sc = load_scenario(REPO / "controllers" / "pose_gait.yaml")
+    out, _ = run_scenario(sc, RolloutSpec(seconds=8.0))
+    assert out.outcome == "no_fall" and out.foot_strikes >= 10 and out.distance_m > 2.0

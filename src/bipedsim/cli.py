@@ -163,16 +163,123 @@ def cmd_run(args: argparse.Namespace) -> int:
             bar.n = round(t, 2)
             bar.refresh()
 
-    out, _ = run_scenario(sc, spec, progress=progress)
+    from bipedsim.sim.recorder import Recorder
+
+    rec = Recorder(sc.built.model, record_hz=args.record_hz)
+    out, ctrl = run_scenario(sc, spec, progress=progress, hooks=[rec])
     if bar is not None:
         bar.close()
-    path = write_outcome(out, Path(args.out))
+    folder = Path(args.out)
+    path = write_outcome(out, folder)
+    save_run_files(sc, rec, ctrl, out, folder)
     fall = f" at {out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else ""
     print(f"{out.outcome}{fall}: {out.sim_seconds:.2f} s simulated in {out.wall_seconds:.1f} s, "
           f"{out.foot_strikes} foot strikes, {out.distance_m:.2f} m at {out.mean_speed_mps:.2f} m/s "
           f"(reference {out.reference_speed_mps:.2f} m/s), tracking RMSE {out.tracking_rmse_rad:.3f} rad")
-    print(f"wrote {path}")
+    print(f"wrote {path}, {folder / 'trajectory.npz'}, {folder / 'model.xml'}")
+    return finish_outputs(args, folder, sc)
+
+
+def save_run_files(sc, rec, ctrl, out, folder) -> None:  # noqa: ANN001
+    """trajectory.npz (everything rendering and export read) and model.xml beside outcome.json."""
+    from bipedsim.io import atomic_write_text
+
+    meta = {"hinge_names": ctrl.h.names, "hinge_qadr": [int(a) for a in ctrl.h.qadr],
+            "outcome": out.outcome, "fall_time_s": out.fall_time_s, "model_hash": sc.built.hash,
+            "reference": sc.source_path, "trimmed_frames": sc.clip.trimmed_frames,
+            "source_unit": getattr(sc.bvh_info, "unit_scale", 1.0), "source_up": getattr(sc.bvh_info, "up", "y")}
+    rec.trajectory(meta).save(folder / "trajectory.npz")
+    atomic_write_text(folder / "model.xml", sc.built.xml)
+
+
+def finish_outputs(args: argparse.Namespace, folder, sc=None) -> int:  # noqa: ANN001
+    """Plots, exports and video for a run folder; video last, since it may fail without GL."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from bipedsim.sim.recorder import Trajectory
+
+    tr = Trajectory.load(Path(folder) / "trajectory.npz")
+    names, qadr = tr.meta["hinge_names"], tr.meta["hinge_qadr"]
+    if getattr(args, "plots", False):
+        import mujoco
+
+        from bipedsim.render.plots import plot_run
+
+        model = mujoco.MjModel.from_xml_path(str(Path(folder) / "model.xml"))
+        data = mujoco.MjData(model)
+        feet = [model.body(f"{s}_foot").id for s in ("left", "right")]
+        foot_xy = np.zeros((tr.num_samples, 2, 2))
+        for i in range(tr.num_samples):
+            data.qpos[:] = tr.qpos[i]
+            mujoco.mj_kinematics(model, data)
+            foot_xy[i] = data.xpos[feet, :2]
+        for p in plot_run(tr, names, qadr, foot_xy, folder):
+            print(f"wrote {p}")
+    if getattr(args, "csv", None):
+        from bipedsim.sim.export import write_joint_csv
+
+        write_joint_csv(tr, names, qadr, args.csv)
+        print(f"wrote {args.csv}")
+    if getattr(args, "export_bvh", None) and sc is not None:
+        from bipedsim.sim.export import simulated_motion, write_motion_bvh
+
+        frames = np.round(tr.ref_frame).astype(int) + sc.clip.trimmed_frames
+        motion = simulated_motion(tr, sc.built.model, sc.built.plan, sc.motion, frames % sc.motion.num_frames)
+        write_motion_bvh(motion, args.export_bvh, unit=tr.meta["source_unit"], up=tr.meta["source_up"])
+        print(f"wrote {args.export_bvh}")
+    for video in (getattr(args, "video", None), getattr(args, "gif", None)):
+        if video:
+            from bipedsim.render.video import render_video
+
+            n = render_video(folder, video, video_options(args), progress=sys.stderr.isatty())
+            print(f"wrote {video} ({n} frames)")
     return 0
+
+
+def video_options(args: argparse.Namespace):  # noqa: ANN201
+    from bipedsim.render.video import VideoOptions
+
+    return VideoOptions(width=args.width, height=args.height, fps=args.fps, speed=args.speed,
+                        distance=args.cam_distance, elevation=args.cam_elevation, azimuth=args.cam_azimuth,
+                        ghost=args.ghost)
+
+
+def _video_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("video")
+    g.add_argument("--width", type=int, default=640)
+    g.add_argument("--height", type=int, default=480)
+    g.add_argument("--fps", type=float, default=30.0)
+    g.add_argument("--speed", type=float, default=1.0, help="playback speed (0.5 = slow motion)")
+    g.add_argument("--cam-distance", type=float, default=3.5, help="camera distance (m)")
+    g.add_argument("--cam-elevation", type=float, default=-15.0, help="camera elevation (degrees)")
+    g.add_argument("--cam-azimuth", type=float, default=120.0, help="camera azimuth (degrees)")
+    g.add_argument("--ghost", action="store_true", help="draw the reference pose as a translucent ghost")
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from bipedsim.render.video import render_video
+
+    folder = Path(args.run_dir)
+    out = args.output or str(folder / "rollout.mp4")
+    n = render_video(folder, out, video_options(args), progress=sys.stderr.isatty())
+    print(f"wrote {out} ({n} frames)")
+    if args.plots:
+        args.video = args.gif = None
+        finish_outputs(args, folder)
+    return 0
+
+
+def _add_render(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("render", help="render a recorded run folder to mp4/gif (no re-simulation)")
+    p.add_argument("run_dir", help="folder written by `bipedsim run` (model.xml, trajectory.npz)")
+    p.add_argument("-o", "--output", default=None, help="video file, .mp4 or .gif (default RUN_DIR/rollout.mp4)")
+    p.add_argument("--plots", action="store_true", help="also write the PNG plots into RUN_DIR")
+    _video_args(p)
+    p.set_defaults(func=cmd_render)
 
 
 def _add_run(sub: argparse._SubParsersAction) -> None:
@@ -186,11 +293,18 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mass", type=float, default=None, help="total body mass in kg")
     p.add_argument("--scale", type=_scale_arg, default=None, help="BVH metres per unit or unit name")
     p.add_argument("--up", choices=("y", "z"), default=None, help="BVH up axis")
+    p.add_argument("--record-hz", type=float, default=120.0, help="trajectory samples per second (default 120)")
+    p.add_argument("--video", default=None, help="render the rollout to this .mp4 (or .gif)")
+    p.add_argument("--gif", default=None, help="render the rollout to this .gif")
+    p.add_argument("--plots", action="store_true", help="write PNG plots into --out")
+    p.add_argument("--export-bvh", default=None, help="write the simulated motion as BVH on the source skeleton")
+    p.add_argument("--csv", default=None, help="write joint angles (simulated and reference) as CSV")
+    _video_args(p)
     p.set_defaults(func=cmd_run)
 
 
 #: Subcommand registrars, in the order ``--help`` lists them.
-COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_info, _add_convert, _add_run]
+COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_info, _add_convert, _add_run, _add_render]
 
 
 def build_parser() -> argparse.ArgumentParser:

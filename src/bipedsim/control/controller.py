@@ -152,6 +152,7 @@ class Controller:
         self.resyncs: list[ResyncEvent] = []
         self.ctrl = np.zeros(model.nu)
         self.tracking_error = np.zeros(n)
+        self._qpos_now = np.zeros(model.nq)
         self._apply_damping(1.0)
 
     # ------------------------------------------------------------------ setup
@@ -180,6 +181,10 @@ class Controller:
         self.last_strike_time, self.last_strike_frame = t, self.frame
         self.fade = 1.0
         self._apply_damping(1.0)
+
+    def reference_qpos(self) -> FloatArray:
+        """The reference pose now, as a full qpos (root where the reference has it)."""
+        return self.source.reference_qpos(self.frame, self.fsm.state, self._qpos_now)
 
     # ------------------------------------------------------------------ external force and fade
     def set_external_force(self, active: bool, t: float) -> None:
@@ -254,6 +259,7 @@ class Controller:
                 self.wait_time += dt
         self.frame = nxt
         q_d, qd_d = src.hinge_targets(self.frame, fsm.state)
+        self._qpos_now = data.qpos
         q = data.qpos[self.h.qadr]
         qd = data.qvel[self.h.dadr]
         self.tracking_error = q - q_d  # against the reference itself, before limits and balance

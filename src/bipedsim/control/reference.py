@@ -81,6 +81,12 @@ class GaitSource:
         """(d_ref, v_ref): COM minus stance ankle and COM velocity, heading frame, horizontal (m, m/s)."""
         return np.zeros(2), np.zeros(2)
 
+    def reference_qpos(self, f: float, state: int, qpos_now: FloatArray) -> FloatArray:
+        """The reference pose as a full qpos (for the ghost): hinge targets on the current root."""
+        q = qpos_now.copy()
+        q[self.hinge_qadr] = self.hinge_targets(f, state)[0]
+        return q
+
     def next_strike(self, f: float, side: str) -> float | None:
         """The first reference strike frame of ``side`` at or after ``f`` (unwrapped), if known."""
         return None
@@ -125,6 +131,7 @@ class ClipSource(GaitSource):
         if len(self.strikes["left"]) == 0:
             raise ModelError("no left foot strike inside the looped cycle")
         del ri, li
+        self.hinge_qadr = hinges.qadr
         self.q = clip.qpos[:, hinges.qadr]
         self.qd = clip.qvel[:, hinges.dadr]
         n = clip.num_frames
@@ -196,6 +203,10 @@ class ClipSource(GaitSource):
     def foot_target(self, f: float, state: int, side: str) -> FloatArray | None:
         return self.foot_hf[side][int(round(self.wrap(f))) % len(self.pelvis_hf)]
 
+    def reference_qpos(self, f: float, state: int, qpos_now: FloatArray) -> FloatArray:
+        """The clip's pose at frame ``f`` (nearest frame), root where the clip has it."""
+        return self.clip.qpos[int(round(self.wrap(f))) % self.clip.num_frames].copy()
+
     def com_reference(self, f: float, stance: str) -> tuple[FloatArray, FloatArray]:
         return self._interp(self.d_ref[stance], f), self._interp(self.v_ref, f)
 
@@ -235,6 +246,7 @@ class PoseSource(GaitSource):
     def __init__(self, gait: PoseGait, hinges: Hinges) -> None:
         self.gait = gait
         self.hinges = hinges
+        self.hinge_qadr = hinges.qadr
         self.n = len(hinges.names)
         self.frame_time = 1.0 / 60.0
 

@@ -30,6 +30,8 @@ class Scenario:
     cfg: ControllerConfig
     source_path: str
     config_path: str | None
+    motion: Any = None  #: the source motion, project frame
+    bvh_info: Any = None  #: what reading the source BVH found (unit, up axis)
     extra: dict[str, Any] = field(default_factory=dict)
 
     def gait_source(self) -> GaitSource:
@@ -43,22 +45,24 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
                   scale: float | str | None = None, up: str | None = None, mass: float | None = None) -> Scenario:
     """The built-in humanoid and walk, or a body built from ``bvh`` and its motion retargeted onto it."""
     from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
-    from bipedsim.motion.bvh import load_bvh
+    from bipedsim.motion.bvh import read_bvh
 
     cfg = load_controller(config)
     if bvh is None:
+        raw, info = read_bvh(BUILTIN_WALK)
+        motion = raw.to_project_frame()
         built = load_model(builtin_humanoid_path())
         if mass is not None:
-            built = build_model(load_bvh(BUILTIN_WALK), "humanoid", total_mass=mass, name="humanoid")
-        motion = load_bvh(BUILTIN_WALK)
+            built = build_model(motion, "humanoid", total_mass=mass, name="humanoid")
         src = str(BUILTIN_WALK)
     else:
-        motion = load_bvh(bvh, scale=scale, up=up)
+        raw, info = read_bvh(bvh, scale=scale, up=up)
+        motion = raw.to_project_frame()
         built = build_model(motion, "humanoid", total_mass=mass, name=Path(bvh).stem)
         src = str(bvh)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src)
     return Scenario(built=built, clip=clip, cfg=cfg, source_path=src,
-                    config_path=None if config is None else str(config))
+                    config_path=None if config is None else str(config), motion=motion, bvh_info=info)
 
 
 def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, before_step: list | None = None,

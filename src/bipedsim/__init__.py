@@ -17,6 +17,6 @@ _VALID_GL = ("glfw", "egl", "osmesa", "glx", "cgl", "wgl")
 if _os.environ.get("MUJOCO_GL", "").lower() not in ("", *_VALID_GL):
     _os.environ["BIPEDSIM_MUJOCO_GL"] = _os.environ.pop("MUJOCO_GL")
 
-from bipedsim.errors import BipedsimError, BVHError, ConfigError, ModelError
+from bipedsim.errors import BipedsimError, BVHError, ConfigError, ModelError  # noqa: E402
 
 __all__ = ["BVHError", "BipedsimError", "ConfigError", "ModelError", "__version__"]

@@ -79,7 +79,7 @@ def plot_run(tr: Trajectory, hinge_names: list[str], hinge_qadr: list[int], foot
     plt.close(fig)
     # 4. contact timeline
     fig, ax = plt.subplots(figsize=(9, 2))
-    for k, (name, col) in enumerate((("left", "tab:green"), ("right", "tab:orange"))):
+    for k, col in enumerate(("tab:green", "tab:orange")):
         down = tr.contact_force[:, k] > 30.0
         edges = np.flatnonzero(np.diff(np.concatenate([[0], down.astype(int), [0]])))
         spans = [(t[s], t[min(e, len(t) - 1)] - t[s]) for s, e in zip(edges[::2], edges[1::2])]

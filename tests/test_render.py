@@ -58,15 +58,40 @@ def test_video_mp4_and_gif(run_dir: Path) -> None:
         assert min(body_fraction(f[..., :3]) for f in frames[::10]) > 0.01  # the body is in view
 
 
-def test_render_again_gives_the_run_frames(run_dir: Path) -> None:
+def test_render_again_gives_the_run_frames(tmp_path: Path) -> None:
     import imageio.v2 as iio
 
     gl_or_skip()
-    a, b = run_dir / "a.mp4", run_dir / "b.mp4"
-    assert main(["render", str(run_dir), "-o", str(a), "--width", "320", "--height", "240"]) == 0
-    assert main(["render", str(run_dir), "-o", str(b), "--width", "320", "--height", "240"]) == 0
+    a, b = tmp_path / "a.mp4", tmp_path / "b.mp4"
+    size = ["--width", "320", "--height", "240"]
+    assert main(["run", "--seconds", "1", "--out", str(tmp_path), "--video", str(a), *size]) == 0
+    assert main(["render", str(tmp_path), "-o", str(b), *size]) == 0
     fa, fb = iio.mimread(a, memtest=False), iio.mimread(b, memtest=False)
-    assert len(fa) == len(fb) and all(np.array_equal(x, y) for x, y in zip(fa, fb))
+    assert len(fa) == len(fb) == 30 and all(np.array_equal(x, y) for x, y in zip(fa, fb))
+
+
+def test_push_arrow_is_drawn(run_dir: Path, tmp_path: Path) -> None:
+    """A recorded external force shows as a red arrow on the frames where it acts."""
+    import shutil
+
+    import imageio.v2 as iio
+
+    gl_or_skip()
+    d = tmp_path / "pushed"
+    shutil.copytree(run_dir, d)
+    tr = Trajectory.load(d / "trajectory.npz")
+    torso = mujoco.MjModel.from_xml_path(str(d / "model.xml")).body("torso").id
+    window = (tr.time > 0.5) & (tr.time < 0.7)
+    tr.xfrc[window, torso] = [0.0, 300.0, 0.0]
+    tr.save(d / "trajectory.npz")
+    assert main(["render", str(d), "-o", str(d / "v.gif"), "--fps", "10", "--width", "320", "--height", "240"]) == 0
+    frames = iio.mimread(d / "v.gif", memtest=False)
+
+    def red(f: np.ndarray) -> float:
+        r, g, b = (f[..., k].astype(int) for k in range(3))
+        return float(((r > 180) & (g < 110) & (b < 90)).mean())
+
+    assert red(frames[6]) > 5 * red(frames[2]) + 1e-4  # t = 0.6 s (pushed) vs 0.2 s
 
 
 def test_no_gl_fails_clearly_and_keeps_results(tmp_path: Path) -> None:

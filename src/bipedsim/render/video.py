@@ -183,11 +183,13 @@ def render_video(run_dir: str | os.PathLike[str], out: str | os.PathLike[str], o
             raise RenderError(f"{run}: no {f} -- render a folder written by `bipedsim run`")
     backend = choose_backend()
     args = json.dumps({"run_dir": str(run), "out": str(out), "opts": asdict(opts), "progress": progress})
+    # with a progress bar the child's stderr goes straight to the terminal (live), else it is kept
+    # for the error message
     p = subprocess.run([sys.executable, "-m", "bipedsim.render.worker", args], env=backend_env(backend),
-                       capture_output=True, text=True, check=False)
+                       stdout=subprocess.PIPE, stderr=None if progress else subprocess.PIPE, text=True,
+                       check=False)
     if p.returncode != 0:
-        lines = [ln for ln in p.stderr.strip().splitlines() if ln.strip()]
-        raise RenderError(f"rendering with {backend} failed: {lines[-1] if lines else p.returncode}")
-    if progress and p.stderr:
-        sys.stderr.write(p.stderr)
+        lines = [ln for ln in (p.stderr or "").strip().splitlines() if ln.strip()]
+        why = lines[-1] if lines else f"exit status {p.returncode} (see the messages above)"
+        raise RenderError(f"rendering with {backend} failed: {why}")
     return int(p.stdout.strip().splitlines()[-1])

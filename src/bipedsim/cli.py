@@ -163,10 +163,12 @@ def cmd_run(args: argparse.Namespace) -> int:
             bar.n = round(t, 2)
             bar.refresh()
 
+    from bipedsim.sim.push import Push
     from bipedsim.sim.recorder import Recorder
 
+    pushes = [Push.parse(x) for x in (args.push or [])]
     rec = Recorder(sc.built.model, record_hz=args.record_hz)
-    out, ctrl = run_scenario(sc, spec, progress=progress, hooks=[rec])
+    out, ctrl = run_scenario(sc, spec, progress=progress, hooks=[rec], pushes=pushes)
     if bar is not None:
         bar.close()
     folder = Path(args.out)
@@ -294,6 +296,9 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scale", type=_scale_arg, default=None, help="BVH metres per unit or unit name")
     p.add_argument("--up", choices=("y", "z"), default=None, help="BVH up axis")
     p.add_argument("--record-hz", type=float, default=120.0, help="trajectory samples per second (default 120)")
+    p.add_argument("--push", action="append", metavar="MAG:DIR:DUR:START",
+                   help="push the torso: N, degrees from heading (0 forward, 90 left), s, start s "
+                        "(or sSTATE.FRACTION, e.g. s2.5); repeatable")
     p.add_argument("--video", default=None, help="render the rollout to this .mp4 (or .gif)")
     p.add_argument("--gif", default=None, help="render the rollout to this .gif")
     p.add_argument("--plots", action="store_true", help="write PNG plots into --out")
@@ -303,8 +308,45 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_run)
 
 
+# ---------------------------------------------------------------------- sweep and regress
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from bipedsim.sim.experiment import load_experiment
+    from bipedsim.sim.sweep import run_sweep
+
+    exp = load_experiment(args.experiment)  # every check before any rollout
+    summary = run_sweep(exp, args.out, workers=args.workers, backend=args.backend, progress=sys.stderr.isatty())
+    print(f"{summary['rollouts']} rollouts: " + ", ".join(f"{k} {v}" for k, v in sorted(summary["outcomes"].items())))
+    for d, v in summary["largest_survived_per_direction_n"].items():
+        print(f"  direction {d:>5} deg: survived every push up to {v if v is not None else '-'} N")
+    print(f"wrote {args.out}/results.csv, summary.json, push_polar.png")
+    return 0
+
+
+def _add_sweep(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("sweep", help="run every rollout of an experiment in parallel; resumable")
+    p.add_argument("experiment", help="experiment YAML (experiments/*.yaml)")
+    p.add_argument("--out", required=True, help="output folder (results.csv, summary.json, push_polar.png)")
+    p.add_argument("--workers", type=int, default=1, help="parallel rollouts (default 1)")
+    p.add_argument("--backend", choices=("local", "ray"), default="local", help="local processes or Ray")
+    p.set_defaults(func=cmd_sweep)
+
+
+def cmd_regress(args: argparse.Namespace) -> int:
+    from bipedsim.sim.regress import run_suite
+
+    return run_suite(args.suite, update=args.update)
+
+
+def _add_regress(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("regress", help="run a fall / no-fall regression suite; non-zero exit on a mismatch")
+    p.add_argument("suite", help="suite YAML")
+    p.add_argument("--update", action="store_true", help="rewrite the expectations with the outcomes (after review)")
+    p.set_defaults(func=cmd_regress)
+
+
 #: Subcommand registrars, in the order ``--help`` lists them.
-COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_info, _add_convert, _add_run, _add_render]
+COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
+    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress]
 
 
 def build_parser() -> argparse.ArgumentParser:

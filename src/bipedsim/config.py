@@ -63,6 +63,9 @@ def _convert(value: Any, tp: Any, key: str, path: str | None) -> Any:
         args = get_args(tp)
         if value is None and type(None) in args:
             return None
+        real = [a for a in args if a is not type(None)]
+        if len(real) == 1:  # Optional[X]: X's own, more precise error
+            return _convert(value, real[0], key, path)
         errors = []
         for a in args:
             if a is type(None):
@@ -99,6 +102,12 @@ def _convert(value: Any, tp: Any, key: str, path: str | None) -> Any:
             raise ConfigError(f"expected true or false, got {value!r}", path=path, key=key)
         return value
     if tp is float:
+        if isinstance(value, str):
+            # YAML 1.1 reads 1.0e9 (no sign in the exponent) as text; take it as the number meant
+            try:
+                value = float(value)
+            except ValueError:
+                raise ConfigError(f"expected a number, got {value!r}", path=path, key=key) from None
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ConfigError(f"expected a number, got {value!r}", path=path, key=key)
         if not math.isfinite(float(value)):

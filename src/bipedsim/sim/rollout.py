@@ -112,6 +112,51 @@ def diverged(data: mujoco.MjData) -> str | None:
     return None
 
 
+#: After a push, tracking counts as recovered once the error stays below the larger of
+#: RECOVERY_FACTOR x its pre-push median and that median + RECOVERY_MARGIN_RAD, for RECOVERY_HOLD_S.
+RECOVERY_FACTOR = 1.5
+RECOVERY_MARGIN_RAD = 0.03
+RECOVERY_HOLD_S = 0.5
+#: Window (s) before a push over which the centre of mass's course is fitted, and after it over which
+#: the deviation from that course is measured.
+COM_FIT_S, COM_DEVIATION_S = 1.0, 2.0
+
+
+def recovery_metrics(schedule: Any, t: FloatArray, err: FloatArray, com: FloatArray, strikes: list[float],
+                     spec: Any, nominal: tuple[FloatArray, FloatArray] | None = None) -> dict[str, Any]:
+    """Recovery time (s after the push ends), peak centre-of-mass deviation (m) and foot strikes
+    taken until recovered. The deviation is measured from the same rollout without the push
+    (``nominal``: times and COM) when given, else from the COM's straight pre-push course."""
+    out: dict[str, Any] = {"push_start_s": schedule.first_start, "push_end_s": schedule.last_end,
+                           "recovery_time_s": None, "peak_com_deviation_m": None, "steps_to_recover": None}
+    t0, t1 = schedule.first_start, schedule.last_end
+    if t0 is None or len(t) == 0:
+        return out
+    before = (t >= t0 - COM_FIT_S) & (t < t0)
+    if before.sum() >= 2:
+        base = float(np.median(err[before]))
+        thr = max(RECOVERY_FACTOR * base, base + RECOVERY_MARGIN_RAD)
+        a = np.stack([t[before], np.ones(before.sum())], axis=1)
+        coef = np.linalg.lstsq(a, com[before], rcond=None)[0]
+        after = (t >= t0) & (t <= t0 + COM_DEVIATION_S)
+        if after.any() and nominal is not None and len(nominal[0]):
+            nt, nc = nominal
+            pred = np.stack([np.interp(t[after], nt, nc[:, k]) for k in range(2)], axis=1)
+            out["peak_com_deviation_m"] = float(np.max(np.linalg.norm(com[after] - pred, axis=1)))
+        elif after.any():
+            pred = np.stack([t[after], np.ones(after.sum())], axis=1) @ coef
+            out["peak_com_deviation_m"] = float(np.max(np.linalg.norm(com[after] - pred, axis=1)))
+        hold = max(1, int(round(RECOVERY_HOLD_S / max(np.median(np.diff(t)), 1e-6))))
+        idx = np.flatnonzero(t >= t1)
+        below = err < thr
+        for k in idx:
+            if k + hold <= len(t) and below[k:k + hold].all():
+                out["recovery_time_s"] = float(t[k] - t1)
+                out["steps_to_recover"] = int(sum(1 for s in strikes if t0 <= s <= t[k]))
+                break
+    return out
+
+
 @dataclass
 class RolloutSpec:
     seconds: float = 10.0
@@ -130,7 +175,9 @@ Hook = Callable[[float, mujoco.MjData, Controller], None]
 def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: ControllerConfig,
             spec: RolloutSpec, *, initial_qpos: FloatArray | None = None, initial_qvel: FloatArray | None = None,
             hooks: list[Hook] | None = None, before_step: list[Hook] | None = None,
-            progress: Callable[[float], None] | None = None) -> tuple[Outcome, Controller]:
+            progress: Callable[[float], None] | None = None, pushes: list[Any] | None = None,
+            nominal_com: tuple[FloatArray, FloatArray] | None = None,
+            record_com: bool = False) -> tuple[Outcome, Controller]:
     """Run one rollout. The model's state starts at ``initial_qpos``/``initial_qvel`` (the reference's
     pose at its loop start when given by the caller). Returns the outcome and the controller."""
     t0 = time.perf_counter()
@@ -153,8 +200,17 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
         err2, n_err = 0.0, 0
         outcome, fall_t, reason = "no_fall", None, None
         step = 0
-        hooks = hooks or []
-        before_step = before_step or []
+        hooks = list(hooks or [])
+        before_step = list(before_step or [])
+        schedule = None
+        if pushes:
+            from bipedsim.sim.push import PushSchedule
+
+            schedule = PushSchedule(model, list(pushes))
+            before_step.insert(0, schedule)
+        series_t: list[float] = []
+        series_err: list[float] = []
+        series_com: list[FloatArray] = []
         for step in range(n_steps):
             t = step * dt
             for hk in before_step:
@@ -163,8 +219,13 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
                 u = ctrl(model, data, t, dt * every)
                 data.ctrl[:] = u
                 e = ctrl.tracking_error
-                err2 += float(e @ e)
+                ee = float(e @ e)
+                err2 += ee
                 n_err += len(e)
+                if schedule is not None or record_com:
+                    series_t.append(t)
+                    series_err.append((ee / len(e)) ** 0.5)
+                    series_com.append(data.subtree_com[1, :2].copy())
                 for hk in hooks:
                     hk(t, data, ctrl)
             mujoco.mj_step(model, data)
@@ -186,13 +247,21 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
         sim_s = (step + 1) * dt
         dist = float(np.linalg.norm(data.qpos[0:2] - start_xy)) if outcome != "diverged" else 0.0
         ratios = [r.ratio for r in ctrl.resyncs]
+        extra: dict[str, Any] = {}
+        if schedule is not None:
+            extra = recovery_metrics(schedule, np.array(series_t), np.array(series_err),
+                                     np.array(series_com).reshape(-1, 2), [s[0] for s in ctrl.fsm.strikes], spec,
+                                     nominal_com)
+        if record_com:
+            extra["com_series"] = (np.array(series_t), np.array(series_com).reshape(-1, 2))
         result = Outcome(outcome=outcome, sim_seconds=sim_s, fall_time_s=fall_t, fall_reason=reason,
                          foot_strikes=len(ctrl.fsm.strikes), distance_m=dist,
                          mean_speed_mps=dist / sim_s if sim_s > 0 else 0.0,
                          reference_speed_mps=source.speed(),
                          tracking_rmse_rad=float(np.sqrt(err2 / max(n_err, 1))),
                          wall_seconds=time.perf_counter() - t0, steps=step + 1, resyncs=len(ratios),
-                         mean_resync_ratio=float(np.mean(ratios)) if ratios else None, seed=spec.seed)
+                         mean_resync_ratio=float(np.mean(ratios)) if ratios else None, seed=spec.seed,
+                         extra=extra)
         return result, ctrl
     finally:
         ctrl.restore_model()

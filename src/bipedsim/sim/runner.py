@@ -66,7 +66,7 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
 
 
 def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, before_step: list | None = None,
-                 progress: Any = None) -> tuple[Outcome, Any]:
+                 progress: Any = None, pushes: list | None = None) -> tuple[Outcome, Any]:
     """Run one rollout from the gait source's loop start (the reference pose and velocity there)."""
     source = sc.gait_source()
     frame = int(round(source.start_frame())) if isinstance(source, ClipSource) else 0
@@ -79,12 +79,24 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
     if spec.seed and spec.init_noise > 0:
         rng = np.random.default_rng(spec.seed)
         qvel0 = qvel0 + rng.normal(scale=spec.init_noise, size=qvel0.shape)
+    nominal = None
+    if pushes:
+        # the same rollout without pushes, for the centre-of-mass deviation (cached per scenario)
+        key = (spec.seconds, spec.seed, spec.init_noise, spec.start_frame)
+        cache = sc.extra.setdefault("nominal_com", {})
+        if key not in cache:
+            o, _ = rollout(sc.built.model, sc.built.plan, sc.gait_source(), sc.cfg, spec, initial_qpos=qpos0,
+                           initial_qvel=qvel0, record_com=True)
+            cache[key] = o.extra["com_series"]
+        nominal = cache[key]
     out, ctrl = rollout(sc.built.model, sc.built.plan, source, sc.cfg, spec, initial_qpos=qpos0, initial_qvel=qvel0,
-                        hooks=hooks, before_step=before_step, progress=progress)
+                        hooks=hooks, before_step=before_step, progress=progress, pushes=pushes,
+                        nominal_com=nominal)
     out.config = {"controller": to_dict(sc.cfg), "controller_file": sc.config_path, "reference": sc.source_path,
                   "model": sc.built.plan.name, "model_hash": sc.built.hash, "seconds": spec.seconds,
                   "fall": to_dict(spec.fall), "init_noise": spec.init_noise,
-                  "timestep_s": float(sc.built.model.opt.timestep)}
+                  "timestep_s": float(sc.built.model.opt.timestep),
+                  "pushes": [to_dict(p) for p in (pushes or [])]}
     out.versions = versions()
     return out, ctrl
 

@@ -1,0 +1,227 @@
+"""Experiment specs (``experiments/*.yaml``): push grids or lists over magnitudes, directions, gait
+phases and controller configurations, with repeats and seeds; and regression suites.
+
+Everything is validated before any rollout starts: unknown keys, negative durations, unknown bodies,
+empty grids, missing files -- each error names the file and the key.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import os
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from bipedsim import config
+from bipedsim.errors import ConfigError
+from bipedsim.sim.push import DEFAULT_AFTER_S, Push
+from bipedsim.sim.rollout import FallCriteria
+
+
+@dataclass(frozen=True)
+class FallSpec:
+    non_foot_contact: bool = True
+    allowed: tuple[str, ...] = ()
+    pelvis_height_fraction: float = field(default=0.55, metadata={"gt": 0.0, "max": 1.0})
+    torso_tilt: float = field(default=1.0, metadata={"gt": 0.0})
+    check_every: float = field(default=0.01, metadata={"gt": 0.0})
+
+    def criteria(self) -> FallCriteria:
+        return FallCriteria(**asdict(self))
+
+
+@dataclass(frozen=True)
+class Grid:
+    """The cross product of these lists is the set of rollouts (times ``repeats``)."""
+
+    magnitude: tuple[float, ...] = (200.0,)
+    direction: tuple[float, ...] = (0.0,)
+    duration: tuple[float, ...] = (0.2,)
+    #: gait phases [state, fraction]; or ``start`` times (s); one of the two
+    phase: tuple[tuple[int, float], ...] = ()
+    start: tuple[float, ...] = ()
+    vertical: tuple[float, ...] = (0.0,)
+    #: controller YAML files (relative to the experiment file); empty: the default controller
+    controller: tuple[str, ...] = ()
+
+    def validate(self) -> None:
+        for key in ("magnitude", "direction", "duration", "vertical"):
+            if not getattr(self, key):
+                raise ValueError(f"{key}: empty list -- the grid would have no rollouts")
+        if not self.phase and not self.start:
+            raise ValueError("phase: give gait phases ([state, fraction]) or start times (start)")
+        if self.phase and self.start:
+            raise ValueError("phase: give either phases or start times, not both")
+        for m in self.magnitude:
+            if m < 0:
+                raise ValueError(f"magnitude: must be >= 0 N, got {m}")
+        for d in self.duration:
+            if not d > 0:
+                raise ValueError(f"duration: must be > 0 s, got {d}")
+        for s in self.start:
+            if s < 0:
+                raise ValueError(f"start: must be >= 0 s, got {s}")
+        for st, fr in self.phase:
+            if st not in (1, 2, 3, 4) or not 0.0 <= fr <= 1.0:
+                raise ValueError(f"phase: [state 1-4, fraction 0-1], got [{st}, {fr}]")
+
+
+@dataclass(frozen=True)
+class PushItem:
+    magnitude: float
+    direction: float = 0.0
+    duration: float = 0.2
+    start: float | None = None
+    state: int | None = None
+    fraction: float = 0.5
+    vertical: float = 0.0
+    controller: str | None = None
+
+
+@dataclass(frozen=True)
+class ExperimentSpec:
+    name: str = "experiment"
+    seconds: float = field(default=6.0, metadata={"gt": 0.0})
+    reference: str | None = None  #: BVH (relative to the file); null: the built-in walk
+    body: str = "torso"
+    after: float = field(default=DEFAULT_AFTER_S, metadata={"min": 0.0})
+    repeats: int = field(default=1, metadata={"min": 1})
+    seed: int = 0
+    init_noise: float = field(default=0.0, metadata={"min": 0.0})
+    grid: Grid | None = None
+    runs: tuple[PushItem, ...] = ()
+    fall: FallSpec = field(default_factory=FallSpec)
+
+    def validate(self) -> None:
+        if self.grid is None and not self.runs:
+            raise ValueError("grid: give a grid or a list of runs -- the experiment has no rollouts")
+        if self.grid is not None and self.runs:
+            raise ValueError("grid: give a grid or runs, not both")
+
+
+@dataclass(frozen=True)
+class Row:
+    """One rollout of an experiment."""
+
+    index: int
+    key: str  #: stable identity (parameters + repeat), for resuming
+    controller: str | None
+    push: Push
+    repeat: int
+    seed: int
+
+    def params(self) -> dict[str, Any]:
+        p = self.push
+        return {"index": self.index, "key": self.key, "controller": self.controller or "default",
+                "magnitude": p.magnitude, "direction": p.direction, "duration": p.duration,
+                "state": "" if p.state is None else p.state, "fraction": "" if p.state is None else p.fraction,
+                "start": "" if p.start is None else p.start, "vertical": p.vertical, "body": p.body,
+                "repeat": self.repeat, "seed": self.seed}
+
+
+@dataclass
+class Experiment:
+    spec: ExperimentSpec
+    path: Path
+
+    def resolve(self, rel: str | None) -> str | None:
+        if rel is None:
+            return None
+        p = Path(rel)
+        return str(p if p.is_absolute() else (self.path.parent / p).resolve())
+
+    def rows(self) -> list[Row]:
+        s = self.spec
+        items: list[tuple[str | None, Push]] = []
+        if s.grid is not None:
+            g = s.grid
+            timings: list[dict[str, Any]] = ([{"state": st, "fraction": fr} for st, fr in g.phase]
+                                             or [{"start": t} for t in g.start])
+            for ctl, mag, dirn, dur, tim, vert in itertools.product(g.controller or (None,), g.magnitude, g.direction,
+                                                                     g.duration, timings, g.vertical):
+                items.append((ctl, Push(magnitude=mag, direction=dirn, duration=dur, vertical=vert, body=s.body,
+                                        after=s.after, **tim)))
+        else:
+            for r in s.runs:
+                items.append((r.controller, Push(magnitude=r.magnitude, direction=r.direction, duration=r.duration,
+                                                 start=r.start, state=r.state, fraction=r.fraction,
+                                                 vertical=r.vertical, body=s.body, after=s.after)))
+        rows = []
+        for rep in range(s.repeats):
+            for ctl, push in items:
+                ident = json.dumps([ctl, asdict(push), rep], sort_keys=True)
+                key = hashlib.sha1(ident.encode()).hexdigest()[:12]
+                idx = len(rows)
+                rows.append(Row(index=idx, key=key, controller=self.resolve(ctl), push=push, repeat=rep,
+                                seed=s.seed + idx))
+        return rows
+
+
+def load_experiment(path: str | os.PathLike[str]) -> Experiment:
+    """Load and validate an experiment file: keys, values, referenced files, body names, pushes."""
+    p = Path(path)
+    spec = config.load(ExperimentSpec, p)
+    exp = Experiment(spec=spec, path=p.resolve())
+    rows = exp.rows()
+    if not rows:
+        raise ConfigError("the experiment expands to no rollouts", path=p, key="grid")
+    for r in rows:
+        try:
+            r.push.validate()
+        except ValueError as exc:
+            raise ConfigError(str(exc), path=p, key="grid" if spec.grid else "runs") from None
+    ref = exp.resolve(spec.reference)
+    if ref is not None and not Path(ref).is_file():
+        raise ConfigError(f"no such file {ref}", path=p, key="reference")
+    from bipedsim.control.config import load_controller
+
+    for ctl in {r.controller for r in rows if r.controller}:
+        if not Path(ctl).is_file():
+            raise ConfigError(f"no such controller file {ctl}", path=p, key="grid.controller")
+        load_controller(ctl)
+    bodies = _body_names(ref)
+    if spec.body not in bodies:
+        raise ConfigError(f"unknown body {spec.body!r}; bodies are {', '.join(sorted(bodies))}", path=p, key="body")
+    return exp
+
+
+def _body_names(reference: str | None) -> set[str]:
+    from bipedsim.data import BUILTIN_WALK
+    from bipedsim.model.build import build_model
+    from bipedsim.motion.bvh import load_bvh
+
+    built = build_model(load_bvh(reference or BUILTIN_WALK), "humanoid")
+    return {built.model.body(i).name for i in range(1, built.model.nbody)}
+
+
+# ---------------------------------------------------------------------- regression suites
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    expect: str = field(default="no_fall", metadata={"choices": ("no_fall", "fall", "diverged")})
+    reference: str | None = None
+    controller: str | None = None
+    seconds: float = field(default=8.0, metadata={"gt": 0.0})
+    seed: int = 0
+    pushes: tuple[PushItem, ...] = ()
+
+
+@dataclass(frozen=True)
+class Suite:
+    name: str = "suite"
+    scenarios: tuple[Scenario, ...] = ()
+    fall: FallSpec = field(default_factory=FallSpec)
+
+    def validate(self) -> None:
+        if not self.scenarios:
+            raise ValueError("scenarios: the suite has no scenarios")
+        names = [s.name for s in self.scenarios]
+        if len(set(names)) != len(names):
+            raise ValueError("scenarios: scenario names must be unique")
+
+
+def load_suite(path: str | os.PathLike[str]) -> Suite:
+    return config.load(Suite, path)

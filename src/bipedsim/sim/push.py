@@ -1,0 +1,148 @@
+"""Pushes: external forces of chosen size, direction and timing, applied through ``xfrc_applied``.
+
+Direction is in degrees in the character's heading frame at the moment the push starts (0 forward,
+90 to the left), plus an optional vertical component (N). A push starts at a time (s) or at a gait
+phase: the first moment after ``after`` seconds when the FSM is in ``state`` and has spent
+``fraction`` of that state's nominal duration in it. ``xfrc_applied`` is cleared when it ends (MuJoCo
+never clears it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from bipedsim.errors import ConfigError
+
+#: Seconds of walking before a phase-timed push may start (the gait settles first).
+DEFAULT_AFTER_S = 2.0
+
+
+@dataclass(frozen=True)
+class Push:
+    magnitude: float  #: N, horizontal
+    direction: float = 0.0  #: degrees from the heading, 0 forward, 90 left
+    duration: float = 0.2  #: s
+    start: float | None = None  #: s; or give ``state`` (+ ``fraction``)
+    state: int | None = None  #: FSM state 1-4
+    fraction: float = 0.5  #: of the state's nominal duration
+    after: float = DEFAULT_AFTER_S  #: earliest time (s) for a phase-timed push
+    vertical: float = 0.0  #: N, up positive
+    body: str = "torso"
+
+    def validate(self) -> None:
+        if not (self.magnitude >= 0 and math.isfinite(self.magnitude)):
+            raise ValueError(f"magnitude: must be >= 0 N, got {self.magnitude}")
+        if not self.duration > 0:
+            raise ValueError(f"duration: must be > 0 s, got {self.duration}")
+        if self.start is None and self.state is None:
+            raise ValueError("start: give a start time (s) or a gait phase (state and fraction)")
+        if self.start is not None and self.start < 0:
+            raise ValueError(f"start: must be >= 0 s, got {self.start}")
+        if self.state is not None and self.state not in (1, 2, 3, 4):
+            raise ValueError(f"state: FSM states are 1-4, got {self.state}")
+        if not 0.0 <= self.fraction <= 1.0:
+            raise ValueError(f"fraction: must be in [0, 1], got {self.fraction}")
+
+    @property
+    def impulse(self) -> float:
+        return self.magnitude * self.duration
+
+    @staticmethod
+    def parse(text: str) -> Push:
+        """``MAG:DIR:DUR:START`` (N, degrees from heading, s, s) as on the command line; START may
+        be ``sS.F`` for FSM state S at fraction F (e.g. ``s2.5`` = state 2, half way)."""
+        parts = text.split(":")
+        if len(parts) != 4:
+            raise ConfigError(f"push {text!r}: expected MAG:DIR:DUR:START (N, degrees, s, s or sSTATE.FRACTION)",
+                              key="--push")
+        try:
+            mag, direction, dur = (float(x) for x in parts[:3])
+            start_txt = parts[3].strip()
+            if start_txt.lower().startswith("s"):
+                st, _, frac = start_txt[1:].partition(".")
+                p = Push(magnitude=mag, direction=direction, duration=dur, state=int(st),
+                         fraction=float("0." + frac) if frac else 0.5)
+            else:
+                p = Push(magnitude=mag, direction=direction, duration=dur, start=float(start_txt))
+        except ValueError:
+            raise ConfigError(f"push {text!r}: MAG, DIR, DUR and START must be numbers (START may be "
+                              f"sSTATE.FRACTION)", key="--push") from None
+        try:
+            p.validate()
+        except ValueError as exc:
+            raise ConfigError(f"push {text!r}: {exc}", key="--push") from None
+        return p
+
+
+def random_pushes(seed: int, count: int, magnitude: tuple[float, float] = (100.0, 300.0),
+                  duration: float = 0.2, window: tuple[float, float] = (2.0, 8.0), body: str = "torso") -> list[Push]:
+    """``count`` pushes with uniform random magnitude, direction and start time, from ``seed``."""
+    rng = np.random.default_rng(seed)
+    starts = np.sort(rng.uniform(*window, size=count))
+    return [Push(magnitude=float(rng.uniform(*magnitude)), direction=float(rng.uniform(0, 360)), duration=duration,
+                 start=float(s), body=body) for s in starts]
+
+
+@dataclass
+class _Active:
+    push: Push
+    body: int
+    force: np.ndarray
+    start: float
+    end: float
+
+
+@dataclass
+class PushSchedule:
+    """Applies pushes during a rollout (a ``before_step`` hook) and tells the controller."""
+
+    model: mujoco.MjModel
+    pushes: list[Push]
+    fired: list[_Active] = field(default_factory=list)
+    pending: list[Push] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        names = {self.model.body(i).name for i in range(self.model.nbody)}
+        for p in self.pushes:
+            if p.body not in names:
+                raise ConfigError(f"unknown body {p.body!r}; bodies are {', '.join(sorted(names - {'world'}))}",
+                                  key="push.body")
+        self.pending = list(self.pushes)
+
+    def _due(self, p: Push, t: float, ctrl) -> bool:  # noqa: ANN001
+        if p.start is not None:
+            return t >= p.start
+        if t < p.after or ctrl.fsm.state != p.state:
+            return False
+        nominal = ctrl.fsm.state1_time if p.state in (1, 3) else max(ctrl.source.step_time() - ctrl.fsm.state1_time,
+                                                                       0.05)
+        return ctrl.fsm.time_in_state >= p.fraction * nominal
+
+    def __call__(self, t: float, data: mujoco.MjData, ctrl) -> None:  # noqa: ANN001
+        for p in list(self.pending):
+            if self._due(p, t, ctrl):
+                r = data.xmat[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "pelvis")].reshape(3, 3)
+                heading = math.atan2(r[1, 0], r[0, 0])
+                a = heading + math.radians(p.direction)
+                force = np.array([p.magnitude * math.cos(a), p.magnitude * math.sin(a), p.vertical])
+                self.fired.append(_Active(p, self.model.body(p.body).id, force, t, t + p.duration))
+                self.pending.remove(p)
+        data.xfrc_applied[:] = 0.0
+        active = False
+        for a in self.fired:
+            if a.start <= t < a.end:
+                data.xfrc_applied[a.body, :3] += a.force
+                active = True
+        ctrl.set_external_force(active, t)
+
+    @property
+    def first_start(self) -> float | None:
+        return min((a.start for a in self.fired), default=None)
+
+    @property
+    def last_end(self) -> float | None:
+        return max((a.end for a in self.fired), default=None)

@@ -1,0 +1,189 @@
+"""Pushes, fall and divergence detection, recovery metrics, sweeps (resume, determinism, Ray) and
+regression suites."""
+
+from __future__ import annotations
+
+import csv
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bipedsim.cli import main
+from bipedsim.errors import ConfigError
+from bipedsim.sim.experiment import load_experiment
+from bipedsim.sim.push import Push, random_pushes
+from bipedsim.sim.rollout import RolloutSpec
+from bipedsim.sim.runner import load_scenario, run_scenario
+from bipedsim.sim.sweep import RESULT_COLUMNS, TIMING_COLUMNS, run_sweep
+
+REPO = Path(__file__).resolve().parent.parent
+EXP = REPO / "experiments"
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario()
+
+
+def test_push_parse_and_errors() -> None:
+    p = Push.parse("200:90:0.2:2.5")
+    assert (p.magnitude, p.direction, p.duration, p.start) == (200.0, 90.0, 0.2, 2.5) and p.impulse == 40.0
+    q = Push.parse("150:0:0.1:s3.25")
+    assert q.state == 3 and q.fraction == 0.25 and q.start is None
+    for bad, msg in (("200:90:0.2", "expected MAG:DIR:DUR:START"), ("a:90:0.2:1", "must be numbers"),
+                     ("200:90:-0.2:1", "duration"), ("200:90:0.2:s7.5", "FSM states are 1-4")):
+        with pytest.raises(ConfigError, match=msg):
+            Push.parse(bad)
+    assert main(["run", "--seconds", "0.1", "--push", "1:2:3"]) == 2
+
+
+def test_push_is_applied_then_cleared(scenario) -> None:
+    seen = []
+
+    def watch(t, data, ctrl) -> None:
+        seen.append((t, float(np.linalg.norm(data.xfrc_applied[scenario.built.model.body("torso").id, :3])),
+                     ctrl.force_active))
+
+    push = Push(magnitude=150.0, direction=90.0, duration=0.2, start=1.0)
+    run_scenario(scenario, RolloutSpec(seconds=1.6), pushes=[push], hooks=[watch])
+    on = [(t, f) for t, f, _ in seen if f > 0]
+    assert on and min(t for t, _ in on) == pytest.approx(1.0, abs=0.003)
+    assert max(t for t, _ in on) == pytest.approx(1.2, abs=0.003) and all(f == pytest.approx(150.0) for _, f in on)
+    assert all(a == (f > 0) for _, f, a in seen)  # the controller is told while it acts
+    assert seen[-1][1] == 0.0
+
+
+def test_push_direction_is_relative_to_heading(scenario) -> None:
+    forces = []
+
+    def watch(t, data, ctrl) -> None:
+        f = data.xfrc_applied[scenario.built.model.body("torso").id, :3].copy()
+        if f.any():
+            r = data.xmat[1].reshape(3, 3)
+            forces.append((f, np.arctan2(r[1, 0], r[0, 0])))
+
+    run_scenario(scenario, RolloutSpec(seconds=1.3), pushes=[Push(magnitude=100, direction=90, duration=0.1,
+                                                                  start=1.0)], hooks=[watch])
+    f, heading = forces[0]
+    assert np.degrees(np.arctan2(f[1], f[0]) - heading) == pytest.approx(90.0, abs=1.0)
+
+
+def test_big_push_falls_within_2s_and_metrics(scenario) -> None:
+    push = Push(magnitude=2000.0, direction=0.0, duration=0.2, start=2.5)
+    out, _ = run_scenario(scenario, RolloutSpec(seconds=6.0), pushes=[push])
+    assert out.outcome == "fall" and 2.5 < out.fall_time_s <= 4.5
+    devs = []
+    for mag in (0.0, 20.0, 60.0):
+        small = Push(magnitude=mag, direction=90.0, duration=0.2, state=2, fraction=0.5)
+        out, _ = run_scenario(scenario, RolloutSpec(seconds=6.0), pushes=[small])
+        e = out.extra
+        assert out.outcome == "no_fall" and e["push_start_s"] >= 2.0
+        assert e["recovery_time_s"] is not None and e["recovery_time_s"] < 2.0 and e["steps_to_recover"] is not None
+        devs.append(e["peak_com_deviation_m"])
+    # measured against the same rollout without the push: zero for no push, growing with the push
+    assert devs[0] == 0.0 and 0.0 < devs[1] < devs[2] < 1.5
+
+
+def test_random_pushes_are_seeded() -> None:
+    assert random_pushes(4, 3) == random_pushes(4, 3)
+    assert random_pushes(4, 3) != random_pushes(5, 3)
+
+
+def test_absurd_gains_diverge_not_fall() -> None:
+    sc = load_scenario(EXP / "controllers" / "absurd_gains.yaml")
+    out, _ = run_scenario(sc, RolloutSpec(seconds=1.0))
+    assert out.outcome == "diverged" and "instability" in out.fall_reason
+
+
+def rows_of(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def without_timing(path: Path) -> list[list[str]]:
+    rows = rows_of(path)
+    return [[r[c] for c in RESULT_COLUMNS if c not in TIMING_COLUMNS] for r in rows]
+
+
+def test_sweep_goes_on_after_divergence_and_summarises(tmp_path: Path) -> None:
+    exp = load_experiment(EXP / "smoke.yaml")
+    summary = run_sweep(exp, tmp_path, workers=2, progress=False)
+    rows = rows_of(tmp_path / "results.csv")
+    assert len(rows) == 4 and [int(r["index"]) for r in rows] == [0, 1, 2, 3]
+    by = {(Path(r["controller"]).stem, float(r["magnitude"])): r["outcome"] for r in rows}
+    assert by[("absurd_gains", 150.0)] == "diverged" and by[("absurd_gains", 2000.0)] == "diverged"
+    assert by[("default", 150.0)] in ("no_fall", "fall") and by[("default", 2000.0)] == "fall"
+    assert summary["outcomes"]["diverged"] == 2
+    assert (tmp_path / "push_polar.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_same_seed_same_results_any_workers_and_ray(tmp_path: Path) -> None:
+    exp = load_experiment(EXP / "smoke.yaml")
+    run_sweep(exp, tmp_path / "a", workers=1, progress=False)
+    run_sweep(exp, tmp_path / "b", workers=2, progress=False)
+    assert without_timing(tmp_path / "a" / "results.csv") == without_timing(tmp_path / "b" / "results.csv")
+    pytest.importorskip("ray", reason="the Ray backend needs ray (pip install 'bipedsim[ray]')")
+    run_sweep(exp, tmp_path / "c", workers=2, backend="ray", progress=False)
+    assert without_timing(tmp_path / "a" / "results.csv") == without_timing(tmp_path / "c" / "results.csv")
+
+
+def test_killed_sweep_resumes_without_loss_or_repeats(tmp_path: Path) -> None:
+    spec = tmp_path / "resume.yaml"
+    spec.write_text("name: resume\nseconds: 2.5\nafter: 1.0\ngrid:\n  magnitude: [50, 100, 150]\n"
+                    "  direction: [0, 90, 180, 270]\n  phase: [[2, 0.5]]\n")
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "bipedsim.cli", "sweep", str(spec), "--out", str(out), "--workers", "1"]
+    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    results = out / "results.csv"
+    deadline = time.time() + 300
+    while time.time() < deadline:
+        if results.exists() and len(rows_of(results)) >= 3:
+            break
+        time.sleep(0.05)
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    partial = len(rows_of(results))
+    assert 3 <= partial < 12
+    assert subprocess.run(cmd, capture_output=True, check=False).returncode == 0
+    rows = rows_of(results)
+    keys = [r["key"] for r in rows]
+    assert len(rows) == 12 and len(set(keys)) == 12
+    assert sorted(int(r["index"]) for r in rows) == list(range(12))
+
+
+@pytest.mark.parametrize("text,key,msg", [
+    ("name: x\ngrid: {magnitude: [100], phase: [[2, 0.5]], colour: red}\n", "grid.colour", "unknown key"),
+    ("name: x\ngrid: {magnitude: [100], duration: [-0.2], phase: [[2, 0.5]]}\n", "grid", "duration"),
+    ("name: x\nbody: tail\ngrid: {magnitude: [100], phase: [[2, 0.5]]}\n", "body", "unknown body 'tail'"),
+    ("name: x\ngrid: {magnitude: [], phase: [[2, 0.5]]}\n", "grid", "empty list"),
+    ("name: x\n", "", "no rollouts"),
+    ("name: x\ngrid: {magnitude: [100], start: [1.0], controller: [nope.yaml]}\n", "grid.controller", "no such"),
+])
+def test_bad_experiment_files_fail_before_running(tmp_path: Path, text: str, key: str, msg: str) -> None:
+    p = tmp_path / "bad.yaml"
+    p.write_text(text)
+    with pytest.raises(ConfigError) as exc:
+        load_experiment(p)
+    assert str(p) in str(exc.value) and key in str(exc.value) and msg in str(exc.value)
+    assert main(["sweep", str(p), "--out", str(tmp_path / "o")]) == 2
+    assert not (tmp_path / "o" / "results.csv").exists()
+
+
+def test_project_regression_suite() -> None:
+    assert main(["regress", str(EXP / "regression.yaml")]) == 0
+
+
+def test_regress_mismatch_and_update(tmp_path: Path) -> None:
+    suite = tmp_path / "s.yaml"
+    suite.write_text("name: t\nscenarios:\n  - name: big\n    seconds: 4\n"
+                     "    pushes: [{magnitude: 2000, direction: 180, duration: 0.2, start: 2.0}]\n"
+                     "    expect: no_fall   # wrong on purpose\n")
+    assert main(["regress", str(suite)]) == 1
+    assert main(["regress", str(suite), "--update"]) == 0
+    assert "expect: fall   # wrong on purpose" in suite.read_text()
+    assert main(["regress", str(suite)]) == 0

@@ -150,6 +150,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         from bipedsim.errors import ConfigError
 
         raise ConfigError(f"must be a positive number of seconds, got {args.seconds}", key="--seconds")
+    if args.profile == "creature":
+        return run_creature_cli(args)
     sc = load_scenario(args.config, args.bvh, scale=args.scale, up=args.up, mass=args.mass)
     spec = RolloutSpec(seconds=args.seconds, seed=args.seed, init_noise=args.init_noise)
     bar = None
@@ -180,6 +182,39 @@ def cmd_run(args: argparse.Namespace) -> int:
           f"(reference {out.reference_speed_mps:.2f} m/s), tracking RMSE {out.tracking_rmse_rad:.3f} rad")
     print(f"wrote {path}, {folder / 'trajectory.npz'}, {folder / 'model.xml'}")
     return finish_outputs(args, folder, sc)
+
+
+def run_creature_cli(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from bipedsim.errors import ConfigError
+    from bipedsim.io import atomic_write_text
+    from bipedsim.model import build_model, retarget
+    from bipedsim.motion.bvh import load_bvh
+    from bipedsim.sim.creature_run import CreatureRunSpec, run_creature
+    from bipedsim.sim.runner import write_outcome
+
+    if not args.bvh:
+        raise ConfigError("the creature profile needs a motion: give --bvh FILE", key="--profile")
+    motion = load_bvh(args.bvh, scale=args.scale, up=args.up)
+    built = build_model(motion, "creature", total_mass=args.mass, name=Path(args.bvh).stem)
+    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=str(args.bvh))
+    out = run_creature(built, clip, CreatureRunSpec(seconds=args.seconds, seed=args.seed, support=args.support))
+    out.config = {"profile": "creature", "reference": str(args.bvh), "seconds": args.seconds,
+                  "support": args.support, "model_hash": built.hash}
+    folder = Path(args.out)
+    path = write_outcome(out, folder)
+    atomic_write_text(folder / "model.xml", built.xml)
+    fall = f" at {out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else ""
+    sup = ""
+    if args.support:
+        e = out.extra
+        sup = (f"; ROOT SUPPORT assisted: mean {e.get('support_force_mean_n', 0):.0f} N "
+               f"(body weight {e['weight_n']:.0f} N), peak {e.get('support_force_max_n', 0):.0f} N")
+    print(f"{out.outcome}{fall}: creature, {built.summary()['bodies']} bodies, {out.sim_seconds:.2f} s simulated, "
+          f"tracking RMSE {out.tracking_rmse_rad:.3f} rad{sup}")
+    print(f"wrote {path}")
+    return 0
 
 
 def save_run_files(sc, rec, ctrl, out, folder) -> None:  # noqa: ANN001
@@ -295,6 +330,11 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mass", type=float, default=None, help="total body mass in kg")
     p.add_argument("--scale", type=_scale_arg, default=None, help="BVH metres per unit or unit name")
     p.add_argument("--up", choices=("y", "z"), default=None, help="BVH up axis")
+    p.add_argument("--profile", choices=("humanoid", "creature"), default="humanoid",
+                   help="humanoid (balance controller) or creature (PD tracking of every joint)")
+    p.add_argument("--support", action="store_true",
+                   help="creature only: hold the root toward the clip with an external, reported wrench "
+                        "(root-support mode, e.g. for flying clips)")
     p.add_argument("--record-hz", type=float, default=120.0, help="trajectory samples per second (default 120)")
     p.add_argument("--push", action="append", metavar="MAG:DIR:DUR:START",
                    help="push the torso: N, degrees from heading (0 forward, 90 left), s, start s "
@@ -306,6 +346,54 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--csv", default=None, help="write joint angles (simulated and reference) as CSV")
     _video_args(p)
     p.set_defaults(func=cmd_run)
+
+
+# ---------------------------------------------------------------------- breed
+def _weight(text: str) -> tuple[str, float]:
+    name, sep, val = text.rpartition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected JOINT=WEIGHT, got {text!r}")
+    try:
+        return name, float(val)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"weight must be a number in {text!r}") from None
+
+
+def cmd_breed(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from bipedsim.creature.evolve import breed, load_joint_map
+    from bipedsim.io import atomic_write_json
+    from bipedsim.motion.bvh import load_bvh, write_bvh
+
+    a, b = load_bvh(args.parent_a), load_bvh(args.parent_b)
+    mapping = load_joint_map(args.map, a.skeleton, b.skeleton) if args.map else None
+    child, report = breed(a, b, x=args.x, mutations=args.mutations, weights=dict(args.weight or []),
+                          mapping=mapping, names=(str(args.parent_a), str(args.parent_b)))
+    # written as most BVH files are: Y up, centimetres
+    write_bvh(child.with_up("y").scaled(100.0), args.output, precision=6)
+    print(f"wrote {args.output}: {report.child_joints} joints, {report.child_frames} frames; common "
+          f"{len(report.kept_common)}, from A only {len(report.only_a)}, from B only {len(report.only_b)}; "
+          f"removed {', '.join(report.removed) or 'none'}; x={report.x}; "
+          f"{sum(report.timings_s.values()) * 1000:.0f} ms")
+    if args.report:
+        atomic_write_json(Path(args.report), report.to_dict())
+        print(f"wrote {args.report}")
+    return 0
+
+
+def _add_breed(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("breed", help="breed two creatures' motions into a child BVH (hierarchical evolution)")
+    p.add_argument("parent_a", help="first parent BVH (the child follows its timing)")
+    p.add_argument("parent_b", help="second parent BVH")
+    p.add_argument("-o", "--output", required=True, help="child BVH to write")
+    p.add_argument("--x", type=float, default=0.5, help="spacetime parameter in [0, 1] (0: A's motion, 1: B's)")
+    p.add_argument("--mutations", type=int, default=5, help="joints removed (with their subtrees), default 5")
+    p.add_argument("--weight", action="append", type=_weight, metavar="JOINT=W",
+                   help="shift a joint's activity score (negative: more likely to go); repeatable")
+    p.add_argument("--map", default=None, help="YAML mapping joints of A to corresponding joints of B")
+    p.add_argument("--report", default=None, help="write a JSON report of the breeding")
+    p.set_defaults(func=cmd_breed)
 
 
 # ---------------------------------------------------------------------- sweep and regress
@@ -346,7 +434,7 @@ def _add_regress(sub: argparse._SubParsersAction) -> None:
 
 #: Subcommand registrars, in the order ``--help`` lists them.
 COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress]
+    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress, _add_breed]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -373,6 +461,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"bipedsim {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # e.g. `bipedsim info | head`
+        sys.stderr.close()
+        return 0
 
 
 if __name__ == "__main__":  # pragma: no cover

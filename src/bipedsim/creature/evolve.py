@@ -1,0 +1,442 @@
+"""Hierarchical evolution: breed two parent motions into a child motion.
+
+The four steps are separate functions:
+
+1. :func:`crossover` -- a meta-skeleton holding every joint of both parents: joints that correspond
+   (same name, a user mapping, or -- for the roots -- the structural rule that both roots are the
+   bodies' roots) are kept once; the others are appended under the joint their parent maps to.
+2. :func:`mutate` -- each joint's activity is the standard deviation over time of the angle its bone
+   turns between consecutive frames (cos theta = X(t).X(t-1) / |X(t)||X(t-1)|). The parents' activity
+   vectors are standardised and combined by PCA over the pair (the first principal component's
+   weights); a joint then scores as its liveliest descendant (removing it removes them all), user
+   weights are added (negative: more likely to go), and the N lowest-scored joints are removed with
+   their subtrees.
+3. :func:`survivor` -- parent A is sampled every ``sample_every`` frames; for each sample the window of
+   parent B with the smallest motion difference (least "energy loss") is found; the correction d is
+   the rotation from A to that B window on the joints both have (rotation vectors, interpolated between
+   samples); the child is C(t) = C1(t) + x d(t), i.e. A's rotation turned by x of the correction.
+   Joints only one parent has take that parent's motion (B's at the matched time).
+4. :func:`floor_constraint` -- no joint below the floor: offending joints are lifted by the smallest
+   rotation of the bone above them (a one-joint IK step, parents first); joints above stay unchanged.
+
+All motions here are in the project frame (metres, Z up).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial.transform import Rotation
+
+from bipedsim import config
+from bipedsim.errors import BipedsimError, ConfigError
+from bipedsim.motion.motion import Motion, canonical_quat
+from bipedsim.motion.skeleton import Skeleton
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Range of the spacetime parameter x (0 = parent A's motion, 1 = the matched motion of parent B).
+X_RANGE = (0.0, 1.0)
+SAMPLE_EVERY = 5
+#: Half-width (frames) of the windows compared in the survivor step.
+WINDOW_HALF = 5
+
+
+class BreedError(BipedsimError):
+    """Parents that cannot be bred, or a bad breeding parameter."""
+
+
+# ---------------------------------------------------------------------- 1. crossover
+@dataclass
+class MetaSkeleton:
+    skeleton: Skeleton  #: the union, A's joints first
+    from_a: list[int | None]  #: per meta joint, the joint of parent A it is (None: B only)
+    from_b: list[int | None]  #: per meta joint, the joint of parent B it is (None: A only)
+
+    @property
+    def common(self) -> list[int]:
+        return [i for i, (a, b) in enumerate(zip(self.from_a, self.from_b)) if a is not None and b is not None]
+
+
+def load_joint_map(path: str | os.PathLike[str], a: Skeleton, b: Skeleton) -> dict[str, str]:
+    """A mapping YAML ``{joint of A: joint of B}``; every name must exist in its parent."""
+    data = config.load_yaml(path)
+    if not isinstance(data, dict):
+        raise ConfigError("expected a mapping {joint of parent A: joint of parent B}", path=path)
+    for ka, kb in data.items():
+        if str(ka) not in a.names:
+            raise ConfigError(f"parent A has no joint {ka!r}", path=path, key=str(ka))
+        if str(kb) not in b.names:
+            raise ConfigError(f"parent B has no joint {kb!r}", path=path, key=str(ka))
+    return {str(k): str(v) for k, v in data.items()}
+
+
+def crossover(a: Skeleton, b: Skeleton, mapping: dict[str, str] | None = None) -> MetaSkeleton:
+    """The meta-skeleton: every joint of A, then B's joints A does not have, under their mapped parent."""
+    mapping = dict(mapping or {})
+    for ka, kb in mapping.items():
+        if ka not in a.names or kb not in b.names:
+            raise BreedError(f"mapping names unknown joints: {ka!r} -> {kb!r}")
+    b_to_a: dict[int, int] = {b.index(kb): a.index(ka) for ka, kb in mapping.items()}
+    for j, name in enumerate(b.names):
+        if j not in b_to_a and name in a.names and a.index(name) not in b_to_a.values():
+            b_to_a[j] = a.index(name)
+    if 0 not in b_to_a:
+        if b_to_a:
+            raise BreedError(f"the parents have no common root: A's root is {a.names[0]!r}, B's {b.names[0]!r} "
+                             f"(and B's root corresponds to nothing in A); name them alike or map them")
+        raise BreedError(f"the parents have no common root and no joint in common: A's root is {a.names[0]!r}, "
+                         f"B's {b.names[0]!r}; give a mapping YAML (--map) that pairs at least the roots")
+    if b_to_a[0] != 0:
+        raise BreedError(f"the parents have no common root: B's root {b.names[0]!r} corresponds to A's "
+                         f"{a.names[b_to_a[0]]!r}, not to A's root {a.names[0]!r}")
+    names = list(a.names)
+    parents = list(a.parents)
+    offsets = list(a.offsets)
+    channels = list(a.channels)
+    from_a: list[int | None] = list(range(a.num_joints))
+    from_b: list[int | None] = [None] * a.num_joints
+    for jb, ja in b_to_a.items():
+        from_b[ja] = jb
+    meta_of_b: dict[int, int] = dict(b_to_a)
+    for jb in range(b.num_joints):
+        if jb in meta_of_b:
+            continue
+        name = b.names[jb]
+        while name in names:
+            name += "_b"
+        meta_of_b[jb] = len(names)
+        names.append(name)
+        parents.append(meta_of_b[int(b.parents[jb])])
+        offsets.append(b.offsets[jb])
+        channels.append(tuple(c for c in b.channels[jb] if c.endswith("rotation")) or ("Zrotation", "Xrotation",
+                                                                                        "Yrotation"))
+        from_a.append(None)
+        from_b.append(jb)
+    # reorder so parents come before children (appended joints may hang under later A joints: no,
+    # A's joints all come first, and B's appended joints follow their parents in B's order)
+    es_par, es_off = [], []
+    for e, p in enumerate(a.end_site_parents):
+        es_par.append(int(p))
+        es_off.append(a.end_site_offsets[e])
+    for e, p in enumerate(b.end_site_parents):
+        m = meta_of_b[int(p)]
+        if from_a[m] is None:  # End Sites of B-only joints
+            es_par.append(m)
+            es_off.append(b.end_site_offsets[e])
+    sk = Skeleton(names=tuple(names), parents=np.array(parents), offsets=np.array(offsets),
+                  channels=tuple(channels), end_site_parents=np.array(es_par, dtype=np.int64),
+                  end_site_offsets=np.array(es_off).reshape(-1, 3))
+    return MetaSkeleton(skeleton=sk, from_a=from_a, from_b=from_b)
+
+
+# ---------------------------------------------------------------------- 2. mutation
+def joint_activity(motion: Motion) -> FloatArray:
+    """(J,) standard deviation over time of each joint's bone-turning angle between frames (rad).
+
+    A joint's bone X runs from it to its first child (or End Site); joints with no bone score 0."""
+    sk = motion.skeleton
+    pos = motion.fk()[0]
+    if motion.num_frames < 3:
+        return np.zeros(sk.num_joints)
+    ends = motion.end_site_positions() if len(sk.end_site_parents) else np.zeros((motion.num_frames, 0, 3))
+    act = np.zeros(sk.num_joints)
+    for j in range(sk.num_joints):
+        kids = sk.children(j)
+        if kids:
+            x = pos[:, kids[0]] - pos[:, j]
+        else:
+            es = [e for e, p in enumerate(sk.end_site_parents) if p == j]
+            if not es:
+                continue
+            x = ends[:, es[0]] - pos[:, j]
+        n = np.linalg.norm(x, axis=1)
+        if np.all(n < 1e-9):
+            continue
+        c = np.sum(x[1:] * x[:-1], axis=1) / np.maximum(n[1:] * n[:-1], 1e-12)
+        theta = np.arccos(np.clip(c, -1.0, 1.0))
+        act[j] = float(np.std(theta))
+    return act
+
+
+@dataclass
+class MutationResult:
+    removed: list[str]  #: joints chosen (lowest scores), each removed with its subtree
+    removed_all: list[str]  #: every joint removed (subtrees included)
+    scores: dict[str, float]
+    pca_weights: tuple[float, float]
+
+
+def _standardise(v: FloatArray) -> FloatArray:
+    s = v.std()
+    return (v - v.mean()) / s if s > 1e-12 else v - v.mean()
+
+
+def activity_scores(meta: MetaSkeleton, act_a: FloatArray, act_b: FloatArray,
+                    weights: dict[str, float] | None = None) -> tuple[FloatArray, tuple[float, float]]:
+    """Combined activity per meta joint (PCA over the parents' standardised activities) plus weights."""
+    za, zb = _standardise(act_a), _standardise(act_b)
+    common = meta.common
+    wa, wb = 0.5 ** 0.5, 0.5 ** 0.5
+    if len(common) >= 2:
+        m = np.stack([[za[meta.from_a[i]], zb[meta.from_b[i]]] for i in common])
+        m = m - m.mean(axis=0)
+        _, _, vt = np.linalg.svd(m, full_matrices=False)
+        pc = vt[0] * (1.0 if vt[0].sum() >= 0 else -1.0)
+        wa, wb = float(abs(pc[0])), float(abs(pc[1]))
+    n = meta.skeleton.num_joints
+    score = np.zeros(n)
+    for i in range(n):
+        a, b = meta.from_a[i], meta.from_b[i]
+        if a is not None and b is not None:
+            score[i] = (wa * za[a] + wb * zb[b]) / max(wa + wb, 1e-12)
+        elif a is not None:
+            score[i] = za[a]
+        else:
+            score[i] = zb[b]  # type: ignore[index]
+    # a joint is as lively as the liveliest part it carries: removing it removes its subtree
+    sk = meta.skeleton
+    carried = score.copy()
+    for i in range(n - 1, 0, -1):
+        p = int(sk.parents[i])
+        carried[p] = max(carried[p], carried[i])
+    for name, w in (weights or {}).items():
+        if name not in sk.names:
+            raise BreedError(f"weight for unknown joint {name!r}; joints are {', '.join(sk.names)}")
+        carried[sk.index(name)] += w
+    return carried, (wa, wb)
+
+
+def mutate(meta: MetaSkeleton, act_a: FloatArray, act_b: FloatArray, count: int = 5,
+           weights: dict[str, float] | None = None) -> MutationResult:
+    """Choose the ``count`` lowest-scored joints (root never) and remove them with their subtrees."""
+    sk = meta.skeleton
+    score, w = activity_scores(meta, act_a, act_b, weights)
+    if count < 0:
+        raise BreedError(f"mutation count must be >= 0, got {count}")
+    removable = sk.num_joints - 1
+    if count > removable:
+        raise BreedError(f"{count} mutations asked, but only {removable} joints can be removed (the root stays)")
+    order = sorted(range(1, sk.num_joints), key=lambda j: (score[j], j))
+    gone: set[int] = set()
+    chosen: list[int] = []
+    for j in order:
+        if len(chosen) == count:
+            break
+        if j in gone:
+            continue
+        chosen.append(j)
+        gone.update(sk.subtree(j))
+    if len(chosen) < count:
+        raise BreedError(f"{count} mutations asked, but removing subtrees left only {len(chosen)} joints to choose")
+    return MutationResult(removed=[sk.names[j] for j in chosen], removed_all=[sk.names[j] for j in sorted(gone)],
+                          scores={sk.names[j]: float(score[j]) for j in range(sk.num_joints)}, pca_weights=w)
+
+
+# ---------------------------------------------------------------------- 3. survivor
+def _local_rotvecs(motion: Motion, joints: list[int]) -> FloatArray:
+    return Rotation.from_quat(motion.rotations[:, joints].reshape(-1, 4)).as_rotvec().reshape(
+        motion.num_frames, len(joints), 3)
+
+
+@dataclass
+class SurvivorResult:
+    rotations: FloatArray  #: (T, J_meta, 4) child rotations
+    matched: npt.NDArray[np.int64]  #: per frame of A, the matched frame of B
+    correction: FloatArray  #: (T, n_common, 3) d(t), rotation vectors (rad)
+
+
+def survivor(meta: MetaSkeleton, a: Motion, b: Motion, x: float = 0.5, sample_every: int = SAMPLE_EVERY,
+             correction: FloatArray | None = None) -> SurvivorResult:
+    """Motion transfer (see module docstring). ``b`` must have ``a``'s frame time. ``correction``:
+    a known d (T, n_common, 3) to use instead of the matched one (tests)."""
+    if not X_RANGE[0] <= x <= X_RANGE[1]:
+        raise BreedError(f"x must be in [{X_RANGE[0]}, {X_RANGE[1]}] (0: parent A's motion, 1: B's matched "
+                         f"motion), got {x}")
+    if sample_every < 1:
+        raise BreedError("sample_every must be >= 1")
+    common = meta.common
+    ja = [meta.from_a[i] for i in common]
+    jb = [meta.from_b[i] for i in common]
+    t_a, t_b = a.num_frames, b.num_frames
+    qa = Rotation.from_quat(a.rotations[:, ja].reshape(-1, 4)).as_matrix().reshape(t_a, len(common), 3, 3)
+    qb = Rotation.from_quat(b.rotations[:, jb].reshape(-1, 4)).as_matrix().reshape(t_b, len(common), 3, 3)
+    samples = np.arange(0, t_a, sample_every)
+    if samples[-1] != t_a - 1:
+        samples = np.append(samples, t_a - 1)
+    # motion difference of windows: sum over joints and window frames of |R_a - R_b|_F^2 (= 4(1 - cos))
+    fa = qa.reshape(t_a, -1)
+    fb = qb.reshape(t_b, -1)
+    d2 = (np.sum(fa * fa, axis=1)[:, None] + np.sum(fb * fb, axis=1)[None, :] - 2.0 * fa @ fb.T)  # (Ta, Tb)
+    offs = np.arange(-WINDOW_HALF, WINDOW_HALF + 1)
+    matched_s = np.zeros(len(samples), dtype=np.int64)
+    for k, s in enumerate(samples):
+        ia = np.clip(s + offs, 0, t_a - 1)
+        cost = np.zeros(t_b)
+        for o, i in zip(offs, ia):
+            ib = np.clip(np.arange(t_b) + o, 0, t_b - 1)
+            cost += d2[i, ib]
+        matched_s[k] = int(np.argmin(cost))
+    matched = np.interp(np.arange(t_a), samples, matched_s).round().astype(np.int64)
+    if correction is None:
+        corr_s = np.zeros((len(samples), len(common), 3))
+        for k, (s, m) in enumerate(zip(samples, matched_s)):
+            corr_s[k] = Rotation.from_matrix(np.transpose(qa[s], (0, 2, 1)) @ qb[m]).as_rotvec()
+        flat = corr_s.reshape(len(samples), -1)
+        corr = np.stack([np.interp(np.arange(t_a), samples, flat[:, c]) for c in range(flat.shape[1])],
+                        axis=1).reshape(t_a, len(common), 3)
+    else:
+        corr = np.asarray(correction, dtype=float).reshape(t_a, len(common), 3)
+    n = meta.skeleton.num_joints
+    out = np.zeros((t_a, n, 4))
+    out[..., 3] = 1.0
+    for i in range(n):
+        if meta.from_a[i] is not None and meta.from_b[i] is None:
+            out[:, i] = a.rotations[:, meta.from_a[i]]
+        elif meta.from_a[i] is None:
+            out[:, i] = b.rotations[matched, meta.from_b[i]]
+    for k, i in enumerate(common):
+        ra = Rotation.from_quat(a.rotations[:, meta.from_a[i]])
+        out[:, i] = (ra * Rotation.from_rotvec(x * corr[:, k])).as_quat()
+    return SurvivorResult(rotations=canonical_quat(out), matched=matched, correction=corr)
+
+
+# ---------------------------------------------------------------------- 4. floor constraint
+def floor_constraint(motion: Motion, floor: float = 0.0) -> tuple[Motion, int]:
+    """Lift joints below ``floor`` by turning the bone above each one (parents first); returns the
+    corrected motion and how many (frame, joint) corrections were made. The root is lifted by moving
+    it up; joints already above the floor stay where they were unless an ancestor had to move."""
+    m = motion.copy()
+    sk = m.skeleton
+    fixes = 0
+    pos, _ = m.fk()
+    bad_frames = np.flatnonzero((pos[..., 2] < floor - 1e-9).any(axis=1))
+    for t in bad_frames:
+        frame = m[t:t + 1]
+        for j in range(sk.num_joints):
+            p, g = frame.fk()
+            z = p[0, j, 2]
+            if z >= floor - 1e-9:
+                continue
+            fixes += 1
+            if j == 0:
+                frame.root_translation[0, 2] += floor - z
+                continue
+            par = int(sk.parents[j])
+            v = p[0, j] - p[0, par]
+            length = float(np.linalg.norm(v))
+            hz = p[0, par, 2]
+            if hz - length >= floor:  # cannot happen: the joint would be above
+                continue
+            need = floor - hz  # target vertical component of the bone
+            horiz = np.hypot(v[0], v[1])
+            if length < 1e-12:
+                continue
+            if abs(need) > length:  # parent itself too low to reach: lift the whole frame
+                frame.root_translation[0, 2] += floor - z
+                continue
+            new_h = np.sqrt(max(length ** 2 - need ** 2, 0.0))
+            d = np.array([v[0], v[1]]) / horiz if horiz > 1e-12 else np.array([1.0, 0.0])
+            v_new = np.array([d[0] * new_h, d[1] * new_h, need])
+            r = _min_rot(v, v_new)
+            gp = g[0, par]
+            gpp = np.eye(3) if sk.parents[par] < 0 else g[0, int(sk.parents[par])]
+            new_local = gpp.T @ r @ gp
+            if sk.parents[par] < 0:
+                new_local = r @ gp
+            frame.rotations[0, par] = canonical_quat(Rotation.from_matrix(new_local).as_quat())
+        m.rotations[t] = frame.rotations[0]
+        m.root_translation[t] = frame.root_translation[0]
+    return m, fixes
+
+
+def _min_rot(a: FloatArray, b: FloatArray) -> FloatArray:
+    a = a / np.linalg.norm(a)
+    b = b / np.linalg.norm(b)
+    axis = np.cross(a, b)
+    s = np.linalg.norm(axis)
+    c = float(np.dot(a, b))
+    if s < 1e-12:
+        return np.eye(3)
+    return Rotation.from_rotvec(axis / s * np.arctan2(s, c)).as_matrix()
+
+
+# ---------------------------------------------------------------------- the whole breeding
+@dataclass
+class BreedReport:
+    parents: list[str]
+    x: float
+    mutations: int
+    kept_common: list[str] = field(default_factory=list)
+    only_a: list[str] = field(default_factory=list)
+    only_b: list[str] = field(default_factory=list)
+    removed: list[str] = field(default_factory=list)
+    removed_with_subtrees: list[str] = field(default_factory=list)
+    activity: dict[str, float] = field(default_factory=dict)
+    pca_weights: tuple[float, float] = (0.0, 0.0)
+    floor_fixes: int = 0
+    timings_s: dict[str, float] = field(default_factory=dict)
+    child_joints: int = 0
+    child_frames: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        from dataclasses import asdict
+
+        return asdict(self)
+
+
+def prune(meta: MetaSkeleton, rotations: FloatArray, motion_a: Motion, removed: set[str]) -> tuple[Skeleton,
+                                                                                                    list[int]]:
+    sk = meta.skeleton
+    keep = [j for j in range(sk.num_joints) if sk.names[j] not in removed]
+    new_index = {j: k for k, j in enumerate(keep)}
+    parents = [-1 if sk.parents[j] < 0 else new_index[int(sk.parents[j])] for j in keep]
+    es = [(new_index[int(p)], sk.end_site_offsets[e]) for e, p in enumerate(sk.end_site_parents) if int(p) in new_index]
+    child = Skeleton(names=tuple(sk.names[j] for j in keep), parents=np.array(parents),
+                     offsets=sk.offsets[keep], channels=tuple(
+                         tuple(c for c in sk.channels[j] if c.endswith("rotation")) if j else sk.channels[j]
+                         for j in keep),
+                     end_site_parents=np.array([p for p, _ in es], dtype=np.int64),
+                     end_site_offsets=np.array([o for _, o in es]).reshape(-1, 3))
+    return child, keep
+
+
+def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: dict[str, float] | None = None,
+          mapping: dict[str, str] | None = None, names: tuple[str, str] = ("A", "B")) -> tuple[Motion, BreedReport]:
+    """Breed two motions (project frame) into a child motion on the pruned meta-skeleton."""
+    if not X_RANGE[0] <= x <= X_RANGE[1]:
+        raise BreedError(f"x must be in [{X_RANGE[0]}, {X_RANGE[1]}] (0: parent A's motion, 1: B's), got {x}")
+    a = a.to_project_frame()
+    b = b.to_project_frame()
+    if not np.isclose(a.frame_time, b.frame_time):
+        b = b.resample(a.fps)
+    tm: dict[str, float] = {}
+    t0 = time.perf_counter()
+    meta = crossover(a.skeleton, b.skeleton, mapping)
+    tm["crossover"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    mut = mutate(meta, joint_activity(a), joint_activity(b), mutations, weights)
+    tm["mutation"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    surv = survivor(meta, a, b, x=x)
+    tm["survivor"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    child_sk, keep = prune(meta, surv.rotations, a, set(mut.removed_all))
+    child = Motion(skeleton=child_sk, frame_time=a.frame_time, root_translation=a.root_translation.copy(),
+                   rotations=surv.rotations[:, keep], unit=1.0, up="z")
+    child, fixes = floor_constraint(child)
+    tm["constraint"] = time.perf_counter() - t0
+    sk = meta.skeleton
+    rep = BreedReport(parents=list(names), x=x, mutations=mutations,
+                      kept_common=[sk.names[i] for i in meta.common],
+                      only_a=[sk.names[i] for i in range(sk.num_joints) if meta.from_b[i] is None],
+                      only_b=[sk.names[i] for i in range(sk.num_joints) if meta.from_a[i] is None],
+                      removed=mut.removed, removed_with_subtrees=mut.removed_all, activity=mut.scores,
+                      pca_weights=mut.pca_weights, floor_fixes=fixes, timings_s=tm,
+                      child_joints=child_sk.num_joints, child_frames=child.num_frames)
+    return child, rep

@@ -1,0 +1,202 @@
+"""Creature breeding: each step on small synthetic skeletons, the sample creatures, breeding real
+files, and the child in physics."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+from conftest import shared_params
+from scipy.spatial.transform import Rotation
+
+from bipedsim.cli import main
+from bipedsim.creature.evolve import BreedError, breed, crossover, floor_constraint, joint_activity, mutate, survivor
+from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT, sample_texts
+from bipedsim.errors import BipedsimError, ConfigError
+from bipedsim.model import build_model, retarget
+from bipedsim.motion import Motion, Skeleton, load_bvh
+
+WINGS = [f"{s}{w}" for s in ("Left", "Right") for w in ("Wing1", "Wing2", "Wing3", "WingFinger")]
+
+
+def chain(names, parents, offsets, frames=40, amp=None, seed=0) -> Motion:
+    rng = np.random.default_rng(seed)
+    n = len(names)
+    leaves = [j for j in range(n) if j not in parents]
+    sk = Skeleton(names=tuple(names), parents=np.array(parents), offsets=np.array(offsets, dtype=float),
+                  channels=(("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),)
+                  + (("Zrotation", "Yrotation", "Xrotation"),) * (n - 1),
+                  end_site_parents=np.array(leaves), end_site_offsets=np.tile([0.0, 0.0, -0.2], (len(leaves), 1)))
+    t = np.arange(frames)[:, None]
+    amp = np.full(n, 0.3) if amp is None else np.asarray(amp, dtype=float)
+    rv = np.zeros((frames, n, 3))
+    rv[..., 1] = amp[None, :] * np.sin(0.3 * t + rng.uniform(0, 6, n)[None, :])
+    q = Rotation.from_rotvec(rv.reshape(-1, 3)).as_quat().reshape(frames, n, 4)
+    root = np.tile([0.0, 0.0, 2.0], (frames, 1))
+    return Motion(skeleton=sk, frame_time=1 / 30, root_translation=root, rotations=q, up="z")
+
+
+A_NAMES = ["Hips", "Spine", "Neck", "LegA"]
+A_PARENTS = [-1, 0, 1, 0]
+B_NAMES = ["Hips", "Spine", "Wing", "WingTip", "Tail"]
+B_PARENTS = [-1, 0, 1, 2, 0]
+OFF4 = [[0, 0, 0], [0, 0, 0.3], [0, 0, 0.3], [0, 0, -0.5]]
+OFF5 = [[0, 0, 0], [0, 0, 0.3], [0, 0.3, 0], [0, 0.4, 0], [-0.3, 0, 0]]
+
+
+def test_crossover_is_the_union() -> None:
+    a, b = chain(A_NAMES, A_PARENTS, OFF4).skeleton, chain(B_NAMES, B_PARENTS, OFF5).skeleton
+    meta = crossover(a, b)
+    assert set(meta.skeleton.names) == set(A_NAMES) | set(B_NAMES)
+    assert meta.skeleton.num_joints == 4 + 3  # Hips and Spine kept once
+    sk = meta.skeleton
+    assert sk.names[sk.parents[sk.index("Wing")]] == "Spine" and sk.names[sk.parents[sk.index("Tail")]] == "Hips"
+    assert [sk.names[i] for i in meta.common] == ["Hips", "Spine"]
+    # a mapping pairs differently named joints
+    m2 = crossover(a, b, {"LegA": "Tail"})
+    assert m2.skeleton.num_joints == 6 and "Tail" not in m2.skeleton.names
+
+
+def test_crossover_errors() -> None:
+    a = chain(A_NAMES, A_PARENTS, OFF4).skeleton
+    c = chain(["Root", "X"], [-1, 0], [[0, 0, 0], [0, 0, 1]]).skeleton
+    with pytest.raises(BreedError, match="no common root"):
+        crossover(a, c)
+    with pytest.raises(BreedError, match="mapping names unknown joints"):
+        crossover(a, c, {"Hips": "Nope"})
+
+
+def test_activity_and_mutation_remove_exactly_n_lowest_and_honour_weights() -> None:
+    # joint activity follows the amplitude of its bone's motion
+    m = chain(["Hips", "J1", "J2", "J3", "J4", "J5"], [-1, 0, 0, 0, 0, 0],
+              [[0, 0, 0], [0.1, 0, -0.5], [-0.1, 0, -0.5], [0, 0.1, -0.5], [0, -0.1, -0.5], [0.2, 0, -0.5]],
+              amp=[0.0, 0.05, 0.4, 0.2, 0.6, 0.1])
+    act = joint_activity(m)
+    assert act[1] < act[5] < act[3] < act[2] < act[4]
+    meta = crossover(m.skeleton, m.skeleton)
+    res = mutate(meta, act, act, count=2)
+    assert res.removed == ["J1", "J5"]
+    res = mutate(meta, act, act, count=2, weights={"J5": 10.0, "J4": -10.0})
+    assert res.removed == ["J4", "J1"]
+    with pytest.raises(BreedError, match="only 5 joints can be removed"):
+        mutate(meta, act, act, count=6)
+    with pytest.raises(BreedError, match="unknown joint 'Nope'"):
+        mutate(meta, act, act, count=1, weights={"Nope": 1.0})
+
+
+def test_survivor_reproduces_c1_plus_x_d() -> None:
+    a = chain(A_NAMES, A_PARENTS, OFF4, frames=30)
+    b = chain(B_NAMES, B_PARENTS, OFF5, frames=30, seed=3)
+    meta = crossover(a.skeleton, b.skeleton)
+    d = np.zeros((30, len(meta.common), 3))
+    d[:, :, 1] = np.linspace(0.0, 0.4, 30)[:, None]  # a known correction
+    for x in (0.0, 0.5, 1.0):
+        res = survivor(meta, a, b, x=x, correction=d)
+        for k, i in enumerate(meta.common):
+            want = Rotation.from_quat(a.rotations[:, i]) * Rotation.from_rotvec(x * d[:, k])
+            got = Rotation.from_quat(res.rotations[:, i])
+            assert np.allclose((want.inv() * got).magnitude(), 0.0, atol=1e-9)
+        # joints only one parent has take that parent's motion
+        assert np.allclose(np.abs(np.sum(res.rotations[:, meta.skeleton.index("LegA")] *
+                                         a.rotations[:, a.skeleton.index("LegA")], axis=1)), 1.0)
+    with pytest.raises(BreedError, match=r"x must be in \[0.0, 1.0\]"):
+        survivor(meta, a, b, x=1.5)
+
+
+def test_survivor_finds_the_matching_window() -> None:
+    a = chain(A_NAMES, A_PARENTS, OFF4, frames=40)
+    b = a[3:]  # B is A started 3 frames later: A's frame t is B's frame t - 3
+    meta = crossover(a.skeleton, b.skeleton)
+    res = survivor(meta, a, b, x=1.0)
+    inner = np.arange(10, 30)
+    assert np.array_equal(res.matched[inner], inner - 3)
+    assert np.abs(res.correction[inner]).max() < 1e-6  # the matched motion is A's own
+
+
+def test_floor_constraint_lifts_only_what_is_below() -> None:
+    m = chain(["Hips", "Thigh", "Shin"], [-1, 0, 1], [[0, 0, 0], [0, 0, -0.5], [0, 0, -0.5]], frames=20)
+    m.root_translation[:, 2] = np.linspace(1.2, 0.8, 20)  # the shin end dips below the floor late on
+    before = m.fk()[0]
+    fixed, n = floor_constraint(m)
+    after = fixed.fk()[0]
+    assert n > 0 and after[..., 2].min() >= -1e-9
+    ok = np.all(before[..., 2] >= 0, axis=1)
+    assert np.allclose(after[ok], before[ok])  # frames that were above are unchanged
+    assert np.allclose(after[:, :2], before[:, :2])  # the joints above the offending one stay
+
+
+def test_sample_creatures_regenerate_identically() -> None:
+    for path, text in sample_texts().items():
+        assert path.read_text() == text
+
+
+def test_horse_pterosaur_child_keeps_or_loses_wings() -> None:
+    h, p = load_bvh(HORSE_WALK), load_bvh(PTEROSAUR_FLIGHT)
+    raised, rep_r = breed(h, p, weights={w: 5.0 for w in WINGS})
+    lowered, rep_l = breed(h, p, weights={w: -5.0 for w in WINGS})
+    assert set(WINGS) <= set(raised.skeleton.names)
+    assert not set(WINGS) & set(lowered.skeleton.names)
+    assert len(rep_r.removed) == len(rep_l.removed) == 5
+    for child in (raised, lowered):
+        assert child.fk()[0][..., 2].min() >= -1e-9
+
+
+def _simulate(child: Motion, seconds: float = 5.0) -> mujoco.MjData:
+    b = build_model(child, "creature")
+    clip = retarget(child, b.model, xml=b.xml)
+    d = mujoco.MjData(b.model)
+    d.qpos[:] = clip.qpos[0]
+    for _ in range(int(seconds / b.model.opt.timestep)):
+        mujoco.mj_step(b.model, d)
+    assert np.all(np.isfinite(d.qpos)) and sum(int(w.number) for w in d.warning) == 0
+    return d
+
+
+def test_horse_pterosaur_child_converts_and_simulates(tmp_path: Path) -> None:
+    child, _ = breed(load_bvh(HORSE_WALK), load_bvh(PTEROSAUR_FLIGHT), weights={w: 5.0 for w in WINGS})
+    _simulate(child)
+    # and bred again with a third parent
+    grand, rep = breed(child, load_bvh(BUILTIN_WALK), x=0.3)
+    assert rep.child_joints == grand.num_joints and grand.num_frames == child.num_frames
+    _simulate(grand, 2.0)
+
+
+@pytest.mark.parametrize("dog", shared_params("animal"))
+def test_human_dog_child(dog: Path, tmp_path: Path) -> None:
+    out = tmp_path / "child.bvh"
+    assert main(["breed", str(BUILTIN_WALK), str(dog), "-o", str(out), "--report", str(tmp_path / "r.json")]) == 0
+    child = load_bvh(out)
+    assert child.num_joints > 5
+    _simulate(child)
+
+
+def test_breed_cli_errors(tmp_path: Path) -> None:
+    out = str(tmp_path / "c.bvh")
+    assert main(["breed", str(HORSE_WALK), str(PTEROSAUR_FLIGHT), "-o", out, "--x", "2"]) == 2
+    assert main(["breed", str(HORSE_WALK), str(PTEROSAUR_FLIGHT), "-o", out, "--mutations", "99"]) == 2
+    bad_map = tmp_path / "m.yaml"
+    bad_map.write_text("Hips: Hips\nMane: Crest\n")
+    assert main(["breed", str(HORSE_WALK), str(PTEROSAUR_FLIGHT), "-o", out, "--map", str(bad_map)]) == 2
+    with pytest.raises(ConfigError, match="parent A has no joint 'Mane'"):
+        from bipedsim.creature.evolve import load_joint_map
+
+        load_joint_map(bad_map, load_bvh(HORSE_WALK).skeleton, load_bvh(PTEROSAUR_FLIGHT).skeleton)
+
+
+def test_run_creature_with_and_without_support(tmp_path: Path) -> None:
+    import json
+
+    assert main(["run", "--bvh", str(HORSE_WALK), "--profile", "creature", "--seconds", "1",
+                 "--out", str(tmp_path / "a")]) == 0
+    a = json.loads((tmp_path / "a" / "outcome.json").read_text())
+    assert a["outcome"] in ("no_fall", "fall") and a["extra"]["support_mode"] is False
+    assert main(["run", "--bvh", str(PTEROSAUR_FLIGHT), "--profile", "creature", "--support", "--seconds", "2",
+                 "--out", str(tmp_path / "b")]) == 0
+    b = json.loads((tmp_path / "b" / "outcome.json").read_text())
+    assert b["outcome"] == "no_fall" and b["extra"]["support_force_mean_n"] > 0
+    with pytest.raises(BipedsimError):
+        from bipedsim.cli import build_parser, run_creature_cli
+
+        run_creature_cli(build_parser().parse_args(["run", "--profile", "creature"]))

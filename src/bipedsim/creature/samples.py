@@ -34,7 +34,8 @@ def _rot(axis: str, ang: np.ndarray) -> np.ndarray:
 
 def horse_skeleton() -> Skeleton:
     j = [("Hips", None, (0.0, 0.0, 0.0)), ("Spine", "Hips", (0.35, 0.0, 0.02)), ("Chest", "Spine", (0.35, 0.0, 0.02)),
-         ("Neck", "Chest", (0.25, 0.0, 0.20)), ("Neck2", "Neck", (0.20, 0.0, 0.22)), ("Head", "Neck2", (0.10, 0.0, 0.05)),
+         ("Neck", "Chest", (0.25, 0.0, 0.20)), ("Neck2", "Neck", (0.20, 0.0, 0.22)),
+         ("Head", "Neck2", (0.10, 0.0, 0.05)),
          ("Tail1", "Hips", (-0.15, 0.0, 0.02)), ("Tail2", "Tail1", (-0.20, 0.0, -0.10))]
     for side, s in (("Left", 1.0), ("Right", -1.0)):
         j += [(f"{side}UpLeg", "Hips", (-0.05, s * 0.15, -0.10)), (f"{side}Leg", f"{side}UpLeg", (0.05, 0.0, -0.40)),
@@ -79,7 +80,8 @@ def horse_walk(cycles: int = 3, frames_per_cycle: int = 60, speed: float = 1.4) 
 
 def pterosaur_skeleton() -> Skeleton:
     j = [("Hips", None, (0.0, 0.0, 0.0)), ("Spine", "Hips", (0.15, 0.0, 0.0)), ("Chest", "Spine", (0.15, 0.0, 0.0)),
-         ("Neck", "Chest", (0.15, 0.0, 0.08)), ("Head", "Neck", (0.15, 0.0, 0.05)), ("Crest", "Head", (-0.05, 0.0, 0.08)),
+         ("Neck", "Chest", (0.15, 0.0, 0.08)), ("Head", "Neck", (0.15, 0.0, 0.05)),
+         ("Crest", "Head", (-0.05, 0.0, 0.08)),
          ("Tail1", "Hips", (-0.10, 0.0, 0.0))]
     for side, s in (("Left", 1.0), ("Right", -1.0)):
         j += [(f"{side}Wing1", "Chest", (0.0, s * 0.08, 0.02)), (f"{side}Wing2", f"{side}Wing1", (0.0, s * 0.30, 0.0)),

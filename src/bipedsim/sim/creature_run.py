@@ -83,7 +83,7 @@ def run_creature(built: BuiltModel, clip: ReferenceClip, spec: CreatureRunSpec) 
         f = t / clip.frame_time
         i = int(f) % frames if spec.loop else min(int(f), frames - 1)
         target = clip.qpos[i]
-        for k, (_, qa, da, acts) in enumerate(balls):
+        for k, (_, qa, _da, acts) in enumerate(balls):
             q = data.qpos[qa:qa + 4]
             qd = target[qa:qa + 4]
             # error rotation from the current to the target local orientation, in the joint frame
@@ -127,7 +127,8 @@ def run_creature(built: BuiltModel, clip: ReferenceClip, spec: CreatureRunSpec) 
     dist = float(np.linalg.norm(data.qpos[:2] - clip.qpos[0, :2])) if outcome != "diverged" else 0.0
     extra = {"profile": "creature", "support_mode": spec.support, "weight_n": mass * -model.opt.gravity[2]}
     if spec.support and support_f:
-        extra.update({"support_force_mean_n": float(np.mean(support_f)), "support_force_max_n": float(np.max(support_f)),
+        extra.update({"support_force_mean_n": float(np.mean(support_f)),
+                      "support_force_max_n": float(np.max(support_f)),
                       "support_torque_mean_nm": float(np.mean(support_t)),
                       "support_torque_max_nm": float(np.max(support_t))})
     return Outcome(outcome=outcome, sim_seconds=sim_s, fall_time_s=fall_t, fall_reason=reason, foot_strikes=0,

@@ -396,6 +396,66 @@ def _add_breed(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=cmd_breed)
 
 
+# ---------------------------------------------------------------------- graph
+def cmd_graph_build(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from bipedsim.graph import build_graph, load_graph_config
+
+    p = Path(args.config)
+    g = build_graph(load_graph_config(p), p.resolve().parent)
+    g.save(args.output)
+    print(f"wrote {args.output}: {len(g.clips)} clips, {g.timings['frames']} frames, built in "
+          f"{g.timings['total_s']:.2f} s")
+    for name, ly in g.layers.items():
+        print(f"  {name:12s} parent {ly.parent or '-':10s} {len(ly.transitions):4d} transitions, "
+              f"{ly.scc_nodes} nodes in the strongly connected graph, motions {len(ly.kept_clips)}/{len(g.clips)}")
+    return 0
+
+
+def cmd_graph_play(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from bipedsim.errors import BipedsimError
+    from bipedsim.graph import MotionGraph, Player, parse
+    from bipedsim.io import atomic_write_json
+    from bipedsim.motion.bvh import write_bvh
+
+    g = MotionGraph.load(args.graph)
+    try:
+        text = Path(args.script).read_text()
+    except OSError as exc:
+        raise BipedsimError(f"{args.script}: cannot read: {exc.strerror or exc}") from None
+    cmds = parse(text, source=str(args.script), layers=tuple(g.layers))
+    player = Player(g, start=args.start)
+    motion = player.run(cmds)
+    write_bvh(motion.with_up("y").scaled(100.0), args.output, precision=6)
+    rep = player.report()
+    print(f"wrote {args.output}: {rep['frames']} frames ({rep['seconds']:.1f} s) at {g.config.fps:g} fps")
+    for e in rep["events"]:
+        cost = "" if e["cost"] is None else f" (cost {e['cost']:.3f})"
+        print(f"  {e['time_s']:6.2f} s  {e['layer']:12s} {e['kind']:12s} {e['detail']}{cost}")
+    if args.report:
+        atomic_write_json(args.report, rep)
+    return 0
+
+
+def _add_graph(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("graph", help="multi-layered motion graphs: build one, play a Motion Script on it")
+    gs = p.add_subparsers(dest="graph_command", metavar="ACTION", required=True)
+    b = gs.add_parser("build", help="build a motion graph from a YAML description")
+    b.add_argument("config", help="graph YAML (clips, tags, parts, k, threshold, sigma, segment)")
+    b.add_argument("-o", "--output", required=True, help="graph file (.npz)")
+    b.set_defaults(func=cmd_graph_build)
+    pl = gs.add_parser("play", help="play a Motion Script on a graph and write the result as BVH")
+    pl.add_argument("graph", help="graph file from `bipedsim graph build`")
+    pl.add_argument("script", help="Motion Script text file")
+    pl.add_argument("-o", "--output", required=True, help="BVH to write")
+    pl.add_argument("--start", default=None, help="motion (name or tag) to start from")
+    pl.add_argument("--report", default=None, help="JSON report of the path taken")
+    pl.set_defaults(func=cmd_graph_play)
+
+
 # ---------------------------------------------------------------------- sweep and regress
 def cmd_sweep(args: argparse.Namespace) -> int:
     from bipedsim.sim.experiment import load_experiment
@@ -434,7 +494,7 @@ def _add_regress(sub: argparse._SubParsersAction) -> None:
 
 #: Subcommand registrars, in the order ``--help`` lists them.
 COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress, _add_breed]
+    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress, _add_breed, _add_graph]
 
 
 def build_parser() -> argparse.ArgumentParser:

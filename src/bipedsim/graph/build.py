@@ -1,0 +1,376 @@
+"""Multi-layered motion graphs: clips, transitions, pruning, layers, similarity, shortest paths.
+
+A *layer* is a motion graph over a set of joints: the full body, or a body part (a joint subtree from
+the YAML, e.g. the upper body). A part layer is the child of the nearest layer above it on the
+skeleton. For every layer:
+
+- distance matrices between all clip pairs (windows of k frames, :mod:`bipedsim.graph.distance`);
+- transitions: local minima below the threshold, cost t = 1 - exp(-D / sigma), played as a linear
+  blend over k frames (at playback, not stored);
+- pruning: the graph whose nodes are each clip's entry and exit frames (edges: forward in the clip,
+  and transitions) keeps only its largest strongly connected component (``scipy.sparse.csgraph``),
+  so a walk never reaches a dead end;
+- the overall motion similarity of every clip pair, (sum_i sum_j min D over segment pair (i, j)) /
+  ((m/s)(n/s)) with segments of s frames;
+- shortest paths between motions (Floyd-Warshall over the motion-level graph: edge weight = the
+  cheapest transition + the pair's normalised similarity).
+
+Part clouds are taken relative to the root's position and heading, so a part is compared by its own
+motion, not by where the body walks.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components, floyd_warshall
+from scipy.spatial.transform import Rotation
+
+from bipedsim import config
+from bipedsim.errors import BipedsimError, ConfigError
+from bipedsim.graph.distance import distance_matrix
+from bipedsim.motion.motion import Motion
+from bipedsim.motion.skeleton import Skeleton
+
+FloatArray = npt.NDArray[np.float64]
+FULL = "Full-Body"
+
+
+@dataclass(frozen=True)
+class ClipSpec:
+    name: str
+    file: str
+    tags: tuple[str, ...] = ()
+    mirror: bool = False
+    start: float | None = None  #: s
+    end: float | None = None  #: s
+    speed: float = 1.0  #: playback rate of the source (a derived slower or faster clip)
+
+
+@dataclass(frozen=True)
+class PartSpec:
+    root: str  #: the part is this joint's subtree
+    weight: float = 1.0
+
+
+@dataclass(frozen=True)
+class GraphConfig:
+    name: str = "graph"
+    fps: float = field(default=30.0, metadata={"gt": 0.0})
+    k: int = field(default=20, metadata={"min": 2})
+    threshold_quantile: float = field(default=0.25, metadata={"gt": 0.0, "max": 1.0})
+    threshold: float | None = field(default=None, metadata={"gt": 0.0})
+    sigma: float | None = field(default=None, metadata={"gt": 0.0})
+    segment: int = field(default=10, metadata={"min": 1})
+    clips: tuple[ClipSpec, ...] = ()
+    parts: dict[str, PartSpec] = field(default_factory=dict)
+
+    def validate(self) -> None:
+        if not self.clips:
+            raise ValueError("clips: give at least one clip")
+        names = [c.name for c in self.clips]
+        if len(set(names)) != len(names):
+            raise ValueError("clips: clip names must be unique")
+        if FULL in self.parts:
+            raise ValueError(f"parts: {FULL!r} is the whole body's layer; name parts otherwise")
+
+
+@dataclass
+class Transition:
+    src: int  #: clip index
+    src_frame: int  #: first frame of the blend window in the source
+    dst: int
+    dst_frame: int
+    distance: float
+    cost: float
+
+
+@dataclass
+class Layer:
+    name: str
+    joints: list[int]
+    parent: str | None
+    transitions: list[Transition]
+    similarity: FloatArray  #: (C, C) overall motion similarity
+    path_cost: FloatArray  #: (C, C) Floyd-Warshall costs between motions
+    predecessors: npt.NDArray[np.int64]
+    threshold: float
+    sigma: float
+    kept_clips: list[int]  #: clips with frames in the strongly connected component
+    scc_nodes: int
+    build_seconds: float = 0.0
+
+    def exits(self, clip: int) -> list[Transition]:
+        return sorted((t for t in self.transitions if t.src == clip), key=lambda t: t.src_frame)
+
+    def path(self, a: int, b: int) -> list[int]:
+        """Clips on the cheapest route from motion a to motion b (a and b included)."""
+        if a == b:
+            return [a]
+        if not np.isfinite(self.path_cost[a, b]):
+            return []
+        out = [b]
+        while out[-1] != a:
+            out.append(int(self.predecessors[a, out[-1]]))
+        return out[::-1]
+
+
+@dataclass
+class MotionGraph:
+    config: GraphConfig
+    skeleton: Skeleton
+    clips: list[Motion]  #: project frame, resampled to the graph's fps
+    tags: list[list[str]]
+    layers: dict[str, Layer]
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def clip_names(self) -> list[str]:
+        return [c.name for c in self.config.clips]
+
+    def clip_index(self, name: str) -> int:
+        return self.clip_names.index(name)
+
+    def clips_with(self, tag: str) -> list[int]:
+        t = tag.upper()
+        return [i for i, (c, tags) in enumerate(zip(self.clip_names, self.tags)) if t == c.upper() or t in tags]
+
+    # ------------------------------------------------------------------ persistence
+    def save(self, path: str | os.PathLike[str]) -> None:
+        from bipedsim.io import atomic_write_bytes
+
+        arrays: dict[str, Any] = {}
+        for i, c in enumerate(self.clips):
+            arrays[f"clip{i}_root"] = c.root_translation
+            arrays[f"clip{i}_rot"] = c.rotations
+        layers = {}
+        for name, ly in self.layers.items():
+            arrays[f"{name}_similarity"] = ly.similarity
+            arrays[f"{name}_path_cost"] = ly.path_cost
+            arrays[f"{name}_predecessors"] = ly.predecessors
+            layers[name] = {"joints": ly.joints, "parent": ly.parent, "threshold": ly.threshold, "sigma": ly.sigma,
+                            "kept_clips": ly.kept_clips, "scc_nodes": ly.scc_nodes, "build_seconds": ly.build_seconds,
+                            "transitions": [asdict(t) for t in ly.transitions]}
+        sk = self.skeleton
+        meta = {"format": "bipedsim.MotionGraph/1", "config": config.to_dict(self.config), "tags": self.tags,
+                "layers": layers, "timings": self.timings,
+                "skeleton": {"names": list(sk.names), "parents": sk.parents.tolist(), "offsets": sk.offsets.tolist(),
+                             "channels": [list(c) for c in sk.channels],
+                             "end_site_parents": sk.end_site_parents.tolist(),
+                             "end_site_offsets": sk.end_site_offsets.tolist()}}
+        buf = io.BytesIO()
+        np.savez_compressed(buf, meta=np.array(json.dumps(meta)), **arrays)
+        atomic_write_bytes(path, buf.getvalue())
+
+    @staticmethod
+    def load(path: str | os.PathLike[str]) -> MotionGraph:
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                meta = json.loads(str(z["meta"]))
+                if meta.get("format") != "bipedsim.MotionGraph/1":
+                    raise ValueError("not a motion graph")
+                cfg = config.from_dict(GraphConfig, meta["config"])
+                s = meta["skeleton"]
+                sk = Skeleton(names=tuple(s["names"]), parents=np.array(s["parents"]), offsets=np.array(s["offsets"]),
+                              channels=tuple(tuple(c) for c in s["channels"]),
+                              end_site_parents=np.array(s["end_site_parents"], dtype=np.int64),
+                              end_site_offsets=np.array(s["end_site_offsets"]).reshape(-1, 3))
+                clips = [Motion(skeleton=sk, frame_time=1.0 / cfg.fps, root_translation=z[f"clip{i}_root"],
+                                rotations=z[f"clip{i}_rot"], unit=1.0, up="z") for i in range(len(cfg.clips))]
+                layers = {}
+                for name, d in meta["layers"].items():
+                    layers[name] = Layer(name=name, joints=d["joints"], parent=d["parent"],
+                                         transitions=[Transition(**t) for t in d["transitions"]],
+                                         similarity=z[f"{name}_similarity"], path_cost=z[f"{name}_path_cost"],
+                                         predecessors=z[f"{name}_predecessors"], threshold=d["threshold"],
+                                         sigma=d["sigma"], kept_clips=d["kept_clips"], scc_nodes=d["scc_nodes"],
+                                         build_seconds=d.get("build_seconds", 0.0))
+        except (OSError, KeyError, ValueError) as exc:
+            raise BipedsimError(f"{path}: not a bipedsim motion graph ({exc})") from None
+        return MotionGraph(config=cfg, skeleton=sk, clips=clips, tags=meta["tags"], layers=layers,
+                           timings=meta.get("timings", {}))
+
+
+# ---------------------------------------------------------------------- building
+def load_graph_config(path: str | os.PathLike[str]) -> GraphConfig:
+    return config.load(GraphConfig, path)
+
+
+def load_clips(cfg: GraphConfig, base: Path) -> list[Motion]:
+    from bipedsim.motion.bvh import load_bvh
+
+    clips = []
+    for c in cfg.clips:
+        p = Path(c.file)
+        p = p if p.is_absolute() else (base / p)
+        if not p.is_file():
+            raise ConfigError(f"no such BVH file {p}", key=f"clips.{c.name}.file")
+        m = load_bvh(p)
+        if c.mirror:
+            m = m.mirrored()
+        if c.speed != 1.0:
+            if not c.speed > 0:
+                raise ConfigError("speed must be > 0", key=f"clips.{c.name}.speed")
+            m = m.copy(frame_time=m.frame_time / c.speed)
+        m = m.resample(cfg.fps)
+        a = 0 if c.start is None else int(round(c.start * cfg.fps))
+        b = m.num_frames if c.end is None else int(round(c.end * cfg.fps))
+        m = m[a:b]
+        if m.num_frames < 2 * cfg.k:
+            raise ConfigError(f"clip has {m.num_frames} frames at {cfg.fps} fps; need at least 2k = {2 * cfg.k}",
+                              key=f"clips.{c.name}")
+        clips.append(m)
+    ref = clips[0].skeleton
+    for c, m in zip(cfg.clips, clips):
+        if not m.skeleton.same_structure(ref):
+            raise ConfigError("all clips must share one skeleton (same joints, same tree)", key=f"clips.{c.name}")
+    return clips
+
+
+def part_positions(m: Motion, joints: list[int], relative: bool) -> FloatArray:
+    """(T, len(joints), 3) positions; with ``relative``, in the root's heading frame about the root."""
+    pos = m.fk()[0][:, joints]
+    if not relative:
+        return pos
+    root = m.root_translation
+    yaw = m.heading()
+    c, s = np.cos(-yaw), np.sin(-yaw)
+    d = pos - root[:, None, :]
+    out = np.empty_like(d)
+    out[..., 0] = c[:, None] * d[..., 0] - s[:, None] * d[..., 1]
+    out[..., 1] = s[:, None] * d[..., 0] + c[:, None] * d[..., 1]
+    out[..., 2] = d[..., 2]
+    return out
+
+
+def _local_minima(d: FloatArray) -> npt.NDArray[np.bool_]:
+    pad = np.pad(d, 1, constant_values=np.inf)
+    core = pad[1:-1, 1:-1]
+    m = np.ones_like(d, dtype=bool)
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            if di or dj:
+                m &= core <= pad[1 + di:pad.shape[0] - 1 + di, 1 + dj:pad.shape[1] - 1 + dj]
+    return m
+
+
+def _segment_min(d: FloatArray, s: int) -> FloatArray:
+    na, nb = int(np.ceil(d.shape[0] / s)), int(np.ceil(d.shape[1] / s))
+    padded = np.full((na * s, nb * s), np.inf)
+    padded[:d.shape[0], :d.shape[1]] = d
+    return padded.reshape(na, s, nb, s).min(axis=(1, 3))
+
+
+def build_layer(name: str, joints: list[int], parent: str | None, clips: list[Motion], cfg: GraphConfig,
+                relative: bool) -> Layer:
+    t0 = time.perf_counter()
+    k = cfg.k
+    pos = [part_positions(m, joints, relative) for m in clips]
+    n = len(clips)
+    dmats = {(a, b): distance_matrix(pos[a], pos[b], k) for a in range(n) for b in range(n)}
+    cands: list[tuple[int, int, int, int, float]] = []
+    for (a, b), d in dmats.items():
+        mins = _local_minima(d)
+        if a == b:  # no trivial self-transitions
+            ii, jj = np.indices(d.shape)
+            mins &= np.abs(ii - jj) >= k
+        # the blend runs k frames into the target and must leave room to go on
+        mins[:, max(d.shape[1] - k, 0):] = False
+        for i, j in zip(*np.nonzero(mins)):
+            cands.append((a, int(i), b, int(j), float(d[i, j])))
+    if not cands:
+        raise BipedsimError(f"layer {name}: no candidate transitions between the clips")
+    vals = np.array([c[4] for c in cands])
+    thr = cfg.threshold if cfg.threshold is not None else float(np.quantile(vals, cfg.threshold_quantile))
+    sigma = cfg.sigma if cfg.sigma is not None else max(float(np.median(vals)), 1e-9)
+    trans = [Transition(a, i, b, j, dist, 1.0 - float(np.exp(-dist / sigma)))
+             for a, i, b, j, dist in cands if dist <= thr]
+    trans, kept, n_nodes = prune(trans, [m.num_frames for m in clips])
+    sim = np.zeros((n, n))
+    for (a, b), d in dmats.items():
+        sm = _segment_min(d, cfg.segment)
+        sim[a, b] = float(sm.sum() / ((clips[a].num_frames / cfg.segment) * (clips[b].num_frames / cfg.segment)))
+    w = np.full((n, n), np.inf)
+    scale = max(float(np.max(sim[np.isfinite(sim)])), 1e-9)
+    for t in trans:
+        if t.src != t.dst:
+            w[t.src, t.dst] = min(w[t.src, t.dst], t.cost + sim[t.src, t.dst] / scale)
+    np.fill_diagonal(w, 0.0)
+    graph = csr_matrix(np.where(np.isfinite(w), w + 1e-12, 0.0))
+    cost, pred = floyd_warshall(graph, directed=True, return_predecessors=True)
+    return Layer(name=name, joints=joints, parent=parent, transitions=trans, similarity=sim, path_cost=cost,
+                 predecessors=pred.astype(np.int64), threshold=thr, sigma=sigma, kept_clips=kept, scc_nodes=n_nodes,
+                 build_seconds=time.perf_counter() - t0)
+
+
+def prune(trans: list[Transition], lengths: list[int]) -> tuple[list[Transition], list[int], int]:
+    """Keep the transitions inside the largest strongly connected component of the frame graph."""
+    nodes: dict[int, set[int]] = {c: set() for c in range(len(lengths))}
+    for t in trans:
+        nodes[t.src].add(t.src_frame)
+        nodes[t.dst].add(t.dst_frame)
+    index: dict[tuple[int, int], int] = {}
+    for c in sorted(nodes):
+        for f in sorted(nodes[c]):
+            index[(c, f)] = len(index)
+    rows, cols = [], []
+    for c in nodes:
+        fs = sorted(nodes[c])
+        for a, b in zip(fs, fs[1:]):  # playing forward within a clip
+            rows.append(index[(c, a)])
+            cols.append(index[(c, b)])
+    for t in trans:
+        rows.append(index[(t.src, t.src_frame)])
+        cols.append(index[(t.dst, t.dst_frame)])
+    n = len(index)
+    if n == 0:
+        return [], [], 0
+    g = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+    _, labels = connected_components(g, directed=True, connection="strong")
+    big = np.bincount(labels).argmax()
+    keep = [t for t in trans
+            if labels[index[(t.src, t.src_frame)]] == big and labels[index[(t.dst, t.dst_frame)]] == big]
+    clips = sorted({t.src for t in keep} | {t.dst for t in keep})
+    return keep, clips, int(np.sum(labels == big))
+
+
+def build_graph(cfg: GraphConfig, base: Path, clips: list[Motion] | None = None) -> MotionGraph:
+    t0 = time.perf_counter()
+    clips = clips if clips is not None else load_clips(cfg, base)
+    t_load = time.perf_counter() - t0
+    sk = clips[0].skeleton
+    layers: dict[str, Layer] = {FULL: build_layer(FULL, list(range(sk.num_joints)), None, clips, cfg, relative=False)}
+    # parts: the nearest part above on the skeleton is the parent layer
+    roots = {}
+    for name, p in cfg.parts.items():
+        if p.root not in sk.names:
+            raise ConfigError(f"no joint {p.root!r}; joints are {', '.join(sk.names)}", key=f"parts.{name}.root")
+        roots[name] = sk.index(p.root)
+    depth = sk.depth()
+    for name in sorted(roots, key=lambda n: depth[roots[n]]):
+        j = roots[name]
+        anc = set()
+        a = j
+        while a >= 0:
+            anc.add(a)
+            a = int(sk.parents[a])
+        above = [n for n in roots if n != name and roots[n] in anc]
+        parent = max(above, key=lambda n: depth[roots[n]]) if above else FULL
+        layers[name] = build_layer(name, sk.subtree(j), parent, clips, cfg, relative=True)
+    tags = [[t.upper() for t in c.tags] for c in cfg.clips]
+    timings = {"load_s": t_load, "total_s": time.perf_counter() - t0,
+               "frames": int(sum(m.num_frames for m in clips))}
+    return MotionGraph(config=cfg, skeleton=sk, clips=clips, tags=tags, layers=layers, timings=timings)
+
+
+def heading_quat(yaw: float) -> FloatArray:
+    return Rotation.from_rotvec([0.0, 0.0, yaw]).as_quat()

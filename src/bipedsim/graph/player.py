@@ -1,0 +1,346 @@
+"""Playing a Motion Script on a multi-layered motion graph, producing a Motion.
+
+The full-body layer moves along its graph: to reach a motion it follows the Floyd-Warshall route
+between motions and, within the current clip, takes the nearest transition ahead on that route
+(breadth-first over frames). A transition is a linear blend over k frames (root position lerp,
+joint rotations slerp), with the target clip turned and shifted on the floor so its window matches
+the source window (the closed-form 2-D alignment).
+
+Child layers (``X with Y``) replace the joints of their part with a part motion: the part starts
+where its graph has a transition from the body's current motion (searched up to
+``SYNC_SEARCH_S`` ahead, else a forced blend), loops through its own graph, and blends back to the
+body's motion before the body switches to another motion (rule 2). A part may only switch when the
+body's current motion is in the part's graph (rule 1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial.transform import Rotation, Slerp
+
+from bipedsim.errors import BipedsimError
+from bipedsim.graph.build import FULL, Layer, MotionGraph, Transition
+from bipedsim.graph.distance import align_2d, apply_2d
+from bipedsim.graph.script import Command, Target
+from bipedsim.motion.motion import Motion, canonical_quat
+
+FloatArray = npt.NDArray[np.float64]
+#: How far ahead (s) a child layer may wait for a real transition before a forced blend.
+SYNC_SEARCH_S = 1.0
+
+
+class PlayError(BipedsimError):
+    pass
+
+
+@dataclass
+class Event:
+    time_s: float
+    layer: str
+    kind: str  #: "transition", "layer_start", "layer_end", "forced_blend", "skipped"
+    detail: str
+    cost: float | None = None
+
+
+@dataclass
+class PartState:
+    layer: Layer
+    tags: set[int]
+    clip: int
+    frame: int
+    weight: float = 0.0  #: 0 = the body's motion, 1 = the part's
+    fading: int = 0  #: +1 fading in, -1 fading out
+    exit: Transition | None = None  #: the part graph's transition this part will take next
+    blend_from: tuple[int, int] | None = None  #: (clip, frame) being blended out of
+    blend_step: int = 0
+
+
+@dataclass
+class Player:
+    graph: MotionGraph
+    start: str | None = None
+    clip: int = 0
+    frame: int = 0
+    xf: tuple[float, float, float] = (0.0, 0.0, 0.0)  #: (theta, x0, y0) clip -> world
+    roots: list[FloatArray] = field(default_factory=list)
+    rots: list[FloatArray] = field(default_factory=list)
+    events: list[Event] = field(default_factory=list)
+    parts: dict[str, PartState] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        g = self.graph
+        full = g.layers[FULL]
+        if not full.kept_clips:
+            raise PlayError("the full-body graph has no motion left after pruning")
+        if self.start is not None:
+            cands = [i for i in (g.clip_index(self.start) if self.start in g.clip_names else -1,) if i >= 0]
+            cands = cands or g.clips_with(self.start)
+            cands = [c for c in cands if c in full.kept_clips]
+            if not cands:
+                raise PlayError(f"--start {self.start!r}: no such motion or tag in the full-body graph; motions: "
+                                f"{', '.join(g.clip_names)}")
+            self.clip = cands[0]
+        else:
+            self.clip = full.kept_clips[0]
+        entries = sorted(t.dst_frame for t in full.transitions if t.dst == self.clip)
+        self.frame = entries[0] if entries else 0
+        self.k = g.config.k
+        self.fps = g.config.fps
+
+    # ------------------------------------------------------------------ frames
+    @property
+    def time(self) -> float:
+        return len(self.roots) / self.fps
+
+    def _pose(self, clip: int, frame: int, xf: tuple[float, float, float]) -> tuple[FloatArray, FloatArray]:
+        m = self.graph.clips[clip]
+        theta, x0, y0 = xf
+        root = apply_2d(m.root_translation[frame][None], theta, x0, y0)[0]
+        rot = m.rotations[frame].copy()
+        rot[0] = (Rotation.from_rotvec([0.0, 0.0, theta]) * Rotation.from_quat(rot[0])).as_quat()
+        return root, rot
+
+    def _emit(self, root: FloatArray, rot: FloatArray) -> None:
+        for name, ps in list(self.parts.items()):
+            if ps.fading:
+                ps.weight = float(np.clip(ps.weight + ps.fading / (self.k + 1), 0.0, 1.0))
+            w = ps.weight
+            if w > 0:
+                pm = self.graph.clips[ps.clip]
+                f = min(ps.frame, pm.num_frames - 1)
+                j = ps.layer.joints
+                a = Rotation.from_quat(rot[j])
+                b = Rotation.from_quat(pm.rotations[f, j])
+                if ps.blend_from is not None:  # a part transition: blend its k frames linearly
+                    oc, of = ps.blend_from
+                    om = self.graph.clips[oc]
+                    old = Rotation.from_quat(om.rotations[min(of, om.num_frames - 1), j])
+                    al = (ps.blend_step + 1) / (self.k + 1)
+                    b = old * Rotation.from_rotvec(al * (old.inv() * b).as_rotvec())
+                rel = (a.inv() * b).as_rotvec()
+                rot[j] = (a * Rotation.from_rotvec(w * rel)).as_quat()
+                self._advance_part(ps)
+            if ps.fading < 0 and ps.weight <= 0:
+                del self.parts[name]
+                self.events.append(Event(self.time, name, "layer_end", "back on the body's motion"))
+        self.roots.append(root)
+        self.rots.append(canonical_quat(rot))
+
+    def _play_frames(self, n: int) -> None:
+        for _ in range(n):
+            root, rot = self._pose(self.clip, self.frame, self.xf)
+            self._emit(root, rot)
+            self.frame += 1
+
+    def _cloud(self, clip: int, frame: int, xf: tuple[float, float, float]) -> FloatArray:
+        m = self.graph.clips[clip][frame:frame + self.k]
+        p = m.fk()[0]
+        theta, x0, y0 = xf
+        return apply_2d(p.reshape(-1, 3), theta, x0, y0)
+
+    def _transition(self, t: Transition, layer: str = FULL) -> None:
+        """Play the source up to the blend window, then blend k frames into the target."""
+        self._play_frames(t.src_frame - self.frame)
+        src = self._cloud(self.clip, t.src_frame, self.xf)
+        dst = self._cloud(t.dst, t.dst_frame, (0.0, 0.0, 0.0))
+        theta, x0, y0, _ = align_2d(src, dst)
+        new_xf = (theta, x0, y0)
+        for m in range(self.k):
+            a = (m + 1) / (self.k + 1)
+            ra, qa = self._pose(self.clip, t.src_frame + m, self.xf)
+            rb, qb = self._pose(t.dst, t.dst_frame + m, new_xf)
+            q = np.empty_like(qa)
+            for j in range(len(qa)):
+                q[j] = Slerp([0.0, 1.0], Rotation.from_quat([qa[j], qb[j]]))([a]).as_quat()[0]
+            self._emit((1 - a) * ra + a * rb, q)
+        self.events.append(Event(self.time, layer, "transition",
+                                 f"{self.graph.clip_names[self.clip]}[{t.src_frame}] -> "
+                                 f"{self.graph.clip_names[t.dst]}[{t.dst_frame}]", t.cost))
+        self.clip, self.frame, self.xf = t.dst, t.dst_frame + self.k, new_xf
+
+    # ------------------------------------------------------------------ parts
+    def _part_exit(self, ps: PartState) -> Transition | None:
+        """The last transition of the part's graph ahead in its clip toward a wanted motion."""
+        n = self.graph.clips[ps.clip].num_frames
+        ahead = [t for t in ps.layer.transitions if t.src == ps.clip and t.dst in ps.tags
+                 and ps.frame <= t.src_frame <= n - self.k]
+        if not ahead:
+            return None
+        last = max(t.src_frame for t in ahead)
+        return min((t for t in ahead if t.src_frame >= last - 2), key=lambda t: t.cost)
+
+    def _advance_part(self, ps: PartState) -> None:
+        ps.frame += 1
+        if ps.blend_from is not None:
+            ps.blend_from = (ps.blend_from[0], ps.blend_from[1] + 1)
+            ps.blend_step += 1
+            if ps.blend_step >= self.k:
+                ps.blend_from, ps.blend_step = None, 0
+                ps.exit = self._part_exit(ps)
+            return
+        if ps.exit is None:
+            ps.exit = self._part_exit(ps)
+        n = self.graph.clips[ps.clip].num_frames
+        if ps.exit is not None and ps.frame >= ps.exit.src_frame:
+            t = ps.exit
+            ps.blend_from, ps.blend_step = (ps.clip, ps.frame), 0
+            ps.clip, ps.frame, ps.exit = t.dst, t.dst_frame, None
+        elif ps.exit is None and ps.frame >= n - self.k:  # no way on in the graph: blend to a restart
+            ps.blend_from, ps.blend_step = (ps.clip, ps.frame), 0
+            ps.clip, ps.frame = sorted(ps.tags)[0], 0
+
+    def _start_part(self, layer: Layer, wanted: list[int]) -> None:
+        name = layer.name
+        if self.clip not in layer.kept_clips:  # rule 1
+            self.events.append(Event(self.time, name, "skipped", f"the body's motion "
+                                     f"{self.graph.clip_names[self.clip]} is not in the {name} graph"))
+            return
+        ahead = [t for t in layer.transitions if t.src == self.clip and t.dst in wanted and
+                 0 <= t.src_frame - self.frame <= SYNC_SEARCH_S * self.fps]
+        if ahead:
+            t = min(ahead, key=lambda t: (t.src_frame, t.cost))
+            self._play_frames(t.src_frame - self.frame)
+            clip, frame, kind = t.dst, t.dst_frame, "layer_start"
+        else:
+            clip, frame, kind = wanted[0], 0, "forced_blend"
+        self.parts[name] = PartState(layer=layer, tags=set(wanted), clip=clip, frame=frame, weight=0.0, fading=+1)
+        self.events.append(Event(self.time, name, kind, f"{name} plays {self.graph.clip_names[clip]}[{frame}]"))
+
+    def _end_parts(self) -> None:
+        for ps in self.parts.values():
+            if ps.fading >= 0:
+                ps.fading = -1
+        # let them blend out on the body's motion before it moves on (rule 2)
+        while self.parts and self.frame + 1 < self.graph.clips[self.clip].num_frames:
+            self._play_frames(1)
+        self.parts.clear()
+
+    # ------------------------------------------------------------------ commands
+    def _targets(self, layer: Layer, tag: str) -> list[int]:
+        return [c for c in self.graph.clips_with(tag) if c in layer.kept_clips]
+
+    def _child_layer_for(self, target: Target) -> Layer | None:
+        g = self.graph
+        if target.layer is not None:
+            if target.layer not in g.layers:
+                raise PlayError(f"no layer {target.layer!r}; layers: {', '.join(g.layers)}")
+            return g.layers[target.layer]
+        children = [ly for ly in g.layers.values() if ly.parent == FULL]
+        children += [ly for ly in g.layers.values() if ly.parent not in (None, FULL)]
+        for ly in children:
+            if self._targets(ly, target.tag):
+                return ly
+        return None
+
+    def run(self, commands: list[Command]) -> Motion:
+        for cmd in commands:
+            self.command(cmd)
+        return self.motion()
+
+    def command(self, cmd: Command) -> None:
+        g, full = self.graph, self.graph.layers[FULL]
+        main = cmd.main
+        extra = cmd.extra
+        if cmd.mode == "and" and extra is not None:
+            both = [c for c in self._targets(full, main.tag) if c in g.clips_with(extra.tag)]
+            if both:
+                self._play_target(full, both, cmd.seconds)
+                return
+        targets = self._targets(full, main.tag) if main.layer in (None, FULL) else []
+        if main.layer not in (None, FULL):  # `Upper-Body TALK` alone: a part on the current motion
+            layer = g.layers.get(main.layer)
+            if layer is None:
+                raise PlayError(f"line {cmd.line}: no layer {main.layer!r}; layers: {', '.join(g.layers)}")
+            self._play_layer_only(layer, main.tag, cmd.seconds)
+            return
+        if not targets:
+            raise PlayError(f"line {cmd.line}: no motion named or tagged {main.tag!r} in the full-body graph; "
+                            f"tags: {sorted({t for ts in g.tags for t in ts})}")
+        if extra is not None:
+            layer = self._child_layer_for(extra)
+            wanted = [] if layer is None else self._targets(layer, extra.tag)
+            if not wanted:
+                raise PlayError(f"line {cmd.line}: no child layer has a motion tagged {extra.tag!r}")
+            self._reach(full, targets)
+            self._start_part(layer, wanted)  # type: ignore[arg-type]
+            self._play_target(full, targets, cmd.seconds, keep_parts=True)
+            self._end_parts()
+            return
+        self._play_target(full, targets, cmd.seconds)
+
+    def _play_layer_only(self, layer: Layer, tag: str, seconds: float | None) -> None:
+        wanted = self._targets(layer, tag)
+        if not wanted:
+            raise PlayError(f"no motion tagged {tag!r} in layer {layer.name}")
+        current = [self.clip]
+        self._start_part(layer, wanted)
+        self._play_target(self.graph.layers[FULL], current, seconds, keep_parts=True)
+        self._end_parts()
+
+    def _reach(self, layer: Layer, targets: list[int]) -> None:
+        """Follow the route to the nearest target motion."""
+        guard = 0
+        while self.clip not in targets:
+            guard += 1
+            if guard > 50:
+                raise PlayError("could not reach the motion (the graph has no route)")
+            if self.parts:
+                self._end_parts()
+            best = min(targets, key=lambda c: layer.path_cost[self.clip, c])
+            route = layer.path(self.clip, best)
+            nxt = route[1] if len(route) > 1 else best
+            t = self._next_exit(layer, {nxt}) or self._next_exit(layer, None)
+            if t is None:
+                raise PlayError(f"dead end in {self.graph.clip_names[self.clip]} at frame {self.frame}")
+            self._transition(t)
+
+    def _next_exit(self, layer: Layer, to: set[int] | None, latest: bool = False) -> Transition | None:
+        """The nearest transition ahead (breadth-first over frames) -- or, with ``latest``, the last
+        one before the clip runs out, to stay on the current motion as long as it lasts."""
+        ahead = [t for t in layer.transitions if t.src == self.clip and t.src_frame >= self.frame
+                 and (to is None or t.dst in to)]
+        if not ahead:
+            return None
+        if latest:
+            last = max(t.src_frame for t in ahead)
+            return min((t for t in ahead if t.src_frame >= last - 2), key=lambda t: t.cost)
+        return min(ahead, key=lambda t: (t.src_frame, t.cost))
+
+    def _play_target(self, layer: Layer, targets: list[int], seconds: float | None, keep_parts: bool = False) -> None:
+        if not keep_parts and self.parts:
+            self._end_parts()
+        self._reach(layer, targets)
+        n_total = int(round((seconds if seconds is not None else
+                             self.graph.clips[self.clip].duration) * self.fps))
+        end = len(self.roots) + n_total
+        while len(self.roots) < end:
+            t = self._next_exit(layer, set(targets), latest=True)
+            if t is None:
+                t = self._next_exit(layer, None, latest=True)
+            if t is None:
+                raise PlayError(f"dead end in {self.graph.clip_names[self.clip]} at frame {self.frame}")
+            room = t.src_frame - self.frame
+            left = end - len(self.roots)
+            if room >= left:
+                self._play_frames(left)
+                break
+            if t.dst not in targets and self.parts:
+                self._end_parts()  # rule 2: children end before the body switches motion
+            self._transition(t)
+            if self.clip not in targets:
+                self._reach(layer, targets)
+
+    def motion(self) -> Motion:
+        if not self.roots:
+            raise PlayError("the script produced no frames")
+        return Motion(skeleton=self.graph.skeleton, frame_time=1.0 / self.fps, root_translation=np.array(self.roots),
+                      rotations=np.array(self.rots), unit=1.0, up="z")
+
+    def report(self) -> dict[str, Any]:
+        from dataclasses import asdict
+
+        return {"frames": len(self.roots), "seconds": self.time, "events": [asdict(e) for e in self.events]}

@@ -1,0 +1,116 @@
+"""Motion Script: a tiny language that steers a multi-layered motion graph.
+
+One command per line (``#`` starts a comment)::
+
+    command  := clause ("for" NUMBER ("sec" | "s"))?
+    clause   := target (("with" | "and") target)?
+    target   := WORD | LAYER WORD        e.g. WALK, Upper-Body TALK
+
+``X with Y``: X plays on the full body while Y plays on a child layer (the layer named in Y, or the
+nearest child layer that has a Y motion). ``X and Y``: one motion tagged with both, else split across
+layers like ``with``. Syntax errors name the line and column.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from bipedsim.errors import BipedsimError
+
+
+class ScriptError(BipedsimError):
+    def __init__(self, message: str, line: int, column: int, source: str = "<script>") -> None:
+        self.line, self.column = line, column
+        super().__init__(f"{source}:{line}:{column}: {message}")
+
+
+@dataclass(frozen=True)
+class Target:
+    tag: str
+    layer: str | None = None
+
+
+@dataclass(frozen=True)
+class Command:
+    main: Target
+    extra: Target | None = None
+    mode: str | None = None  #: "with" | "and"
+    seconds: float | None = None
+    line: int = 0
+
+
+_TOKEN = re.compile(r"\s*(?:(?P<num>\d+(?:\.\d+)?)|(?P<word>[A-Za-z_][A-Za-z0-9_\-]*))")
+KEYWORDS = {"with", "and", "for", "sec", "s", "secs", "seconds"}
+
+
+def parse(text: str, source: str = "<script>", layers: tuple[str, ...] = ()) -> list[Command]:
+    """Parse a script. ``layers``: known layer names (so ``Upper-Body TALK`` targets a layer)."""
+    known = {name.lower(): name for name in layers}
+    out = []
+    for ln, raw in enumerate(text.splitlines(), 1):
+        line = raw.split("#", 1)[0]
+        if not line.strip():
+            continue
+        toks: list[tuple[str, str, int]] = []
+        pos = 0
+        while pos < len(line):
+            if line[pos:].strip() == "":
+                break
+            m = _TOKEN.match(line, pos)
+            if not m or m.end() == pos:
+                col = pos + (len(line[pos:]) - len(line[pos:].lstrip())) + 1
+                raise ScriptError(f"unexpected character {line[col - 1]!r}", ln, col, source)
+            kind = "num" if m.group("num") else "word"
+            text_ = m.group(kind)
+            toks.append((kind, text_, m.start(kind) + 1))
+            pos = m.end()
+        out.append(_command(toks, ln, source, known, len(line)))
+    if not out:
+        raise ScriptError("the script has no commands", 1, 1, source)
+    return out
+
+
+def _command(toks: list[tuple[str, str, int]], ln: int, source: str, known: dict[str, str], width: int) -> Command:
+    i = 0
+
+    def err(msg: str, col: int | None = None) -> ScriptError:
+        return ScriptError(msg, ln, col if col is not None else (toks[i][2] if i < len(toks) else width + 1), source)
+
+    def target() -> Target:
+        nonlocal i
+        if i >= len(toks):
+            raise err("expected a motion name or tag")
+        kind, word, _ = toks[i]
+        if kind != "word" or word.lower() in KEYWORDS:
+            raise err(f"expected a motion name or tag, got {word!r}")
+        i += 1
+        if word.lower() in known:
+            if i >= len(toks) or toks[i][0] != "word" or toks[i][1].lower() in KEYWORDS:
+                raise err(f"expected a tag after layer {known[word.lower()]!r}")
+            tag = toks[i][1]
+            i += 1
+            return Target(tag=tag.upper(), layer=known[word.lower()])
+        return Target(tag=word.upper())
+
+    main = target()
+    extra, mode, seconds = None, None, None
+    if i < len(toks) and toks[i][1].lower() in ("with", "and"):
+        mode = toks[i][1].lower()
+        i += 1
+        extra = target()
+    if i < len(toks) and toks[i][1].lower() == "for":
+        i += 1
+        if i >= len(toks) or toks[i][0] != "num":
+            raise err("expected a number of seconds after 'for'")
+        seconds = float(toks[i][1])
+        if seconds <= 0:
+            raise err("duration must be positive")
+        i += 1
+        if i < len(toks) and toks[i][1].lower() in ("sec", "s", "secs", "seconds"):
+            i += 1
+        else:
+            raise err("expected 'sec' after the number")
+    if i < len(toks):
+        raise err(f"unexpected {toks[i][1]!r}: a command is TARGET [with|and TARGET] [for N sec]")
+    return Command(main=main, extra=extra, mode=mode, seconds=seconds, line=ln)

@@ -1,0 +1,165 @@
+"""Motion graphs: the closed-form alignment, distances, pruning, layers, Motion Script, playback."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import SHARED_BVH, need_shared
+from scipy.optimize import minimize
+
+from bipedsim.cli import main
+from bipedsim.graph import FULL, MotionGraph, Player, ScriptError, build_graph, load_graph_config, parse
+from bipedsim.graph.build import prune
+from bipedsim.graph.distance import align_2d, apply_2d, distance_matrix, windows
+
+REPO = Path(__file__).resolve().parent.parent
+CONFIG = REPO / "examples" / "graphs" / "walk_wave.yaml"
+#: Documented bound: no output frame moves any joint more than this factor times the largest
+#: per-frame joint displacement found in the source clips.
+JUMP_FACTOR = 1.5
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_closed_form_alignment_matches_optimiser(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    p = rng.normal(size=(40, 3))
+    q = apply_2d(p, rng.uniform(-3, 3), *rng.normal(size=2)) + rng.normal(scale=0.3, size=(40, 3))
+    w = rng.uniform(0.2, 2.0, 40)
+    theta, x0, y0, d = align_2d(p, q, w)
+
+    def f(v: np.ndarray) -> float:
+        return float(w @ np.sum((p - apply_2d(q, *v)) ** 2, axis=1))
+
+    best = min((minimize(f, x0=[t, 0, 0], method="BFGS", options={"gtol": 1e-13}) for t in np.linspace(-3, 3, 7)),
+               key=lambda r: r.fun)
+    assert abs(d - best.fun) < 1e-9
+    assert abs(d - f(np.array([theta, x0, y0]))) < 1e-9
+
+
+def test_distance_matrix_is_all_pairs_of_alignments() -> None:
+    rng = np.random.default_rng(1)
+    pa, pb = rng.normal(size=(15, 6, 3)), rng.normal(size=(12, 6, 3))
+    w = rng.uniform(0.5, 2, 6)
+    d = distance_matrix(pa, pb, 4, weights=w)
+    wa, wb = windows(pa, 4), windows(pb, 4)
+    ww = np.tile(w, 4)
+    ref = np.array([[align_2d(wa[i], wb[j], ww)[3] for j in range(len(wb))] for i in range(len(wa))])
+    assert np.allclose(d, ref, atol=1e-9)
+    # a cloud and its turned, shifted copy are at distance zero
+    assert distance_matrix(pa, np.stack([apply_2d(f, 0.7, 1.0, -2.0) for f in pa]), 4).diagonal().max() < 1e-9
+
+
+def test_script_parser_and_errors() -> None:
+    cmds = parse("WALK\nWALK with Upper-Body TALK for 10 sec  # comment\nwalk and wave_hand for 2.5 s\n",
+                 layers=("Upper-Body",))
+    assert cmds[0].main.tag == "WALK" and cmds[0].seconds is None
+    assert cmds[1].mode == "with" and cmds[1].extra.layer == "Upper-Body" and cmds[1].extra.tag == "TALK"
+    assert cmds[1].seconds == 10.0 and cmds[2].mode == "and" and cmds[2].seconds == 2.5
+    for text, line, col, msg in (("WALK\nWALK for ten sec", 2, 10, "expected a number"),
+                                 ("WALK with", 1, 10, "expected a motion name or tag"),
+                                 ("WALK for 3 sex", 1, 12, "expected 'sec'"),
+                                 ("WALK $", 1, 6, "unexpected character"),
+                                 ("WALK TALK", 1, 6, "unexpected 'TALK'"),
+                                 ("", 1, 1, "no commands")):
+        with pytest.raises(ScriptError) as exc:
+            parse(text, source="s.txt")
+        assert (exc.value.line, exc.value.column) == (line, col) and msg in str(exc.value)
+        assert str(exc.value).startswith(f"s.txt:{line}:{col}: ")
+
+
+@pytest.fixture(scope="module")
+def graph() -> MotionGraph:
+    need_shared()
+    return build_graph(load_graph_config(CONFIG), CONFIG.parent)
+
+
+def _strongly_connected(ly, lengths) -> bool:
+    keep, _, n = prune(ly.transitions, lengths)
+    return len(keep) == len(ly.transitions) and n > 0
+
+
+def test_pruned_graphs_are_strongly_connected(graph: MotionGraph) -> None:
+    lengths = [c.num_frames for c in graph.clips]
+    for ly in graph.layers.values():
+        assert ly.transitions and _strongly_connected(ly, lengths)
+        # every entry into a clip has an exit ahead of it (no dead end)
+        for t in ly.transitions:
+            assert any(u.src == t.dst and u.src_frame >= t.dst_frame for u in ly.transitions)
+
+
+def test_random_walk_of_ten_minutes_never_dead_ends(graph: MotionGraph) -> None:
+    rng = np.random.default_rng(0)
+    ly = graph.layers[FULL]
+    clip, frame, played = ly.transitions[0].dst, ly.transitions[0].dst_frame, 0
+    k = graph.config.k
+    while played < 10 * 60 * graph.config.fps:
+        ahead = [t for t in ly.transitions if t.src == clip and t.src_frame >= frame]
+        assert ahead, f"dead end in clip {clip} at frame {frame}"
+        t = ahead[rng.integers(len(ahead))]
+        played += t.src_frame - frame + k
+        clip, frame = t.dst, t.dst_frame + k
+    assert played >= 18000
+
+
+def test_layers_and_similarity(graph: MotionGraph) -> None:
+    assert set(graph.layers) == {FULL, "Upper-Body"} and graph.layers["Upper-Body"].parent == FULL
+    sim = graph.layers["Upper-Body"].similarity
+    walk, mirror, wave = (graph.clip_index(n) for n in ("walk", "walk_mirror", "wave"))
+    # an upper body is more like the walk's own mirror than like a wave
+    assert sim[walk, mirror] < sim[walk, wave]
+    assert graph.layers[FULL].path(walk, wave)[0] == walk and graph.layers[FULL].path(walk, wave)[-1] == wave
+
+
+def _play(graph: MotionGraph, text: str):
+    pl = Player(graph, start="walk")
+    return pl, pl.run(parse(text, layers=tuple(graph.layers)))
+
+
+def test_walk_with_upper_body_wave_and_walk_and_wave(graph: MotionGraph, tmp_path: Path) -> None:
+    src_step = max(np.linalg.norm(np.diff(c.fk()[0], axis=0), axis=2).max() for c in graph.clips)
+    sk = graph.skeleton
+    for text in ("WALK with Upper-Body WAVE_HAND for 6 sec", "WALK and WAVE_HAND for 6 sec"):
+        pl, m = _play(graph, text)
+        pos = m.fk()[0]
+        assert np.linalg.norm(np.diff(pos, axis=0), axis=2).max() <= JUMP_FACTOR * src_step
+        # the legs walk: the root moves on at walking speed, the feet take turns
+        speed = np.linalg.norm(m.root_translation[-1, :2] - m.root_translation[0, :2]) / m.duration
+        assert speed > 0.8
+        lf, rf = pos[:, sk.index("LeftFoot"), 2], pos[:, sk.index("RightFoot"), 2]
+        assert np.corrcoef(lf, rf)[0, 1] < 0.2
+        # an arm waves: a hand well above the hips once the layer is in
+        hands = np.maximum(pos[:, sk.index("RightHand"), 2], pos[:, sk.index("LeftHand"), 2]) - pos[:, 0, 2]
+        assert hands[60:].max() > 0.3 and any(e.layer == "Upper-Body" for e in pl.events)
+    # walking alone keeps the hands down
+    _, m = _play(graph, "WALK for 4 sec")
+    pos = m.fk()[0]
+    assert (np.maximum(pos[:, sk.index("RightHand"), 2], pos[:, sk.index("LeftHand"), 2]) - pos[:, 0, 2]).max() < 0.1
+
+
+def test_cli_build_play_and_run(graph: MotionGraph, tmp_path: Path) -> None:
+    g, out = tmp_path / "g.npz", tmp_path / "out.bvh"
+    assert main(["graph", "build", str(CONFIG), "-o", str(g)]) == 0
+    again = MotionGraph.load(g)
+    assert again.layers[FULL].transitions[0] == graph.layers[FULL].transitions[0]
+    script = REPO / "examples" / "graphs" / "walk_and_wave.txt"
+    assert main(["graph", "play", str(g), str(script), "-o", str(out), "--start", "walk",
+                 "--report", str(tmp_path / "r.json")]) == 0
+    # the output runs straight into the physics
+    assert main(["run", "--bvh", str(out), "--seconds", "1", "--out", str(tmp_path / "run")]) == 0
+    bad = tmp_path / "bad.txt"
+    bad.write_text("WALK for 2 sec\nFLY for 2 sec\n")
+    assert main(["graph", "play", str(g), str(bad), "-o", str(out)]) == 2
+
+
+def test_graph_config_errors(tmp_path: Path) -> None:
+    from bipedsim.errors import ConfigError
+
+    p = tmp_path / "g.yaml"
+    p.write_text("name: x\nclips: []\n")
+    with pytest.raises(ConfigError, match="at least one clip"):
+        load_graph_config(p)
+    p.write_text(f"name: x\nclips:\n  - {{name: a, file: {SHARED_BVH}/human/missing.bvh}}\n")
+    with pytest.raises(ConfigError, match="no such BVH file"):
+        build_graph(load_graph_config(p), tmp_path)

@@ -137,6 +137,31 @@ def calibrate_rigid(pts: SourcePoints, origin: str, points: list[str], ref_joint
     return vecs
 
 
+def rigid_residual(pts: SourcePoints, origin: str, points: list[str], ref_joint: str, vecs: FloatArray,
+                   weights: FloatArray | None = None) -> FloatArray:
+    """Worst distance (m) over the motion between each point and where the rigid layout ``vecs``,
+    fitted per frame, puts it."""
+    from bipedsim.model.retarget import kabsch
+
+    cur = np.stack([pts[p] - pts[origin] for p in points], axis=1)
+    r = kabsch(vecs, cur, pts.rotation(ref_joint), weights)
+    return np.linalg.norm(np.einsum("tij,nj->tni", r, vecs) - cur, axis=-1).max(axis=0)
+
+
+def _split_spine(profile: HumanoidProfile, moving: SourcePoints, hm: HumanoidMap, torso_pts: list[str],
+                 tv: FloatArray, torso_w: FloatArray) -> bool:
+    """Whether the torso gets two segments (see ``spine_segments`` in the humanoid profile)."""
+    if profile.spine_segments == 1 or hm.chest == hm.torso_base:
+        if profile.spine_segments == 2:
+            raise ModelError(f"spine_segments: 2 needs a joint between the spine base {hm.torso_base!r} "
+                             f"and the chest; this skeleton's arms meet at the spine base")
+        return False
+    if profile.spine_segments == 2:
+        return True
+    worst = rigid_residual(moving, hm.torso_base, torso_pts, hm.chest, tv, torso_w)[1:]  # the shoulders
+    return bool(worst.size and worst.max() > profile.spine_split_tol)
+
+
 def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile | None = None,
                   total_mass: float | None = None, name: str = "humanoid") -> BodyPlanSet:
     """The humanoid body plan for a motion's skeleton (motion in the project frame: m, Z up).
@@ -186,6 +211,16 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
                          np.stack([vec(hm.torso_base, p) for p in torso_pts]), torso_w)
     for p_, v in zip(torso_pts, tv):
         Q[p_] = Q[hm.torso_base] + v
+    split = _split_spine(profile, moving, hm, torso_pts, tv, torso_w)
+    if split:
+        # abdomen: spine base -> chest joint; chest: the rigid layout of neck and shoulders about it
+        (av,) = calibrate_rigid(moving, hm.torso_base, [hm.chest], hm.torso_base,
+                                vec(hm.torso_base, hm.chest)[None])
+        Q[hm.chest] = Q[hm.torso_base] + av
+        tv = calibrate_rigid(moving, hm.chest, torso_pts, hm.chest,
+                             np.stack([vec(hm.chest, p) for p in torso_pts]), torso_w)
+        for p_, v in zip(torso_pts, tv):
+            Q[p_] = Q[hm.chest] + v
     head_top = rest.tip(hm.head)
     Q[head_top] = Q[hm.neck] + vec(hm.neck, head_top)
 
@@ -200,15 +235,35 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
         fit=FitPlan(method="kabsch", origin=hm.pelvis, points=pelvis_pts, ref=f"bvh:{hm.pelvis}",
                     rest_vectors=[list(v) for v in pv])))
     markers[hm.pelvis] = ["body", "pelvis"]
-    torso_bone = check(Q[hm.neck] - Q[hm.torso_base], hm.torso_base, hm.neck, "torso")
     kp, kd = gains("spine")
-    bodies.append(BodyPlan(
-        name="torso", parent="pelvis", pos=list(Q[hm.torso_base]), source=hm.torso_base, segment="torso",
-        joints=_hinges("spine", profile.joints["spine"], torso_bone, False, kp, kd, "spine"),
-        geoms=[_capsule(Q[hm.torso_base], Q[hm.neck], Q[hm.torso_base], g.torso_radius,
-                        profile.masses["torso"])],
-        fit=FitPlan(method="kabsch", origin=hm.torso_base, points=torso_pts, ref=f"bvh:{hm.chest}",
-                    rest_vectors=[list(v) for v in tv], weights=list(torso_w))))
+    if split:
+        ab = check(Q[hm.chest] - Q[hm.torso_base], hm.torso_base, hm.chest, "abdomen")
+        ch = check(Q[hm.neck] - Q[hm.chest], hm.chest, hm.neck, "chest")
+        share = float(np.linalg.norm(ab) / (np.linalg.norm(ab) + np.linalg.norm(ch)))
+        bodies.append(BodyPlan(
+            name="abdomen", parent="pelvis", pos=list(Q[hm.torso_base]), source=hm.torso_base,
+            segment="torso",
+            joints=_hinges("spine", profile.joints["spine"], ab, False, kp, kd, "spine"),
+            geoms=[_capsule(Q[hm.torso_base], Q[hm.chest], Q[hm.torso_base], g.torso_radius,
+                            share * profile.masses["torso"])],
+            fit=FitPlan(method="aim", origin=hm.torso_base, points=[hm.chest], ref=f"bvh:{hm.torso_base}",
+                        rest_vectors=[list(ab)])))
+        bodies.append(BodyPlan(
+            name="torso", parent="abdomen", pos=list(Q[hm.chest]), source=hm.chest, segment="torso",
+            joints=_hinges("chest", profile.joints["spine"], ch, False, kp, kd, "spine"),
+            geoms=[_capsule(Q[hm.chest], Q[hm.neck], Q[hm.chest], g.torso_radius,
+                            (1.0 - share) * profile.masses["torso"])],
+            fit=FitPlan(method="kabsch", origin=hm.chest, points=torso_pts, ref=f"bvh:{hm.chest}",
+                        rest_vectors=[list(v) for v in tv], weights=list(torso_w))))
+    else:
+        torso_bone = check(Q[hm.neck] - Q[hm.torso_base], hm.torso_base, hm.neck, "torso")
+        bodies.append(BodyPlan(
+            name="torso", parent="pelvis", pos=list(Q[hm.torso_base]), source=hm.torso_base, segment="torso",
+            joints=_hinges("spine", profile.joints["spine"], torso_bone, False, kp, kd, "spine"),
+            geoms=[_capsule(Q[hm.torso_base], Q[hm.neck], Q[hm.torso_base], g.torso_radius,
+                            profile.masses["torso"])],
+            fit=FitPlan(method="kabsch", origin=hm.torso_base, points=torso_pts, ref=f"bvh:{hm.chest}",
+                        rest_vectors=[list(v) for v in tv], weights=list(torso_w))))
     head_bone = check(vec(hm.neck, head_top), hm.neck, head_top, "neck to head top")
     kp, kd = gains("neck")
     centre = Q[hm.neck] + 0.6 * head_bone

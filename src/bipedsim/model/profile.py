@@ -89,6 +89,11 @@ class HumanoidProfile:
     joints: dict[str, JointSpec] = field(default_factory=dict)
     ankle_2dof: bool = False
     ankle_x_range: tuple[float, float] = (-0.4, 0.4)
+    #: torso as 1 rigid segment (the paper), 2 (abdomen + chest, each with the spine's 3 hinges), or
+    #: "auto": 2 only where the source's spine bends so much that one rigid torso would misplace the
+    #: shoulders by more than ``spine_split_tol`` (m) on some frame
+    spine_segments: Any = field(default="auto", metadata={"choices": ("auto", 1, 2)})
+    spine_split_tol: float = field(default=0.015, metadata={"gt": 0.0})
     gains: dict[str, tuple[float, float]] = field(default_factory=dict)
     geometry: Geometry = field(default_factory=Geometry)
     sim: SimOptions = field(default_factory=SimOptions)

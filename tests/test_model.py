@@ -310,6 +310,11 @@ def test_two_segment_spine_where_the_source_bends() -> None:
     mk = marker_positions(two.model, clip, two.plan)
     src = source_marker_positions(walk, clip, two.plan)
     assert max(np.abs(mk[k] - src[k]).max() for k in mk) < 1e-6
+    # CMU releases by Holden put the neck on the chest joint (Spine1): the split moves down to Spine
+    holden = load_bvh(SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
+    h2 = build_model(holden, replace(prof, spine_segments=2))
+    assert {b.name: b.source for b in h2.plan.bodies}["torso"] == "Spine"
+    passive_ok(h2.model, retarget(holden, h2.model, xml=h2.xml).qpos[0])
 
 
 def test_spine_segments_validated(tmp_path: Path) -> None:

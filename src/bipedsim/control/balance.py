@@ -6,6 +6,8 @@ y left). Torques (N*m) are world vectors unless said otherwise.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import numpy.typing as npt
 
@@ -55,7 +57,7 @@ def stance_share(force_stance: float, force_swing: float) -> float:
     total = force_stance + force_swing
     if total <= 1e-9:
         return 1.0
-    return float(np.clip(force_stance / total, 0.0, 1.0))
+    return min(max(float(force_stance) / total, 0.0), 1.0)
 
 
 def hip_torques(tau_torso: FloatArray, tau_swing: FloatArray, gamma: float,
@@ -86,14 +88,20 @@ def hinges_to_world(axes: FloatArray, tau_hinge: FloatArray) -> FloatArray:
     """The world torque whose hinge components are ``tau_hinge`` (inverse of :func:`world_to_hinges`
     for three independent axes; least squares when they are not)."""
     if axes.shape == (3, 3):
-        det = np.linalg.det(axes)
+        # Cramer's rule on plain floats: this runs on every control step
+        (a, b, c), (d, e, f), (g, h, i) = axes.tolist()
+        x, y, z = (float(v) for v in tau_hinge)
+        ei_fh, di_fg, dh_eg = e * i - f * h, d * i - f * g, d * h - e * g
+        det = a * ei_fh - b * di_fg + c * dh_eg
         if abs(det) > 1e-6:
-            return np.linalg.solve(axes, tau_hinge)
+            return np.array([(x * ei_fh - b * (y * i - f * z) + c * (y * h - e * z)) / det,
+                             (a * (y * i - f * z) - x * di_fg + c * (d * z - y * g)) / det,
+                             (a * (e * z - y * h) - b * (d * z - y * g) + x * dh_eg) / det])
     return np.linalg.lstsq(axes, tau_hinge, rcond=None)[0]
 
 
 def yaw_matrix(yaw: float) -> FloatArray:
-    c, s = np.cos(yaw), np.sin(yaw)
+    c, s = math.cos(yaw), math.sin(yaw)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
@@ -104,8 +112,8 @@ def heading_of(r: FloatArray) -> float:
 
 def axis_rotation(axis: FloatArray, angle: float) -> FloatArray:
     """Rodrigues: rotation matrix about a unit ``axis`` by ``angle`` rad."""
-    x, y, z = axis
-    c, s = np.cos(angle), np.sin(angle)
+    x, y, z = (float(v) for v in axis)
+    c, s = math.cos(angle), math.sin(angle)
     t = 1.0 - c
     return np.array([[c + x * x * t, x * y * t - z * s, x * z * t + y * s],
                      [y * x * t + z * s, c + y * y * t, y * z * t - x * s],
@@ -116,7 +124,8 @@ def euler_from_matrix(r: FloatArray, order: tuple[int, int, int]) -> tuple[float
     """Intrinsic Tait-Bryan angles (a, b, c) with r = R_i(a) R_j(b) R_k(c), axes i, j, k distinct."""
     i, j, k = order
     s = 1.0 if (i, j, k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
-    b = float(np.arcsin(np.clip(s * r[i, k], -1.0, 1.0)))
-    a = float(np.arctan2(-s * r[j, k], r[k, k]))
-    c = float(np.arctan2(-s * r[i, j], r[i, i]))
+    m = r.tolist()
+    b = math.asin(min(max(s * m[i][k], -1.0), 1.0))
+    a = math.atan2(-s * m[j][k], m[k][k])
+    c = math.atan2(-s * m[i][j], m[i][i])
     return a, b, c

@@ -38,6 +38,13 @@ class PDConfig:
 
     mode: str = field(default="pd", metadata={"choices": PD_MODES})
     implicit_damping: bool = True
+    #: the kp (theta_d - theta) term runs inside MuJoCo's actuators: each is a position servo,
+    #: force = kp (u - theta) clamped to the torque limit, whose target u = theta + tau / kp gives the
+    #: controller's torque tau (PD, feedforward, balance) at the control step, and keeps acting as a
+    #: spring as theta moves until the next one. So the stiffness is evaluated on every physics step
+    #: even when the controller runs less often (``control_dt``). At ``control_dt`` = the timestep
+    #: this is exactly the torque law; ``false``: plain torque motors, held between control steps.
+    servo: bool = True
     #: feedforward: hold every swinging part against gravity (MuJoCo's bias forces) and let the
     #: stance knee and ankle carry their share (gamma) of the body weight (J^T f); not in the paper
     gravity_compensation: bool = True
@@ -153,6 +160,7 @@ class ControllerConfig:
 
     name: str = "default"
     source: str = field(default="clip", metadata={"choices": SOURCES})
+    #: seconds between control steps (null: every physics step); physics runs at the model's timestep
     control_dt: float | None = field(default=None, metadata={"gt": 0.0})
     pd: PDConfig = field(default_factory=PDConfig)
     fsm: FSMConfig = field(default_factory=FSMConfig)

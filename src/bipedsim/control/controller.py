@@ -13,6 +13,7 @@ One call maps (model, data, time) to actuator controls (joint torques, N*m). Per
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import mujoco
@@ -118,13 +119,27 @@ class Controller:
         self.is_hip = np.zeros(n, dtype=bool)
         for s in SIDES:
             self.is_hip[self.hip[s][0]] = True
-        # implicit damping: MuJoCo's joint damping carries kd for every joint but the hips
+        # implicit damping: MuJoCo's joint damping carries kd
         self.implicit = cfg.pd.implicit_damping
         self.base_damping = model.dof_damping.copy()
         # the configuration's torque limits replace the model's actuator ranges while it runs
-        self.base_ctrlrange = model.actuator_ctrlrange.copy()
-        model.actuator_ctrlrange[self.h.actuator, 0] = -self.limit
-        model.actuator_ctrlrange[self.h.actuator, 1] = self.limit
+        self._saved = {k: getattr(model, k).copy() for k in _ACTUATOR_FIELDS}
+        acts = self.h.actuator
+        self.servo = cfg.pd.servo & (self.kp > 0)
+        self.servo_gain = np.ones(n)
+        if cfg.pd.servo:
+            # force = gain ctrl - gain q for servo joints (ctrl is a target angle), = ctrl for motors;
+            # the torque limit clamps the actuator force on every physics step
+            model.actuator_gaintype[acts] = mujoco.mjtGain.mjGAIN_FIXED
+            model.actuator_biastype[acts] = mujoco.mjtBias.mjBIAS_AFFINE
+            model.actuator_biasprm[acts] = 0.0
+            model.actuator_ctrllimited[acts] = 0
+            model.actuator_forcelimited[acts] = 1
+            model.actuator_forcerange[acts, 0] = -self.limit
+            model.actuator_forcerange[acts, 1] = self.limit
+        else:
+            model.actuator_ctrlrange[acts, 0] = -self.limit
+            model.actuator_ctrlrange[acts, 1] = self.limit
         self.pelvis = model.body("pelvis").id
         self.foot_body = {s: model.body(f"{s}_foot").id for s in SIDES}
         # stance-leg joints below the hip (knee, ankle, toe) per side, for weight support
@@ -151,21 +166,29 @@ class Controller:
         self.pending_shift = 0.0
         self.resyncs: list[ResyncEvent] = []
         self.ctrl = np.zeros(model.nu)
+        self.torque = np.zeros(n)  #: the torques (N*m) of the last control step
         self.tracking_error = np.zeros(n)
         self._qpos_now = np.zeros(model.nq)
         self._apply_damping(1.0)
 
     # ------------------------------------------------------------------ setup
     def _apply_damping(self, scale: float) -> None:
+        """Gains scaled by the fade factor: MuJoCo joint damping (implicit kd) and servo stiffness."""
         d = self.base_damping.copy()
         if self.implicit:
             d[self.h.dadr] += scale * self.kd
         self.model.dof_damping[:] = d
+        if self.cfg.pd.servo:
+            acts = self.h.actuator
+            self.servo_gain = np.where(self.servo, max(scale, 1e-6) * self.kp, 1.0)
+            self.model.actuator_gainprm[acts, 0] = self.servo_gain
+            self.model.actuator_biasprm[acts, 1] = np.where(self.servo, -self.servo_gain, 0.0)
 
     def restore_model(self) -> None:
-        """Undo the damping and torque ranges this controller put into the model."""
+        """Undo the damping, gains and torque ranges this controller put into the model."""
         self.model.dof_damping[:] = self.base_damping
-        self.model.actuator_ctrlrange[:] = self.base_ctrlrange
+        for k, v in self._saved.items():
+            getattr(self.model, k)[:] = v
 
     def reset(self, data: mujoco.MjData, frame: float | None = None, t: float = 0.0) -> None:
         """Start: reference at ``frame`` (default: the loop start, a right-foot strike), state 1."""
@@ -280,8 +303,18 @@ class Controller:
         st.frame, st.fsm_state, st.fade, st.holding = self.frame, fsm.state, a, holding
         if cfg.balance.enabled:
             self._balance(data, q, qd, q_d, qd_d, tau)
-        np.clip(tau, -self.limit, self.limit, out=tau)
-        self.ctrl[self.h.actuator] = tau
+        if self.cfg.pd.servo:
+            # servo joints: the target that gives this torque now, tau = gain (ctrl - q), and the
+            # actuator keeps applying gain (ctrl - q), clamped to the limit, as q moves
+            u = np.clip(tau, -self.limit, self.limit)
+            sv = self.servo
+            u[sv] = q[sv] + tau[sv] / self.servo_gain[sv]
+            self.ctrl[self.h.actuator] = u
+            self.torque = np.clip(tau, -self.limit, self.limit)
+        else:
+            np.clip(tau, -self.limit, self.limit, out=tau)
+            self.ctrl[self.h.actuator] = tau
+            self.torque = tau
         return self.ctrl
 
     def _gravity(self, data: mujoco.MjData) -> FloatArray:
@@ -380,14 +413,22 @@ class Controller:
         self.state.tau_torso = tau_torso
 
 
+#: Actuator fields the controller changes while it runs (and restores after).
+_ACTUATOR_FIELDS = ("actuator_ctrlrange", "actuator_gaintype", "actuator_biastype", "actuator_gainprm",
+                    "actuator_biasprm", "actuator_ctrllimited", "actuator_forcelimited", "actuator_forcerange")
+
+
 def _hinge_angles_small(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
     """Angles of 1 or 2 hinges (applied in order) best reproducing a local rotation matrix."""
     if len(axes) == 1:
         a = axes[0] / np.linalg.norm(axes[0])
         # twist of the rotation about the axis (swing-twist), from the rotation's skew part
-        w = np.array([local[2, 1] - local[1, 2], local[0, 2] - local[2, 0], local[1, 0] - local[0, 1]])
-        c = np.trace(local) - 1.0 - (a @ local @ a - 1.0)  # 2 cos(theta) restricted to the plane
-        return np.array([np.arctan2(a @ w, c)])
+        m = local.tolist()
+        x, y, z = a.tolist()
+        aw = x * (m[2][1] - m[1][2]) + y * (m[0][2] - m[2][0]) + z * (m[1][0] - m[0][1])
+        ama = sum(ai * mij * aj for ai, row in zip((x, y, z), m) for mij, aj in zip(row, (x, y, z)))
+        c = m[0][0] + m[1][1] + m[2][2] - 1.0 - (ama - 1.0)  # 2 cos(theta) restricted to the plane
+        return np.array([math.atan2(aw, c)])
     order = tuple(int(np.argmax(np.abs(x))) for x in axes)
     signs = np.array([np.sign(x[k]) for x, k in zip(axes, order)])
     third = next(k for k in range(3) if k not in order)
@@ -401,10 +442,11 @@ def _has_sensor(model: mujoco.MjModel, name: str) -> bool:
 
 def _rotvec(e: FloatArray) -> FloatArray:
     """Rotation vector of a rotation matrix (rad)."""
-    cos = np.clip((e[0, 0] + e[1, 1] + e[2, 2] - 1.0) * 0.5, -1.0, 1.0)
-    ang = np.arccos(cos)
-    w = np.array([e[2, 1] - e[1, 2], e[0, 2] - e[2, 0], e[1, 0] - e[0, 1]])
-    s = np.sin(ang)
+    m = e.tolist()
+    cos = min(max((m[0][0] + m[1][1] + m[2][2] - 1.0) * 0.5, -1.0), 1.0)
+    ang = math.acos(cos)
+    w = np.array([m[2][1] - m[1][2], m[0][2] - m[2][0], m[1][0] - m[0][1]])
+    s = math.sin(ang)
     if s < 1e-6:
         return 0.5 * w
     return w * (ang / (2.0 * s))

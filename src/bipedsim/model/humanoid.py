@@ -148,18 +148,42 @@ def rigid_residual(pts: SourcePoints, origin: str, points: list[str], ref_joint:
     return np.linalg.norm(np.einsum("tij,nj->tni", r, vecs) - cur, axis=-1).max(axis=0)
 
 
-def _split_spine(profile: HumanoidProfile, moving: SourcePoints, hm: HumanoidMap, torso_pts: list[str],
-                 tv: FloatArray, torso_w: FloatArray) -> bool:
-    """Whether the torso gets two segments (see ``spine_segments`` in the humanoid profile)."""
-    if profile.spine_segments == 1 or hm.chest == hm.torso_base:
+#: Shortest abdomen and chest (m) of a two-segment spine.
+MIN_SPINE_SEGMENT_M = 0.05
+
+
+def _split_joint(rest: SourcePoints, hm: HumanoidMap) -> str | None:
+    """Where a two-segment spine bends: the chest joint, or the nearest spine joint below it that
+    leaves both segments at least MIN_SPINE_SEGMENT_M long (some skeletons put the neck on the chest)."""
+    sk = rest.skeleton
+    j = sk.index(hm.chest)
+    base = sk.index(hm.torso_base)
+    while j >= 0 and j != base:
+        name = sk.names[j]
+        if (np.linalg.norm(rest[hm.neck] - rest[name]) >= MIN_SPINE_SEGMENT_M
+                and np.linalg.norm(rest[name] - rest[hm.torso_base]) >= MIN_SPINE_SEGMENT_M):
+            return name
+        j = int(sk.parents[j])
+    return None
+
+
+def _split_spine(profile: HumanoidProfile, rest: SourcePoints, moving: SourcePoints, hm: HumanoidMap,
+                 torso_pts: list[str], tv: FloatArray, torso_w: FloatArray) -> str | None:
+    """The joint where the torso splits into two segments, or None (see ``spine_segments`` in the
+    humanoid profile)."""
+    if profile.spine_segments == 1:
+        return None
+    at = _split_joint(rest, hm)
+    if at is None:
         if profile.spine_segments == 2:
-            raise ModelError(f"spine_segments: 2 needs a joint between the spine base {hm.torso_base!r} "
-                             f"and the chest; this skeleton's arms meet at the spine base")
-        return False
+            raise ModelError(f"spine_segments: 2 needs a spine joint between {hm.torso_base!r} and the neck "
+                             f"{hm.neck!r} at least {MIN_SPINE_SEGMENT_M * 100:.0f} cm from both; "
+                             f"this skeleton has none")
+        return None
     if profile.spine_segments == 2:
-        return True
+        return at
     worst = rigid_residual(moving, hm.torso_base, torso_pts, hm.chest, tv, torso_w)[1:]  # the shoulders
-    return bool(worst.size and worst.max() > profile.spine_split_tol)
+    return at if worst.size and worst.max() > profile.spine_split_tol else None
 
 
 def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile | None = None,
@@ -211,16 +235,15 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
                          np.stack([vec(hm.torso_base, p) for p in torso_pts]), torso_w)
     for p_, v in zip(torso_pts, tv):
         Q[p_] = Q[hm.torso_base] + v
-    split = _split_spine(profile, moving, hm, torso_pts, tv, torso_w)
+    split = _split_spine(profile, rest, moving, hm, torso_pts, tv, torso_w)
     if split:
-        # abdomen: spine base -> chest joint; chest: the rigid layout of neck and shoulders about it
-        (av,) = calibrate_rigid(moving, hm.torso_base, [hm.chest], hm.torso_base,
-                                vec(hm.torso_base, hm.chest)[None])
-        Q[hm.chest] = Q[hm.torso_base] + av
-        tv = calibrate_rigid(moving, hm.chest, torso_pts, hm.chest,
-                             np.stack([vec(hm.chest, p) for p in torso_pts]), torso_w)
+        # abdomen: spine base -> the split joint; chest: the rigid layout of neck and shoulders about it
+        (av,) = calibrate_rigid(moving, hm.torso_base, [split], hm.torso_base, vec(hm.torso_base, split)[None])
+        Q[split] = Q[hm.torso_base] + av
+        tv = calibrate_rigid(moving, split, torso_pts, split, np.stack([vec(split, p) for p in torso_pts]),
+                             torso_w)
         for p_, v in zip(torso_pts, tv):
-            Q[p_] = Q[hm.chest] + v
+            Q[p_] = Q[split] + v
     head_top = rest.tip(hm.head)
     Q[head_top] = Q[hm.neck] + vec(hm.neck, head_top)
 
@@ -237,23 +260,23 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
     markers[hm.pelvis] = ["body", "pelvis"]
     kp, kd = gains("spine")
     if split:
-        ab = check(Q[hm.chest] - Q[hm.torso_base], hm.torso_base, hm.chest, "abdomen")
-        ch = check(Q[hm.neck] - Q[hm.chest], hm.chest, hm.neck, "chest")
+        ab = check(Q[split] - Q[hm.torso_base], hm.torso_base, split, "abdomen")
+        ch = check(Q[hm.neck] - Q[split], split, hm.neck, "chest")
         share = float(np.linalg.norm(ab) / (np.linalg.norm(ab) + np.linalg.norm(ch)))
         bodies.append(BodyPlan(
             name="abdomen", parent="pelvis", pos=list(Q[hm.torso_base]), source=hm.torso_base,
             segment="torso",
             joints=_hinges("spine", profile.joints["spine"], ab, False, kp, kd, "spine"),
-            geoms=[_capsule(Q[hm.torso_base], Q[hm.chest], Q[hm.torso_base], g.torso_radius,
+            geoms=[_capsule(Q[hm.torso_base], Q[split], Q[hm.torso_base], g.torso_radius,
                             share * profile.masses["torso"])],
-            fit=FitPlan(method="aim", origin=hm.torso_base, points=[hm.chest], ref=f"bvh:{hm.torso_base}",
+            fit=FitPlan(method="aim", origin=hm.torso_base, points=[split], ref=f"bvh:{hm.torso_base}",
                         rest_vectors=[list(ab)])))
         bodies.append(BodyPlan(
-            name="torso", parent="abdomen", pos=list(Q[hm.chest]), source=hm.chest, segment="torso",
+            name="torso", parent="abdomen", pos=list(Q[split]), source=split, segment="torso",
             joints=_hinges("chest", profile.joints["spine"], ch, False, kp, kd, "spine"),
-            geoms=[_capsule(Q[hm.chest], Q[hm.neck], Q[hm.chest], g.torso_radius,
+            geoms=[_capsule(Q[split], Q[hm.neck], Q[split], g.torso_radius,
                             (1.0 - share) * profile.masses["torso"])],
-            fit=FitPlan(method="kabsch", origin=hm.chest, points=torso_pts, ref=f"bvh:{hm.chest}",
+            fit=FitPlan(method="kabsch", origin=split, points=torso_pts, ref=f"bvh:{split}",
                         rest_vectors=[list(v) for v in tv], weights=list(torso_w))))
     else:
         torso_bone = check(Q[hm.neck] - Q[hm.torso_base], hm.torso_base, hm.neck, "torso")

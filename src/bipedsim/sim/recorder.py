@@ -1,6 +1,7 @@
 """Recording a rollout: everything rendering, plotting and export need, saved as ``trajectory.npz``.
 
-Per recorded sample (``record_hz``, default 120 Hz): time (s), qpos, qvel, controls (N*m), each
+Per recorded sample (``record_hz``, default 120 Hz): time (s), qpos, qvel, actuator torques (N*m,
+saved as ``ctrl``), each
 foot's vertical contact force (N, touch sensors), FSM state, reference frame, the reference's qpos
 at that frame (root at the reference's own place), applied external forces per body (N, world),
 and the centre of mass (m).
@@ -100,7 +101,13 @@ class Recorder:
         r["time"].append(t)
         r["qpos"].append(data.qpos.copy())
         r["qvel"].append(data.qvel.copy())
-        r["ctrl"].append(data.ctrl.copy())
+        tau = getattr(ctrl, "torque", None)
+        if tau is None:
+            r["ctrl"].append(data.ctrl.copy())
+        else:  # torques per actuator (data.ctrl holds servo targets for servo joints)
+            row = np.zeros(self.model.nu)
+            row[ctrl.h.actuator] = tau
+            r["ctrl"].append(row)
         r["contact_force"].append([sum(float(data.sensordata[a]) for a in ctrl.touch[s]) for s in ("left", "right")])
         r["fsm_state"].append(ctrl.fsm.state)
         r["ref_frame"].append(ctrl.frame)

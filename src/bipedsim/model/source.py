@@ -41,9 +41,13 @@ class SourcePoints:
         return self.rotations[..., self.skeleton.index(joint), :, :]
 
     def turned(self, yaw: float) -> SourcePoints:
-        """The same points with the world turned by ``yaw`` rad about +z."""
+        """The same points with the world turned by ``yaw`` rad about +z.
+
+        Joint rotations are rotations away from the rest pose (BVH: identity at rest); turned, they
+        are the same rotations seen in the turned frame, ``r R r^T``, so they stay identity in the
+        turned rest pose, whose body frames are parallel to the world."""
         r = _yaw_matrix(yaw)
-        rot = None if self.rotations is None else np.einsum("ij,...jk->...ik", r, self.rotations)
+        rot = None if self.rotations is None else np.einsum("ij,...jk,lk->...il", r, self.rotations, r)
         return SourcePoints(self.skeleton, self.positions @ r.T, rot)
 
     def shifted(self, delta: FloatArray) -> SourcePoints:

@@ -129,6 +129,20 @@ def test_shared_humans_convert_simulate_and_replay(path: Path) -> None:
     assert not np.any(clip.contacts & (clip.foot_heights > level + 0.10))
 
 
+def stance_sole_pitch(b, clip) -> np.ndarray:
+    """Pitch (rad) of the foot boxes' long axis on the frames the clip labels as contact."""
+    d = mujoco.MjData(b.model)
+    pitch = []
+    for f in range(0, clip.num_frames, 3):
+        d.qpos[:] = clip.qpos[f]
+        mujoco.mj_kinematics(b.model, d)
+        for k, side in enumerate(clip.foot_names):
+            if clip.contacts[f, k]:
+                x = d.geom_xmat[b.model.geom(f"{side}_foot_geom").id].reshape(3, 3)[:, 0]
+                pitch.append(np.arcsin(x[2]))
+    return np.array(pitch)
+
+
 @pytest.mark.parametrize("path", shared_params("animal"))
 def test_shared_dog_as_creature(path: Path) -> None:
     m = load_bvh(path)
@@ -323,3 +337,20 @@ def test_spine_segments_validated(tmp_path: Path) -> None:
     bad.write_text(text.replace("spine_segments: auto", "spine_segments: 3"))
     with pytest.raises(ConfigError, match="spine_segments"):
         load_profile(bad)
+
+
+def test_soles_lie_flat_in_stance_when_the_rest_pose_is_not_flat_footed(monkeypatch) -> None:
+    """Holden's CMU skeleton points its feet down in the rest pose; boxes built in the rest frame
+    would stand on their toe edges. The builder pitches them to the motion's flat-foot frames."""
+    import bipedsim.model.humanoid as hum
+
+    path = SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh"
+    if not path.exists():
+        pytest.skip(f"shared BVH data not found at {path}")
+    m = load_bvh(path)
+    b = build_model(m)
+    flat = float(np.median(stance_sole_pitch(b, retarget(m, b.model, xml=b.xml))))
+    monkeypatch.setattr(hum, "FLAT_MIN_TILT", 10.0)  # no correction: rest-frame soles
+    r = build_model(m)
+    rest = float(np.median(stance_sole_pitch(r, retarget(m, r.model, xml=r.xml))))
+    assert abs(flat) < 0.05 < 0.3 < abs(rest), (flat, rest)

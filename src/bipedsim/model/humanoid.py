@@ -107,6 +107,69 @@ def _facing_yaw(pts: SourcePoints, hm: HumanoidMap) -> float:
     return float(-np.arctan2(fwd[1], fwd[0]))
 
 
+#: Stance frames for the flat-foot frame: foot points within this height (m) of their lowest level and
+#: the joint slower than FLAT_SPEED (m/s); tilts under FLAT_MIN_TILT (rad) are left at the rest frame.
+FLAT_HEIGHT_M = 0.02
+FLAT_SPEED = 0.3
+FLAT_MIN_TILT = 0.02
+#: Largest sole pitch (rad) against the rest pose.
+MAX_SOLE_PITCH = 0.6
+
+
+def _flat_frame(moving: SourcePoints, joint: str, points: list[str], forward: FloatArray) -> FloatArray:
+    """Axes (columns, body coordinates) of a foot segment's sole. The sole must be level when the
+    motion has the segment flat on the floor (all ``points`` at their lowest level and ``joint``
+    still), not in the rest pose, which need not stand flat-footed: on those frames the bone
+    ``points[0] -> points[1]`` dips ``a_flat`` below the floor (median); in the rest pose it dips
+    ``a_rest`` (``forward``); the sole is the rest frame pitched toe-down by ``a_rest - a_flat``
+    (at most MAX_SOLE_PITCH). Identity when that is under FLAT_MIN_TILT or the motion never shows the
+    segment flat (one-frame files)."""
+    pos = moving.positions
+    eye = np.eye(3)
+    if pos.ndim != 3 or pos.shape[0] < 3:
+        return eye
+    h = np.stack([moving[p][:, 2] for p in points], axis=1)
+    low = np.all(h < np.percentile(h, 10, axis=0) + FLAT_HEIGHT_M, axis=1)
+    j = moving[joint]
+    speed = np.zeros(len(j))
+    speed[1:] = np.linalg.norm(np.diff(j, axis=0), axis=1)
+    # frame time is not known here: "still" = moving less than FLAT_SPEED at 120 fps, or 10 % of the
+    # median per-frame motion for slower captures
+    still = speed <= max(FLAT_SPEED / 120.0, 0.1 * float(np.median(speed[1:])))
+    flat = low & still
+    if flat.sum() < 3:
+        return eye
+    bone = moving[points[1]][flat] - moving[points[0]][flat]
+    if float(np.median(np.linalg.norm(bone, axis=1))) < MIN_BONE_M:
+        return eye
+    a_flat = float(np.median(np.arcsin(np.clip(-bone[:, 2] / np.linalg.norm(bone, axis=1), -1.0, 1.0))))
+    a_rest = float(np.arcsin(np.clip(-forward[2] / np.linalg.norm(forward), -1.0, 1.0)))
+    phi = float(np.clip(a_rest - a_flat, -MAX_SOLE_PITCH, MAX_SOLE_PITCH))
+    lateral = np.cross([0.0, 0.0, 1.0], forward)
+    if abs(phi) < FLAT_MIN_TILT or np.linalg.norm(lateral) < 1e-6:
+        return eye
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_rotvec(lateral / np.linalg.norm(lateral) * phi).as_matrix()
+
+
+def _quat(r: FloatArray) -> list[float] | None:
+    """MuJoCo quaternion (w, x, y, z) of a rotation matrix; None for the identity."""
+    if np.allclose(r, np.eye(3)):
+        return None
+    from scipy.spatial.transform import Rotation
+
+    return [float(v) for v in Rotation.from_matrix(r).as_quat(scalar_first=True)]
+
+
+def _matrix(quat: list[float] | None) -> FloatArray:
+    if quat is None:
+        return np.eye(3)
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_quat(quat, scalar_first=True).as_matrix()
+
+
 #: Weight of the neck against the shoulders when fitting the torso's orientation: the shoulders
 #: are where the arms hang, so they matter more than the neck base.
 NECK_FIT_WEIGHT = 0.05
@@ -356,7 +419,8 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
         markers[th] = ["body", f"{side}_thigh"]
         markers[kn] = ["body", f"{side}_shin"]
         markers[an] = ["body", f"{side}_foot"]
-        # feet: the sole sits at the lowest rest-pose point of the foot chain
+        # feet: the sole sits at the lowest rest-pose point of the foot chain, in the frame where the
+        # foot is flat on the floor (a skeleton's rest pose need not stand flat-footed)
         tip = rest.tip(toe) if toe else rest.tip(an)
         front_name = toe or tip
         chain(an, front_name)
@@ -366,48 +430,55 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
             Q[tip] = Q[front_name]
         front = Q[front_name]
         check(front - Q[an], an, front_name, f"{side} foot")
-        sole = min(Q[an][2] - 0.03, Q[tip][2], front[2])
+        rf = _flat_frame(moving, an, [an, front_name], front - Q[an])
+        front_f = rf.T @ (front - Q[an])
+        tip_f = rf.T @ (Q[tip] - Q[an])
+        sole = min(-0.03, tip_f[2], front_f[2])
         ankle_spec = profile.joints["ankle"]
         if profile.ankle_2dof:
             ankle_spec = JointSpec(axes=[*ankle_spec.axes, "x"],
                                    range=[*ankle_spec.range, list(profile.ankle_x_range)],
                                    torque=ankle_spec.torque)
         kp, kd = gains("ankle")
-        heel_x = Q[an][0] - g.heel_length
-        x1 = front[0]
-        top = Q[an][2] + g.foot_top
+        heel_x = -g.heel_length
+        x1 = front_f[0]
+        top = g.foot_top
         foot_mass = profile.masses["foot"] + (0.0 if toe else profile.masses["toe"])
         half = [max((x1 - heel_x) / 2, 0.02), g.foot_width / 2, max((top - sole) / 2, 0.01)]
-        centre = np.array([(heel_x + x1) / 2, Q[an][1], (top + sole) / 2])
-        touch_c = np.array([centre[0], centre[1], sole + TOUCH_MARGIN_M / 2])
+        centre = np.array([(heel_x + x1) / 2, 0.0, (top + sole) / 2])
+        touch_c = np.array([centre[0], 0.0, sole + TOUCH_MARGIN_M / 2])
         bodies.append(BodyPlan(
             name=f"{side}_foot", parent=f"{side}_shin", pos=list(Q[an]), source=an, segment="foot",
             is_foot=True,
             joints=_hinges(f"{side}_ankle", ankle_spec, front - Q[an], mirror, kp, kd, "ankle"),
-            geoms=[GeomPlan(kind="box", size=half, pos=list(centre - Q[an]), mass=foot_mass,
-                            name=f"{side}_foot_geom")],
-            sites=[SitePlan(name=f"{side}_foot_touch", pos=list(touch_c - Q[an]), kind="box", touch=True,
-                            size=[half[0] + 0.005, half[1] + 0.005, TOUCH_MARGIN_M * 1.5])],
+            geoms=[GeomPlan(kind="box", size=half, pos=list(rf @ centre), mass=foot_mass,
+                            name=f"{side}_foot_geom", quat=_quat(rf))],
+            sites=[SitePlan(name=f"{side}_foot_touch", pos=list(rf @ touch_c), kind="box", touch=True,
+                            size=[half[0] + 0.005, half[1] + 0.005, TOUCH_MARGIN_M * 1.5], quat=_quat(rf))],
             fit=FitPlan(method="aim", origin=an, points=[front_name], ref=f"bvh:{an}",
                         rest_vectors=[list(front - Q[an])])))
         if toe:
-            x2 = max(Q[tip][0], Q[toe][0] + 0.03)
-            ttop = max(Q[toe][2] + 0.01, sole + 0.03)
-            thalf = [(x2 - Q[toe][0]) / 2, g.foot_width / 2, (ttop - sole) / 2]
-            tc = np.array([(x2 + Q[toe][0]) / 2, Q[toe][1], (ttop + sole) / 2])
-            ttc = np.array([tc[0], tc[1], sole + TOUCH_MARGIN_M / 2])
             tip_vec = Q[tip] - Q[toe]
             if np.linalg.norm(tip_vec) < MIN_BONE_M:
                 tip_vec = np.array([0.03, 0.0, 0.0])
+            rt = _flat_frame(moving, toe, [toe, tip], tip_vec)
+            # the sole's depth below the toe joint (foot frame), carried into the toe's frame
+            sole_t = sole - (rf.T @ (Q[toe] - Q[an]))[2]
+            tip_t = rt.T @ (Q[tip] - Q[toe])
+            x2 = max(tip_t[0], 0.03)
+            ttop = max(0.01, sole_t + 0.03)
+            thalf = [x2 / 2, g.foot_width / 2, (ttop - sole_t) / 2]
+            tc = np.array([x2 / 2, 0.0, (ttop + sole_t) / 2])
+            ttc = np.array([tc[0], 0.0, sole_t + TOUCH_MARGIN_M / 2])
             bodies.append(BodyPlan(
                 name=f"{side}_toe", parent=f"{side}_foot", pos=list(Q[toe]), source=toe, segment="toe",
                 is_foot=True,
                 joints=_hinges(f"{side}_toe", profile.joints["toe"], np.array([1.0, 0, 0]), mirror,
                                *gains("toe"), "toe"),
-                geoms=[GeomPlan(kind="box", size=thalf, pos=list(tc - Q[toe]), mass=profile.masses["toe"],
-                                name=f"{side}_toe_geom")],
-                sites=[SitePlan(name=f"{side}_toe_touch", pos=list(ttc - Q[toe]), kind="box", touch=True,
-                                size=[thalf[0] + 0.005, thalf[1] + 0.005, TOUCH_MARGIN_M * 1.5])],
+                geoms=[GeomPlan(kind="box", size=thalf, pos=list(rt @ tc), mass=profile.masses["toe"],
+                                name=f"{side}_toe_geom", quat=_quat(rt))],
+                sites=[SitePlan(name=f"{side}_toe_touch", pos=list(rt @ ttc), kind="box", touch=True,
+                                size=[thalf[0] + 0.005, thalf[1] + 0.005, TOUCH_MARGIN_M * 1.5], quat=_quat(rt))],
                 fit=FitPlan(method="aim", origin=toe, points=[tip], ref=f"bvh:{toe}",
                             rest_vectors=[list(tip_vec)])))
     # ----------------------------------------------------------------- mass scaling
@@ -420,7 +491,8 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
             for gm in b.geoms:
                 gm.mass *= target / built
     # stand the zero pose on the floor
-    lift = -min(b.pos[2] + gm.pos[2] - gm.size[2] for b in bodies for gm in b.geoms if gm.kind == "box")
+    lift = -min(b.pos[2] + gm.pos[2] - float(np.abs(_matrix(gm.quat)[2]) @ gm.size)
+                for b in bodies for gm in b.geoms if gm.kind == "box")
     for b in bodies:
         b.pos[2] += lift
     for b in bodies:

@@ -56,6 +56,7 @@ class GeomPlan:
     pos: list[float] | None = None
     mass: float = 0.0
     name: str | None = None
+    quat: list[float] | None = None  #: orientation in the body (w, x, y, z); None: the body's axes
 
 
 @dataclass
@@ -65,6 +66,7 @@ class SitePlan:
     size: list[float] = field(default_factory=lambda: [SITE_SIZE])
     kind: str = "sphere"
     touch: bool = False  # add a touch sensor on this site
+    quat: list[float] | None = None  #: orientation in the body (w, x, y, z); None: the body's axes
 
 
 @dataclass
@@ -204,9 +206,10 @@ class ModelBuilder:
             self.attach_joints(body, b.joints, sim)
             self.attach_geoms(body, b.geoms, sim)
             for s in b.sites:
+                skw = {} if s.quat is None else {"quat": _r(s.quat)}
                 body.add_site(name=s.name, pos=_r(s.pos), size=_r(s.size + [0, 0])[:3],
-                                     type=getattr(mujoco.mjtGeom, f"mjGEOM_{s.kind.upper()}"),
-                                     rgba=[0.9, 0.5, 0.1, 0.0 if s.touch else 0.6])
+                              type=getattr(mujoco.mjtGeom, f"mjGEOM_{s.kind.upper()}"),
+                              rgba=[0.9, 0.5, 0.1, 0.0 if s.touch else 0.6], **skw)
                 if s.touch:
                     self.spec.add_sensor(name=f"touch_{s.name}", type=mujoco.mjtSensor.mjSENS_TOUCH,
                                          objtype=mujoco.mjtObj.mjOBJ_SITE, objname=s.name)
@@ -244,6 +247,8 @@ class ModelBuilder:
                                       "solimp": list(sim.solimp), "condim": 3, "rgba": [0.75, 0.62, 0.5, 1.0]}
             if g.name:
                 kw["name"] = g.name
+            if g.quat is not None:
+                kw["quat"] = _r(g.quat)
             if g.mass > 0:
                 kw["mass"] = round(g.mass, 6)
             else:

@@ -303,18 +303,16 @@ class Controller:
         st.frame, st.fsm_state, st.fade, st.holding = self.frame, fsm.state, a, holding
         if cfg.balance.enabled:
             self._balance(data, q, qd, q_d, qd_d, tau)
+        self.torque = np.clip(tau, -self.limit, self.limit)
         if self.cfg.pd.servo:
             # servo joints: the target that gives this torque now, tau = gain (ctrl - q), and the
             # actuator keeps applying gain (ctrl - q), clamped to the limit, as q moves
-            u = np.clip(tau, -self.limit, self.limit)
             sv = self.servo
+            u = self.torque.copy()
             u[sv] = q[sv] + tau[sv] / self.servo_gain[sv]
             self.ctrl[self.h.actuator] = u
-            self.torque = np.clip(tau, -self.limit, self.limit)
         else:
-            np.clip(tau, -self.limit, self.limit, out=tau)
-            self.ctrl[self.h.actuator] = tau
-            self.torque = tau
+            self.ctrl[self.h.actuator] = self.torque
         return self.ctrl
 
     def _gravity(self, data: mujoco.MjData) -> FloatArray:

@@ -11,7 +11,7 @@ from scipy.optimize import minimize
 
 from bipedsim.cli import main
 from bipedsim.graph import FULL, MotionGraph, Player, ScriptError, build_graph, load_graph_config, parse
-from bipedsim.graph.build import prune
+from bipedsim.graph.build import prune, summed_part_distance
 from bipedsim.graph.distance import align_2d, apply_2d, distance_matrix, windows
 
 REPO = Path(__file__).resolve().parent.parent
@@ -110,6 +110,22 @@ def test_layers_and_similarity(graph: MotionGraph) -> None:
     # an upper body is more like the walk's own mirror than like a wave
     assert sim[walk, mirror] < sim[walk, wave]
     assert graph.layers[FULL].path(walk, wave)[0] == walk and graph.layers[FULL].path(walk, wave)[-1] == wave
+
+
+def test_part_motion_chosen_by_similarity_stays_closer_to_the_replaced_motion(graph: MotionGraph) -> None:
+    """The method's check: of the WAVE_HAND upper bodies, the one with the lowest overall motion
+    similarity to the walk has the lower summed point-cloud distance to the walk's upper body over
+    3, 10 and 20 s (20 random start frames, the same for both candidates)."""
+    ub = graph.layers["Upper-Body"]
+    walk = graph.clip_index("walk")
+    cands = graph.clips_with("WAVE_HAND")
+    best = min(cands, key=lambda c: ub.similarity[walk, c])
+    other = next(c for c in cands if c != best)
+    starts = np.random.default_rng(0).integers(graph.clips[walk].num_frames, size=20)
+    for seconds in (3.0, 10.0, 20.0):
+        d_best = np.mean([summed_part_distance(graph, walk, int(s), best, seconds, ub.joints) for s in starts])
+        d_other = np.mean([summed_part_distance(graph, walk, int(s), other, seconds, ub.joints) for s in starts])
+        assert d_best < d_other, (seconds, d_best, d_other)
 
 
 def _play(graph: MotionGraph, text: str):

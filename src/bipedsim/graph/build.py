@@ -252,6 +252,23 @@ def part_positions(m: Motion, joints: list[int], relative: bool) -> FloatArray:
     return out
 
 
+def summed_part_distance(g: MotionGraph, replaced: int, start: int, chosen: int, seconds: float,
+                         joints: list[int]) -> float:
+    """The method's check of a part-motion choice: the summed point-cloud distance, over consecutive
+    k-frame windows for ``seconds``, between the replaced part motion (clip ``replaced`` from frame
+    ``start``) and the chosen one (clip ``chosen``), both looped. The chosen motion enters at its frame
+    best matching the replaced motion's first window, as the player's local search enters a motion at
+    a transition point rather than at its first frame."""
+    k, fps = g.config.k, g.config.fps
+    n = int(seconds * fps)
+    a = part_positions(g.clips[replaced], joints, True)
+    b = part_positions(g.clips[chosen], joints, True)
+    ia = (start + np.arange(n)) % len(a)
+    first = distance_matrix(a[ia[:k]], np.concatenate([b, b[:k]]), k)[0, :len(b)]
+    ib = (int(np.argmin(first)) + np.arange(n)) % len(b)
+    return float(sum(distance_matrix(a[ia[s:s + k]], b[ib[s:s + k]], k)[0, 0] for s in range(0, n - k + 1, k)))
+
+
 def _local_minima(d: FloatArray) -> npt.NDArray[np.bool_]:
     pad = np.pad(d, 1, constant_values=np.inf)
     core = pad[1:-1, 1:-1]

@@ -89,10 +89,10 @@ def main() -> int:
         times = []
         orig = pl._transition
 
-        def timed(t, layer=FULL, _orig=orig):  # noqa: ANN001
+        def timed(t, layer=FULL, _orig=orig, _times=times):  # noqa: ANN001
             t1 = time.perf_counter()
             _orig(t, layer)
-            times.append(time.perf_counter() - t1)
+            _times.append(time.perf_counter() - t1)
 
         pl._transition = timed  # type: ignore[method-assign]
         pl.run(parse(text, layers=tuple(g2.layers)))

@@ -90,7 +90,7 @@ def hinges_to_world(axes: FloatArray, tau_hinge: FloatArray) -> FloatArray:
     if axes.shape == (3, 3):
         # Cramer's rule on plain floats: this runs on every control step
         (a, b, c), (d, e, f), (g, h, i) = axes.tolist()
-        x, y, z = (float(v) for v in tau_hinge)
+        x, y, z = tau_hinge.tolist() if isinstance(tau_hinge, np.ndarray) else map(float, tau_hinge)
         ei_fh, di_fg, dh_eg = e * i - f * h, d * i - f * g, d * h - e * g
         det = a * ei_fh - b * di_fg + c * dh_eg
         if abs(det) > 1e-6:

@@ -21,7 +21,6 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.control.balance import (
-    axis_rotation,
     euler_from_matrix,
     feedback_angle,
     heading_of,
@@ -169,6 +168,31 @@ class Controller:
         self.torque = np.zeros(n)  #: the torques (N*m) of the last control step
         self.tracking_error = np.zeros(n)
         self._qpos_now = np.zeros(model.nq)
+        # hot-path constants (see __call__)
+        self._qsel, self._dsel, self._asel = (_as_slice(self.h.qadr), _as_slice(self.h.dadr),
+                                              _as_slice(self.h.actuator))
+        self._leg_dofs = {s: _as_slice(self.h.dadr[self.leg_low[s]]) for s in SIDES}
+        self._leg_low = {s: _as_slice(self.leg_low[s]) for s in SIDES}
+        self._neg_limit = -self.limit
+        self._all_servo = bool(np.all(self.servo))
+        self._ref_vel = cfg.pd.mode == "pd_ref_velocity"
+        self._fade_on = cfg.fade.enabled
+        self._roll_kp = cfg.balance.torso_kp if cfg.balance.roll_kp is None else cfg.balance.roll_kp
+        self._speed = float(source.speed())
+        self._kp_l, self._kd_l = self.kp.tolist(), self.kd.tolist()
+        self._tlo_l, self._thi_l = self.tlo.tolist(), self.thi.tolist()
+        self._dadr_l = self.h.dadr.tolist()
+        self._r_heading = np.eye(3)
+        self._touch_idx = np.array(self.touch["right"] + self.touch["left"], dtype=np.int64)
+        self._n_touch_right = len(self.touch["right"])
+        # per side: swing-hip hinge indices as (slice, list), their joint ids as a slice (the hinges'
+        # world axes), Euler order and signs; ankle hinges with unit axes
+        self._hip_fast = {s: (_as_slice(self.hip[s][0]), self.hip[s][0].tolist(), _as_slice(self.hip[s][1]),
+                              self.hip[s][2], self.hip[s][3].tolist(), self.h.dadr[self.hip[s][0]].tolist())
+                          for s in SIDES}
+        self._ankle_fast = {s: (self.ankle[s][0].tolist(), [tuple((a / np.linalg.norm(a)).tolist())
+                                                             for a in self.ankle[s][1]])
+                            for s in SIDES}
         self._apply_damping(1.0)
 
     # ------------------------------------------------------------------ setup
@@ -183,6 +207,8 @@ class Controller:
             self.servo_gain = np.where(self.servo, max(scale, 1e-6) * self.kp, 1.0)
             self.model.actuator_gainprm[acts, 0] = self.servo_gain
             self.model.actuator_biasprm[acts, 1] = np.where(self.servo, -self.servo_gain, 0.0)
+        self._akp, self._akd = scale * self.kp, scale * self.kd
+        self._inv_gain = np.where(self.servo, 1.0 / self.servo_gain, 0.0)
 
     def restore_model(self) -> None:
         """Undo the damping, gains and torque ranges this controller put into the model."""
@@ -201,6 +227,7 @@ class Controller:
         self.resyncs.clear()
         self.pending_shift = 0.0
         self.heading_target = heading_of(data.xmat[self.pelvis].reshape(3, 3))
+        self._r_heading = yaw_matrix(self.heading_target)
         self.last_strike_time, self.last_strike_frame = t, self.frame
         self.fade = 1.0
         self._apply_damping(1.0)
@@ -254,14 +281,18 @@ class Controller:
         self.resyncs.append(ResyncEvent(t, foot, before, self.frame, ratio))
 
     # ------------------------------------------------------------------ the control law
+    # This runs on every control step, so it is written for speed: slices instead of index arrays
+    # where the hinges are contiguous, the balance maths on plain floats (numpy's per-call overhead
+    # dominates on 3-vectors), numpy only for whole-body vectors and 3x3 products.
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, dt: float) -> FloatArray:
         cfg = self.cfg
         src = self.source
-        self._update_fade(t)
+        if self._fade_on:
+            self._update_fade(t)
         fsm = self.fsm
+        sd = data.sensordata
         # a strike is the swing foot's sole landing; its toe brushing the floor at lift-off is not
-        swing_force = float(data.sensordata[self.touch[fsm.swing][0]])
-        struck = fsm.update(dt, t, swing_force)
+        struck = fsm.update(dt, t, float(sd[self.touch[fsm.swing][0]]))
         if struck is not None:
             self._resync(struck, t)
             self.wait_time = 0.0
@@ -283,132 +314,153 @@ class Controller:
         self.frame = nxt
         q_d, qd_d = src.hinge_targets(self.frame, fsm.state)
         self._qpos_now = data.qpos
-        q = data.qpos[self.h.qadr]
-        qd = data.qvel[self.h.dadr]
+        q = data.qpos[self._qsel]
+        qd = data.qvel[self._dsel]
         self.tracking_error = q - q_d  # against the reference itself, before limits and balance
-        np.clip(q_d, self.tlo, self.thi, out=q_d)
+        np.minimum(np.maximum(q_d, self.tlo, out=q_d), self.thi, out=q_d)
         a = self.fade
-        vel_term = qd - qd_d if cfg.pd.mode == "pd_ref_velocity" else qd
+        ref_vel = self._ref_vel
         if self.implicit:
             # the -kd qdot part is MuJoCo joint damping (implicit); only the rest is computed here
-            tau = a * self.kp * (q_d - q)
-            if cfg.pd.mode == "pd_ref_velocity":
-                tau += a * self.kd * qd_d
+            tau = self._akp * (q_d - q)
+            if ref_vel:
+                tau += self._akd * qd_d
         else:
-            tau = a * (self.kp * (q_d - q) - self.kd * vel_term)
+            tau = self._akp * (q_d - q) - self._akd * (qd - qd_d if ref_vel else qd)
+        touch = sd[self._touch_idx].tolist()
+        forces = {"right": sum(touch[:self._n_touch_right]), "left": sum(touch[self._n_touch_right:])}
         if cfg.pd.gravity_compensation:
-            self._ff = self._gravity(data)
+            self._ff = self._gravity(data, forces)
             tau += self._ff
         st = self.state
         st.frame, st.fsm_state, st.fade, st.holding = self.frame, fsm.state, a, holding
         if cfg.balance.enabled:
-            self._balance(data, q, qd, q_d, qd_d, tau)
-        self.torque = np.clip(tau, -self.limit, self.limit)
+            self._balance(data, q, qd, q_d, qd_d, tau, forces)
+        self.torque = np.minimum(np.maximum(tau, self._neg_limit), self.limit)
         if self.cfg.pd.servo:
             # servo joints: the target that gives this torque now, tau = gain (ctrl - q), and the
             # actuator keeps applying gain (ctrl - q), clamped to the limit, as q moves
-            sv = self.servo
-            u = self.torque.copy()
-            u[sv] = q[sv] + tau[sv] / self.servo_gain[sv]
-            self.ctrl[self.h.actuator] = u
+            if self._all_servo:
+                u = q + tau * self._inv_gain
+            else:
+                u = np.where(self.servo, q + tau * self._inv_gain, self.torque)
+            self.ctrl[self._asel] = u
         else:
-            self.ctrl[self.h.actuator] = self.torque
+            self.ctrl[self._asel] = self.torque
         return self.ctrl
 
-    def _gravity(self, data: mujoco.MjData) -> FloatArray:
+    def _gravity(self, data: mujoco.MjData, forces: dict[str, float]) -> FloatArray:
         """Feedforward torques: MuJoCo's bias forces hold each distal subtree against gravity (right for
         swinging limbs, the spine, arms); the legs in contact instead carry their share of the body
         weight, tau = -J^T f with f = share x weight up at the ankle (knee, ankle, toe only: the hips
         belong to the balance law)."""
-        ff = data.qfrc_bias[self.h.dadr].copy()
-        forces = {s: float(sum(data.sensordata[x] for x in self.touch[s])) for s in SIDES}
+        ff = data.qfrc_bias[self._dsel].copy()
         total = forces["left"] + forces["right"]
         for s in SIDES:
-            idx = self.leg_low[s]
             share = forces[s] / total if total > 1e-6 else (1.0 if s == self.fsm.stance else 0.0)
             if share <= 0.0:
                 continue
-            mujoco.mj_jac(self.model, data, self.jacp, None, data.xpos[self.foot_body[s]], self.foot_body[s])
-            f = np.array([0.0, 0.0, share * self.weight])
-            ff[idx] = -(self.jacp[:, self.h.dadr[idx]].T @ f)
+            body = self.foot_body[s]
+            mujoco.mj_jac(self.model, data, self.jacp, None, data.xpos[body], body)
+            # f = (0, 0, share W): J^T f is the Jacobian's vertical row times share W
+            ff[self._leg_low[s]] = (-share * self.weight) * self.jacp[2, self._leg_dofs[s]]
         return ff
 
     def _balance(self, data: mujoco.MjData, q: FloatArray, qd: FloatArray, q_d: FloatArray, qd_d: FloatArray,
-                 tau: FloatArray) -> None:
-        cfg, b, src, fsm = self.cfg, self.cfg.balance, self.source, self.fsm
+                 tau: FloatArray, forces: dict[str, float]) -> None:
+        b, src, fsm = self.cfg.balance, self.source, self.fsm
         stance, swing = fsm.stance, fsm.swing
+        frame, state = self.frame, fsm.state
         r_p = data.xmat[self.pelvis].reshape(3, 3)
-        heading = heading_of(r_p)
-        ry = yaw_matrix(heading)
+        p00, p01, p02, p10, p11, p12, p20, p21, p22 = data.xmat[self.pelvis].tolist()
+        heading = math.atan2(p10, p00)
+        c, s = math.cos(heading), math.sin(heading)
+        ry = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         # torso (pelvis) in the world frame: reference pitch/roll, the walk's straight heading; gains
         # per heading-frame axis (roll about forward x, pitch about lateral y, yaw about z)
-        r_d = yaw_matrix(self.heading_target) @ src.pelvis_target(self.frame, fsm.state)
-        e = ry.T @ _rotvec(r_d @ r_p.T)
-        omega = ry.T @ (r_p @ data.qvel[3:6])
-        roll_kp = b.torso_kp if b.roll_kp is None else b.roll_kp
-        tau_torso = ry @ (np.array([roll_kp * e[0], b.torso_kp * e[1], b.heading_kp * e[2]]) - b.torso_kd * omega)
+        w0, w1, w2 = _rotvec3((self._r_heading @ src.pelvis_target(frame, state)) @ r_p.T)
+        e0, e1 = c * w0 + s * w1, -s * w0 + c * w1
+        x, y, z = data.qvel[3:6].tolist()  # pelvis angular velocity, body frame
+        ow0, ow1, ow2 = p00 * x + p01 * y + p02 * z, p10 * x + p11 * y + p12 * z, p20 * x + p21 * y + p22 * z
+        o0, o1 = c * ow0 + s * ow1, -s * ow0 + c * ow1
+        h0 = self._roll_kp * e0 - b.torso_kd * o0
+        h1 = b.torso_kp * e1 - b.torso_kd * o1
+        tau_torso = (c * h0 - s * h1, s * h0 + c * h1, b.heading_kp * w2 - b.torso_kd * ow2)
         # swing hip: world-frame thigh target turned by the feedback (eq. 6)
         mujoco.mj_subtreeVel(self.model, data)
-        com = data.subtree_com[self.pelvis]
-        vcom = data.subtree_linvel[self.pelvis]
-        ank = data.xpos[self.foot_body[stance]]
-        d = (ry.T @ (com - ank))[:2]
-        v = (ry.T @ vcom)[:2]
+        cx, cy, _ = data.subtree_com[self.pelvis].tolist()
+        vx, vy, _ = data.subtree_linvel[self.pelvis].tolist()
+        ax, ay, _ = data.xpos[self.foot_body[stance]].tolist()
+        dx, dy = cx - ax, cy - ay
+        d0, d1 = c * dx + s * dy, -s * dx + c * dy
+        v0, v1 = c * vx + s * vy, -s * vx + c * vy
         if b.relative == "full":
-            d_ref, v_ref = src.com_reference(self.frame, stance)
-            d, v = d - d_ref, v - v_ref
+            d_ref, v_ref = src.com_reference(frame, stance)
+            d0, d1, v0, v1 = d0 - float(d_ref[0]), d1 - float(d_ref[1]), v0 - float(v_ref[0]), v1 - float(v_ref[1])
         elif b.relative == "mean_velocity":
-            v = v - np.array([src.speed(), 0.0])
+            v0 -= self._speed
         if b.feedback:
-            fs = feedback_angle(0.0, b.sagittal.cd, b.sagittal.cv, d[0], v[0], b.max_feedback)
-            fc = feedback_angle(0.0, b.coronal.cd, b.coronal.cv, d[1], v[1], b.max_feedback)
+            fs = feedback_angle(0.0, b.sagittal.cd, b.sagittal.cv, d0, v0, b.max_feedback)
+            fc = feedback_angle(0.0, b.coronal.cd, b.coronal.cv, d1, v1, b.max_feedback)
         else:
             fs = fc = 0.0
         self.state.feedback_sagittal, self.state.feedback_coronal = fs, fc
-        idx_b, jid_b, order_b, sign_b = self.hip[swing]
-        idx_a, jid_a, _, _ = self.hip[stance]
+        sl_b, idx_b, jid_b, order_b, sign_b, dadr_b = self._hip_fast[swing]
+        sl_a, _, jid_a, _, _, _ = self._hip_fast[stance]
+        fade, kp, kd, tlo, thi = self.fade, self._kp_l, self._kd_l, self._tlo_l, self._thi_l
+        ref_vel, implicit, grav = self._ref_vel, self.implicit, self.cfg.pd.gravity_compensation
         if b.swing_hip_world:
-            r_fb = axis_rotation(ry @ Y_AXIS, -fs) @ axis_rotation(ry @ X_AXIS, fc)
-            r_thigh = r_fb @ ry @ src.thigh_target(self.frame, fsm.state, swing)
-            ang = np.array(euler_from_matrix(r_p.T @ r_thigh, order_b)) * sign_b
+            # r_fb = ry R_y(-fs) R_x(fc) ry^T (feedback about the heading frame's axes), so
+            # pelvis^T r_fb ry thigh_ref = pelvis^T ry R_y(-fs) R_x(fc) thigh_ref
+            cs, ss, cc, sc = math.cos(fs), math.sin(fs), math.cos(fc), math.sin(fc)
+            r_fb = np.array([[cs, -ss * sc, -ss * cc], [0.0, cc, -sc], [ss, cs * sc, cs * cc]])
+            ang = euler_from_matrix((r_p.T @ ry) @ (r_fb @ src.thigh_target(frame, state, swing)), order_b)
             # the world target sets where the thigh points; its twist about its own axis (the last
             # hinge, applied after flexion and abduction) stays the reference's: turning the leg
             # about itself does not place the foot, it only yaws the body
-            ang[2] = q_d[idx_b[2]]
-            q_d[idx_b] = np.clip(ang, self.tlo[idx_b], self.thi[idx_b])
-            vel = qd[idx_b] - qd_d[idx_b] if cfg.pd.mode == "pd_ref_velocity" else qd[idx_b]
-            if self.implicit:  # joint damping supplies -kd qdot; add back +kd qdot_d if asked
-                vel = vel - qd[idx_b]
-            tau[idx_b] = self.fade * (self.kp[idx_b] * (q_d[idx_b] - q[idx_b]) - self.kd[idx_b] * vel)
-            if cfg.pd.gravity_compensation:
-                tau[idx_b] += data.qfrc_bias[self.h.dadr[idx_b]]
+            i0, i1, i2 = idx_b
+            v0 = min(max(ang[0] * sign_b[0], tlo[i0]), thi[i0])
+            v1 = min(max(ang[1] * sign_b[1], tlo[i1]), thi[i1])
+            q_d[i0], q_d[i1] = v0, v1
+            qb = q[sl_b].tolist() if isinstance(sl_b, slice) else [float(q[i]) for i in idx_b]
+            tb = [kp[i0] * (v0 - qb[0]), kp[i1] * (v1 - qb[1]), kp[i2] * (float(q_d[i2]) - qb[2])]
+            if not implicit or ref_vel:
+                for k, i in enumerate(idx_b):
+                    vel = (0.0 if implicit else float(qd[i])) - (float(qd_d[i]) if ref_vel else 0.0)
+                    tb[k] -= kd[i] * vel
+            tb = [fade * x for x in tb]
+            if grav:
+                bias = data.qfrc_bias
+                tb = [x + float(bias[d]) for x, d in zip(tb, dadr_b)]
+            tau_b = np.array(tb)
+        else:
+            tau_b = tau[sl_b].copy()
         if b.feet_world:
             for side in SIDES:
-                r_f = src.foot_target(self.frame, fsm.state, side)
+                r_f = src.foot_target(frame, state, side)
                 if r_f is None:
                     continue
-                idx, axes = self.ankle[side]
+                idx, axes = self._ankle_fast[side]
                 local = data.xmat[self.shin_body[side]].reshape(3, 3).T @ (ry @ r_f)
                 ang = _hinge_angles_small(local, axes)
-                q_d[idx] = np.clip(ang, self.tlo[idx], self.thi[idx])
-                tau[idx] = self.fade * self.kp[idx] * (q_d[idx] - q[idx])
-                if cfg.pd.mode == "pd_ref_velocity" or not self.implicit:
-                    vel = (qd[idx] - qd_d[idx]) if cfg.pd.mode == "pd_ref_velocity" else qd[idx]
-                    if self.implicit:
-                        vel = vel - qd[idx]
-                    tau[idx] -= self.fade * self.kd[idx] * vel
-                if cfg.pd.gravity_compensation:
-                    tau[idx] += self._ff[idx]
+                for k, i in enumerate(idx):
+                    v = min(max(ang[k], tlo[i]), thi[i])
+                    q_d[i] = v
+                    t_i = fade * kp[i] * (v - float(q[i]))
+                    if ref_vel or not implicit:
+                        vel = (0.0 if implicit else float(qd[i])) - (float(qd_d[i]) if ref_vel else 0.0)
+                        t_i -= fade * kd[i] * vel
+                    if grav:
+                        t_i += float(self._ff[i])
+                    tau[i] = t_i
         axes_b = data.xaxis[jid_b]
-        axes_a = data.xaxis[jid_a]
-        t_b = hinges_to_world(axes_b, tau[idx_b])
-        gamma = stance_share(float(sum(data.sensordata[x] for x in self.touch[stance])),
-                             float(sum(data.sensordata[x] for x in self.touch[swing])))
-        t_a, t_b_total = hip_torques(tau_torso, t_b, gamma, b.redistribution)
-        tau[idx_a] = world_to_hinges(axes_a, t_a)
-        tau[idx_b] = world_to_hinges(axes_b, t_b_total)
+        t_b = hinges_to_world(axes_b, tau_b)
+        gamma = stance_share(forces[stance], forces[swing])
+        t_a, t_b_total = hip_torques(np.array(tau_torso), t_b, gamma, b.redistribution)
+        tau[sl_a] = world_to_hinges(data.xaxis[jid_a], t_a)
+        tau[sl_b] = world_to_hinges(axes_b, t_b_total)
         self.state.gamma = gamma
-        self.state.tau_torso = tau_torso
+        self.state.tau_torso = np.array(tau_torso)
 
 
 #: Actuator fields the controller changes while it runs (and restores after).
@@ -416,35 +468,39 @@ _ACTUATOR_FIELDS = ("actuator_ctrlrange", "actuator_gaintype", "actuator_biastyp
                     "actuator_biasprm", "actuator_ctrllimited", "actuator_forcelimited", "actuator_forcerange")
 
 
-def _hinge_angles_small(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
-    """Angles of 1 or 2 hinges (applied in order) best reproducing a local rotation matrix."""
+def _hinge_angles_small(local: FloatArray, axes: list[tuple[float, float, float]]) -> tuple[float, ...]:
+    """Angles of 1 or 2 hinges (unit axes, applied in order) best reproducing a local rotation matrix."""
     if len(axes) == 1:
-        a = axes[0] / np.linalg.norm(axes[0])
-        # twist of the rotation about the axis (swing-twist), from the rotation's skew part
-        m = local.tolist()
-        x, y, z = a.tolist()
-        aw = x * (m[2][1] - m[1][2]) + y * (m[0][2] - m[2][0]) + z * (m[1][0] - m[0][1])
-        ama = sum(ai * mij * aj for ai, row in zip((x, y, z), m) for mij, aj in zip(row, (x, y, z)))
-        c = m[0][0] + m[1][1] + m[2][2] - 1.0 - (ama - 1.0)  # 2 cos(theta) restricted to the plane
-        return np.array([math.atan2(aw, c)])
+        x, y, z = axes[0]
+        m00, m01, m02, m10, m11, m12, m20, m21, m22 = local.ravel().tolist()
+        # twist of the rotation about the axis (swing-twist): sin from the skew part along the axis,
+        # cos from the trace less the axis's own component (2 cos(theta) restricted to the plane)
+        aw = x * (m21 - m12) + y * (m02 - m20) + z * (m10 - m01)
+        ama = x * (m00 * x + m01 * y + m02 * z) + y * (m10 * x + m11 * y + m12 * z) + z * (m20 * x + m21 * y + m22 * z)
+        return (math.atan2(aw, m00 + m11 + m22 - ama),)
     order = tuple(int(np.argmax(np.abs(x))) for x in axes)
-    signs = np.array([np.sign(x[k]) for x, k in zip(axes, order)])
+    signs = [1.0 if x[k] > 0 else -1.0 for x, k in zip(axes, order)]
     third = next(k for k in range(3) if k not in order)
     ang = euler_from_matrix(local, (order[0], order[1], third))
-    return np.array(ang[:2]) * signs
+    return ang[0] * signs[0], ang[1] * signs[1]
 
 
 def _has_sensor(model: mujoco.MjModel, name: str) -> bool:
     return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SENSOR, name) >= 0
 
 
-def _rotvec(e: FloatArray) -> FloatArray:
-    """Rotation vector of a rotation matrix (rad)."""
-    m = e.tolist()
-    cos = min(max((m[0][0] + m[1][1] + m[2][2] - 1.0) * 0.5, -1.0), 1.0)
+def _rotvec3(e: FloatArray) -> tuple[float, float, float]:
+    """Rotation vector (rad) of a rotation matrix, as three floats."""
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = e.ravel().tolist()
+    cos = min(max((m00 + m11 + m22 - 1.0) * 0.5, -1.0), 1.0)
     ang = math.acos(cos)
-    w = np.array([m[2][1] - m[1][2], m[0][2] - m[2][0], m[1][0] - m[0][1]])
     s = math.sin(ang)
-    if s < 1e-6:
-        return 0.5 * w
-    return w * (ang / (2.0 * s))
+    k = 0.5 if s < 1e-6 else ang / (2.0 * s)
+    return (m21 - m12) * k, (m02 - m20) * k, (m10 - m01) * k
+
+
+def _as_slice(idx: npt.NDArray[np.int64]) -> slice | npt.NDArray[np.int64]:
+    """A slice for contiguous ascending indices (a view, no gather), else the indices."""
+    if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
+        return slice(int(idx[0]), int(idx[0]) + len(idx))
+    return idx

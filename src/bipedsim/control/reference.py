@@ -134,7 +134,10 @@ class ClipSource(GaitSource):
         self.hinge_qadr = hinges.qadr
         self.q = clip.qpos[:, hinges.qadr]
         self.qd = clip.qvel[:, hinges.dadr]
-        n = clip.num_frames
+        self.nh = self.q.shape[1]
+        self.q_qd = np.ascontiguousarray(np.hstack([self.q, self.qd]))  # one interpolation per step
+        n = self.n = clip.num_frames
+        self._last_f, self._last_k = float("nan"), 0
         data = mujoco.MjData(model)
         pelvis = model.body("pelvis").id
         thighs = {s: model.body(f"{s}_thigh").id for s in SIDES}
@@ -175,37 +178,50 @@ class ClipSource(GaitSource):
         self._step = float(np.mean(np.diff(np.append(steps, self.b)))) * self.frame_time
 
     # ------------------------------------------------------------------ frames
+    # (these run on every control step: plain float maths, one interpolation for q and qdot)
     def wrap(self, f: float) -> float:
         if f < self.a:
             return f
         return self.a + (f - self.a) % self.period
 
-    def _interp(self, arr: FloatArray, f: float) -> FloatArray:
+    def _pair(self, f: float) -> tuple[int, int, float]:
+        """Rows (i, j) and weight u of frame ``f``: value = row_i (1 - u) + row_j u."""
         w = self.wrap(f)
-        i = int(np.floor(w))
+        i = int(w // 1.0)
         u = w - i
         j = i + 1
         if j >= self.b and self.a <= i:
             j = int(self.a) + (j - int(self.b))
-        i = min(i, len(arr) - 1)
-        j = min(j, len(arr) - 1)
-        return arr[i] * (1.0 - u) + arr[j] * u
+        last = self.n - 1
+        return (i if i < last else last), (j if j < last else last), u
+
+    def _interp(self, arr: FloatArray, f: float) -> FloatArray:
+        i, j, u = self._pair(f)
+        lo = arr[i]
+        return lo + u * (arr[j] - lo)
+
+    def _nearest(self, f: float) -> int:
+        # asked several times per control step for the same frame (pelvis, thigh, feet)
+        if f != self._last_f:
+            self._last_f, self._last_k = f, int(round(self.wrap(f))) % self.n
+        return self._last_k
 
     def hinge_targets(self, f: float, state: int) -> tuple[FloatArray, FloatArray]:
-        return self._interp(self.q, f), self._interp(self.qd, f)
+        both = self._interp(self.q_qd, f)
+        return both[:self.nh], both[self.nh:]
 
     def pelvis_target(self, f: float, state: int) -> FloatArray:
-        return self.pelvis_hf[int(round(self.wrap(f))) % len(self.pelvis_hf)]
+        return self.pelvis_hf[self._nearest(f)]
 
     def thigh_target(self, f: float, state: int, side: str) -> FloatArray:
-        return self.thigh_hf[side][int(round(self.wrap(f))) % len(self.pelvis_hf)]
+        return self.thigh_hf[side][self._nearest(f)]
 
     def foot_target(self, f: float, state: int, side: str) -> FloatArray | None:
-        return self.foot_hf[side][int(round(self.wrap(f))) % len(self.pelvis_hf)]
+        return self.foot_hf[side][self._nearest(f)]
 
     def reference_qpos(self, f: float, state: int, qpos_now: FloatArray) -> FloatArray:
         """The clip's pose at frame ``f`` (nearest frame), root where the clip has it."""
-        return self.clip.qpos[int(round(self.wrap(f))) % self.clip.num_frames].copy()
+        return self.clip.qpos[self._nearest(f)].copy()
 
     def com_reference(self, f: float, stance: str) -> tuple[FloatArray, FloatArray]:
         return self._interp(self.d_ref[stance], f), self._interp(self.v_ref, f)

@@ -6,6 +6,7 @@ controller configuration.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -75,40 +76,49 @@ class FallDetector:
         ok_bodies = {model.body(b).id for b in (*plan.foot_bodies, *crit.allowed)}
         self.bad_geom = np.array([model.geom_bodyid[g] not in ok_bodies and model.geom_bodyid[g] != 0
                                   for g in range(model.ngeom)])
+        #: bad_pair[g1, g2]: a contact between these geoms is a fall (the floor and a non-foot body)
+        self.bad_pair = np.zeros((model.ngeom, model.ngeom), dtype=bool)
+        if self.floor >= 0:
+            self.bad_pair[self.floor, :] = self.bad_geom
+            self.bad_pair[:, self.floor] = self.bad_geom
         self.pelvis = model.body("pelvis").id
         self.torso = model.body("torso").id if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso") >= 0 \
             else self.pelvis
         self.h0 = float(data.xpos[self.pelvis][2])
+        self.min_height = crit.pelvis_height_fraction * self.h0
+        self.min_up = float(np.cos(crit.torso_tilt))
         self.model = model
 
     def check(self, data: mujoco.MjData) -> str | None:
+        """The reason the character has fallen, or None (vectorised: this runs every few ms)."""
         c = self.crit
-        if c.non_foot_contact:
-            for i in range(data.ncon):
-                con = data.contact[i]
-                g1, g2 = con.geom1, con.geom2
-                if (g1 == self.floor and self.bad_geom[g2]) or (g2 == self.floor and self.bad_geom[g1]):
-                    other = g2 if g1 == self.floor else g1
-                    return f"{self.model.body(self.model.geom_bodyid[other]).name} touched the ground"
-        if data.xpos[self.pelvis][2] < c.pelvis_height_fraction * self.h0:
+        if c.non_foot_contact and data.ncon:
+            g = data.contact.geom
+            bad = self.bad_pair[g[:, 0], g[:, 1]]
+            if bad.any():
+                g1, g2 = (int(x) for x in g[int(np.argmax(bad))])
+                other = g2 if g1 == self.floor else g1
+                return f"{self.model.body(self.model.geom_bodyid[other]).name} touched the ground"
+        if data.xpos[self.pelvis, 2] < self.min_height:
             return f"pelvis below {c.pelvis_height_fraction:.2f} of its starting height"
-        up = data.xmat[self.torso].reshape(3, 3)[:, 2]
-        if np.arccos(np.clip(up[2], -1.0, 1.0)) > c.torso_tilt:
+        if data.xmat[self.torso, 8] < self.min_up:  # the torso's up axis, z component
             return f"torso tilted more than {c.torso_tilt:.2f} rad"
         return None
 
 
-def sim_end(step: int, dt: float) -> float:
-    return (step + 1) * dt
+_INSTABILITY = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
+                mujoco.mjtWarning.mjWARN_BADCTRL)
+_INSTABILITY_IDX = np.array([int(w) for w in _INSTABILITY])
 
 
 def diverged(data: mujoco.MjData) -> str | None:
-    if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
+    # a sum is finite only if every term is (and a state so large that the sum overflows has diverged)
+    if not math.isfinite(float(data.qpos.sum()) + float(data.qvel.sum())):
         return "non-finite state (NaN/Inf)"
-    for w in (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
-              mujoco.mjtWarning.mjWARN_BADCTRL):
-        if data.warning[w].number > 0:
-            return f"MuJoCo instability warning {mujoco.mjtWarning(w).name}"
+    counts = data.warning.number[_INSTABILITY_IDX]
+    if counts.any():
+        w = _INSTABILITY[int(np.argmax(counts > 0))]
+        return f"MuJoCo instability warning {mujoco.mjtWarning(w).name}"
     return None
 
 
@@ -211,39 +221,46 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
         series_t: list[float] = []
         series_err: list[float] = []
         series_com: list[FloatArray] = []
-        for step in range(n_steps):
+        # one pass per control period: control, then `every` physics steps (in one mj_step call
+        # when no hook needs to see each step); fall checks once per `check_every` physics steps
+        step, checks, next_progress = 0, 0, 1.0
+        while step < n_steps:
             t = step * dt
-            for hk in before_step:
+            u = ctrl(model, data, t, dt * every)
+            data.ctrl[:] = u
+            e = ctrl.tracking_error
+            ee = float(e @ e)
+            err2 += ee
+            n_err += len(e)
+            if schedule is not None or record_com:
+                series_t.append(t)
+                series_err.append((ee / len(e)) ** 0.5)
+                series_com.append(data.subtree_com[1, :2].copy())
+            for hk in hooks:
                 hk(t, data, ctrl)
-            if step % every == 0:
-                u = ctrl(model, data, t, dt * every)
-                data.ctrl[:] = u
-                e = ctrl.tracking_error
-                ee = float(e @ e)
-                err2 += ee
-                n_err += len(e)
-                if schedule is not None or record_com:
-                    series_t.append(t)
-                    series_err.append((ee / len(e)) ** 0.5)
-                    series_com.append(data.subtree_com[1, :2].copy())
-                for hk in hooks:
-                    hk(t, data, ctrl)
-            mujoco.mj_step(model, data)
-            if (step + 1) % check_every == 0:
+            k = min(every, n_steps - step)
+            if before_step:
+                for i in range(k):
+                    for hk in before_step:
+                        hk((step + i) * dt, data, ctrl)
+                    mujoco.mj_step(model, data)
+            else:
+                mujoco.mj_step(model, data, k)
+            step += k
+            if step // check_every > checks or step >= n_steps:
+                checks = step // check_every
                 bad = diverged(data)
                 if bad:
-                    outcome, fall_t, reason = "diverged", (step + 1) * dt, bad
+                    outcome, fall_t, reason = "diverged", step * dt, bad
                     break
                 why = falls.check(data)
                 if why:
-                    outcome, fall_t, reason = "fall", (step + 1) * dt, why
+                    outcome, fall_t, reason = "fall", step * dt, why
                     break
-        if outcome == "no_fall":  # the last steps since a check
-            bad = diverged(data)
-            if bad:
-                outcome, fall_t, reason = "diverged", sim_end(step, dt), bad
-            if progress and step % 500 == 0:
-                progress((step + 1) * dt)
+                if progress is not None and step * dt >= next_progress:
+                    progress(step * dt)
+                    next_progress += 1.0
+        step = max(step - 1, 0)  # index of the last physics step taken
         sim_s = (step + 1) * dt
         dist = float(np.linalg.norm(data.qpos[0:2] - start_xy)) if outcome != "diverged" else 0.0
         ratios = [r.ratio for r in ctrl.resyncs]

@@ -71,9 +71,20 @@ def hip_torques(tau_torso: FloatArray, tau_swing: FloatArray, gamma: float,
     In single support gamma = 1 and this is eq. 2, ``tau_A = -tau_torso - tau_B``. Without
     redistribution the stance hip takes all of ``tau_r`` whatever the load.
     """
-    tau_r = -(tau_torso + tau_swing)
+    t_a, t_b = hip_torques3(_floats3(tau_torso), _floats3(tau_swing), gamma, redistribute)
+    return np.array(t_a), np.array(t_b)
+
+
+Vec3 = tuple[float, float, float]
+
+
+def hip_torques3(tau_torso: Vec3, tau_swing: Vec3, gamma: float, redistribute: bool = True) -> tuple[Vec3, Vec3]:
+    """:func:`hip_torques` on plain floats (the controller's per-step form)."""
     g = gamma if redistribute else 1.0
-    return g * tau_r, tau_swing + (1.0 - g) * tau_r
+    (x, y, z), (u, v, w) = tau_torso, tau_swing
+    rx, ry, rz = -(x + u), -(y + v), -(z + w)
+    h = 1.0 - g
+    return (g * rx, g * ry, g * rz), (u + h * rx, v + h * ry, w + h * rz)
 
 
 def world_to_hinges(axes: FloatArray, tau_world: FloatArray) -> FloatArray:
@@ -84,20 +95,39 @@ def world_to_hinges(axes: FloatArray, tau_world: FloatArray) -> FloatArray:
     return axes @ tau_world
 
 
+def world_to_hinges3(axes: list[list[float]], tau_world: Vec3) -> list[float]:
+    """:func:`world_to_hinges` on plain floats (axes as rows)."""
+    x, y, z = tau_world
+    return [a * x + b * y + c * z for a, b, c in axes]
+
+
 def hinges_to_world(axes: FloatArray, tau_hinge: FloatArray) -> FloatArray:
     """The world torque whose hinge components are ``tau_hinge`` (inverse of :func:`world_to_hinges`
     for three independent axes; least squares when they are not)."""
     if axes.shape == (3, 3):
-        # Cramer's rule on plain floats: this runs on every control step
-        (a, b, c), (d, e, f), (g, h, i) = axes.tolist()
-        x, y, z = tau_hinge.tolist() if isinstance(tau_hinge, np.ndarray) else map(float, tau_hinge)
-        ei_fh, di_fg, dh_eg = e * i - f * h, d * i - f * g, d * h - e * g
-        det = a * ei_fh - b * di_fg + c * dh_eg
-        if abs(det) > 1e-6:
-            return np.array([(x * ei_fh - b * (y * i - f * z) + c * (y * h - e * z)) / det,
-                             (a * (y * i - f * z) - x * di_fg + c * (d * z - y * g)) / det,
-                             (a * (e * z - y * h) - b * (d * z - y * g) + x * dh_eg) / det])
+        t = hinges_to_world3(axes.tolist(), _floats3(tau_hinge))
+        if t is not None:
+            return np.array(t)
     return np.linalg.lstsq(axes, tau_hinge, rcond=None)[0]
+
+
+def hinges_to_world3(axes: list[list[float]], tau_hinge: Vec3) -> Vec3 | None:
+    """:func:`hinges_to_world` for three axes on plain floats (Cramer's rule); None when the axes are
+    (nearly) dependent."""
+    (a, b, c), (d, e, f), (g, h, i) = axes
+    x, y, z = tau_hinge
+    ei_fh, di_fg, dh_eg = e * i - f * h, d * i - f * g, d * h - e * g
+    det = a * ei_fh - b * di_fg + c * dh_eg
+    if abs(det) <= 1e-6:
+        return None
+    return ((x * ei_fh - b * (y * i - f * z) + c * (y * h - e * z)) / det,
+            (a * (y * i - f * z) - x * di_fg + c * (d * z - y * g)) / det,
+            (a * (e * z - y * h) - b * (d * z - y * g) + x * dh_eg) / det)
+
+
+def _floats3(v: FloatArray | Vec3) -> Vec3:
+    x, y, z = v.tolist() if isinstance(v, np.ndarray) else v
+    return float(x), float(y), float(z)
 
 
 def yaw_matrix(yaw: float) -> FloatArray:

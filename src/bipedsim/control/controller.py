@@ -14,7 +14,7 @@ One call maps (model, data, time) to actuator controls (joint torques, N*m). Per
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -25,9 +25,10 @@ from bipedsim.control.balance import (
     feedback_angle,
     heading_of,
     hinges_to_world,
-    hip_torques,
+    hinges_to_world3,
+    hip_torques3,
     stance_share,
-    world_to_hinges,
+    world_to_hinges3,
     yaw_matrix,
 )
 from bipedsim.control.config import ControllerConfig
@@ -60,7 +61,7 @@ class ControllerState:
     fade: float = 1.0
     feedback_sagittal: float = 0.0
     feedback_coronal: float = 0.0
-    tau_torso: FloatArray = field(default_factory=lambda: np.zeros(3))
+    tau_torso: tuple[float, float, float] = (0.0, 0.0, 0.0)  #: world frame, N*m
     holding: bool = False
 
 
@@ -432,9 +433,8 @@ class Controller:
             if grav:
                 bias = data.qfrc_bias
                 tb = [x + float(bias[d]) for x, d in zip(tb, dadr_b)]
-            tau_b = np.array(tb)
         else:
-            tau_b = tau[sl_b].copy()
+            tb = tau[sl_b].tolist() if isinstance(sl_b, slice) else [float(tau[i]) for i in idx_b]
         if b.feet_world:
             for side in SIDES:
                 r_f = src.foot_target(frame, state, side)
@@ -453,14 +453,17 @@ class Controller:
                     if grav:
                         t_i += float(self._ff[i])
                     tau[i] = t_i
-        axes_b = data.xaxis[jid_b]
-        t_b = hinges_to_world(axes_b, tau_b)
+        # the hips: the swing hip's world torque, the stance hip takes the rest (eq. 2-5)
+        axes_b = data.xaxis[jid_b].tolist()
+        t_b = hinges_to_world3(axes_b, tb)
+        if t_b is None:
+            t_b = tuple(hinges_to_world(np.array(axes_b), np.array(tb)).tolist())
         gamma = stance_share(forces[stance], forces[swing])
-        t_a, t_b_total = hip_torques(np.array(tau_torso), t_b, gamma, b.redistribution)
-        tau[sl_a] = world_to_hinges(data.xaxis[jid_a], t_a)
-        tau[sl_b] = world_to_hinges(axes_b, t_b_total)
+        t_a, t_b_total = hip_torques3(tau_torso, t_b, gamma, b.redistribution)
+        tau[sl_a] = world_to_hinges3(data.xaxis[jid_a].tolist(), t_a)
+        tau[sl_b] = world_to_hinges3(axes_b, t_b_total)
         self.state.gamma = gamma
-        self.state.tau_torso = np.array(tau_torso)
+        self.state.tau_torso = tau_torso
 
 
 #: Actuator fields the controller changes while it runs (and restores after).

@@ -120,6 +120,10 @@ def test_sweep_goes_on_after_divergence_and_summarises(tmp_path: Path) -> None:
     assert by[("absurd_gains", 150.0)] == "diverged" and by[("absurd_gains", 2000.0)] == "diverged"
     assert by[("default", 150.0)] in ("no_fall", "fall") and by[("default", 2000.0)] == "fall"
     assert summary["outcomes"]["diverged"] == 2
+    # per direction: how many of its rollouts survived, out of how many
+    counts = summary["survived_per_direction"]
+    assert sum(c["rollouts"] for c in counts.values()) == 4
+    assert sum(c["survived"] for c in counts.values()) == sum(r["outcome"] == "no_fall" for r in rows)
     assert (tmp_path / "push_polar.png").read_bytes()[:4] == b"\x89PNG"
 
 

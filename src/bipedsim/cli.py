@@ -464,8 +464,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     exp = load_experiment(args.experiment)  # every check before any rollout
     summary = run_sweep(exp, args.out, workers=args.workers, backend=args.backend, progress=sys.stderr.isatty())
     print(f"{summary['rollouts']} rollouts: " + ", ".join(f"{k} {v}" for k, v in sorted(summary["outcomes"].items())))
+    counts = summary.get("survived_per_direction", {})
     for d, v in summary["largest_survived_per_direction_n"].items():
-        print(f"  direction {d:>5} deg: survived every push up to {v if v is not None else '-'} N")
+        c = counts.get(d, {"survived": 0, "rollouts": 0})
+        every = f"every phase survived up to {v:g} N" if v is not None else "no magnitude survived in every phase"
+        print(f"  direction {d:>5} deg: {c['survived']}/{c['rollouts']} survived; {every}")
     print(f"wrote {args.out}/results.csv, summary.json, push_polar.png")
     return 0
 

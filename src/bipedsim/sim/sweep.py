@@ -203,6 +203,12 @@ def summarise(rows: list[dict[str, str]]) -> dict[str, Any]:
         cur = per_dir.get(key, float("inf"))
         per_dir[key] = None if v is None or cur is None else min(cur, v)
     out["largest_survived_per_direction_n"] = per_dir
+    counts: dict[str, dict[str, int]] = {}
+    for r in rows:
+        c = counts.setdefault(f"{float(r['direction']):g}", {"survived": 0, "rollouts": 0})
+        c["rollouts"] += 1
+        c["survived"] += r["outcome"] == "no_fall"
+    out["survived_per_direction"] = counts
     return out
 
 

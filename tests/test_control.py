@@ -231,3 +231,24 @@ def test_pose_gait_source_walks(tmp_path: Path) -> None:
     sc = load_scenario(REPO / "controllers" / "pose_gait.yaml")
     out, _ = run_scenario(sc, RolloutSpec(seconds=8.0))
     assert out.outcome == "no_fall" and out.foot_strikes >= 10 and out.distance_m > 2.0
+
+
+def test_hot_path_rotation_helpers_match_scipy() -> None:
+    """The controller's float-only helpers: rotation vector, one- and two-hinge angles."""
+    from bipedsim.control.controller import _hinge_angles_small, _rotvec3
+
+    rng = np.random.default_rng(5)
+    for r in Rotation.random(20, random_state=7):
+        assert np.allclose(_rotvec3(r.as_matrix()), r.as_rotvec(), atol=1e-9)
+    for _ in range(20):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        theta = rng.uniform(-2.5, 2.5)
+        m = Rotation.from_rotvec(axis * theta).as_matrix()
+        assert _hinge_angles_small(m, [tuple(axis)])[0] == pytest.approx(theta, abs=1e-9)
+    # two hinges (y then x, as an ankle with pitch and roll): the angles come back
+    a, b = 0.4, -0.3
+    m = Rotation.from_euler("YX", [a, b]).as_matrix()
+    assert np.allclose(_hinge_angles_small(m, [(0.0, 1.0, 0.0), (1.0, 0.0, 0.0)]), [a, b])
+    # the same rotation about the opposite axes is the opposite angles
+    assert np.allclose(_hinge_angles_small(m, [(0.0, -1.0, 0.0), (-1.0, 0.0, 0.0)]), [-a, -b])

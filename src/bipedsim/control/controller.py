@@ -38,8 +38,6 @@ from bipedsim.errors import ConfigError, ModelError
 from bipedsim.model.plan import BodyPlanSet
 
 FloatArray = npt.NDArray[np.float64]
-Y_AXIS = np.array([0.0, 1.0, 0.0])
-X_AXIS = np.array([1.0, 0.0, 0.0])
 
 
 @dataclass
@@ -116,9 +114,6 @@ class Controller:
             axes = [np.asarray(jplan[x].axis) for x in names]
             self.ankle[s] = (idx, axes)
         self.shin_body = {s: model.body(f"{s}_shin").id for s in SIDES}
-        self.is_hip = np.zeros(n, dtype=bool)
-        for s in SIDES:
-            self.is_hip[self.hip[s][0]] = True
         # implicit damping: MuJoCo's joint damping carries kd
         self.implicit = cfg.pd.implicit_damping
         self.base_damping = model.dof_damping.copy()
@@ -182,7 +177,6 @@ class Controller:
         self._speed = float(source.speed())
         self._kp_l, self._kd_l = self.kp.tolist(), self.kd.tolist()
         self._tlo_l, self._thi_l = self.tlo.tolist(), self.thi.tolist()
-        self._dadr_l = self.h.dadr.tolist()
         self._r_heading = np.eye(3)
         self._touch_idx = np.array(self.touch["right"] + self.touch["left"], dtype=np.int64)
         self._n_touch_right = len(self.touch["right"])

@@ -90,6 +90,39 @@ def test_big_push_falls_within_2s_and_metrics(scenario) -> None:
     assert devs[0] == 0.0 and 0.0 < devs[1] < devs[2] < 1.5
 
 
+def test_fall_criteria_and_divergence_checks(scenario) -> None:
+    """Each fall criterion on hand-made states, and NaN/instability as divergence, never a fall."""
+    import mujoco
+
+    from bipedsim.sim.rollout import FallCriteria, FallDetector, diverged
+
+    m = scenario.built.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = scenario.clip.qpos[0]
+    mujoco.mj_forward(m, d)
+    det = FallDetector(m, scenario.built.plan, FallCriteria(), d)
+    assert det.check(d) is None and diverged(d) is None
+    # lying on its back, just touching the floor: the torso (not a foot) is in contact
+    d.qpos[3:7] = [np.cos(np.pi / 4), 0.0, -np.sin(np.pi / 4), 0.0]  # pitched 90 degrees back
+    d.qpos[2] = 0.12
+    mujoco.mj_forward(m, d)
+    assert d.ncon > 0
+    why = det.check(d)
+    assert why is not None and why.endswith("touched the ground") and "foot" not in why
+    # without the contact criterion the pelvis height and the torso tilt still catch it
+    only_height = FallDetector(m, scenario.built.plan, FallCriteria(non_foot_contact=False, torso_tilt=3.1), d)
+    only_height.min_height = 0.5
+    assert "pelvis below" in only_height.check(d)
+    only_tilt = FallDetector(m, scenario.built.plan, FallCriteria(non_foot_contact=False,
+                                                                   pelvis_height_fraction=0.0), d)
+    assert "tilted" in only_tilt.check(d)
+    d.qvel[4] = np.nan
+    assert "non-finite" in diverged(d)
+    d.qvel[4] = 0.0
+    d.warning[int(mujoco.mjtWarning.mjWARN_BADQACC)].number = 1
+    assert "BADQACC" in diverged(d)
+
+
 def test_random_pushes_are_seeded() -> None:
     assert random_pushes(4, 3) == random_pushes(4, 3)
     assert random_pushes(4, 3) != random_pushes(5, 3)

@@ -178,6 +178,9 @@ class Controller:
         self._kp_l, self._kd_l = self.kp.tolist(), self.kd.tolist()
         self._tlo_l, self._thi_l = self.tlo.tolist(), self.thi.tolist()
         self._r_heading = np.eye(3)
+        # scratch 3x3s refilled on every step (building a fresh array costs more than the product)
+        self._ry = np.eye(3)
+        self._r_fb = np.eye(3)
         self._touch_idx = np.array(self.touch["right"] + self.touch["left"], dtype=np.int64)
         self._n_touch_right = len(self.touch["right"])
         # per side: swing-hip hinge indices as (slice, list), their joint ids as a slice (the hinges'
@@ -370,10 +373,12 @@ class Controller:
         p00, p01, p02, p10, p11, p12, p20, p21, p22 = data.xmat[self.pelvis].tolist()
         heading = math.atan2(p10, p00)
         c, s = math.cos(heading), math.sin(heading)
-        ry = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        ry = self._ry
+        ry[0, 0], ry[0, 1], ry[1, 0], ry[1, 1] = c, -s, s, c
         # torso (pelvis) in the world frame: reference pitch/roll, the walk's straight heading; gains
         # per heading-frame axis (roll about forward x, pitch about lateral y, yaw about z)
-        w0, w1, w2 = _rotvec3((self._r_heading @ src.pelvis_target(frame, state)) @ r_p.T)
+        # (ndarray.dot, not @: on 3x3s the matmul ufunc's dispatch costs twice the product)
+        w0, w1, w2 = _rotvec3(self._r_heading.dot(src.pelvis_target(frame, state)).dot(r_p.T))
         e0, e1 = c * w0 + s * w1, -s * w0 + c * w1
         x, y, z = data.qvel[3:6].tolist()  # pelvis angular velocity, body frame
         ow0, ow1, ow2 = p00 * x + p01 * y + p02 * z, p10 * x + p11 * y + p12 * z, p20 * x + p21 * y + p22 * z
@@ -408,8 +413,11 @@ class Controller:
             # r_fb = ry R_y(-fs) R_x(fc) ry^T (feedback about the heading frame's axes), so
             # pelvis^T r_fb ry thigh_ref = pelvis^T ry R_y(-fs) R_x(fc) thigh_ref
             cs, ss, cc, sc = math.cos(fs), math.sin(fs), math.cos(fc), math.sin(fc)
-            r_fb = np.array([[cs, -ss * sc, -ss * cc], [0.0, cc, -sc], [ss, cs * sc, cs * cc]])
-            ang = euler_from_matrix((r_p.T @ ry) @ (r_fb @ src.thigh_target(frame, state, swing)), order_b)
+            r_fb = self._r_fb
+            r_fb[0, 0], r_fb[0, 1], r_fb[0, 2] = cs, -ss * sc, -ss * cc
+            r_fb[1, 1], r_fb[1, 2] = cc, -sc
+            r_fb[2, 0], r_fb[2, 1], r_fb[2, 2] = ss, cs * sc, cs * cc
+            ang = euler_from_matrix(r_p.T.dot(ry).dot(r_fb.dot(src.thigh_target(frame, state, swing))), order_b)
             # the world target sets where the thigh points; its twist about its own axis (the last
             # hinge, applied after flexion and abduction) stays the reference's: turning the leg
             # about itself does not place the foot, it only yaws the body
@@ -435,7 +443,7 @@ class Controller:
                 if r_f is None:
                     continue
                 idx, axes = self._ankle_fast[side]
-                local = data.xmat[self.shin_body[side]].reshape(3, 3).T @ (ry @ r_f)
+                local = data.xmat[self.shin_body[side]].reshape(3, 3).T.dot(ry.dot(r_f))
                 ang = _hinge_angles_small(local, axes)
                 for k, i in enumerate(idx):
                     v = min(max(ang[k], tlo[i]), thi[i])

@@ -76,11 +76,9 @@ class FallDetector:
         ok_bodies = {model.body(b).id for b in (*plan.foot_bodies, *crit.allowed)}
         self.bad_geom = np.array([model.geom_bodyid[g] not in ok_bodies and model.geom_bodyid[g] != 0
                                   for g in range(model.ngeom)])
-        #: bad_pair[g1, g2]: a contact between these geoms is a fall (the floor and a non-foot body)
-        self.bad_pair = np.zeros((model.ngeom, model.ngeom), dtype=bool)
-        if self.floor >= 0:
-            self.bad_pair[self.floor, :] = self.bad_geom
-            self.bad_pair[:, self.floor] = self.bad_geom
+        #: a contact between the floor and one of these geoms is a fall (a plain set: the per-check loop
+        #: over a walking body's few contacts beats numpy's per-call cost)
+        self._bad_geoms = {int(g) for g in np.flatnonzero(self.bad_geom)}
         self.pelvis = model.body("pelvis").id
         self.torso = model.body("torso").id if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso") >= 0 \
             else self.pelvis
@@ -90,15 +88,15 @@ class FallDetector:
         self.model = model
 
     def check(self, data: mujoco.MjData) -> str | None:
-        """The reason the character has fallen, or None (vectorised: this runs every few ms)."""
+        """The reason the character has fallen, or None (this runs every few ms: a walking body has a
+        handful of contacts, so a plain loop over them beats numpy's per-call cost)."""
         c = self.crit
         if c.non_foot_contact and data.ncon:
-            g = data.contact.geom
-            bad = self.bad_pair[g[:, 0], g[:, 1]]
-            if bad.any():
-                g1, g2 = (int(x) for x in g[int(np.argmax(bad))])
-                other = g2 if g1 == self.floor else g1
-                return f"{self.model.body(self.model.geom_bodyid[other]).name} touched the ground"
+            floor, bad = self.floor, self._bad_geoms
+            for g1, g2 in data.contact.geom.tolist():
+                if (g1 == floor and g2 in bad) or (g2 == floor and g1 in bad):
+                    other = g2 if g1 == floor else g1
+                    return f"{self.model.body(self.model.geom_bodyid[other]).name} touched the ground"
         if data.xpos[self.pelvis, 2] < self.min_height:
             return f"pelvis below {c.pelvis_height_fraction:.2f} of its starting height"
         if data.xmat[self.torso, 8] < self.min_up:  # the torso's up axis, z component
@@ -108,17 +106,19 @@ class FallDetector:
 
 _INSTABILITY = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
                 mujoco.mjtWarning.mjWARN_BADCTRL)
-_INSTABILITY_IDX = np.array([int(w) for w in _INSTABILITY])
+_INSTABILITY_IDX = tuple(int(w) for w in _INSTABILITY)
 
 
 def diverged(data: mujoco.MjData) -> str | None:
-    # a sum is finite only if every term is (and a state so large that the sum overflows has diverged)
-    if not math.isfinite(float(data.qpos.sum()) + float(data.qvel.sum())):
+    # a sum of squares is finite only if every term is (and a state so large that it overflows has
+    # diverged anyway); dot products and a plain loop over four counters: this runs every few ms
+    q, v = data.qpos, data.qvel
+    if not math.isfinite(float(q.dot(q)) + float(v.dot(v))):
         return "non-finite state (NaN/Inf)"
-    counts = data.warning.number[_INSTABILITY_IDX]
-    if counts.any():
-        w = _INSTABILITY[int(np.argmax(counts > 0))]
-        return f"MuJoCo instability warning {mujoco.mjtWarning(w).name}"
+    counts = data.warning.number
+    for w, i in zip(_INSTABILITY, _INSTABILITY_IDX):
+        if counts[i]:
+            return f"MuJoCo instability warning {mujoco.mjtWarning(w).name}"
     return None
 
 
@@ -229,7 +229,7 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
             u = ctrl(model, data, t, dt * every)
             data.ctrl[:] = u
             e = ctrl.tracking_error
-            ee = float(e @ e)
+            ee = float(e.dot(e))
             err2 += ee
             n_err += len(e)
             if schedule is not None or record_com:

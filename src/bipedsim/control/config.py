@@ -79,6 +79,18 @@ class PlaneGains:
 
 
 @dataclass(frozen=True)
+class VelocityConfig:
+    """Velocity tuning by a virtual force on the centre of mass (Coros et al. 2010, sec. 5): the legs in
+    contact push on the ground with F = kv (v_target - v), shared by their loads, through
+    tau = -J^T F on the knee, ankle and toe (the same Jacobian as the weight support). Sagittal target:
+    the reference's mean walking speed; coronal: 0. 0 gains switch it off."""
+
+    kv_sagittal: float = field(default=0.0, metadata={"min": 0.0})  #: N per m/s
+    kv_coronal: float = field(default=0.0, metadata={"min": 0.0})  #: N per m/s
+    max_force: float = field(default=150.0, metadata={"gt": 0.0})  #: N, the horizontal force's norm
+
+
+@dataclass(frozen=True)
 class BalanceConfig:
     """SIMBICON balance: world-frame torso (pelvis) control through the stance hip, swing-hip
     feedback theta_d = theta_d0 + c_d d + c_v v per plane, contact-weighted redistribution."""
@@ -97,6 +109,7 @@ class BalanceConfig:
     feet_world: bool = True
     redistribution: bool = True
     max_feedback: float = field(default=0.6, metadata={"gt": 0.0})
+    velocity: VelocityConfig = field(default_factory=VelocityConfig)
     #: what d and v are measured against: "none" (SIMBICON: raw COM offset from the stance ankle and
     #: raw COM velocity), "mean_velocity" (velocity relative to the reference's mean walking velocity),
     #: "full" (deviations from the reference's own d and v on the current frame)

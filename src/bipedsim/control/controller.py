@@ -61,6 +61,7 @@ class ControllerState:
     feedback_coronal: float = 0.0
     tau_torso: tuple[float, float, float] = (0.0, 0.0, 0.0)  #: world frame, N*m
     holding: bool = False
+    virtual_force: tuple[float, float] = (0.0, 0.0)  #: velocity tuning, heading frame (N)
 
 
 class Controller:
@@ -191,6 +192,12 @@ class Controller:
         self._ankle_fast = {s: (self.ankle[s][0].tolist(), [tuple((a / np.linalg.norm(a)).tolist())
                                                              for a in self.ankle[s][1]])
                             for s in SIDES}
+        vel = cfg.balance.velocity
+        self._vel_on = cfg.balance.enabled and (vel.kv_sagittal > 0 or vel.kv_coronal > 0)
+        #: per side: (hinge index, joint id) of the knee and ankle hinges, the stance leg's chain below
+        #: the hip (which belongs to the torso law) for velocity tuning
+        self._vf_joints = {s: [(int(i), int(self.h.jid[i])) for i in self.leg_low[s]
+                               if not self.h.names[i].endswith("toe")] for s in SIDES}
         self._apply_damping(1.0)
 
     # ------------------------------------------------------------------ setup
@@ -289,6 +296,8 @@ class Controller:
             self._update_fade(t)
         fsm = self.fsm
         sd = data.sensordata
+        touch = sd[self._touch_idx].tolist()
+        forces = {"right": sum(touch[:self._n_touch_right]), "left": sum(touch[self._n_touch_right:])}
         # a strike is the swing foot's sole landing; its toe brushing the floor at lift-off is not
         struck = fsm.update(dt, t, float(sd[self.touch[fsm.swing][0]]))
         if struck is not None:
@@ -325,8 +334,6 @@ class Controller:
                 tau += self._akd * qd_d
         else:
             tau = self._akp * (q_d - q) - self._akd * (qd - qd_d if ref_vel else qd)
-        touch = sd[self._touch_idx].tolist()
-        forces = {"right": sum(touch[:self._n_touch_right]), "left": sum(touch[self._n_touch_right:])}
         if cfg.pd.gravity_compensation:
             self._ff = self._gravity(data, forces)
             tau += self._ff
@@ -394,6 +401,7 @@ class Controller:
         dx, dy = cx - ax, cy - ay
         d0, d1 = c * dx + s * dy, -s * dx + c * dy
         v0, v1 = c * vx + s * vy, -s * vx + c * vy
+        vh0, vh1 = v0, v1  # the COM velocity in the heading frame, for velocity tuning
         if b.relative == "full":
             d_ref, v_ref = src.com_reference(frame, stance)
             d0, d1, v0, v1 = d0 - float(d_ref[0]), d1 - float(d_ref[1]), v0 - float(v_ref[0]), v1 - float(v_ref[1])
@@ -466,6 +474,37 @@ class Controller:
         tau[sl_b] = world_to_hinges3(axes_b, t_b_total)
         self.state.gamma = gamma
         self.state.tau_torso = tau_torso
+        if self._vel_on:  # last: the feet's world targets above set the ankle torques outright
+            self._virtual_force(data, tau, forces, c, s, vh0, vh1)
+
+    def _virtual_force(self, data: mujoco.MjData, tau: FloatArray, forces: dict[str, float], c: float, s: float,
+                       v0: float, v1: float) -> None:
+        """Velocity tuning: a virtual force F = kv (v_target - v) (heading frame, clipped to ``max_force``)
+        on the centre of mass, produced by the loaded legs with the foot as the chain's fixed end: each
+        knee and ankle hinge adds -share a . ((com - anchor) x F) (Jacobian transpose of the reversed
+        chain; a joint's torque acts on its parent, the side toward the body, with the opposite sign)."""
+        vc = self.cfg.balance.velocity
+        f0 = vc.kv_sagittal * (self._speed - v0)
+        f1 = vc.kv_coronal * (0.0 - v1)
+        norm = math.hypot(f0, f1)
+        if norm > vc.max_force:
+            f0, f1 = f0 * vc.max_force / norm, f1 * vc.max_force / norm
+        fx, fy = c * f0 - s * f1, s * f0 + c * f1
+        self.state.virtual_force = (f0, f1)
+        total = forces["left"] + forces["right"]
+        if total <= 1e-6:
+            return
+        cx, cy, cz = data.subtree_com[self.pelvis].tolist()
+        for side in SIDES:
+            share = forces[side] / total
+            if share <= 0.0:
+                continue
+            for i, j in self._vf_joints[side]:
+                ax, ay, az = data.xaxis[j].tolist()
+                px, py, pz = data.xanchor[j].tolist()
+                rx, ry, rz = cx - px, cy - py, cz - pz
+                # r x F with F = (fx, fy, 0): (-rz fy, rz fx, rx fy - ry fx)
+                tau[i] -= share * (ax * (-rz * fy) + ay * (rz * fx) + az * (rx * fy - ry * fx))
 
 
 #: Actuator fields the controller changes while it runs (and restores after).

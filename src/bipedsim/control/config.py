@@ -80,10 +80,10 @@ class PlaneGains:
 
 @dataclass(frozen=True)
 class VelocityConfig:
-    """Velocity tuning by a virtual force on the centre of mass (Coros et al. 2010, sec. 5): the legs in
-    contact push on the ground with F = kv (v_target - v), shared by their loads, through
-    tau = -J^T F on the knee, ankle and toe (the same Jacobian as the weight support). Sagittal target:
-    the reference's mean walking speed; coronal: 0. 0 gains switch it off."""
+    """Velocity tuning by a virtual force on the centre of mass (Coros et al. 2010, sec. 5):
+    F = kv (v_target - v), produced by the legs in contact in proportion to their loads through their
+    knee and ankle hinges (Jacobian transpose of the chain from the fixed foot up to the COM). Sagittal
+    target: the reference's mean walking speed; coronal: 0. 0 gains switch it off."""
 
     kv_sagittal: float = field(default=0.0, metadata={"min": 0.0})  #: N per m/s
     kv_coronal: float = field(default=0.0, metadata={"min": 0.0})  #: N per m/s

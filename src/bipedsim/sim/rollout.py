@@ -74,11 +74,10 @@ class FallDetector:
         self.crit = crit
         self.floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, FLOOR_NAME)
         ok_bodies = {model.body(b).id for b in (*plan.foot_bodies, *crit.allowed)}
-        self.bad_geom = np.array([model.geom_bodyid[g] not in ok_bodies and model.geom_bodyid[g] != 0
-                                  for g in range(model.ngeom)])
         #: a contact between the floor and one of these geoms is a fall (a plain set: the per-check loop
         #: over a walking body's few contacts beats numpy's per-call cost)
-        self._bad_geoms = {int(g) for g in np.flatnonzero(self.bad_geom)}
+        self._bad_geoms = {g for g in range(model.ngeom)
+                           if model.geom_bodyid[g] not in ok_bodies and model.geom_bodyid[g] != 0}
         self.pelvis = model.body("pelvis").id
         self.torso = model.body("torso").id if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso") >= 0 \
             else self.pelvis

@@ -19,7 +19,7 @@ def test_info_text_and_json(capsys) -> None:
     assert main(["info", "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["num_frames"] == 201 and d["unit_name"] == "cm"
-    assert abs(d["root_speed_mps"] - 0.92) < 0.01
+    assert abs(d["root_speed_mps"] - 0.946) < 0.01  # 0.44 m steps at 129 steps/min
 
 
 def test_no_command_prints_help_and_exits_2(capsys) -> None:

@@ -256,10 +256,11 @@ def test_hot_path_rotation_helpers_match_scipy() -> None:
 
 def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:
     """balance.velocity (Coros et al. 2010): the loaded legs' knee and ankle torques push the centre of
-    mass toward the reference's mean speed, so the speed swings less over the same 2 s of walking."""
+    mass toward the reference's mean speed, so after a backward push the walk gets back to its speed."""
     from dataclasses import replace
 
     from bipedsim.control.config import VelocityConfig
+    from bipedsim.sim.push import Push
 
     sc = load_scenario()
     base = sc.cfg
@@ -267,11 +268,12 @@ def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:
     for kv in (0.0, 300.0):
         sc.cfg = replace(base, balance=replace(base.balance, velocity=VelocityConfig(kv_sagittal=kv)))
         vs: list[float] = []
-        out, ctrl = run_scenario(sc, RolloutSpec(seconds=2.0), hooks=[lambda t, d, c: vs.append(d.subtree_linvel[1][0])])
+        out, ctrl = run_scenario(sc, RolloutSpec(seconds=3.0), pushes=[Push(150.0, 180.0, 0.2, start=1.0)],
+                                 hooks=[lambda t, d, c: vs.append(d.subtree_linvel[1][0])])
         assert out.outcome == "no_fall"
         dev[kv] = float(np.mean(np.abs(np.array(vs) - ctrl.source.speed())))
         if kv:
             f0, f1 = ctrl.state.virtual_force
             assert abs(f0) <= 150.0 + 1e-9 and f1 == 0.0  # clipped to max_force; no coronal gain
-    # measured: 0.28 m/s without, 0.14 with
-    assert dev[300.0] < 0.75 * dev[0.0], dev
+    # measured: mean |v - v_ref| 0.44 m/s without (the push halves the speed), 0.17 with
+    assert dev[300.0] < 0.6 * dev[0.0], dev

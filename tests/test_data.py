@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from bipedsim.data import BUILTIN_WALK, builtin_walk_text
+from bipedsim.motion.gaitgen import WalkParams
 from bipedsim.motion import read_bvh
 
 
@@ -13,5 +14,5 @@ def test_builtin_walk_regenerates_identically() -> None:
 def test_builtin_walk_reads_as_about_50_frames_per_cycle() -> None:
     m, info = read_bvh(BUILTIN_WALK)
     assert info.unit_name == "cm" and info.up == "y"
-    cycle_s = 2 * 60.0 / 110.0
+    cycle_s = 2 * 60.0 / WalkParams().resolved()[2]
     assert round(cycle_s / m.frame_time) == 50

@@ -45,11 +45,11 @@ class WalkParams:
     (steps/min); the third follows from ``speed = step_length * cadence / 60``."""
 
     speed: float | None = None
-    step_length: float | None = 0.5
-    cadence: float | None = 110.0
+    step_length: float | None = 0.44
+    cadence: float | None = 129.0
     frames_per_cycle: int = 50  #: frames per gait cycle (two steps), as in the paper
     cycles: int = 4
-    foot_clearance: float = 0.06  #: swing-foot peak height above the ground (m)
+    foot_clearance: float = 0.1  #: swing-foot peak height above the ground (m)
     double_support: float = 0.1  #: fraction of each step with both feet down
     pelvis_bob: float = 0.0  #: vertical pelvis motion, peak to mean (m), on top of the pendulum
     pelvis_sway: float = 0.02  #: lateral sway (m) for ``pelvis_profile: "sine"``
@@ -58,10 +58,10 @@ class WalkParams:
     #: a physical body can follow with flat feet; "sine": constant speed with a sine sway
     pelvis_profile: str = "lipm"
     zmp_start: float = 0.0
-    zmp_end: float = 0.08
+    zmp_end: float = 0.09
     arm_swing: float = 0.25  #: shoulder pitch amplitude (rad)
     elbow_bend: float = 0.35  #: mean elbow flexion (rad)
-    step_width: float = 2 * HIP_HALF_WIDTH_M  #: lateral distance between the footprints (m)
+    step_width: float = 0.2  #: lateral distance between the footprints (m)
 
     def resolved(self) -> tuple[float, float, float]:
         """(speed m/s, step length m, cadence steps/min)."""

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from bipedsim.data import BUILTIN_WALK, builtin_walk_text
-from bipedsim.motion.gaitgen import WalkParams
 from bipedsim.motion import read_bvh
+from bipedsim.motion.gaitgen import WalkParams
 
 
 def test_builtin_walk_regenerates_identically() -> None:

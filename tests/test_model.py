@@ -129,8 +129,9 @@ def test_shared_humans_convert_simulate_and_replay(path: Path) -> None:
     assert not np.any(clip.contacts & (clip.foot_heights > level + 0.10))
 
 
-def stance_sole_pitch(b, clip) -> np.ndarray:
-    """Pitch (rad) of the foot boxes' long axis on the frames the clip labels as contact."""
+def stance_sole_pitch(b, clip, axis: int = 0) -> np.ndarray:
+    """Pitch (rad) of the foot boxes' long axis on the frames the clip labels as contact (``axis=1``:
+    the roll, the tilt of the boxes' lateral axis)."""
     d = mujoco.MjData(b.model)
     pitch = []
     for f in range(0, clip.num_frames, 3):
@@ -138,7 +139,7 @@ def stance_sole_pitch(b, clip) -> np.ndarray:
         mujoco.mj_kinematics(b.model, d)
         for k, side in enumerate(clip.foot_names):
             if clip.contacts[f, k]:
-                x = d.geom_xmat[b.model.geom(f"{side}_foot_geom").id].reshape(3, 3)[:, 0]
+                x = d.geom_xmat[b.model.geom(f"{side}_foot_geom").id].reshape(3, 3)[:, axis]
                 pitch.append(np.arcsin(x[2]))
     return np.array(pitch)
 
@@ -354,3 +355,33 @@ def test_soles_lie_flat_in_stance_when_the_rest_pose_is_not_flat_footed(monkeypa
     r = build_model(m)
     rest = float(np.median(stance_sole_pitch(r, retarget(m, r.model, xml=r.xml))))
     assert abs(flat) < 0.05 < 0.3 < abs(rest), (flat, rest)
+
+
+def test_splayed_rest_legs_get_flexion_axes_and_level_soles() -> None:
+    """Holden's CMU skeleton stands with its legs splayed 20 degrees in the rest pose. The knee,
+    ankle and toe hinges are the leg's flexion axis (normal to the rest-pose shin, not the world y
+    axis), so the twobone fit puts the knee plane where the motion has it; and the 1-DOF ankle cannot
+    roll the foot, so the sole is built level for the leg's pose on the flat-foot frames: on the
+    clip's stance frames the foot boxes neither roll nor pitch (they stood on one edge, 20 degrees
+    rolled, before). The built-in walk (legs straight down at rest) keeps y axes."""
+    path = SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh"
+    if not path.exists():
+        pytest.skip(f"shared BVH data not found at {path}")
+    m = load_bvh(path)
+    b = build_model(m)
+    mj = b.model
+    for side in ("left", "right"):
+        shin = mj.body_pos[mj.body(f"{side}_foot").id]  # the ankle in the shin's frame: the rest shin
+        assert abs(shin[1]) > 0.1 * np.linalg.norm(shin)  # splayed
+        for j in (f"{side}_knee", f"{side}_ankle", f"{side}_toe"):
+            axis = mj.jnt_axis[mj.joint(j).id]
+            assert abs(np.dot(axis, shin)) < 1e-5 * np.linalg.norm(shin), j
+            assert np.dot(axis, [1.0, 0.0, 0.0]) == pytest.approx(0.0, abs=1e-6)
+    clip = retarget(m, mj, xml=b.xml)
+    roll = stance_sole_pitch(b, clip, axis=1)
+    pitch = stance_sole_pitch(b, clip)
+    assert abs(float(np.median(roll))) < 0.05 and abs(float(np.median(pitch))) < 0.05, (np.median(roll),
+                                                                                      np.median(pitch))
+    walk = build_model(load_bvh(BUILTIN_WALK)).model
+    for j in ("left_knee", "right_knee", "left_ankle", "left_toe"):
+        assert np.allclose(walk.jnt_axis[walk.joint(j).id], [0.0, 1.0, 0.0])

@@ -69,7 +69,7 @@ def _hinges(prefix: str, spec: JointSpec, bone: FloatArray, mirror: bool, kp: fl
         for a in spec.axes:
             if a == "flex":
                 axes.append(_flex_axis(bone, parent_bone))
-                labels.append("")
+                labels.append("y")  # the flexion axis is the lateral one (y for a bone hanging down)
             else:
                 v = _axis_vec(a)
                 axes.append(_mirror_axis(v) if mirror else v)
@@ -114,16 +114,25 @@ FLAT_SPEED = 0.3
 FLAT_MIN_TILT = 0.02
 #: Largest sole pitch (rad) against the rest pose.
 MAX_SOLE_PITCH = 0.6
+#: Smallest knee bend (rad) at which the hip-knee-ankle plane defines the foot's lateral axis.
+MIN_PLANE_BEND = 0.05
 
 
-def _flat_frame(moving: SourcePoints, joint: str, points: list[str], forward: FloatArray) -> FloatArray:
+def _flat_frame(moving: SourcePoints, joint: str, points: list[str], forward: FloatArray,
+                hinge_plane: tuple[str, str, str] | None = None, hinge_axis: FloatArray | None = None) -> FloatArray:
     """Axes (columns, body coordinates) of a foot segment's sole. The sole must be level when the
     motion has the segment flat on the floor (all ``points`` at their lowest level and ``joint``
-    still), not in the rest pose, which need not stand flat-footed: on those frames the bone
-    ``points[0] -> points[1]`` dips ``a_flat`` below the floor (median); in the rest pose it dips
-    ``a_rest`` (``forward``); the sole is the rest frame pitched toe-down by ``a_rest - a_flat``
-    (at most MAX_SOLE_PITCH). Identity when that is under FLAT_MIN_TILT or the motion never shows the
-    segment flat (one-frame files)."""
+    still), not in the rest pose, which need not stand flat-footed.
+
+    On those frames the segment's orientation is the one the model can give it: its forward bone
+    ``forward`` (rest pose) turned onto ``points[0] -> points[1]``, and its lateral axis ``hinge_axis``
+    (the knee's, rest pose; the ankle and toe hinges are parallel to it) onto the normal of the leg's
+    plane ``hinge_plane`` (hip, knee, ankle), where the twobone fit puts the knee hinge. A 1-DOF
+    ankle cannot roll the foot, so the leg's plane on the floor sets the sole's roll: the sole is the
+    rest frame turned so that its normal is vertical on the mean flat frame (pitch and roll, at
+    most MAX_SOLE_PITCH). Without ``hinge_plane`` (or where the leg is too straight to define its
+    plane) only the pitch is corrected. Identity when the correction is under FLAT_MIN_TILT or the
+    motion never shows the segment flat (one-frame files)."""
     pos = moving.positions
     eye = np.eye(3)
     if pos.ndim != 3 or pos.shape[0] < 3:
@@ -142,15 +151,54 @@ def _flat_frame(moving: SourcePoints, joint: str, points: list[str], forward: Fl
     bone = moving[points[1]][flat] - moving[points[0]][flat]
     if float(np.median(np.linalg.norm(bone, axis=1))) < MIN_BONE_M:
         return eye
-    a_flat = float(np.median(np.arcsin(np.clip(-bone[:, 2] / np.linalg.norm(bone, axis=1), -1.0, 1.0))))
-    a_rest = float(np.arcsin(np.clip(-forward[2] / np.linalg.norm(forward), -1.0, 1.0)))
-    phi = float(np.clip(a_rest - a_flat, -MAX_SOLE_PITCH, MAX_SOLE_PITCH))
-    lateral = np.cross([0.0, 0.0, 1.0], forward)
-    if abs(phi) < FLAT_MIN_TILT or np.linalg.norm(lateral) < 1e-6:
+    f_rest = np.asarray(forward, dtype=float)
+    lateral_rest = np.cross([0.0, 0.0, 1.0], f_rest)
+    if np.linalg.norm(lateral_rest) < 1e-6:
         return eye
+    normal = None
+    if hinge_plane is not None and hinge_axis is not None:
+        a, b, c = (moving[n][flat] for n in hinge_plane)
+        n = np.cross(b - a, c - b)
+        size = np.linalg.norm(n, axis=1) / np.maximum(np.linalg.norm(b - a, axis=1) * np.linalg.norm(c - b, axis=1),
+                                                      1e-12)
+        ok = size > np.sin(MIN_PLANE_BEND)
+        if ok.sum() >= 3:
+            normal, bone = n[ok] / np.linalg.norm(n[ok], axis=1, keepdims=True), bone[ok]
+            # the knee bends one way: the normal on the foot's left-hand side (a straightened or
+            # over-extended knee would flip the plane's orientation)
+            left = np.cross([0.0, 0.0, 1.0], bone)
+            normal = np.where(np.sum(normal * left, axis=1, keepdims=True) < 0, -normal, normal)
+    if normal is None:
+        # the lateral axis stays horizontal: pitch only (the bone's dip against the rest pose's)
+        normal = np.cross(bone, [0.0, 0.0, 1.0])
+        normal = normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+        normal = np.where((normal @ lateral_rest)[:, None] < 0, -normal, normal)
+        y_rest = lateral_rest
+    else:
+        y_rest = np.asarray(hinge_axis, dtype=float)
+    # per flat frame: G = B A^T carries the rest frame A = (forward, lateral, ...) onto B = (bone, normal, ...)
+    rest_frame = _frame_from(f_rest[None], y_rest[None])[0]
+    frames = _frame_from(bone, normal)
+    # the world vertical in body coordinates, G^T z = A B^T z, on each flat frame
+    up_b = np.einsum("ij,tkj,k->ti", rest_frame, frames, np.array([0.0, 0.0, 1.0]))
+    s = up_b.mean(axis=0)
+    s = s / np.linalg.norm(s)
+    angle = float(np.arccos(np.clip(s[2], -1.0, 1.0)))
+    if angle < FLAT_MIN_TILT:
+        return eye
+    axis = np.cross([0.0, 0.0, 1.0], s)
+    axis = axis / np.linalg.norm(axis)
     from scipy.spatial.transform import Rotation
 
-    return Rotation.from_rotvec(lateral / np.linalg.norm(lateral) * phi).as_matrix()
+    return Rotation.from_rotvec(axis * min(angle, MAX_SOLE_PITCH)).as_matrix()
+
+
+def _frame_from(x: FloatArray, y: FloatArray) -> FloatArray:
+    """(T, 3, 3) right-handed frames (columns) with y along ``y`` and x along ``x`` made normal to it."""
+    y = y / np.linalg.norm(y, axis=1, keepdims=True)
+    x = x - np.sum(x * y, axis=1, keepdims=True) * y
+    x = x / np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-12)
+    return np.stack([x, y, np.cross(x, y)], axis=2)
 
 
 def _quat(r: FloatArray) -> list[float] | None:
@@ -430,7 +478,7 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
             Q[tip] = Q[front_name]
         front = Q[front_name]
         check(front - Q[an], an, front_name, f"{side} foot")
-        rf = _flat_frame(moving, an, [an, front_name], front - Q[an])
+        rf = _flat_frame(moving, an, [an, front_name], front - Q[an], (th, kn, an), knee_joint[0].axis)
         front_f = rf.T @ (front - Q[an])
         tip_f = rf.T @ (Q[tip] - Q[an])
         sole = min(-0.03, tip_f[2], front_f[2])
@@ -450,7 +498,7 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
         bodies.append(BodyPlan(
             name=f"{side}_foot", parent=f"{side}_shin", pos=list(Q[an]), source=an, segment="foot",
             is_foot=True,
-            joints=_hinges(f"{side}_ankle", ankle_spec, front - Q[an], mirror, kp, kd, "ankle"),
+            joints=_hinges(f"{side}_ankle", ankle_spec, sb, mirror, kp, kd, "ankle"),
             geoms=[GeomPlan(kind="box", size=half, pos=list(rf @ centre), mass=foot_mass,
                             name=f"{side}_foot_geom", quat=_quat(rf))],
             sites=[SitePlan(name=f"{side}_foot_touch", pos=list(rf @ touch_c), kind="box", touch=True,
@@ -460,8 +508,11 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
         if toe:
             tip_vec = Q[tip] - Q[toe]
             if np.linalg.norm(tip_vec) < MIN_BONE_M:
+                # no toe bone to measure: the toe's sole continues the foot's
                 tip_vec = np.array([0.03, 0.0, 0.0])
-            rt = _flat_frame(moving, toe, [toe, tip], tip_vec)
+                rt = rf
+            else:
+                rt = _flat_frame(moving, toe, [toe, tip], tip_vec, (th, kn, an), knee_joint[0].axis)
             # the sole's depth below the toe joint (foot frame), carried into the toe's frame
             sole_t = sole - (rf.T @ (Q[toe] - Q[an]))[2]
             tip_t = rt.T @ (Q[tip] - Q[toe])
@@ -473,7 +524,7 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
             bodies.append(BodyPlan(
                 name=f"{side}_toe", parent=f"{side}_foot", pos=list(Q[toe]), source=toe, segment="toe",
                 is_foot=True,
-                joints=_hinges(f"{side}_toe", profile.joints["toe"], np.array([1.0, 0, 0]), mirror,
+                joints=_hinges(f"{side}_toe", profile.joints["toe"], sb, mirror,
                                *gains("toe"), "toe"),
                 geoms=[GeomPlan(kind="box", size=thalf, pos=list(rt @ tc), mass=profile.masses["toe"],
                                 name=f"{side}_toe_geom", quat=_quat(rt))],

@@ -151,6 +151,21 @@ def test_balance_feedback_matters(scenario) -> None:
     assert out.outcome == "fall" and out.fall_time_s < 20.0
 
 
+def test_shared_cmu_walk_tracked_20s_without_falling() -> None:
+    """CMU 02_01 (Holden's skeleton, legs splayed in the rest pose) converted into its own body,
+    retargeted and tracked with balance, the clip looped at its gait events."""
+    from conftest import SHARED_BVH
+
+    path = SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh"
+    if not path.exists():
+        pytest.skip(f"shared BVH data not found at {path}")
+    out, ctrl = run_scenario(load_scenario(None, path), RolloutSpec(seconds=20.0))
+    assert out.outcome == "no_fall", (out.fall_time_s, out.fall_reason)
+    assert out.foot_strikes >= 30 and out.distance_m > 5.0
+    # looped: the reference went round its gait cycle several times
+    assert ctrl.frame - ctrl.source.loop_start > 3 * (ctrl.source.b - ctrl.source.a)
+
+
 @pytest.mark.slow
 def test_default_walk_60s(scenario) -> None:
     out, _ = run_scenario(scenario, RolloutSpec(seconds=60.0))

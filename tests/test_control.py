@@ -153,13 +153,13 @@ def test_balance_feedback_matters(scenario) -> None:
 
 def test_shared_cmu_walk_tracked_20s_without_falling() -> None:
     """CMU 02_01 (Holden's skeleton, legs splayed in the rest pose) converted into its own body,
-    retargeted and tracked with balance, the clip looped at its gait events."""
+    retargeted and tracked with balance (its shipped config), the clip looped at its gait events."""
     from conftest import SHARED_BVH
 
     path = SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh"
     if not path.exists():
         pytest.skip(f"shared BVH data not found at {path}")
-    out, ctrl = run_scenario(load_scenario(None, path), RolloutSpec(seconds=20.0))
+    out, ctrl = run_scenario(load_scenario(REPO / "controllers" / "cmu_walk.yaml", path), RolloutSpec(seconds=20.0))
     assert out.outcome == "no_fall", (out.fall_time_s, out.fall_reason)
     assert out.foot_strikes >= 30 and out.distance_m > 5.0
     # looped: the reference went round its gait cycle several times
@@ -292,3 +292,22 @@ def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:
             assert abs(f0) <= 150.0 + 1e-9 and f1 == 0.0  # clipped to max_force; no coronal gain
     # measured: mean |v - v_ref| 0.44 m/s without (the push halves the speed), 0.17 with
     assert dev[300.0] < 0.6 * dev[0.0], dev
+
+
+@pytest.mark.parametrize("direction", [90.0, 135.0])
+def test_lateral_d_against_the_reference_sway_recovers_side_pushes(scenario, direction: float) -> None:
+    """200 N x 0.2 s to the left (and back-left) late in the left-stance swing: with the raw lateral d
+    (COM from the stance ankle) the walk falls; measured against the reference's own lateral sway about
+    the stance foot (the default, ``relative: lateral_reference``) it recovers."""
+    from dataclasses import replace
+
+    from bipedsim.sim.push import Push
+
+    assert scenario.cfg.balance.relative == "lateral_reference"
+    push = [Push(200.0, direction, 0.2, state=4, fraction=0.5)]
+    out = {}
+    for mode in ("mean_velocity", "lateral_reference"):
+        cfg = replace(scenario.cfg, balance=replace(scenario.cfg.balance, relative=mode))
+        out[mode], _ = run_scenario(replace(scenario, cfg=cfg), RolloutSpec(seconds=6.0), pushes=push)
+    assert out["mean_velocity"].outcome == "fall"
+    assert out["lateral_reference"].outcome == "no_fall"

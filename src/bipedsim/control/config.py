@@ -112,8 +112,11 @@ class BalanceConfig:
     velocity: VelocityConfig = field(default_factory=VelocityConfig)
     #: what d and v are measured against: "none" (SIMBICON: raw COM offset from the stance ankle and
     #: raw COM velocity), "mean_velocity" (velocity relative to the reference's mean walking velocity),
-    #: "full" (deviations from the reference's own d and v on the current frame)
-    relative: str = field(default="mean_velocity", metadata={"choices": ("none", "mean_velocity", "full")})
+    #: "full" (deviations from the reference's own d and v on the current frame), "lateral_reference"
+    #: (as mean_velocity, and the coronal d against the reference's own lateral d on the current frame:
+    #: only a deviation from the walk's sway about the stance foot moves the swing leg sideways)
+    relative: str = field(default="mean_velocity",
+                          metadata={"choices": ("none", "mean_velocity", "full", "lateral_reference")})
 
     def validate(self) -> None:
         pass

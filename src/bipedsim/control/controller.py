@@ -407,6 +407,9 @@ class Controller:
             d0, d1, v0, v1 = d0 - float(d_ref[0]), d1 - float(d_ref[1]), v0 - float(v_ref[0]), v1 - float(v_ref[1])
         elif b.relative == "mean_velocity":
             v0 -= self._speed
+        elif b.relative == "lateral_reference":
+            d1 -= src.lateral_reference(frame, stance)
+            v0 -= self._speed
         if b.feedback:
             fs = feedback_angle(0.0, b.sagittal.cd, b.sagittal.cv, d0, v0, b.max_feedback)
             fc = feedback_angle(0.0, b.coronal.cd, b.coronal.cv, d1, v1, b.max_feedback)

@@ -81,6 +81,10 @@ class GaitSource:
         """(d_ref, v_ref): COM minus stance ankle and COM velocity, heading frame, horizontal (m, m/s)."""
         return np.zeros(2), np.zeros(2)
 
+    def lateral_reference(self, f: float, stance: str) -> float:
+        """The lateral part of ``d_ref`` (m): the walk's own sway of the COM about the stance foot."""
+        return float(self.com_reference(f, stance)[0][1])
+
     def reference_qpos(self, f: float, state: int, qpos_now: FloatArray) -> FloatArray:
         """The reference pose as a full qpos (for the ghost): hinge targets on the current root."""
         q = qpos_now.copy()
@@ -172,6 +176,7 @@ class ClipSource(GaitSource):
             for t in range(n):
                 dd[t] = (yaw_matrix(-heading[t]) @ (com[t] - ankle[s][t]))[:2]
             self.d_ref[s] = dd
+        self._d_lat = {s: self.d_ref[s][:, 1].tolist() for s in SIDES}  # per-step reads on plain floats
         root = clip.qpos[:, :2]
         self._speed = float(np.linalg.norm(root[int(self.b)] - root[int(self.a)]) / (self.period * self.frame_time))
         steps = np.sort(np.concatenate([self.strikes["right"], self.strikes["left"]]))
@@ -225,6 +230,11 @@ class ClipSource(GaitSource):
 
     def com_reference(self, f: float, stance: str) -> tuple[FloatArray, FloatArray]:
         return self._interp(self.d_ref[stance], f), self._interp(self.v_ref, f)
+
+    def lateral_reference(self, f: float, stance: str) -> float:
+        i, j, u = self._pair(f)
+        lo, hi = self._d_lat[stance][i], self._d_lat[stance][j]
+        return lo + u * (hi - lo)
 
     def _strikes_near(self, f: float, side: str) -> FloatArray:
         k = np.floor((f - self.a) / self.period)

@@ -290,21 +290,22 @@ def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:
         if kv:
             f0, f1 = ctrl.state.virtual_force
             assert abs(f0) <= 150.0 + 1e-9 and f1 == 0.0  # clipped to max_force; no coronal gain
-    # measured: mean |v - v_ref| 0.44 m/s without (the push halves the speed), 0.17 with
+    # measured: mean |v - v_ref| 0.46 m/s without (the push halves the speed), 0.21 with
     assert dev[300.0] < 0.6 * dev[0.0], dev
 
 
-@pytest.mark.parametrize("direction", [90.0, 135.0])
-def test_lateral_d_against_the_reference_sway_recovers_side_pushes(scenario, direction: float) -> None:
-    """200 N x 0.2 s to the left (and back-left) late in the left-stance swing: with the raw lateral d
-    (COM from the stance ankle) the walk falls; measured against the reference's own lateral sway about
-    the stance foot (the default, ``relative: lateral_reference``) it recovers."""
+@pytest.mark.parametrize(("direction", "state"), [(135.0, 4), (270.0, 3)])
+def test_lateral_d_against_the_reference_sway_recovers_side_pushes(scenario, direction: float, state: int) -> None:
+    """200 N x 0.2 s back-left late in the left-stance swing, or to the right in the right-stance
+    swing: with the raw lateral d (COM from the stance ankle) the walk falls; measured against the
+    reference's own lateral sway about the stance foot (the default, ``relative: lateral_reference``)
+    it recovers."""
     from dataclasses import replace
 
     from bipedsim.sim.push import Push
 
     assert scenario.cfg.balance.relative == "lateral_reference"
-    push = [Push(200.0, direction, 0.2, state=4, fraction=0.5)]
+    push = [Push(200.0, direction, 0.2, state=state, fraction=0.5)]
     out = {}
     for mode in ("mean_velocity", "lateral_reference"):
         cfg = replace(scenario.cfg, balance=replace(scenario.cfg.balance, relative=mode))

@@ -163,7 +163,7 @@ def test_shared_cmu_walk_tracked_20s_without_falling() -> None:
     assert out.outcome == "no_fall", (out.fall_time_s, out.fall_reason)
     assert out.foot_strikes >= 30 and out.distance_m > 5.0
     # looped: the reference went round its gait cycle several times
-    assert ctrl.frame - ctrl.source.loop_start > 3 * (ctrl.source.b - ctrl.source.a)
+    assert ctrl.frame - ctrl.source.loop_start > 3 * ctrl.source.period
 
 
 @pytest.mark.slow

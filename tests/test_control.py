@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -120,14 +121,17 @@ def test_resync_moves_reference_the_right_way(scenario) -> None:
         strike = src.next_strike(src.a + 1e-3, "left")
         step = strike - src.a
         # the simulation lands late: the reference has run past its strike frame -> M > 1, move back
+        # (P_c is measured on the gait clock, which is real time while the tempo rate is 1)
         c.frame = strike + 5
-        c._resync("left", t=(step + 5) * src.frame_time)
+        c.clock = (step + 5) * src.frame_time
+        c._resync("left", t=c.clock)
         ev = c.resyncs[-1]
         assert ev.ratio > 1 and c.frame < ev.frame_before and c.frame == pytest.approx(strike)
         # early landing of the next foot: M < 1, move forward
         nxt = src.next_strike(strike + 1e-3, "right")
         c.frame = nxt - 4
-        c._resync("right", t=(step + 5) * src.frame_time + (nxt - strike - 4) * src.frame_time * 0.8)
+        c.clock = (step + 5) * src.frame_time + (nxt - strike - 4) * src.frame_time * 0.8
+        c._resync("right", t=c.clock)
         ev = c.resyncs[-1]
         assert ev.ratio < 1 and c.frame > ev.frame_before and c.frame == pytest.approx(nxt)
     finally:
@@ -214,6 +218,9 @@ def write_cfg(tmp_path: Path, text: str) -> Path:
     ("fsm:\n  state1_time: 0\n", "fsm.state1_time", "must be > 0.0"),
     ("fade:\n  min_scale: 2\n", "fade.min_scale", "must be <= 1.0"),
     ("pd:\n  gains:\n    tail: {kp: 5}\n", "pd.gains.tail", "unknown joint group"),
+    ("fsm:\n  tempo: {min: 1.2}\n", "fsm.tempo.min", "must be <= 1.0"),
+    ("fsm:\n  tempo: {max: 0.5}\n", "fsm.tempo.max", "must be >= 1.0"),
+    ("fsm:\n  tempo: {gain: -1}\n", "fsm.tempo.gain", "must be >= 0.0"),
 ])
 def test_bad_controller_files(tmp_path: Path, text: str, key: str, message: str) -> None:
     p = write_cfg(tmp_path, text)
@@ -290,7 +297,7 @@ def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:
         if kv:
             f0, f1 = ctrl.state.virtual_force
             assert abs(f0) <= 150.0 + 1e-9 and f1 == 0.0  # clipped to max_force; no coronal gain
-    # measured: mean |v - v_ref| 0.46 m/s without (the push halves the speed), 0.21 with
+    # measured: mean |v - v_ref| 0.46 m/s without (the push halves the speed), 0.20 with
     assert dev[300.0] < 0.6 * dev[0.0], dev
 
 
@@ -312,3 +319,71 @@ def test_lateral_d_against_the_reference_sway_recovers_side_pushes(scenario, dir
         out[mode], _ = run_scenario(replace(scenario, cfg=cfg), RolloutSpec(seconds=6.0), pushes=push)
     assert out["mean_velocity"].outcome == "fall"
     assert out["lateral_reference"].outcome == "no_fall"
+
+
+@pytest.mark.parametrize(("v_excess", "minimum", "rate"), [
+    (0.05, 1.0, 1.0),    # inside the deadband
+    (0.3, 1.0, 1.4),     # 1 + 2 (0.3 - 0.1)
+    (1.0, 1.0, 1.5),     # clamped to max
+    (-0.5, 1.0, 1.0),    # slower than the walk: min 1 keeps real time
+    (-0.5, 0.8, 0.8),    # 1 + 2 (-0.5 + 0.1) = 0.2, clamped to min
+])
+def test_tempo_rate_drives_the_gait_clock(scenario, v_excess: float, minimum: float, rate: float) -> None:
+    """fsm.tempo: the gait clock runs at clamp(1 + gain (v - v_ref -+ deadband), min, max) times real
+    time, v the sagittal COM velocity of the previous control step; the reference frame and the FSM's
+    timer advance by rate x dt."""
+    from dataclasses import replace
+
+    import mujoco
+
+    from bipedsim.control.config import TempoConfig
+
+    tempo = TempoConfig(gain=2.0, deadband=0.1, min=minimum, max=1.5)
+    cfg = replace(scenario.cfg, fsm=replace(scenario.cfg.fsm, tempo=tempo))
+    model = scenario.built.model
+    src = scenario.gait_source()
+    c = Controller(model, scenario.built.plan, src, cfg)
+    try:
+        data = mujoco.MjData(model)
+        data.qpos[:] = scenario.built.model.qpos0
+        data.qpos[2] += 0.3  # in the air: no contacts, no strike
+        mujoco.mj_forward(model, data)
+        c.reset(data, src.a)
+        r = data.xmat[c.pelvis].reshape(3, 3)
+        h = math.atan2(r[1, 0], r[0, 0])
+        v = src.speed() + v_excess
+        data.qvel[:] = 0.0
+        data.qvel[0], data.qvel[1] = v * math.cos(h), v * math.sin(h)
+        mujoco.mj_forward(model, data)
+        dt = 0.004
+        c(model, data, 0.0, dt)  # measures v; this step still runs at the reset rate 1
+        assert c.state.tempo == 1.0
+        f0, clock0, tis0 = c.frame, c.clock, c.fsm.time_in_state
+        c(model, data, dt, dt)
+        assert c.state.tempo == pytest.approx(rate)
+        assert c.frame - f0 == pytest.approx(rate * dt / src.frame_time)
+        assert c.clock - clock0 == pytest.approx(rate * dt)
+        assert c.fsm.time_in_state - tis0 == pytest.approx(rate * dt)
+    finally:
+        c.restore_model()
+
+
+@pytest.mark.parametrize(("direction", "state"), [(0.0, 2), (45.0, 4)])
+def test_tempo_recovers_forward_pushes_late_in_the_swing(scenario, direction: float, state: int) -> None:
+    """200 N x 0.2 s forward (or forward-left) in the second half of a step: at a fixed swing time the
+    next step is taken at 2 m/s with the legs 65 degrees apart, the impact halves the speed and the body
+    stalls between two loaded feet and falls; with the gait clock sped up (the default ``fsm.tempo``)
+    it steps sooner and recovers."""
+    from dataclasses import replace
+
+    from bipedsim.control.config import TempoConfig
+    from bipedsim.sim.push import Push
+
+    assert scenario.cfg.fsm.tempo.gain > 0
+    push = [Push(200.0, direction, 0.2, state=state, fraction=0.5)]
+    out = {}
+    for name, tempo in (("off", TempoConfig(gain=0.0)), ("default", scenario.cfg.fsm.tempo)):
+        cfg = replace(scenario.cfg, fsm=replace(scenario.cfg.fsm, tempo=tempo))
+        out[name], _ = run_scenario(replace(scenario, cfg=cfg), RolloutSpec(seconds=6.0), pushes=push)
+    assert out["off"].outcome == "fall"
+    assert out["default"].outcome == "no_fall"

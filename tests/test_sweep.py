@@ -160,6 +160,18 @@ def test_sweep_goes_on_after_divergence_and_summarises(tmp_path: Path) -> None:
     assert (tmp_path / "push_polar.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_default_walk_recovers_from_every_200n_push(tmp_path: Path) -> None:
+    """The issue's check, experiments/push_200n.yaml: 200 N x 0.2 s on the torso at 8 directions x 4
+    gait states (mid-state), every one survived on the default walk and controller."""
+    exp = load_experiment(EXP / "push_200n.yaml")
+    summary = run_sweep(exp, tmp_path, workers=2, progress=False)
+    rows = rows_of(tmp_path / "results.csv")
+    assert len(rows) == 32
+    fell = [(r["direction"], r["state"], r["outcome"]) for r in rows if r["outcome"] != "no_fall"]
+    assert not fell
+    assert summary["largest_survived_per_direction_n"] == {str(d): 200.0 for d in range(0, 360, 45)}
+
+
 def test_same_seed_same_results_any_workers_and_ray(tmp_path: Path) -> None:
     exp = load_experiment(EXP / "smoke.yaml")
     run_sweep(exp, tmp_path / "a", workers=1, progress=False)

@@ -60,16 +60,33 @@ class PDConfig:
 
 
 @dataclass(frozen=True)
+class TempoConfig:
+    """Step tempo (not in the paper): the gait clock -- the reference's playback and the FSM's timers
+    -- runs at ``rate = clamp(1 + gain (e), min, max)`` times real time, where ``e`` is the sagittal
+    COM velocity's excess over the reference's mean speed beyond a ``deadband`` (m/s). A body pushed
+    forward steps sooner and swings its leg faster, so its legs stay under it: with a fixed swing
+    time it covers 0.6 m per step at 2 m/s, lands with the legs 65 degrees apart and the impact takes
+    half its speed, leaving it stalled between two loaded feet. ``gain`` 0 switches it off; ``min``
+    below 1 also slows the gait clock when the body is slower than the reference."""
+
+    gain: float = field(default=0.0, metadata={"min": 0.0})  #: rate per m/s of excess speed
+    deadband: float = field(default=0.1, metadata={"min": 0.0})  #: m/s
+    min: float = field(default=1.0, metadata={"gt": 0.0, "max": 1.0})
+    max: float = field(default=1.5, metadata={"min": 1.0})
+
+
+@dataclass(frozen=True)
 class FSMConfig:
     """Four states: 1-2 right stance / left swing, 3-4 left stance / right swing. States 1 and 3
     last ``state1_time`` s (``null``: the reference's double-support-to-mid-swing share); 2 and 4 end
     when the swing foot's vertical force exceeds ``contact_force`` N, after at least
-    ``min_swing_time`` s."""
+    ``min_swing_time`` s. Times are on the gait clock, which runs at the ``tempo`` rate."""
 
     state1_time: float | None = field(default=None, metadata={"gt": 0.0})
     min_swing_time: float = field(default=0.1, metadata={"min": 0.0})
     contact_force: float = field(default=30.0, metadata={"gt": 0.0})
     max_wait: float = field(default=0.4, metadata={"min": 0.0})
+    tempo: TempoConfig = field(default_factory=lambda: TempoConfig())
 
 
 @dataclass(frozen=True)

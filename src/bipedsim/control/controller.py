@@ -62,6 +62,7 @@ class ControllerState:
     tau_torso: tuple[float, float, float] = (0.0, 0.0, 0.0)  #: world frame, N*m
     holding: bool = False
     virtual_force: tuple[float, float] = (0.0, 0.0)  #: velocity tuning, heading frame (N)
+    tempo: float = 1.0  #: the gait clock's rate (fsm.tempo)
 
 
 class Controller:
@@ -156,7 +157,7 @@ class Controller:
         self.fade = 1.0
         self.force_active = False
         self.force_ended_at: float | None = None
-        self.last_strike_time = 0.0
+        self.last_strike_time = self.last_strike_clock = 0.0
         self.last_strike_frame = source.loop_start
         self.wait_time = 0.0
         self.pending_shift = 0.0
@@ -176,6 +177,9 @@ class Controller:
         self._fade_on = cfg.fade.enabled
         self._roll_kp = cfg.balance.torso_kp if cfg.balance.roll_kp is None else cfg.balance.roll_kp
         self._speed = float(source.speed())
+        self._tempo_on = cfg.fsm.tempo.gain > 0.0
+        self._v_sag = self._speed  #: the last control step's sagittal COM velocity (heading frame)
+        self.clock = 0.0  #: the gait clock (s): real time run at the tempo rate
         self._kp_l, self._kd_l = self.kp.tolist(), self.kd.tolist()
         self._tlo_l, self._thi_l = self.tlo.tolist(), self.thi.tolist()
         self._r_heading = np.eye(3)
@@ -234,6 +238,8 @@ class Controller:
         self.heading_target = heading_of(data.xmat[self.pelvis].reshape(3, 3))
         self._r_heading = yaw_matrix(self.heading_target)
         self.last_strike_time, self.last_strike_frame = t, self.frame
+        self.clock = self.last_strike_clock = t
+        self._v_sag = self._speed
         self.fade = 1.0
         self._apply_damping(1.0)
 
@@ -268,7 +274,7 @@ class Controller:
         src = self.source
         # the reference strike this one matches: that foot's next strike after the last matched one
         target = src.next_strike(self.last_strike_frame + 1e-3, foot)
-        p_c = t - self.last_strike_time
+        p_c = self.clock - self.last_strike_clock  # on the gait clock, as the reference's P_r
         before = self.frame
         ratio = 1.0
         if target is not None:
@@ -282,7 +288,7 @@ class Controller:
                 else:
                     self.frame += float(delta)
             self.last_strike_frame = target
-        self.last_strike_time = t
+        self.last_strike_time, self.last_strike_clock = t, self.clock
         self.resyncs.append(ResyncEvent(t, foot, before, self.frame, ratio))
 
     # ------------------------------------------------------------------ the control law
@@ -299,12 +305,21 @@ class Controller:
         touch = sd[self._touch_idx].tolist()
         forces = {"right": sum(touch[:self._n_touch_right]), "left": sum(touch[self._n_touch_right:])}
         # a strike is the swing foot's sole landing; its toe brushing the floor at lift-off is not
-        struck = fsm.update(dt, t, float(sd[self.touch[fsm.swing][0]]))
+        # the gait clock: real time, faster while the body outruns the reference (fsm.tempo)
+        rate = 1.0
+        if self._tempo_on:
+            tc = cfg.fsm.tempo
+            e = self._v_sag - self._speed
+            e = e - tc.deadband if e > tc.deadband else (e + tc.deadband if e < -tc.deadband else 0.0)
+            rate = min(max(1.0 + tc.gain * e, tc.min), tc.max)
+        dt_ref = dt * rate
+        self.clock += dt_ref
+        struck = fsm.update(dt_ref, t, float(sd[self.touch[fsm.swing][0]]))
         if struck is not None:
             self._resync(struck, t)
             self.wait_time = 0.0
         # advance the reference, holding at the swing foot's strike frame while it has not landed
-        nxt = self.frame + dt / src.frame_time
+        nxt = self.frame + dt_ref / src.frame_time
         if self.pending_shift:
             step = self.pending_shift * min(1.0, dt / cfg.resync.spread)
             if abs(self.pending_shift - step) < 1e-9 or abs(step) >= abs(self.pending_shift):
@@ -338,7 +353,7 @@ class Controller:
             self._ff = self._gravity(data, forces)
             tau += self._ff
         st = self.state
-        st.frame, st.fsm_state, st.fade, st.holding = self.frame, fsm.state, a, holding
+        st.frame, st.fsm_state, st.fade, st.holding, st.tempo = self.frame, fsm.state, a, holding, rate
         if cfg.balance.enabled:
             self._balance(data, q, qd, q_d, qd_d, tau, forces)
         self.torque = np.minimum(np.maximum(tau, self._neg_limit), self.limit)
@@ -402,6 +417,7 @@ class Controller:
         d0, d1 = c * dx + s * dy, -s * dx + c * dy
         v0, v1 = c * vx + s * vy, -s * vx + c * vy
         vh0, vh1 = v0, v1  # the COM velocity in the heading frame, for velocity tuning
+        self._v_sag = v0
         if b.relative == "full":
             d_ref, v_ref = src.com_reference(frame, stance)
             d0, d1, v0, v1 = d0 - float(d_ref[0]), d1 - float(d_ref[1]), v0 - float(v_ref[0]), v1 - float(v_ref[1])

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
+import threading
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -462,7 +464,18 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from bipedsim.sim.sweep import run_sweep
 
     exp = load_experiment(args.experiment)  # every check before any rollout
-    summary = run_sweep(exp, args.out, workers=args.workers, backend=args.backend, progress=sys.stderr.isatty())
+    try:
+        summary = run_sweep(exp, args.out, workers=args.workers, backend=args.backend,
+                            progress=sys.stderr.isatty())
+    except KeyboardInterrupt:
+        from pathlib import Path
+
+        from bipedsim.sim.sweep import read_results
+
+        n = len(read_results(Path(args.out) / "results.csv"))
+        print(f"bipedsim sweep: interrupted; {args.out}/results.csv holds {n} of {len(exp.rows())} rollouts; "
+              "run the same command again to finish the rest", file=sys.stderr)
+        return 130
     print(f"{summary['rollouts']} rollouts: " + ", ".join(f"{k} {v}" for k, v in sorted(summary["outcomes"].items())))
     counts = summary.get("survived_per_direction", {})
     for d, v in summary["largest_survived_per_direction_n"].items():
@@ -516,6 +529,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    # a terminate signal (kill, a cluster's scheduler) stops a long job as Ctrl-C does: cleanly, with
+    # what it has written kept
+    old_term = None
+    if threading.current_thread() is threading.main_thread():
+        old_term = signal.signal(signal.SIGTERM, _terminate)
     try:
         return int(args.func(args))
     except BipedsimError as exc:
@@ -527,6 +545,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. `bipedsim info | head`
         sys.stderr.close()
         return 0
+    finally:
+        if old_term is not None:
+            signal.signal(signal.SIGTERM, old_term)
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -82,6 +82,12 @@ def _tasks(exp: Experiment, rows: list[Row]) -> list[tuple[Row, str | None, floa
     return [(r, exp.resolve(s.reference), s.seconds, s.init_noise, asdict(s.fall.criteria())) for r in rows]
 
 
+def _ignore_sigint() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _local(tasks: list, workers: int) -> Iterator[dict[str, Any]]:
     if workers <= 1:
         for t in tasks:
@@ -90,7 +96,8 @@ def _local(tasks: list, workers: int) -> Iterator[dict[str, Any]]:
     import multiprocessing as mp
 
     ctx = mp.get_context("spawn")  # a clean interpreter per worker: no inherited MuJoCo or GL state
-    with ctx.Pool(workers) as pool:
+    # workers leave Ctrl-C to the parent, which stops the pool (no traceback from every worker)
+    with ctx.Pool(workers, initializer=_ignore_sigint) as pool:
         yield from pool.imap_unordered(run_row, tasks)
 
 

@@ -228,14 +228,25 @@ def polar_plot(rows: list[dict[str, str]], path: Path) -> None:
 
     fig = plt.figure(figsize=(6, 6))
     ax = fig.add_subplot(projection="polar")
+    # the phases of one direction fan out around it (in the order listed below the plot), so that
+    # every rollout is a visible point instead of several phases stacked on one
+    phases = sorted({_phase_label(r) for r in rows})
+    dirs = sorted({float(r["direction"]) for r in rows})
+    gap = min((b - a for a, b in zip(dirs, dirs[1:] + [dirs[0] + 360.0])), default=360.0) if dirs else 360.0
+    step = min(6.0, 0.5 * gap / max(len(phases), 1)) if len(phases) > 1 else 0.0
+    offset = {p: (i - (len(phases) - 1) / 2) * step for i, p in enumerate(phases)}
     for outcome, colour, marker in (("no_fall", "tab:green", "o"), ("fall", "tab:red", "x"),
                                     ("diverged", "tab:purple", "^")):
         sel = [r for r in rows if r["outcome"] == outcome]
         if sel:
-            ax.scatter(np.radians([float(r["direction"]) for r in sel]), [float(r["magnitude"]) for r in sel],
-                       c=colour, marker=marker, s=18, label=outcome, alpha=0.7)
+            ax.scatter(np.radians([float(r["direction"]) + offset[_phase_label(r)] for r in sel]),
+                       [float(r["magnitude"]) for r in sel], c=colour, marker=marker, s=14, label=outcome,
+                       alpha=0.8)
     ax.set_theta_zero_location("N")  # forward up
     ax.set_title("push outcomes: direction (0 = forward, 90 = left) x force (N)")
+    if step:
+        fig.text(0.98, 0.02, "around each direction, counter-clockwise:\n" + "\n".join(phases), ha="right",
+                 va="bottom", fontsize=7)
     ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.1), fontsize=8)
     fig.tight_layout()
     tmp = path.with_name(f".{path.name}.tmp.png")

@@ -128,10 +128,18 @@ def test_random_pushes_are_seeded() -> None:
     assert random_pushes(4, 3) != random_pushes(5, 3)
 
 
-def test_absurd_gains_diverge_not_fall() -> None:
+def test_absurd_gains_diverge_not_fall(tmp_path: Path, monkeypatch, capfd) -> None:
+    """Diverged, never a fall; MuJoCo's own warning text goes into the reason instead of being printed
+    and appended to a MUJOCO_LOG.TXT in the working directory, and MuJoCo's handler is put back."""
+    import mujoco
+
+    monkeypatch.chdir(tmp_path)
     sc = load_scenario(EXP / "controllers" / "absurd_gains.yaml")
     out, _ = run_scenario(sc, RolloutSpec(seconds=1.0))
     assert out.outcome == "diverged" and "instability" in out.fall_reason
+    assert "The simulation is unstable" in out.fall_reason
+    assert "unstable" not in capfd.readouterr().out and not (tmp_path / "MUJOCO_LOG.TXT").exists()
+    assert mujoco.get_mju_user_warning() is None
 
 
 def rows_of(path: Path) -> list[dict[str, str]]:

@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.model.build import BuiltModel
 from bipedsim.model.clip import ReferenceClip
-from bipedsim.sim.rollout import Outcome, diverged
+from bipedsim.sim.rollout import MujocoWarnings, Outcome, diverged
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -78,50 +78,54 @@ def run_creature(built: BuiltModel, clip: ReferenceClip, spec: CreatureRunSpec) 
     outcome, fall_t, reason = "no_fall", None, None
     frames = clip.num_frames
     step = 0
-    for step in range(n):
-        t = step * dt
-        f = t / clip.frame_time
-        i = int(f) % frames if spec.loop else min(int(f), frames - 1)
-        target = clip.qpos[i]
-        for k, (_, qa, _da, acts) in enumerate(balls):
-            q = data.qpos[qa:qa + 4]
-            qd = target[qa:qa + 4]
-            # error rotation from the current to the target local orientation, in the joint frame
-            r = Rotation.from_quat([q[1], q[2], q[3], q[0]]).inv() * Rotation.from_quat([qd[1], qd[2], qd[3], qd[0]])
-            e = r.as_rotvec()
-            err2 += float(e @ e)
-            n_err += 1
-            tau = np.clip(kp[k] * e, -lim[k], lim[k])
-            data.ctrl[acts] = tau
-        if spec.support:
-            # PD wrench on the root toward the clip's root pose, scaled by the body's mass
-            p_err = target[:3] - data.qpos[:3]
-            v = data.qvel[:3]
-            force = mass * (spec.support_kp / 100.0 * p_err - spec.support_kd / 100.0 * v)
-            force[2] += mass * -model.opt.gravity[2]
-            rq = Rotation.from_quat([data.qpos[4], data.qpos[5], data.qpos[6], data.qpos[3]])
-            rd = Rotation.from_quat([target[4], target[5], target[6], target[3]])
-            rot_err = (rd * rq.inv()).as_rotvec()
-            omega = rq.apply(data.qvel[3:6])
-            torque = mass * (spec.support_kp / 1000.0 * rot_err - spec.support_kd / 1000.0 * omega)
-            data.xfrc_applied[root, :3] = force
-            data.xfrc_applied[root, 3:] = torque
-            support_f.append(float(np.linalg.norm(force)))
-            support_t.append(float(np.linalg.norm(torque)))
-        mujoco.mj_step(model, data)
-        bad = diverged(data)
-        if bad:
-            outcome, fall_t, reason = "diverged", (step + 1) * dt, bad
-            break
-        if not spec.support:
-            z = float(data.xpos[root][2])
-            up = data.xmat[root].reshape(3, 3)[:, 2]
-            if z < spec.root_height_fraction * h0:
-                outcome, fall_t, reason = "fall", (step + 1) * dt, "root below its starting height fraction"
+    warnings = MujocoWarnings().start()
+    try:
+        for step in range(n):
+            t = step * dt
+            f = t / clip.frame_time
+            i = int(f) % frames if spec.loop else min(int(f), frames - 1)
+            target = clip.qpos[i]
+            for k, (_, qa, _da, acts) in enumerate(balls):
+                q = data.qpos[qa:qa + 4]
+                qd = target[qa:qa + 4]
+                # error rotation from the current to the target local orientation, in the joint frame
+                r = Rotation.from_quat([q[1], q[2], q[3], q[0]]).inv() * Rotation.from_quat([qd[1], qd[2], qd[3], qd[0]])
+                e = r.as_rotvec()
+                err2 += float(e @ e)
+                n_err += 1
+                tau = np.clip(kp[k] * e, -lim[k], lim[k])
+                data.ctrl[acts] = tau
+            if spec.support:
+                # PD wrench on the root toward the clip's root pose, scaled by the body's mass
+                p_err = target[:3] - data.qpos[:3]
+                v = data.qvel[:3]
+                force = mass * (spec.support_kp / 100.0 * p_err - spec.support_kd / 100.0 * v)
+                force[2] += mass * -model.opt.gravity[2]
+                rq = Rotation.from_quat([data.qpos[4], data.qpos[5], data.qpos[6], data.qpos[3]])
+                rd = Rotation.from_quat([target[4], target[5], target[6], target[3]])
+                rot_err = (rd * rq.inv()).as_rotvec()
+                omega = rq.apply(data.qvel[3:6])
+                torque = mass * (spec.support_kp / 1000.0 * rot_err - spec.support_kd / 1000.0 * omega)
+                data.xfrc_applied[root, :3] = force
+                data.xfrc_applied[root, 3:] = torque
+                support_f.append(float(np.linalg.norm(force)))
+                support_t.append(float(np.linalg.norm(torque)))
+            mujoco.mj_step(model, data)
+            bad = diverged(data)
+            if bad:
+                outcome, fall_t, reason = "diverged", (step + 1) * dt, warnings.reason(bad)
                 break
-            if np.arccos(np.clip(up[2], -1, 1)) > spec.root_tilt:
-                outcome, fall_t, reason = "fall", (step + 1) * dt, "root tilted past the limit"
-                break
+            if not spec.support:
+                z = float(data.xpos[root][2])
+                up = data.xmat[root].reshape(3, 3)[:, 2]
+                if z < spec.root_height_fraction * h0:
+                    outcome, fall_t, reason = "fall", (step + 1) * dt, "root below its starting height fraction"
+                    break
+                if np.arccos(np.clip(up[2], -1, 1)) > spec.root_tilt:
+                    outcome, fall_t, reason = "fall", (step + 1) * dt, "root tilted past the limit"
+                    break
+    finally:
+        warnings.stop()
     model.dof_damping[:] = base_damping
     sim_s = (step + 1) * dt
     dist = float(np.linalg.norm(data.qpos[:2] - clip.qpos[0, :2])) if outcome != "diverged" else 0.0

@@ -108,6 +108,36 @@ _INSTABILITY = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQP
 _INSTABILITY_IDX = tuple(int(w) for w in _INSTABILITY)
 
 
+class MujocoWarnings:
+    """MuJoCo's warnings (an unstable simulation, a full contact buffer) collected in ``messages`` while
+    started, instead of going to MuJoCo's default handler, which prints them and appends them to a
+    MUJOCO_LOG.TXT in the working directory. The rollout reports them in its outcome (``diverged``,
+    with the text); the warning counters in ``data.warning`` are unaffected. Process-wide while active
+    (MuJoCo has one handler); ``stop`` puts the previous handler back."""
+
+    def __init__(self) -> None:
+        self.messages: list[str] = []
+        self._old: Any = None
+
+    def start(self) -> MujocoWarnings:
+        self._old = mujoco.get_mju_user_warning()
+        mujoco.set_mju_user_warning(self.messages.append)
+        return self
+
+    def stop(self) -> None:
+        mujoco.set_mju_user_warning(self._old)
+
+    def __enter__(self) -> MujocoWarnings:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def reason(self, what: str) -> str:
+        """``what`` with MuJoCo's first message, if it gave one."""
+        return f"{what}: {self.messages[0]}" if self.messages else what
+
+
 def diverged(data: mujoco.MjData) -> str | None:
     # a sum of squares is finite only if every term is (and a state so large that it overflows has
     # diverged anyway); dot products and a plain loop over four counters: this runs every few ms
@@ -197,6 +227,7 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
         data.qvel[:] = initial_qvel
     mujoco.mj_forward(model, data)
     ctrl = Controller(model, plan, source, cfg)
+    warnings = MujocoWarnings().start()
     try:
         ctrl.reset(data, spec.start_frame)
         falls = FallDetector(model, plan, spec.fall, data)
@@ -250,7 +281,7 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
                 checks = step // check_every
                 bad = diverged(data)
                 if bad:
-                    outcome, fall_t, reason = "diverged", step * dt, bad
+                    outcome, fall_t, reason = "diverged", step * dt, warnings.reason(bad)
                     break
                 why = falls.check(data)
                 if why:
@@ -280,4 +311,5 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
                          extra=extra)
         return result, ctrl
     finally:
+        warnings.stop()
         ctrl.restore_model()

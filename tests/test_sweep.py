@@ -180,6 +180,35 @@ def test_default_walk_recovers_from_every_200n_push(tmp_path: Path) -> None:
     assert summary["largest_survived_per_direction_n"] == {str(d): 200.0 for d in range(0, 360, 45)}
 
 
+def test_random_push_experiment(tmp_path: Path) -> None:
+    """random: one push per rollout, magnitude / direction / start uniform in the given ranges, drawn
+    from the seed (the same pushes for every controller); summary.json bins directions into sectors."""
+    spec = tmp_path / "rand.yaml"
+    ctl = [REPO / "controllers" / "default.yaml", EXP / "controllers" / "absurd_gains.yaml"]
+    text = ("name: rand\nseconds: 2.2\nseed: {seed}\nrandom:\n  count: 6\n  magnitude: [50, 150]\n"
+            f"  direction: [-90, 90]\n  window: [1.0, 2.0]\n  controller: [{ctl[0]}, {ctl[1]}]\n")
+    spec.write_text(text.format(seed=3))
+    rows = load_experiment(spec).rows()
+    assert len(rows) == 12
+    pushes = [r.push for r in rows]
+    assert all(50 <= p.magnitude <= 150 and (p.direction >= 270 or p.direction <= 90) and 1.0 <= p.start <= 2.0
+               and p.state is None for p in pushes)
+    # the same six pushes under each controller
+    assert [p for r, p in zip(rows, pushes) if r.controller == str(ctl[0])] == \
+        [p for r, p in zip(rows, pushes) if r.controller == str(ctl[1])]
+    assert [r.push for r in load_experiment(spec).rows()] == pushes
+    spec.write_text(text.format(seed=4))
+    assert [r.push for r in load_experiment(spec).rows()] != pushes
+    spec.write_text(text.format(seed=3))
+    summary = run_sweep(load_experiment(spec), tmp_path / "out", workers=2, progress=False)
+    assert summary["direction_sector_deg"] == 45.0
+    sectors = summary["survived_per_direction"]
+    assert set(sectors) <= {"0", "45", "90", "270", "315"}
+    assert sum(c["rollouts"] for c in sectors.values()) == 12
+    assert summary["outcomes"]["diverged"] == 6
+    assert {g["phase"] for g in summary["by_direction_and_phase"]} == {"random start"}
+
+
 def test_same_seed_same_results_any_workers_and_ray(tmp_path: Path) -> None:
     exp = load_experiment(EXP / "smoke.yaml")
     run_sweep(exp, tmp_path / "a", workers=1, progress=False)
@@ -245,6 +274,11 @@ def test_killed_sweep_resumes_without_loss_or_repeats(tmp_path: Path) -> None:
     ("name: x\ngrid: {magnitude: [], phase: [[2, 0.5]]}\n", "grid", "empty list"),
     ("name: x\n", "", "no rollouts"),
     ("name: x\ngrid: {magnitude: [100], start: [1.0], controller: [nope.yaml]}\n", "grid.controller", "no such"),
+    ("name: x\nrandom: {count: 4, magnitude: [300, 100]}\n", "random.magnitude", "reversed"),
+    ("name: x\nrandom: {count: 0}\n", "random.count", "must be >= 1"),
+    ("name: x\nrandom: {count: 4, window: [-1, 2]}\n", "random.window", "must be >= 0 s"),
+    ("name: x\nrandom: {count: 4, controller: [nope.yaml]}\n", "random.controller", "no such"),
+    ("name: x\nrandom: {count: 4}\ngrid: {magnitude: [100], start: [1.0]}\n", "random", "not grid and random"),
 ])
 def test_bad_experiment_files_fail_before_running(tmp_path: Path, text: str, key: str, msg: str) -> None:
     p = tmp_path / "bad.yaml"

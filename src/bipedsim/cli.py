@@ -478,10 +478,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return 130
     print(f"{summary['rollouts']} rollouts: " + ", ".join(f"{k} {v}" for k, v in sorted(summary["outcomes"].items())))
     counts = summary.get("survived_per_direction", {})
+    sector = summary.get("direction_sector_deg")
+    width = f" +-{sector / 2:g}" if sector else ""
     for d, v in summary["largest_survived_per_direction_n"].items():
         c = counts.get(d, {"survived": 0, "rollouts": 0})
-        every = f"every phase survived up to {v:g} N" if v is not None else "no magnitude survived in every phase"
-        print(f"  direction {d:>5} deg: {c['survived']}/{c['rollouts']} survived; {every}")
+        what = "push" if sector else "phase"
+        every = f"every {what} survived up to {v:g} N" if v is not None else f"no magnitude survived in every {what}"
+        print(f"  direction {d:>5}{width} deg: {c['survived']}/{c['rollouts']} survived; {every}")
     print(f"wrote {args.out}/results.csv, summary.json, push_polar.png")
     return 0
 

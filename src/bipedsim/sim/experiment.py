@@ -70,6 +70,40 @@ class Grid:
 
 
 @dataclass(frozen=True)
+class RandomPushes:
+    """``count`` rollouts, each with one push of uniform random magnitude, direction and start time,
+    drawn from the experiment's ``seed`` (the same pushes for every controller listed)."""
+
+    count: int = field(default=32, metadata={"min": 1})
+    magnitude: tuple[float, float] = (100.0, 300.0)  #: N, [low, high]
+    direction: tuple[float, float] = (0.0, 360.0)  #: degrees from the heading, [low, high]
+    duration: float = field(default=0.2, metadata={"gt": 0.0})
+    window: tuple[float, float] = (2.0, 5.0)  #: start times (s), [low, high]
+    controller: tuple[str, ...] = ()
+    #: summary.json bins the random directions into sectors this wide (degrees)
+    sector: float = field(default=45.0, metadata={"gt": 0.0, "max": 180.0})
+
+    def validate(self) -> None:
+        for key in ("magnitude", "direction", "window"):
+            lo, hi = getattr(self, key)
+            if lo > hi:
+                raise ValueError(f"{key}: [low, high] reversed: [{lo}, {hi}]")
+        if self.magnitude[0] < 0:
+            raise ValueError(f"magnitude: must be >= 0 N, got {self.magnitude[0]}")
+        if self.window[0] < 0:
+            raise ValueError(f"window: start times must be >= 0 s, got {self.window[0]}")
+
+    def pushes(self, seed: int, body: str) -> list[Push]:
+        from bipedsim.sim.push import random_pushes
+
+        raw = random_pushes(seed, self.count, magnitude=self.magnitude, duration=self.duration,
+                            window=self.window, body=body, direction=self.direction)
+        # rounded to what a results.csv row shows: 0.1 N, 0.1 degree, 1 ms
+        return [Push(magnitude=round(p.magnitude, 1), direction=round(p.direction, 1) % 360.0,
+                     duration=p.duration, start=round(float(p.start or 0.0), 3), body=body) for p in raw]
+
+
+@dataclass(frozen=True)
 class PushItem:
     magnitude: float
     direction: float = 0.0
@@ -93,13 +127,15 @@ class ExperimentSpec:
     init_noise: float = field(default=0.0, metadata={"min": 0.0})
     grid: Grid | None = None
     runs: tuple[PushItem, ...] = ()
+    random: RandomPushes | None = None
     fall: FallSpec = field(default_factory=FallSpec)
 
     def validate(self) -> None:
-        if self.grid is None and not self.runs:
-            raise ValueError("grid: give a grid or a list of runs -- the experiment has no rollouts")
-        if self.grid is not None and self.runs:
-            raise ValueError("grid: give a grid or runs, not both")
+        given = [k for k, v in (("grid", self.grid), ("runs", self.runs), ("random", self.random)) if v]
+        if not given:
+            raise ValueError("grid: give a grid, a list of runs or random pushes -- the experiment has no rollouts")
+        if len(given) > 1:
+            raise ValueError(f"{given[1]}: give one of grid, runs and random, not {' and '.join(given)}")
 
 
 @dataclass(frozen=True)
@@ -144,6 +180,10 @@ class Experiment:
                                                                      g.duration, timings, g.vertical):
                 items.append((ctl, Push(magnitude=mag, direction=dirn, duration=dur, vertical=vert, body=s.body,
                                         after=s.after, **tim)))
+        elif s.random is not None:
+            for push in s.random.pushes(s.seed, s.body):
+                for ctl in s.random.controller or (None,):
+                    items.append((ctl, push))
         else:
             for r in s.runs:
                 items.append((r.controller, Push(magnitude=r.magnitude, direction=r.direction, duration=r.duration,
@@ -172,7 +212,8 @@ def load_experiment(path: str | os.PathLike[str]) -> Experiment:
         try:
             r.push.validate()
         except ValueError as exc:
-            raise ConfigError(str(exc), path=p, key="grid" if spec.grid else "runs") from None
+            raise ConfigError(str(exc), path=p, key="grid" if spec.grid else ("random" if spec.random else "runs")) \
+                from None
     ref = exp.resolve(spec.reference)
     if ref is not None and not Path(ref).is_file():
         raise ConfigError(f"no such file {ref}", path=p, key="reference")
@@ -180,7 +221,8 @@ def load_experiment(path: str | os.PathLike[str]) -> Experiment:
 
     for ctl in {r.controller for r in rows if r.controller}:
         if not Path(ctl).is_file():
-            raise ConfigError(f"no such controller file {ctl}", path=p, key="grid.controller")
+            raise ConfigError(f"no such controller file {ctl}", path=p,
+                              key="random.controller" if spec.random else "grid.controller")
         load_controller(ctl)
     bodies = _body_names(ref)
     if spec.body not in bodies:

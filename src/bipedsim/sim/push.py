@@ -79,12 +79,14 @@ class Push:
 
 
 def random_pushes(seed: int, count: int, magnitude: tuple[float, float] = (100.0, 300.0),
-                  duration: float = 0.2, window: tuple[float, float] = (2.0, 8.0), body: str = "torso") -> list[Push]:
-    """``count`` pushes with uniform random magnitude, direction and start time, from ``seed``."""
+                  duration: float = 0.2, window: tuple[float, float] = (2.0, 8.0), body: str = "torso",
+                  direction: tuple[float, float] = (0.0, 360.0)) -> list[Push]:
+    """``count`` pushes with uniform random magnitude (N), direction (degrees) and start time (s, in
+    ``window``, in increasing order), from ``seed``."""
     rng = np.random.default_rng(seed)
     starts = np.sort(rng.uniform(*window, size=count))
-    return [Push(magnitude=float(rng.uniform(*magnitude)), direction=float(rng.uniform(0, 360)), duration=duration,
-                 start=float(s), body=body) for s in starts]
+    return [Push(magnitude=float(rng.uniform(*magnitude)), direction=float(rng.uniform(*direction)) % 360.0,
+                 duration=duration, start=float(s), body=body) for s in starts]
 
 
 @dataclass

@@ -155,7 +155,7 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
     keys = {r.key for r in rows}
     final = sorted((r for r in final if r["key"] in keys), key=lambda r: int(r["index"]))
     _rewrite(results, final)
-    summary = summarise(final)
+    summary = summarise(final, sector=exp.spec.random.sector if exp.spec.random else None)
     summary.update({"experiment": exp.spec.name, "rollouts": len(final)})
     from bipedsim.io import atomic_write_json
 
@@ -181,12 +181,19 @@ def _phase_label(r: dict[str, str]) -> str:
     return f"state {r['state']} at {float(r['fraction']):.2f}" if r["state"] else f"t={float(r['start']):.2f}s"
 
 
-def summarise(rows: list[dict[str, str]]) -> dict[str, Any]:
+def summarise(rows: list[dict[str, str]], sector: float | None = None) -> dict[str, Any]:
     """Per controller, direction and phase: the largest magnitude survived, and the largest below
-    which every push was survived (the recovery threshold on this grid)."""
+    which every push was survived (the recovery threshold on this grid). With ``sector`` (random
+    pushes), directions are binned into sectors that wide, centred on multiples of it, and every
+    start time counts as one phase, "random start"."""
     groups: dict[tuple[str, float, str], list[tuple[float, bool]]] = {}
+
+    def direction(r: dict[str, str]) -> float:
+        d = float(r["direction"])
+        return d if sector is None else (round(d / sector) * sector) % 360.0
+
     for r in rows:
-        k = (r["controller"], float(r["direction"]), _phase_label(r))
+        k = (r["controller"], direction(r), _phase_label(r) if sector is None else "random start")
         groups.setdefault(k, []).append((float(r["magnitude"]), r["outcome"] == "no_fall"))
     out: dict[str, Any] = {"by_direction_and_phase": [], "outcomes": {}}
     for (ctl, d, ph), vals in sorted(groups.items()):
@@ -212,10 +219,12 @@ def summarise(rows: list[dict[str, str]]) -> dict[str, Any]:
     out["largest_survived_per_direction_n"] = per_dir
     counts: dict[str, dict[str, int]] = {}
     for r in rows:
-        c = counts.setdefault(f"{float(r['direction']):g}", {"survived": 0, "rollouts": 0})
+        c = counts.setdefault(f"{direction(r):g}", {"survived": 0, "rollouts": 0})
         c["rollouts"] += 1
         c["survived"] += r["outcome"] == "no_fall"
     out["survived_per_direction"] = counts
+    if sector is not None:
+        out["direction_sector_deg"] = sector
     return out
 
 
@@ -233,8 +242,8 @@ def polar_plot(rows: list[dict[str, str]], path: Path) -> None:
     phases = sorted({_phase_label(r) for r in rows})
     dirs = sorted({float(r["direction"]) for r in rows})
     gap = min((b - a for a, b in zip(dirs, dirs[1:] + [dirs[0] + 360.0])), default=360.0) if dirs else 360.0
-    step = min(6.0, 0.5 * gap / max(len(phases), 1)) if len(phases) > 1 else 0.0
-    offset = {p: (i - (len(phases) - 1) / 2) * step for i, p in enumerate(phases)}
+    step = min(6.0, 0.5 * gap / len(phases)) if 1 < len(phases) <= 8 else 0.0
+    offset = {p: (i - (len(phases) - 1) / 2) * step for i, p in enumerate(phases)}  # 0 for many (random)
     for outcome, colour, marker in (("no_fall", "tab:green", "o"), ("fall", "tab:red", "x"),
                                     ("diverged", "tab:purple", "^")):
         sel = [r for r in rows if r["outcome"] == outcome]

@@ -291,7 +291,7 @@ def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:
         sc.cfg = replace(base, balance=replace(base.balance, velocity=VelocityConfig(kv_sagittal=kv)))
         vs: list[float] = []
         out, ctrl = run_scenario(sc, RolloutSpec(seconds=3.0), pushes=[Push(150.0, 180.0, 0.2, start=1.0)],
-                                 hooks=[lambda t, d, c: vs.append(d.subtree_linvel[1][0])])
+                                 hooks=[lambda t, d, c, vs=vs: vs.append(d.subtree_linvel[1][0])])
         assert out.outcome == "no_fall"
         dev[kv] = float(np.mean(np.abs(np.array(vs) - ctrl.source.speed())))
         if kv:

@@ -67,7 +67,8 @@ class TempoConfig:
     forward steps sooner and swings its leg faster, so its legs stay under it: with a fixed swing
     time it covers 0.6 m per step at 2 m/s, lands with the legs 65 degrees apart and the impact takes
     half its speed, leaving it stalled between two loaded feet. ``gain`` 0 switches it off; ``min``
-    below 1 also slows the gait clock when the body is slower than the reference."""
+    below 1 also slows the gait clock when the body is slower than the reference. The velocity is
+    measured by the balance law, so with ``balance.enabled: false`` the clock stays at real time."""
 
     gain: float = field(default=0.0, metadata={"min": 0.0})  #: rate per m/s of excess speed
     deadband: float = field(default=0.1, metadata={"min": 0.0})  #: m/s
@@ -80,7 +81,8 @@ class FSMConfig:
     """Four states: 1-2 right stance / left swing, 3-4 left stance / right swing. States 1 and 3
     last ``state1_time`` s (``null``: the reference's double-support-to-mid-swing share); 2 and 4 end
     when the swing foot's vertical force exceeds ``contact_force`` N, after at least
-    ``min_swing_time`` s. Times are on the gait clock, which runs at the ``tempo`` rate."""
+    ``min_swing_time`` s. Those two times are on the gait clock, which runs at the ``tempo`` rate;
+    ``max_wait`` is real time."""
 
     state1_time: float | None = field(default=None, metadata={"gt": 0.0})
     min_swing_time: float = field(default=0.1, metadata={"min": 0.0})

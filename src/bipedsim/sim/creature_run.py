@@ -78,8 +78,7 @@ def run_creature(built: BuiltModel, clip: ReferenceClip, spec: CreatureRunSpec) 
     outcome, fall_t, reason = "no_fall", None, None
     frames = clip.num_frames
     step = 0
-    warnings = MujocoWarnings().start()
-    try:
+    with MujocoWarnings() as mj_warnings:
         for step in range(n):
             t = step * dt
             f = t / clip.frame_time
@@ -89,7 +88,8 @@ def run_creature(built: BuiltModel, clip: ReferenceClip, spec: CreatureRunSpec) 
                 q = data.qpos[qa:qa + 4]
                 qd = target[qa:qa + 4]
                 # error rotation from the current to the target local orientation, in the joint frame
-                r = Rotation.from_quat([q[1], q[2], q[3], q[0]]).inv() * Rotation.from_quat([qd[1], qd[2], qd[3], qd[0]])
+                r = (Rotation.from_quat([q[1], q[2], q[3], q[0]]).inv()
+                     * Rotation.from_quat([qd[1], qd[2], qd[3], qd[0]]))
                 e = r.as_rotvec()
                 err2 += float(e @ e)
                 n_err += 1
@@ -113,7 +113,7 @@ def run_creature(built: BuiltModel, clip: ReferenceClip, spec: CreatureRunSpec) 
             mujoco.mj_step(model, data)
             bad = diverged(data)
             if bad:
-                outcome, fall_t, reason = "diverged", (step + 1) * dt, warnings.reason(bad)
+                outcome, fall_t, reason = "diverged", (step + 1) * dt, mj_warnings.reason(bad)
                 break
             if not spec.support:
                 z = float(data.xpos[root][2])
@@ -124,8 +124,6 @@ def run_creature(built: BuiltModel, clip: ReferenceClip, spec: CreatureRunSpec) 
                 if np.arccos(np.clip(up[2], -1, 1)) > spec.root_tilt:
                     outcome, fall_t, reason = "fall", (step + 1) * dt, "root tilted past the limit"
                     break
-    finally:
-        warnings.stop()
     model.dof_damping[:] = base_damping
     sim_s = (step + 1) * dt
     dist = float(np.linalg.norm(data.qpos[:2] - clip.qpos[0, :2])) if outcome != "diverged" else 0.0

@@ -17,7 +17,7 @@ from typing import Any
 
 from bipedsim import config
 from bipedsim.errors import ConfigError
-from bipedsim.sim.push import DEFAULT_AFTER_S, Push
+from bipedsim.sim.push import DEFAULT_AFTER_S, Push, random_pushes
 from bipedsim.sim.rollout import FallCriteria
 
 
@@ -94,13 +94,11 @@ class RandomPushes:
             raise ValueError(f"window: start times must be >= 0 s, got {self.window[0]}")
 
     def pushes(self, seed: int, body: str) -> list[Push]:
-        from bipedsim.sim.push import random_pushes
-
         raw = random_pushes(seed, self.count, magnitude=self.magnitude, duration=self.duration,
                             window=self.window, body=body, direction=self.direction)
         # rounded to what a results.csv row shows: 0.1 N, 0.1 degree, 1 ms
         return [Push(magnitude=round(p.magnitude, 1), direction=round(p.direction, 1) % 360.0,
-                     duration=p.duration, start=round(float(p.start or 0.0), 3), body=body) for p in raw]
+                     duration=p.duration, start=round(float(p.start), 3), body=body) for p in raw]
 
 
 @dataclass(frozen=True)

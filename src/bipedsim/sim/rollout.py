@@ -227,7 +227,7 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
         data.qvel[:] = initial_qvel
     mujoco.mj_forward(model, data)
     ctrl = Controller(model, plan, source, cfg)
-    warnings = MujocoWarnings().start()
+    mj_warnings = MujocoWarnings().start()
     try:
         ctrl.reset(data, spec.start_frame)
         falls = FallDetector(model, plan, spec.fall, data)
@@ -281,7 +281,7 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
                 checks = step // check_every
                 bad = diverged(data)
                 if bad:
-                    outcome, fall_t, reason = "diverged", step * dt, warnings.reason(bad)
+                    outcome, fall_t, reason = "diverged", step * dt, mj_warnings.reason(bad)
                     break
                 why = falls.check(data)
                 if why:
@@ -311,5 +311,5 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
                          extra=extra)
         return result, ctrl
     finally:
-        warnings.stop()
+        mj_warnings.stop()
         ctrl.restore_model()

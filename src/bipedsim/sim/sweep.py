@@ -160,7 +160,7 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
     from bipedsim.io import atomic_write_json
 
     atomic_write_json(out / "summary.json", summary)
-    polar_plot(final, out / "push_polar.png")
+    polar_plot(final, out / "push_polar.png", fan=exp.spec.random is None)
     return summary
 
 
@@ -228,7 +228,7 @@ def summarise(rows: list[dict[str, str]], sector: float | None = None) -> dict[s
     return out
 
 
-def polar_plot(rows: list[dict[str, str]], path: Path) -> None:
+def polar_plot(rows: list[dict[str, str]], path: Path, fan: bool = True) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -238,12 +238,13 @@ def polar_plot(rows: list[dict[str, str]], path: Path) -> None:
     fig = plt.figure(figsize=(6, 6))
     ax = fig.add_subplot(projection="polar")
     # the phases of one direction fan out around it (in the order listed below the plot), so that
-    # every rollout is a visible point instead of several phases stacked on one
+    # every rollout is a visible point instead of several phases stacked on one (not for random
+    # pushes: every start time is its own phase and the directions are spread already)
     phases = sorted({_phase_label(r) for r in rows})
     dirs = sorted({float(r["direction"]) for r in rows})
     gap = min((b - a for a, b in zip(dirs, dirs[1:] + [dirs[0] + 360.0])), default=360.0) if dirs else 360.0
-    step = min(6.0, 0.5 * gap / len(phases)) if 1 < len(phases) <= 8 else 0.0
-    offset = {p: (i - (len(phases) - 1) / 2) * step for i, p in enumerate(phases)}  # 0 for many (random)
+    step = min(6.0, 0.5 * gap / len(phases)) if fan and 1 < len(phases) <= 8 else 0.0
+    offset = {p: (i - (len(phases) - 1) / 2) * step for i, p in enumerate(phases)}
     for outcome, colour, marker in (("no_fall", "tab:green", "o"), ("fall", "tab:red", "x"),
                                     ("diverged", "tab:purple", "^")):
         sel = [r for r in rows if r["outcome"] == outcome]

@@ -1,5 +1,10 @@
 """Controller configuration: ``controllers/*.yaml`` validated into typed objects.
 
+The defaults live here, once: the dataclasses' defaults *are* the default controller, and
+``controllers/default.yaml`` restates them (a test keeps the two equal). A controller file is layered
+over these defaults: a file that names only ``pd.gains.hip.kp`` is the default controller with that one
+value changed (mappings are merged key by key; lists and scalars replace).
+
 Every key is checked; unknown keys, wrong types and impossible values (negative gains, reversed
 limits, a fade that never ends) are rejected with the file and the dotted key named.
 """
@@ -8,13 +13,17 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from pathlib import Path
+from typing import Any
 
 from bipedsim import config
+from bipedsim.errors import ConfigError
 
-CONTROLLER_DIR = Path(__file__).resolve().parents[3] / "controllers"
 PD_MODES = ("pd", "pd_ref_velocity")
 SOURCES = ("clip", "pose")
+#: the slowest control step accepted (s): 20 Hz. A walking body's stance lasts 0.3-0.4 s; at a slower
+#: rate the FSM would see a foot strike several centimetres late and the balance feedback would act
+#: on a step already over (``control_dt: 4`` walked with 0 foot strikes before this bound)
+MAX_CONTROL_DT = 0.05
 
 
 @dataclass(frozen=True)
@@ -25,6 +34,13 @@ class Gain:
     kp: float = field(default=300.0, metadata={"min": 0.0})
     kd: float = field(default=30.0, metadata={"min": 0.0})
     torque_limit: float | None = field(default=None, metadata={"gt": 0.0})
+
+
+#: the default controller's PD gains per joint group (kp N*m/rad, kd N*m*s/rad)
+DEFAULT_GAINS: dict[str, Gain] = {
+    "spine": Gain(1000.0, 100.0), "neck": Gain(100.0, 10.0), "hip": Gain(1000.0, 100.0),
+    "knee": Gain(1000.0, 100.0), "ankle": Gain(300.0, 30.0), "toe": Gain(60.0, 6.0),
+    "shoulder": Gain(300.0, 30.0), "elbow": Gain(300.0, 30.0)}
 
 
 @dataclass(frozen=True)
@@ -48,7 +64,8 @@ class PDConfig:
     #: feedforward: hold every swinging part against gravity (MuJoCo's bias forces) and let the
     #: stance knee and ankle carry their share (gamma) of the body weight (J^T f); not in the paper
     gravity_compensation: bool = True
-    gains: dict[str, Gain] = field(default_factory=dict)
+    #: per joint group; a group not named here keeps the gains the body's profile wrote into the model
+    gains: dict[str, Gain] = field(default_factory=lambda: dict(DEFAULT_GAINS))
     joint_gains: dict[str, Gain] = field(default_factory=dict)
     #: per joint, targets are clipped to [lo, hi] rad
     target_limits: dict[str, tuple[float, float]] = field(default_factory=dict)
@@ -70,7 +87,7 @@ class TempoConfig:
     below 1 also slows the gait clock when the body is slower than the reference. The velocity is
     measured by the balance law, so with ``balance.enabled: false`` the clock stays at real time."""
 
-    gain: float = field(default=0.0, metadata={"min": 0.0})  #: rate per m/s of excess speed
+    gain: float = field(default=4.0, metadata={"min": 0.0})  #: rate per m/s of excess speed
     deadband: float = field(default=0.1, metadata={"min": 0.0})  #: m/s
     min: float = field(default=1.0, metadata={"gt": 0.0, "max": 1.0})
     max: float = field(default=1.5, metadata={"min": 1.0})
@@ -84,8 +101,8 @@ class FSMConfig:
     ``min_swing_time`` s. Those two times are on the gait clock, which runs at the ``tempo`` rate;
     ``max_wait`` is real time."""
 
-    state1_time: float | None = field(default=None, metadata={"gt": 0.0})
-    min_swing_time: float = field(default=0.1, metadata={"min": 0.0})
+    state1_time: float | None = field(default=0.3, metadata={"gt": 0.0})
+    min_swing_time: float = field(default=0.2, metadata={"min": 0.0})
     contact_force: float = field(default=30.0, metadata={"gt": 0.0})
     max_wait: float = field(default=0.4, metadata={"min": 0.0})
     tempo: TempoConfig = field(default_factory=lambda: TempoConfig())
@@ -116,7 +133,7 @@ class BalanceConfig:
 
     enabled: bool = True
     feedback: bool = True
-    sagittal: PlaneGains = field(default_factory=lambda: PlaneGains(0.5, 0.2))
+    sagittal: PlaneGains = field(default_factory=lambda: PlaneGains(0.65, 0.2))
     coronal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.3))
     torso_kp: float = field(default=1000.0, metadata={"min": 0.0})
     roll_kp: float | None = field(default=None, metadata={"min": 0.0})  #: null: torso_kp
@@ -134,11 +151,8 @@ class BalanceConfig:
     #: "full" (deviations from the reference's own d and v on the current frame), "lateral_reference"
     #: (as mean_velocity, and the coronal d against the reference's own lateral d on the current frame:
     #: only a deviation from the walk's sway about the stance foot moves the swing leg sideways)
-    relative: str = field(default="mean_velocity",
+    relative: str = field(default="lateral_reference",
                           metadata={"choices": ("none", "mean_velocity", "full", "lateral_reference")})
-
-    def validate(self) -> None:
-        pass
 
 
 @dataclass(frozen=True)
@@ -146,7 +160,7 @@ class FadeConfig:
     """Sec. 4.4: while an external force acts, tracking gains drop to ``min_scale`` of their value;
     afterwards they return linearly over ``fade_in`` s. Balance stays on."""
 
-    enabled: bool = True
+    enabled: bool = False
     min_scale: float = field(default=0.3, metadata={"min": 0.0, "max": 1.0})
     fade_in: float = field(default=0.5, metadata={"gt": 0.0})
 
@@ -158,13 +172,13 @@ class ResyncConfig:
     reference's strike frame of that foot, at most ``max_frames``; ``hold`` pauses the reference at a
     strike frame while the swing foot has not landed (up to the FSM's ``max_wait``)."""
 
-    enabled: bool = True
+    enabled: bool = False
     gain: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
     max_frames: float = field(default=25.0, metadata={"min": 0.0})
     #: seconds over which the shift is applied (the reference plays faster or slower meanwhile);
     #: 0 jumps at once, which jerks every target
     spread: float = field(default=0.25, metadata={"min": 0.0})
-    hold: bool = True
+    hold: bool = False
 
 
 @dataclass(frozen=True)
@@ -183,8 +197,8 @@ class PoseState:
 class PoseGait:
     """SIMBICON's classic per-state key poses: state A (timed) then state B (until contact)."""
 
-    state_a: PoseState = field(default_factory=lambda: PoseState(0.5, 1.1, 0.6, 0.05, 0.0, 0.0))
-    state_b: PoseState = field(default_factory=lambda: PoseState(-0.1, 0.05, 0.15, 0.1, 0.0, 0.0))
+    state_a: PoseState = field(default_factory=lambda: PoseState(0.5, 1.1, -0.2, 0.05, 0.0, 0.0))
+    state_b: PoseState = field(default_factory=lambda: PoseState(-0.1, 0.05, -0.15, 0.1, 0.0, 0.0))
     state_a_time: float = field(default=0.3, metadata={"gt": 0.0})
     elbow: float = -0.3
 
@@ -196,7 +210,7 @@ class ControllerConfig:
     name: str = "default"
     source: str = field(default="clip", metadata={"choices": SOURCES})
     #: seconds between control steps (null: every physics step); physics runs at the model's timestep
-    control_dt: float | None = field(default=None, metadata={"gt": 0.0})
+    control_dt: float | None = field(default=0.004, metadata={"gt": 0.0, "max": MAX_CONTROL_DT})
     pd: PDConfig = field(default_factory=PDConfig)
     fsm: FSMConfig = field(default_factory=FSMConfig)
     balance: BalanceConfig = field(default_factory=BalanceConfig)
@@ -212,12 +226,23 @@ class ControllerConfig:
                 raise ValueError(f"pd.gains.{g}: unknown joint group; groups are {', '.join(JOINT_GROUPS)}, ball")
 
 
+def merged(base: Any, over: Any) -> Any:
+    """``over`` layered on ``base``: mappings merged key by key (recursively), anything else replaced."""
+    if isinstance(base, dict) and isinstance(over, dict):
+        out = dict(base)
+        for k, v in over.items():
+            out[k] = merged(base[k], v) if k in base else v
+        return out
+    return over
+
+
 def load_controller(path: str | os.PathLike[str] | None = None) -> ControllerConfig:
-    """A controller YAML file, or the default one (``controllers/default.yaml``, shipped in the
-    package as well)."""
+    """A controller YAML file layered over the defaults, or the default controller (``None``)."""
     if path is None:
-        p = CONTROLLER_DIR / "default.yaml"
-        if not p.is_file():
-            p = Path(__file__).resolve().parent.parent / "profiles" / "controller_default.yaml"
-        path = p
-    return config.load(ControllerConfig, path)
+        return ControllerConfig()
+    data = config.load_yaml(path)
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"expected a mapping of keys, got {type(data).__name__}", path=path)
+    return config.from_dict(ControllerConfig, merged(config.to_dict(ControllerConfig()), data), path=path)

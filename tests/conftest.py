@@ -3,6 +3,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
@@ -33,3 +34,29 @@ def shared_params(sub: str = "*"):
         return [pytest.param(None, marks=pytest.mark.skip(
             reason=f"shared BVH data not found at {SHARED_BVH}"))]
     return [pytest.param(f, id=f.name) for f in files]
+
+
+#: a clip whose root moves slower than this (m/s, horizontal) is "in place" (a walk cycle without
+#: root travel, a gesture, a pose); the shared walks travel at 0.5-1.3 m/s
+IN_PLACE_SPEED = 0.2
+
+
+class SharedFile:
+    """What a test may expect of a shared BVH file, measured from the file, not from its name: its
+    folder says human / animal / odd; ``travels`` whether its root moves (a walk that goes somewhere)
+    or stays (in place, a gesture); ``names`` its joint names. A file added to ``../shared`` is
+    classified the same way, so the tests say what each kind must do and keep passing."""
+
+    def __init__(self, path: Path) -> None:
+        from bipedsim.motion import load_bvh
+
+        self.path = path
+        self.folder = path.parent.name
+        m = load_bvh(path)
+        root = m.root_translation[:, :2]
+        self.speed = float(np.linalg.norm(root[-1] - root[0]) / m.duration) if m.duration > 0 else 0.0
+        self.travels = self.speed >= IN_PLACE_SPEED
+        self.names = set(m.skeleton.names)
+
+    def __repr__(self) -> str:
+        return f"SharedFile({self.path.name}: {self.folder}, {'travels' if self.travels else 'in place'})"

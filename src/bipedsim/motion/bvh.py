@@ -504,7 +504,10 @@ def motion_to_channels(motion: Motion) -> FloatArray:
 def _fmt(values: FloatArray, precision: int | None) -> list[str]:
     if precision is None:
         return [repr(float(v)) for v in values]  # shortest text that reads back exactly
-    return [f"{v:.{precision}f}" for v in values]
+    # + 0.0 turns -0.0 into 0.0, and a value that rounds to zero is written "0.000000", never
+    # "-0.000000": float noise around zero (1e-15 on one machine, -1e-15 on another) must not change the text
+    zero = 0.5 * 10.0 ** -precision
+    return [f"{(v if abs(v) >= zero else 0.0) + 0.0:.{precision}f}" for v in values]
 
 
 def bvh_text(motion: Motion, *, precision: int | None = None) -> str:

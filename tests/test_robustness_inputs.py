@@ -64,3 +64,73 @@ def test_implausible_controller_values_are_refused(tmp_path: Path, text: str, ke
     assert main(["run", str(p), "--seconds", "0.1", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err
+
+
+def _chain(n: int, bone: float = 0.1, frame_time: str = "0.0333333", frames: int = 3) -> str:
+    """A BVH of ``n`` joints nested in one chain (each bone ``bone`` units long)."""
+    out = ["HIERARCHY", "ROOT j0", "{", "OFFSET 0 0 0",
+           "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation"]
+    for i in range(1, n):
+        out += [f"JOINT j{i}", "{", f"OFFSET 0 {bone} 0", "CHANNELS 3 Zrotation Xrotation Yrotation"]
+    out += ["End Site", "{", "OFFSET 0 1 0", "}"] + ["}"] * n
+    out += ["MOTION", f"Frames: {frames}", f"Frame Time: {frame_time}"]
+    out += [" ".join(["0"] * (3 + 3 * n))] * frames
+    return "\n".join(out) + "\n"
+
+
+def test_thousand_nested_joints_read(tmp_path: Path) -> None:
+    """Issue 24: a BVH with >= 1000 nested joints was a RecursionError traceback."""
+    from bipedsim.motion import read_bvh
+
+    p = tmp_path / "deep.bvh"
+    p.write_text(_chain(1500))
+    m, _ = read_bvh(p)
+    assert m.num_joints == 1500 and list(m.skeleton.parents[:3]) == [-1, 0, 1] and m.skeleton.parents[-1] == 1498
+    assert main(["info", str(p)]) == 0
+
+
+def test_chain_that_collapses_into_one_body_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue 24: a 500-joint chain of tiny bones ran as a creature of one body: no_fall, RMSE 0."""
+    p = tmp_path / "chain.bvh"
+    p.write_text(_chain(500))
+    assert main(["run", "--bvh", str(p), "--profile", "creature", "--seconds", "1", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "500 joints merges into the root" in err and "merge_fraction" in err and err.count("\n") == 1
+    assert not (tmp_path / "o" / "outcome.json").exists()
+
+
+def test_body_nested_deeper_than_mujoco_reads_is_refused(tmp_path: Path) -> None:
+    from bipedsim.errors import ModelError
+    from bipedsim.model import build_model, load_profile
+    from bipedsim.model.build import MAX_BODY_DEPTH
+    from bipedsim.motion import load_bvh
+
+    p = tmp_path / "deep.bvh"
+    p.write_text(_chain(MAX_BODY_DEPTH + 10, bone=1.0))
+    prof = load_profile("creature")
+    from dataclasses import replace
+
+    with pytest.raises(ModelError, match=f"nests {MAX_BODY_DEPTH + 10} bodies deep; MuJoCo reads at most"):
+        build_model(load_bvh(p), replace(prof, merge_fraction=0.0))
+
+
+@pytest.mark.parametrize("frame_time", ["1e30", "0", "-0.1", "5", "1e-6"])
+def test_implausible_frame_time_is_refused(tmp_path: Path, frame_time: str) -> None:
+    from bipedsim.errors import BVHError
+    from bipedsim.motion import read_bvh
+
+    p = tmp_path / "ft.bvh"
+    p.write_text(_chain(4, frame_time=frame_time))
+    with pytest.raises(BVHError, match=f"ft.bvh:28: Frame Time {frame_time} s is not plausible"):
+        read_bvh(p)
+    assert main(["info", str(p)]) == 2
+
+
+def test_given_scale_that_makes_an_absurd_body_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue 24: --scale 1 on a centimetre file made a 183 m body walking at 93 m/s."""
+    from bipedsim.data import BUILTIN_WALK
+
+    assert main(["info", str(BUILTIN_WALK), "--scale", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "the body's height is" in err and "suggests cm (0.01 m per unit)" in err
+    assert main(["info", str(BUILTIN_WALK), "--scale", "cm"]) == 0

@@ -69,6 +69,7 @@ def build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfil
         from bipedsim.model.creature import creature_plan
 
         plan = creature_plan(motion, prof, total_mass=total_mass, name=name or "creature")
+    _check_depth(plan)
     builder = ModelBuilder(plan)
     xml = builder.xml()
     try:
@@ -76,6 +77,23 @@ def build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfil
     except ValueError as exc:  # pragma: no cover - a builder bug, not user input
         raise ModelError(f"the generated MJCF does not compile: {exc}") from None
     return BuiltModel(xml=xml, model=model, plan=plan)
+
+
+#: the deepest chain of nested bodies MuJoCo's XML reader accepts: tinyxml2 refuses elements nested
+#: deeper than 500 levels, and each body is one level (with the worldbody and the mujoco element above)
+MAX_BODY_DEPTH = 490
+
+
+def _check_depth(plan: BodyPlanSet) -> None:
+    depth: dict[str, int] = {}
+    for b in plan.bodies:  # parents come first
+        depth[b.name] = 1 if b.parent is None else depth.get(b.parent, 0) + 1
+    deepest = max(depth.values(), default=0)
+    if deepest > MAX_BODY_DEPTH:
+        leaf = max(depth, key=depth.__getitem__)
+        raise ModelError(f"the body chain ending at {leaf!r} nests {deepest} bodies deep; MuJoCo reads at most "
+                         f"{MAX_BODY_DEPTH} nested bodies: merge short bones (a creature profile YAML with a larger "
+                         "merge_fraction, convert --profile-file)")
 
 
 def load_model(path: str | os.PathLike[str]) -> BuiltModel:

@@ -71,6 +71,13 @@ def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float
         if bone[j] < profile.merge_fraction * size:
             body_of[j] = body_of[sk.parents[j]]
     kept = sorted({int(b) for b in body_of})
+    if len(kept) < 2:
+        # one rigid body has nothing to move: a rollout of it would "track" the clip with RMSE 0
+        raise ModelError(
+            f"every one of the {sk.num_joints} joints merges into the root: each bone is shorter than "
+            f"merge_fraction {profile.merge_fraction:g} x the body's size {size:.3g} m "
+            f"(longest bone {bone.max():.3g} m), so the body would be one rigid piece with no joint to "
+            "drive; give a creature profile YAML with a smaller merge_fraction (convert --profile-file)")
     names = {j: _safe(sk.names[j]) for j in kept}
     children: dict[int, list[int]] = {j: [] for j in kept}
     for j in kept:

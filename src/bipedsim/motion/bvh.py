@@ -32,6 +32,13 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Frames sampled over a clip to guess its up axis and unit.
 SIZE_SAMPLE_FRAMES = 50
+#: Plausible frame times (s): motion is captured and animated at 1 to 10,000 frames per second. A
+#: frame time outside this range is a broken header (``Frame Time: 1e30``), not a motion.
+FRAME_TIME_RANGE_S = (1e-4, 1.0)
+#: Plausible size (m) of any body -- its height if upright, else its largest extent -- once a scale
+#: the caller gave is applied: from an insect to a dinosaur. Outside it, the scale is wrong (``--scale
+#: 1`` on a centimetre file makes a 183 m person); the guessed ranges in ``conventions`` are narrower.
+GIVEN_SCALE_SIZE_RANGE_M = (0.02, 30.0)
 
 
 @dataclass
@@ -157,7 +164,8 @@ def _parse_hierarchy(lines: _Lines) -> tuple[list[str], list[int], list[list[flo
             raise BVHError(f"OFFSET of {what} needs 3 numbers, got {len(t) - 1}", path, ln2)
         return [_float(x, path, ln2, f"OFFSET of {what}") for x in t[1:]]
 
-    def joint(toks: list[str], ln: int, parent: int) -> None:
+    def joint_header(toks: list[str], ln: int, parent: int) -> tuple[int, list[str], int]:
+        """Name, OFFSET and CHANNELS of a joint: its index and the first line after them."""
         name, brace = name_of(toks, ln)
         if name in names:
             raise BVHError(f"joint name {name!r} is used twice", path, ln)
@@ -188,25 +196,35 @@ def _parse_hierarchy(lines: _Lines) -> tuple[list[str], list[int], list[list[flo
         elif idx == 0:
             raise BVHError(f"expected 'CHANNELS' for the root {name!r}, got {t[0]!r}", path, ln2)
         channels.append(chans)
-        while True:
-            if t[0] == "JOINT":
-                joint(t, ln2, idx)
-            elif t[0] == "End" and len(t) >= 2 and t[1] == "Site":
-                open_brace(len(t) == 3 and t[2] == "{", f"End Site of {name!r}")
-                es_par.append(idx)
-                es_off.append(offset(f"End Site of {name!r}"))
-                t2, ln3 = lines.next(f"'}}' closing End Site of {name!r}")
-                if t2 != ["}"]:
-                    raise BVHError(f"expected '}}' closing End Site of {name!r}, got "
-                                   f"{' '.join(t2)[:40]!r}", path, ln3)
-            elif t == ["}"]:
-                return
-            else:
-                raise BVHError(f"unexpected {' '.join(t)[:40]!r} in joint {name!r}: expected one of "
-                               f"JOINT, End Site, '}}' (unbalanced braces?)", path, ln2)
-            t, ln2 = lines.next(f"JOINT, End Site or '}}' closing joint {name!r}")
+        return idx, t, ln2
 
-    joint(toks, ln, -1)
+    # the joints still open, innermost last: an explicit stack, not recursion, so a chain of
+    # thousands of nested joints (a rope, a generated tail) reads like any other file
+    idx, t, ln2 = joint_header(toks, ln, -1)
+    stack = [idx]
+    while True:
+        name = names[stack[-1]]
+        if t[0] == "JOINT":
+            idx, t, ln2 = joint_header(t, ln2, stack[-1])
+            stack.append(idx)
+            continue
+        if t[0] == "End" and len(t) >= 2 and t[1] == "Site":
+            open_brace(len(t) == 3 and t[2] == "{", f"End Site of {name!r}")
+            es_par.append(stack[-1])
+            es_off.append(offset(f"End Site of {name!r}"))
+            t2, ln3 = lines.next(f"'}}' closing End Site of {name!r}")
+            if t2 != ["}"]:
+                raise BVHError(f"expected '}}' closing End Site of {name!r}, got "
+                               f"{' '.join(t2)[:40]!r}", path, ln3)
+        elif t == ["}"]:
+            stack.pop()
+            if not stack:
+                break
+            name = names[stack[-1]]
+        else:
+            raise BVHError(f"unexpected {' '.join(t)[:40]!r} in joint {name!r}: expected one of "
+                           f"JOINT, End Site, '}}' (unbalanced braces?)", path, ln2)
+        t, ln2 = lines.next(f"JOINT, End Site or '}}' closing joint {name!r}")
     return names, parents, offsets, channels, es_par, es_off
 
 
@@ -246,8 +264,10 @@ def _parse(path: str, raw: bytes) -> tuple[Skeleton, float, FloatArray, BVHInfo,
     if toks[:2] != ["Frame", "Time:"] or len(toks) != 3:
         raise BVHError(f"expected 'Frame Time: seconds', got {' '.join(toks)[:40]!r}", path, ln)
     frame_time = _float(toks[2], path, ln, "Frame Time")
-    if frame_time <= 0:
-        raise BVHError(f"Frame Time must be positive, got {toks[2]}", path, ln)
+    lo, hi = FRAME_TIME_RANGE_S
+    if not lo <= frame_time <= hi:
+        raise BVHError(f"Frame Time {toks[2]} s is not plausible: expected {lo:g} to {hi:g} s "
+                       f"({1 / hi:g} to {1 / lo:g} frames per second)", path, ln)
 
     n_ch = sum(len(c) for c in channels)
     start = hl.i  # index of the first data line
@@ -450,6 +470,12 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
         info.unit_name, info.unit_scale, info.unit_source = name, s, "given"
         info.unit_reason = "given by the caller"
         info.height_m = ug.height_m / ug.scale * s
+        lo, hi = GIVEN_SCALE_SIZE_RANGE_M
+        if not lo <= info.height_m <= hi:
+            what = "height" if ug.upright else "largest extent"
+            raise BVHError(f"with scale {scale} ({s:g} m per unit) the body's {what} is {info.height_m:.4g} m, outside "
+                           f"{lo:g}-{hi:g} m; the body's size suggests {ug.name} ({ug.scale:g} m per unit): "
+                           "give that scale or omit it to use the guess", p)
     motion.unit = info.unit_scale
     motion.up = info.up
     return motion, info

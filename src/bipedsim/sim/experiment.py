@@ -2,7 +2,9 @@
 phases and controller configurations, with repeats and seeds; and regression suites.
 
 Everything is validated before any rollout starts: unknown keys, negative durations, unknown bodies,
-empty grids, missing files -- each error names the file and the key.
+empty grids, repeated values, missing files, run lengths past :data:`~bipedsim.sim.rollout.MAX_ROLLOUT_S`,
+more rollouts than :data:`MAX_ROLLOUTS`, pushes that would not lie inside the run -- each error names the
+file and the key.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -17,8 +20,14 @@ from typing import Any
 
 from bipedsim import config
 from bipedsim.errors import ConfigError
-from bipedsim.sim.push import DEFAULT_AFTER_S, Push, random_pushes
-from bipedsim.sim.rollout import FallCriteria
+from bipedsim.sim.push import DEFAULT_AFTER_S, Push, check_pushes, random_pushes
+from bipedsim.sim.rollout import MAX_ROLLOUT_S, FallCriteria
+
+#: Most rollouts one experiment may expand to: 100 000 rollouts of a few seconds are days of CPU time
+#: and a results.csv of ~30 MB; a larger count is a typo (and would not fit in memory: 1e12 pushes).
+MAX_ROLLOUTS = 100_000
+#: Longest interval (s) between fall checks: past a second a fall is seen long after it happened.
+MAX_CHECK_EVERY_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -26,8 +35,9 @@ class FallSpec:
     non_foot_contact: bool = True
     allowed: tuple[str, ...] = ()
     pelvis_height_fraction: float = field(default=0.55, metadata={"gt": 0.0, "max": 1.0})
-    torso_tilt: float = field(default=1.0, metadata={"gt": 0.0})
-    check_every: float = field(default=0.01, metadata={"gt": 0.0})
+    #: rad; past pi every tilt is within it (the check compares cosines)
+    torso_tilt: float = field(default=1.0, metadata={"gt": 0.0, "max": math.pi})
+    check_every: float = field(default=0.01, metadata={"gt": 0.0, "max": MAX_CHECK_EVERY_S})
 
     def criteria(self) -> FallCriteria:
         return FallCriteria(**asdict(self))
@@ -51,6 +61,13 @@ class Grid:
         for key in ("magnitude", "direction", "duration", "vertical"):
             if not getattr(self, key):
                 raise ValueError(f"{key}: empty list -- the grid would have no rollouts")
+        for key in ("magnitude", "direction", "duration", "vertical", "phase", "start", "controller"):
+            values = getattr(self, key)
+            twice = next((v for i, v in enumerate(values) if v in values[:i]), None)
+            if twice is not None:
+                # two equal rollouts would share one row key: a resumed sweep would run only one
+                raise ValueError(f"{key}: {list(twice) if isinstance(twice, tuple) else twice} is listed twice; "
+                                 "use repeats to run a rollout more than once")
         if not self.phase and not self.start:
             raise ValueError("phase: give gait phases ([state, fraction]) or start times (start)")
         if self.phase and self.start:
@@ -67,6 +84,11 @@ class Grid:
         for st, fr in self.phase:
             if st not in (1, 2, 3, 4) or not 0.0 <= fr <= 1.0:
                 raise ValueError(f"phase: [state 1-4, fraction 0-1], got [{st}, {fr}]")
+
+    def size(self) -> int:
+        """Rollouts per repeat (the product of the list lengths)."""
+        return math.prod(len(v) or 1 for v in (self.controller, self.magnitude, self.direction, self.duration,
+                                               self.phase or self.start, self.vertical))
 
 
 @dataclass(frozen=True)
@@ -103,25 +125,41 @@ class RandomPushes:
 
 @dataclass(frozen=True)
 class PushItem:
+    """One push of a ``runs:`` list or a suite scenario: ``start`` (s) or ``state`` (+ ``fraction``)."""
+
     magnitude: float
     direction: float = 0.0
     duration: float = 0.2
     start: float | None = None
     state: int | None = None
-    fraction: float = 0.5
+    #: of the state's nominal duration; only with ``state`` (None: half way)
+    fraction: float | None = None
     vertical: float = 0.0
     controller: str | None = None
+
+    def validate(self) -> None:
+        if self.start is not None and self.state is not None:
+            raise ValueError("start: give a start time or a gait state, not both")
+        if self.start is None and self.state is None:
+            raise ValueError("start: give a start time (s) or a gait state (state, fraction)")
+        if self.fraction is not None and self.state is None:
+            raise ValueError("fraction: only with state (a fraction of that gait state)")
+
+    def push(self, body: str = "torso", after: float = DEFAULT_AFTER_S) -> Push:
+        return Push(magnitude=self.magnitude, direction=self.direction, duration=self.duration, start=self.start,
+                    state=self.state, fraction=0.5 if self.fraction is None else self.fraction,
+                    vertical=self.vertical, body=body, after=after)
 
 
 @dataclass(frozen=True)
 class ExperimentSpec:
     name: str = "experiment"
-    seconds: float = field(default=6.0, metadata={"gt": 0.0})
+    seconds: float = field(default=6.0, metadata={"gt": 0.0, "max": MAX_ROLLOUT_S})
     reference: str | None = None  #: BVH (relative to the file); null: the built-in walk
     body: str = "torso"
     after: float = field(default=DEFAULT_AFTER_S, metadata={"min": 0.0})
     repeats: int = field(default=1, metadata={"min": 1})
-    seed: int = 0
+    seed: int = field(default=0, metadata={"min": 0})  # numpy's generators take no negative seed
     init_noise: float = field(default=0.0, metadata={"min": 0.0})
     grid: Grid | None = None
     runs: tuple[PushItem, ...] = ()
@@ -134,6 +172,37 @@ class ExperimentSpec:
             raise ValueError("grid: give a grid, a list of runs or random pushes -- the experiment has no rollouts")
         if len(given) > 1:
             raise ValueError(f"{given[1]}: give one of grid, runs and random, not {' and '.join(given)}")
+        self._check_count()
+        self._check_runs()
+        if self.random is not None:
+            r = self.random
+            if r.window[1] + r.duration > self.seconds:
+                raise ValueError(f"random.window: a push may start at {r.window[1]:g} s and last {r.duration:g} s, "
+                                 f"past the end of the run ({self.seconds:g} s, seconds); a push must end within "
+                                 "the run")
+
+    def _check_count(self) -> None:
+        """At most :data:`MAX_ROLLOUTS`, counted before anything is expanded (1e12 would not fit)."""
+        if self.grid is not None:
+            per, key, what = self.grid.size(), "grid", f"a grid of {self.grid.size()}"
+        elif self.random is not None:
+            n_ctl = len(self.random.controller) or 1
+            per, key = self.random.count * n_ctl, "random.count"
+            what = f"count {self.random.count} x {n_ctl} controller(s)"
+        else:
+            per, key, what = len(self.runs), "runs", f"{len(self.runs)} runs"
+        total = per * self.repeats
+        if total > MAX_ROLLOUTS:
+            key = "repeats" if self.repeats > MAX_ROLLOUTS else key
+            raise ValueError(f"{key}: the experiment asks for {total} rollouts ({what} x {self.repeats} repeat(s)); "
+                             f"at most {MAX_ROLLOUTS} per experiment -- split it into several")
+
+    def _check_runs(self) -> None:
+        for i, r in enumerate(self.runs):
+            if r in self.runs[:i]:
+                # two equal rollouts would share one row key: a resumed sweep would run only one
+                raise ValueError(f"runs[{i}]: the same as runs[{self.runs.index(r)}]; use repeats to run a push "
+                                 "more than once")
 
 
 @dataclass(frozen=True)
@@ -162,10 +231,7 @@ class Experiment:
     path: Path
 
     def resolve(self, rel: str | None) -> str | None:
-        if rel is None:
-            return None
-        p = Path(rel)
-        return str(p if p.is_absolute() else (self.path.parent / p).resolve())
+        return resolve_relative(self.path.parent, rel)
 
     def rows(self) -> list[Row]:
         s = self.spec
@@ -184,14 +250,19 @@ class Experiment:
                     items.append((ctl, push))
         else:
             for r in s.runs:
-                items.append((r.controller, Push(magnitude=r.magnitude, direction=r.direction, duration=r.duration,
-                                                 start=r.start, state=r.state, fraction=r.fraction,
-                                                 vertical=r.vertical, body=s.body, after=s.after)))
-        rows = []
+                items.append((r.controller, r.push(body=s.body, after=s.after)))
+        rows: list[Row] = []
+        keys: set[str] = set()
         for rep in range(s.repeats):
             for ctl, push in items:
                 ident = json.dumps([ctl, asdict(push), rep], sort_keys=True)
                 key = hashlib.sha1(ident.encode()).hexdigest()[:12]
+                # random pushes, rounded to what a row shows, can repeat: each row needs its own key
+                twin = 1
+                while key in keys:
+                    key = hashlib.sha1(f"{ident}#{twin}".encode()).hexdigest()[:12]
+                    twin += 1
+                keys.add(key)
                 idx = len(rows)
                 rows.append(Row(index=idx, key=key, controller=self.resolve(ctl), push=push, repeat=rep,
                                 seed=s.seed + idx))
@@ -206,12 +277,10 @@ def load_experiment(path: str | os.PathLike[str]) -> Experiment:
     rows = exp.rows()
     if not rows:
         raise ConfigError("the experiment expands to no rollouts", path=p, key="grid")
-    for r in rows:
-        try:
-            r.push.validate()
-        except ValueError as exc:
-            raise ConfigError(str(exc), path=p, key="grid" if spec.grid else ("random" if spec.random else "runs")) \
-                from None
+    per_repeat = len(rows) // spec.repeats
+    for r in rows[:per_repeat]:  # repeats hold the same pushes
+        key = "grid" if spec.grid else ("random" if spec.random else f"runs[{r.index}]")
+        check_pushes([r.push], spec.seconds, path=p, key=key, seconds_key="seconds")
     ref = exp.resolve(spec.reference)
     if ref is not None and not Path(ref).is_file():
         raise ConfigError(f"no such file {ref}", path=p, key="reference")
@@ -238,15 +307,30 @@ def _body_names(reference: str | None) -> set[str]:
 
 
 # ---------------------------------------------------------------------- regression suites
+#: What a scenario may expect (push_not_applied is never expected: it says the scenario is broken).
+EXPECTATIONS = ("no_fall", "fall", "diverged")
+
+
 @dataclass(frozen=True)
 class Scenario:
     name: str
-    expect: str = field(default="no_fall", metadata={"choices": ("no_fall", "fall", "diverged")})
+    expect: str = field(default="no_fall", metadata={"choices": EXPECTATIONS})
     reference: str | None = None
     controller: str | None = None
-    seconds: float = field(default=8.0, metadata={"gt": 0.0})
-    seed: int = 0
+    seconds: float = field(default=8.0, metadata={"gt": 0.0, "max": MAX_ROLLOUT_S})
+    seed: int = field(default=0, metadata={"min": 0})  # numpy's generators take no negative seed
     pushes: tuple[PushItem, ...] = ()
+
+    def validate(self) -> None:
+        if not self.name.strip():
+            raise ValueError("name: must not be empty")
+        for j, item in enumerate(self.pushes):
+            if item.controller is not None:
+                raise ValueError(f"pushes[{j}].controller: a suite's pushes take the scenario's controller; "
+                                 "give controller on the scenario")
+
+    def push_list(self) -> list[Push]:
+        return [item.push() for item in self.pushes]
 
 
 @dataclass(frozen=True)
@@ -259,9 +343,37 @@ class Suite:
         if not self.scenarios:
             raise ValueError("scenarios: the suite has no scenarios")
         names = [s.name for s in self.scenarios]
-        if len(set(names)) != len(names):
-            raise ValueError("scenarios: scenario names must be unique")
+        for i, n in enumerate(names):
+            if n in names[:i]:
+                raise ValueError(f"scenarios[{i}].name: {n!r} is also scenarios[{names.index(n)}]'s name; "
+                                 "scenario names must be unique")
+
+
+def resolve_relative(base: Path, rel: str | None) -> str | None:
+    """``rel`` (a path in a file at ``base``'s folder) as an absolute path; None stays None."""
+    if rel is None:
+        return None
+    p = Path(rel)
+    return str(p if p.is_absolute() else (base / p).resolve())
 
 
 def load_suite(path: str | os.PathLike[str]) -> Suite:
-    return config.load(Suite, path)
+    """Load and validate a suite: keys, values, the files it names and every push against its
+    scenario's length, before any rollout."""
+    from bipedsim.control.config import load_controller
+
+    p = Path(path)
+    suite = config.load(Suite, p)
+    base = p.resolve().parent
+    for i, sc in enumerate(suite.scenarios):
+        check_pushes(sc.push_list(), sc.seconds, path=p, key=f"scenarios[{i}].pushes",
+                     seconds_key=f"scenarios[{i}].seconds")
+        ref = resolve_relative(base, sc.reference)
+        if ref is not None and not Path(ref).is_file():
+            raise ConfigError(f"no such file {ref}", path=p, key=f"scenarios[{i}].reference")
+        ctl = resolve_relative(base, sc.controller)
+        if ctl is not None:
+            if not Path(ctl).is_file():
+                raise ConfigError(f"no such controller file {ctl}", path=p, key=f"scenarios[{i}].controller")
+            load_controller(ctl)
+    return suite

@@ -5,20 +5,35 @@ Direction is in degrees in the character's heading frame at the moment the push 
 phase: the first moment after ``after`` seconds when the FSM is in ``state`` and has spent
 ``fraction`` of that state's nominal duration in it. ``xfrc_applied`` is cleared when it ends (MuJoCo
 never clears it).
+
+A push must lie inside the run it is given to (:func:`check_pushes`, called by every rollout: ``bipedsim
+run``, sweeps and regression suites): a timed push must start and end by the end of the run, a
+phase-timed one must be able to (``after`` + ``duration`` within the run). A push that starts after
+the run has ended would leave a rollout that reports ``no_fall`` for a push it never received. A
+phase-timed push can still miss (the gait never reaches its state in time); the rollout then reports
+the outcome ``push_not_applied``.
 """
 
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
 from bipedsim.errors import ConfigError
+from bipedsim.sim.rollout import MAX_ROLLOUT_S
 
 #: Seconds of walking before a phase-timed push may start (the gait settles first).
 DEFAULT_AFTER_S = 2.0
+#: Largest push force (N, horizontal or vertical) accepted: 100 kN is ~170 g on a 60 kg body, far past
+#: any fall (the 2000 N of the push grid's top already topples it); beyond it a value is a typo.
+MAX_PUSH_N = 100_000.0
+#: A push may end this much (s) after the run's end and still count as within it (float rounding of
+#: start + duration against the run length).
+_END_SLACK_S = 1e-9
 
 
 @dataclass(frozen=True)
@@ -34,18 +49,57 @@ class Push:
     body: str = "torso"
 
     def validate(self) -> None:
-        if not (self.magnitude >= 0 and math.isfinite(self.magnitude)):
-            raise ValueError(f"magnitude: must be >= 0 N, got {self.magnitude}")
-        if not self.duration > 0:
+        """Each value on its own (the run length is :func:`check_pushes`'s); ``ValueError`` naming the key."""
+        if not (0 <= self.magnitude <= MAX_PUSH_N):  # also NaN
+            raise ValueError(f"magnitude: must be 0-{MAX_PUSH_N:g} N, got {self.magnitude}")
+        if not abs(self.vertical) <= MAX_PUSH_N:
+            raise ValueError(f"vertical: must be within +-{MAX_PUSH_N:g} N, got {self.vertical}")
+        if not math.isfinite(self.direction):
+            raise ValueError(f"direction: must be a finite number of degrees, got {self.direction}")
+        if not (self.duration > 0 and math.isfinite(self.duration)):
             raise ValueError(f"duration: must be > 0 s, got {self.duration}")
         if self.start is None and self.state is None:
             raise ValueError("start: give a start time (s) or a gait phase (state and fraction)")
-        if self.start is not None and self.start < 0:
+        if self.start is not None and self.state is not None:
+            raise ValueError("start: give a start time or a gait phase, not both")
+        if self.start is not None and not (self.start >= 0 and math.isfinite(self.start)):
             raise ValueError(f"start: must be >= 0 s, got {self.start}")
         if self.state is not None and self.state not in (1, 2, 3, 4):
             raise ValueError(f"state: FSM states are 1-4, got {self.state}")
         if not 0.0 <= self.fraction <= 1.0:
             raise ValueError(f"fraction: must be in [0, 1], got {self.fraction}")
+        if not (self.after >= 0 and math.isfinite(self.after)):
+            raise ValueError(f"after: must be >= 0 s, got {self.after}")
+
+    def describe(self) -> str:
+        """The push in the command line's ``MAG:DIR:DUR:START`` notation (START ``sSTATE.FRACTION``
+        for a phase-timed push), for messages."""
+        if self.start is not None:
+            when = f"{self.start:g}"
+        elif self.fraction < 1.0:
+            when = f"s{self.state}." + (f"{self.fraction:.6f}".rstrip("0")[2:] or "0")
+        else:  # the notation's digits after the dot cannot say 1
+            when = f"state {self.state} at fraction 1"
+        return f"{self.magnitude:g}:{self.direction:g}:{self.duration:g}:{when}"
+
+    def earliest_end(self) -> float:
+        """The earliest time (s) this push can be over: a timed one's end, a phase-timed one's if its
+        state came right at ``after``."""
+        return (self.start if self.start is not None else self.after) + self.duration
+
+    def outside(self, seconds: float) -> str | None:
+        """Why this push cannot lie inside a run of ``seconds`` s, or None."""
+        if self.start is not None and self.start >= seconds:
+            return f"starts at {self.start:g} s, after the run ends at {seconds:g} s"
+        if self.start is None and self.after >= seconds:
+            return (f"waits for its gait phase until after {self.after:g} s (after), but the run ends at "
+                    f"{seconds:g} s")
+        if self.earliest_end() > seconds + _END_SLACK_S:
+            start = f"starts at {self.start:g} s" if self.start is not None else \
+                f"cannot start before {self.after:g} s (after)"
+            return (f"{start} and lasts {self.duration:g} s: it would still act at the end of the run "
+                    f"({seconds:g} s); a push must end within the run")
+        return None
 
     @property
     def impulse(self) -> float:
@@ -76,6 +130,26 @@ class Push:
         except ValueError as exc:
             raise ConfigError(f"push {text!r}: {exc}", key="--push") from None
         return p
+
+
+def check_pushes(pushes: list[Push], seconds: float, *, path: str | os.PathLike[str] | None = None,
+                 key: str = "--push", seconds_key: str = "--seconds") -> None:
+    """Raise :class:`ConfigError` unless ``seconds`` is a plausible run length (0 < s <=
+    :data:`MAX_ROLLOUT_S`) and every push is valid and lies inside the run (see the module's text).
+
+    ``path``, ``key`` and ``seconds_key`` say where the values came from (the command line's flags by
+    default; experiment and suite loaders pass their file and keys)."""
+    if not 0 < seconds <= MAX_ROLLOUT_S:  # also NaN
+        raise ConfigError(f"must be a run length in (0, {MAX_ROLLOUT_S:g}] s, got {seconds}", path=path,
+                          key=seconds_key)
+    for p in pushes:
+        try:
+            p.validate()
+        except ValueError as exc:
+            raise ConfigError(f"push {p.describe()}: {exc}", path=path, key=key) from None
+        why = p.outside(seconds)
+        if why:
+            raise ConfigError(f"push {p.describe()} {why}", path=path, key=key)
 
 
 def random_pushes(seed: int, count: int, magnitude: tuple[float, float] = (100.0, 300.0),

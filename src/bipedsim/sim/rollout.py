@@ -22,7 +22,13 @@ from bipedsim.control.reference import GaitSource
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
 
 FloatArray = npt.NDArray[np.float64]
-OUTCOMES = ("no_fall", "fall", "diverged")
+#: A rollout with pushes that walked to its end without one of them (a phase-timed push whose gait
+#: state never came in time, or that the end of the run cut short): not a survived push.
+PUSH_NOT_APPLIED = "push_not_applied"
+OUTCOMES = ("no_fall", "fall", "diverged", PUSH_NOT_APPLIED)
+#: Longest rollout accepted (s): an hour of simulated walking is far past any experiment here (the
+#: longest test walks 60 s) and takes minutes; a larger value is a typo that would run for days.
+MAX_ROLLOUT_S = 3600.0
 
 
 @dataclass(frozen=True)
@@ -196,6 +202,20 @@ def recovery_metrics(schedule: Any, t: FloatArray, err: FloatArray, com: FloatAr
     return out
 
 
+def not_applied(schedule: Any, sim_seconds: float, dt: float) -> list[str]:
+    """The pushes of ``schedule`` that did not act in full within ``sim_seconds`` (s), each as
+    "MAG:DIR:DUR:START: why". A push fires on the first physics step (``dt`` s) at or after its start,
+    so one that ends up to a step past the run's end counts as applied."""
+    out = [f"{p.describe()}: never started (its gait state did not come before the run ended at "
+           f"{sim_seconds:g} s)" if p.start is None else f"{p.describe()}: never started (the run ended at "
+           f"{sim_seconds:g} s)" for p in schedule.pending]
+    for a in schedule.fired:
+        if a.end > sim_seconds + dt * 1.5:
+            out.append(f"{a.push.describe()}: started at {a.start:.3f} s, cut short by the end of the run at "
+                       f"{sim_seconds:g} s")
+    return out
+
+
 @dataclass
 class RolloutSpec:
     seconds: float = 10.0
@@ -248,9 +268,12 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
 
             schedule = PushSchedule(model, list(pushes))
             before_step.insert(0, schedule)
-        series_t: list[float] = []
-        series_err: list[float] = []
-        series_com: list[FloatArray] = []
+        # per control period: time (s), RMS tracking error (rad), COM xy (m); preallocated, not lists of
+        # floats and small arrays that cost ~10x the memory on long runs
+        n_ctrl = -(-n_steps // every) if schedule is not None or record_com else 0
+        series_t, series_err = np.empty(n_ctrl), np.empty(n_ctrl)
+        series_com = np.empty((n_ctrl, 2))
+        n_series = 0
         # one pass per control period: control, then `every` physics steps (in one mj_step call
         # when no hook needs to see each step); fall checks once per `check_every` physics steps
         step, checks, next_progress = 0, 0, 1.0
@@ -262,10 +285,11 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
             ee = float(e.dot(e))
             err2 += ee
             n_err += len(e)
-            if schedule is not None or record_com:
-                series_t.append(t)
-                series_err.append((ee / len(e)) ** 0.5)
-                series_com.append(data.subtree_com[1, :2].copy())
+            if n_ctrl:
+                series_t[n_series] = t
+                series_err[n_series] = (ee / len(e)) ** 0.5
+                series_com[n_series] = data.subtree_com[1, :2]
+                n_series += 1
             for hk in hooks:
                 hk(t, data, ctrl)
             k = min(every, n_steps - step)
@@ -295,12 +319,17 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
         dist = float(np.linalg.norm(data.qpos[0:2] - start_xy)) if outcome != "diverged" else 0.0
         ratios = [r.ratio for r in ctrl.resyncs]
         extra: dict[str, Any] = {}
+        series_t, series_err, series_com = series_t[:n_series], series_err[:n_series], series_com[:n_series]
         if schedule is not None:
-            extra = recovery_metrics(schedule, np.array(series_t), np.array(series_err),
-                                     np.array(series_com).reshape(-1, 2), [s[0] for s in ctrl.fsm.strikes], spec,
-                                     nominal_com)
+            extra = recovery_metrics(schedule, series_t, series_err, series_com, [s[0] for s in ctrl.fsm.strikes],
+                                     spec, nominal_com)
+            # only a run that reached its end: a fall or divergence is one, pushed in full or not
+            missed = not_applied(schedule, sim_s, dt) if outcome == "no_fall" else []
+            if missed:
+                extra["pushes_not_applied"] = missed
+                outcome = PUSH_NOT_APPLIED
         if record_com:
-            extra["com_series"] = (np.array(series_t), np.array(series_com).reshape(-1, 2))
+            extra["com_series"] = (series_t.copy(), series_com.copy())
         result = Outcome(outcome=outcome, sim_seconds=sim_s, fall_time_s=fall_t, fall_reason=reason,
                          foot_strikes=len(ctrl.fsm.strikes), distance_m=dist,
                          mean_speed_mps=dist / sim_s if sim_s > 0 else 0.0,

@@ -1,5 +1,5 @@
 """Assemble a rollout from user-level choices: a controller YAML, a BVH (or the built-in walk), a body
-profile. Used by ``bipedsim run`` and, later, sweeps and regression suites."""
+profile. Used by ``bipedsim run``, sweeps and regression suites."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.retarget import retarget
+from bipedsim.sim.push import check_pushes
 from bipedsim.sim.rollout import Outcome, RolloutSpec, rollout
 
 
@@ -67,7 +68,13 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
 
 def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, before_step: list | None = None,
                  progress: Any = None, pushes: list | None = None) -> tuple[Outcome, Any]:
-    """Run one rollout from the gait source's loop start (the reference pose and velocity there)."""
+    """Run one rollout from the gait source's loop start (the reference pose and velocity there).
+
+    The run length and the pushes are checked first (:func:`~bipedsim.sim.push.check_pushes`: every
+    rollout, from ``bipedsim run``, a sweep or a suite, goes through here); errors name the command
+    line's ``--seconds`` and ``--push`` (sweeps and suites check their files, with file and key, when
+    they load them)."""
+    check_pushes(list(pushes or []), spec.seconds)
     source = sc.gait_source()
     frame = int(round(source.start_frame())) if isinstance(source, ClipSource) else 0
     if spec.start_frame is None and isinstance(source, ClipSource):

@@ -9,14 +9,19 @@ give the same file whatever order the workers finished in (apart from the ``wall
 from __future__ import annotations
 
 import csv
+import io
 import json
+import math
 import os
+import sys
 from collections.abc import Callable, Iterator
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from bipedsim.errors import BipedsimError
+from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.sim.experiment import Experiment, Row
+from bipedsim.sim.rollout import OUTCOMES, PUSH_NOT_APPLIED
 
 RESULT_COLUMNS = ["index", "key", "controller", "magnitude", "direction", "duration", "state", "fraction", "start",
                   "vertical", "body", "repeat", "seed", "outcome", "fall_time_s", "fall_reason", "foot_strikes",
@@ -56,23 +61,128 @@ def run_row(task: tuple[Row, str | None, float, float, dict[str, Any]]) -> dict[
     return {k: ("" if v is None else v) for k, v in res.items()}
 
 
+#: Columns that always hold a finite number, and those that may be empty (a push at a start time has
+#: no state; a survived rollout no fall time).
+NUMERIC_COLUMNS = ("index", "magnitude", "direction", "duration", "vertical", "repeat", "seed", "foot_strikes",
+                   "distance_m", "mean_speed_mps", "tracking_rmse_rad", "sim_seconds", "wall_seconds")
+OPTIONAL_NUMERIC_COLUMNS = ("state", "fraction", "start", "fall_time_s", "recovery_time_s", "peak_com_deviation_m",
+                            "steps_to_recover")
+#: Columns that must equal the experiment's row of the same key (else the row is from an edited experiment).
+PARAM_COLUMNS = ("index", "magnitude", "direction", "duration", "state", "fraction", "start", "vertical", "body",
+                 "repeat", "seed")
+#: Malformed rows named in the one-line report (the rest are counted).
+_REPORT_ROWS = 3
+
+
 def read_results(path: Path) -> list[dict[str, str]]:
-    if not path.is_file():
+    """The rows of ``path`` that have a key and an outcome, for counting (an interrupted sweep's
+    message); [] when there is no readable file. :func:`load_results` checks them properly."""
+    try:
+        with open(path, newline="", encoding="utf-8", errors="replace") as f:
+            rows = list(csv.DictReader(f))
+    except (OSError, csv.Error):
         return []
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
     return [r for r in rows if r.get("key") and r.get("outcome")]
 
 
+def _row_problem(rec: dict[str, str], expected: dict[str, Row]) -> str | None:
+    """Why a results.csv record cannot stand for a rollout of this experiment, or None."""
+    for col in NUMERIC_COLUMNS + OPTIONAL_NUMERIC_COLUMNS:
+        v = rec[col]
+        if v == "" and col in OPTIONAL_NUMERIC_COLUMNS:
+            continue
+        try:
+            ok = math.isfinite(float(v))
+        except ValueError:
+            ok = False
+        if not ok:
+            return f"{col} is not a number: {v!r}"
+    if rec["outcome"] not in OUTCOMES:
+        return f"unknown outcome {rec['outcome']!r} (outcomes: {', '.join(OUTCOMES)})"
+    row = expected.get(rec["key"])
+    if row is None:
+        return f"key {rec['key']!r} is not a rollout of this experiment"
+    want = row.params()
+    for col in PARAM_COLUMNS:
+        w, v = want[col], rec[col]
+        same = v == str(w) if isinstance(w, str) else v != "" and float(v) == float(w)
+        if not same:
+            return f"{col} {v!r} is not this experiment's {w!r} for key {rec['key']} (the experiment was edited?)"
+    return None
+
+
+def load_results(path: Path, rows: list[Row]) -> tuple[list[dict[str, str]], list[tuple[int, str]]]:
+    """The rows of ``path`` (a sweep's results.csv) that are whole rollouts of this experiment, and
+    (line number, why) for every other record: a torn last line (a crash or a full disk mid-write), a
+    wrong column count, an unparsable number, an unknown outcome, a key not in the experiment or
+    parameters that differ from it, a second row for one key. Raises :class:`BipedsimError` when the
+    file cannot be read, or is not a results file (its header is not :data:`RESULT_COLUMNS`)."""
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        return [], []
+    except OSError as exc:
+        raise BipedsimError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    text = raw.decode("utf-8", errors="replace")  # a byte torn in a character shows as a bad value
+    records: list[tuple[int, list[str]]] = []
+    reader = csv.reader(io.StringIO(text, newline=""))
+    try:
+        for rec in reader:
+            records.append((reader.line_num, rec))
+    except csv.Error as exc:  # e.g. a NUL byte from a crash: keep what was read, the rest is torn
+        records.append((reader.line_num, [f"<{exc}>"]))
+    if not records:
+        return [], []
+    (_, header), body = records[0], records[1:]
+    torn_last = bool(text) and not text.endswith(("\n", "\r"))
+    if header != RESULT_COLUMNS:
+        if not body:  # a header torn while the first row was written: nothing to keep
+            return [], [(1, "the header line is incomplete")]
+        raise BipedsimError(f"{path}: not a results file of this version of bipedsim sweep: its columns are "
+                            f"{', '.join(header[:4])}, ...; expected {', '.join(RESULT_COLUMNS[:4])}, ...; move it "
+                            "away or give another --out")
+    expected = {r.key: r for r in rows}
+    good: list[dict[str, str]] = []
+    seen: dict[str, int] = {}
+    problems: list[tuple[int, str]] = []
+    for i, (line, rec) in enumerate(body):
+        if i == len(body) - 1 and torn_last:
+            problems.append((line, "the last line is cut short (an interrupted write)"))
+            continue
+        if len(rec) != len(RESULT_COLUMNS):
+            problems.append((line, f"{len(rec)} columns, expected {len(RESULT_COLUMNS)}"))
+            continue
+        d = dict(zip(RESULT_COLUMNS, rec))
+        why = _row_problem(d, expected)
+        if why is None and d["key"] in seen:
+            why = f"a second row for key {d['key']} (line {seen[d['key']]} has it)"
+        if why is not None:
+            problems.append((line, why))
+            continue
+        seen[d["key"]] = line
+        good.append(d)
+    return good, problems
+
+
+def _report_dropped(path: Path, problems: list[tuple[int, str]]) -> str:
+    shown = "; ".join(f"line {line}: {why}" for line, why in problems[:_REPORT_ROWS])
+    more = f"; and {len(problems) - _REPORT_ROWS} more" if len(problems) > _REPORT_ROWS else ""
+    return (f"{path}: dropped {len(problems)} malformed row(s), their rollouts run again ({shown}{more})")
+
+
 def _append(path: Path, row: dict[str, Any]) -> None:
-    new = not path.exists() or path.stat().st_size == 0
-    with open(path, "a", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=RESULT_COLUMNS)
-        if new:
-            w.writeheader()
-        w.writerow({k: row.get(k, "") for k in RESULT_COLUMNS})
-        f.flush()
-        os.fsync(f.fileno())
+    try:
+        new = not path.exists() or path.stat().st_size == 0
+        with open(path, "a", newline="", encoding="utf-8") as f:
+            w = csv.DictWriter(f, fieldnames=RESULT_COLUMNS)
+            if new:
+                w.writeheader()
+            w.writerow({k: row.get(k, "") for k in RESULT_COLUMNS})
+            f.flush()
+            os.fsync(f.fileno())
+    except OSError as exc:
+        raise BipedsimError(f"{path}: cannot write: {exc.strerror or exc}; the rows written before are kept "
+                            "(run the same command again to resume)") from None
 
 
 def _tasks(exp: Experiment, rows: list[Row]) -> list[tuple[Row, str | None, float, float, dict[str, Any]]]:
@@ -125,56 +235,137 @@ def _ray(tasks: list, workers: int) -> Iterator[dict[str, Any]]:
 BACKENDS: dict[str, Callable[[list, int], Iterator[dict[str, Any]]]] = {"local": _local, "ray": _ray}
 
 
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity mask where the system has one, e.g. in a container)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def worker_count(requested: int, rollouts: int, cpus: int | None = None) -> tuple[int, str | None]:
+    """Workers to start: ``requested`` capped at the rollouts left and the CPUs (more only adds
+    start-up: each worker imports MuJoCo and builds the body, seconds each, and they share the CPUs),
+    and a one-line note when capped. ``requested`` >= 1 (:func:`run_sweep` checks it)."""
+    cpus = usable_cpus() if cpus is None else cpus
+    n = max(1, min(requested, rollouts, cpus))
+    if n == requested or rollouts == 0:
+        return requested, None
+    why = f"{rollouts} rollout(s) left" if rollouts <= cpus else f"{cpus} CPU(s)"
+    return n, f"using {n} worker(s), not {requested}: {why}"
+
+
+def _say(message: str) -> None:
+    print(f"bipedsim sweep: {message}", file=sys.stderr)
+
+
 def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1, backend: str = "local",
-              progress: bool = True) -> dict[str, Any]:
-    """Run every rollout not already in ``out_dir/results.csv``; returns the summary."""
+              progress: bool = True, say: Callable[[str], None] = _say) -> dict[str, Any]:
+    """Run every rollout not already in ``out_dir/results.csv``; returns the summary.
+
+    ``progress``: a progress bar on stderr (the command line asks for one when stderr is a terminal).
+    ``say`` gets one-line notes: malformed rows dropped from results.csv (they are run again), workers
+    capped. Errors (an unwritable folder, a results.csv that is not one, another run setup's results)
+    are :class:`BipedsimError` before any rollout."""
     if backend not in BACKENDS:
-        raise BipedsimError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}")
+        raise ConfigError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}", key="--backend")
     if workers < 1:
-        raise BipedsimError(f"--workers must be at least 1, got {workers}")
+        raise ConfigError(f"must be at least 1, got {workers}", key="--workers")
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    _make_out(out)
     results = out / "results.csv"
     rows = exp.rows()
-    done = {r["key"] for r in read_results(results)}
-    todo = [r for r in rows if r.key not in done]
-    (out / "experiment.json").write_text(json.dumps({"name": exp.spec.name, "file": str(exp.path),
-                                                     "rollouts": len(rows)}, indent=2))
+    _check_setup(out, exp)
+    done, problems = load_results(results, rows)
+    if problems:
+        _rewrite(results, done)  # before anything is appended: a torn last line would swallow the next row
+        say(_report_dropped(results, problems))
+    done_keys = {r["key"] for r in done}
+    todo = [r for r in rows if r.key not in done_keys]
+    _write(out / "experiment.json", json.dumps({"name": exp.spec.name, "file": str(exp.path), "rollouts": len(rows),
+                                                "setup": _setup(exp)}, indent=2) + "\n")
+    n_workers, note = worker_count(workers, len(todo))
+    if note:
+        say(note)
     bar = None
     if progress and todo:
         from tqdm import tqdm
 
-        bar = tqdm(total=len(rows), initial=len(rows) - len(todo), unit="rollout", desc=exp.spec.name)
-    for res in BACKENDS[backend](_tasks(exp, todo), workers):
-        _append(results, res)
+        bar = tqdm(total=len(rows), initial=len(rows) - len(todo), unit="rollout", desc=exp.spec.name,
+                   file=sys.stderr)
+    try:
+        for res in BACKENDS[backend](_tasks(exp, todo), n_workers):
+            _append(results, res)
+            if bar is not None:
+                bar.update(1)
+    finally:
         if bar is not None:
-            bar.update(1)
-    if bar is not None:
-        bar.close()
-    final = read_results(results)
-    keys = {r.key for r in rows}
-    final = sorted((r for r in final if r["key"] in keys), key=lambda r: int(r["index"]))
+            bar.close()
+    final, _ = load_results(results, rows)
+    final.sort(key=lambda r: int(r["index"]))
     _rewrite(results, final)
     summary = summarise(final, sector=exp.spec.random.sector if exp.spec.random else None)
     summary.update({"experiment": exp.spec.name, "rollouts": len(final)})
-    from bipedsim.io import atomic_write_json
-
-    atomic_write_json(out / "summary.json", summary)
-    polar_plot(final, out / "push_polar.png", fan=exp.spec.random is None)
+    _write(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    try:
+        polar_plot(final, out / "push_polar.png", fan=exp.spec.random is None)
+    except OSError as exc:
+        raise BipedsimError(f"{out / 'push_polar.png'}: cannot write: {exc.strerror or exc}") from None
     return summary
 
 
-def _rewrite(path: Path, rows: list[dict[str, str]]) -> None:
-    import io
+def _make_out(out: Path) -> None:
+    """Create the output folder, or say in one line why it cannot be one."""
+    if out.exists() and not out.is_dir():
+        raise BipedsimError(f"--out {out}: is an existing file; give a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise BipedsimError(f"--out {out}: cannot create the folder: {exc.strerror or exc}") from None
 
+
+def _write(path: Path, text: str) -> None:
     from bipedsim.io import atomic_write_text
 
+    try:
+        atomic_write_text(path, text)
+    except OSError as exc:
+        raise BipedsimError(f"{path}: cannot write: {exc.strerror or exc}") from None
+
+
+def _setup(exp: Experiment) -> dict[str, Any]:
+    """What every rollout of ``exp`` shares but a row's key does not hold: rows made under another
+    setup are not rows of this one."""
+    s = exp.spec
+    return {"seconds": s.seconds, "reference": exp.resolve(s.reference), "init_noise": s.init_noise,
+            "fall": asdict(s.fall)}
+
+
+def _check_setup(out: Path, exp: Experiment) -> None:
+    """Refuse to resume into results made with another run length, reference, noise or fall criteria
+    (``experiment.json`` records them; an unreadable or older record is not checked: it is rewritten)."""
+    try:
+        old = json.loads((out / "experiment.json").read_text(encoding="utf-8"))["setup"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return
+    if not read_results(out / "results.csv"):
+        return
+    new = json.loads(json.dumps(_setup(exp)))  # tuples as lists, as the record has them
+    diff = [k for k in new if old.get(k) != new[k]] if isinstance(old, dict) else list(new)
+    if diff:
+        k = diff[0]
+        raise BipedsimError(f"--out {out}: holds results made with {k} {old.get(k) if isinstance(old, dict) else '?'}"
+                            f", this experiment has {k} {new[k]}; give another --out, or remove "
+                            f"{out / 'results.csv'} to start again")
+
+
+def _rewrite(path: Path, rows: list[dict[str, str]]) -> None:
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=RESULT_COLUMNS)
     w.writeheader()
     for r in rows:
         w.writerow({k: r.get(k, "") for k in RESULT_COLUMNS})
-    atomic_write_text(path, buf.getvalue())
+    _write(path, buf.getvalue())
 
 
 def _phase_label(r: dict[str, str]) -> str:
@@ -185,14 +376,16 @@ def summarise(rows: list[dict[str, str]], sector: float | None = None) -> dict[s
     """Per controller, direction and phase: the largest magnitude survived, and the largest below
     which every push was survived (the recovery threshold on this grid). With ``sector`` (random
     pushes), directions are binned into sectors that wide, centred on multiples of it, and every
-    start time counts as one phase, "random start"."""
+    start time counts as one phase, "random start". Rollouts whose push did not happen
+    (``push_not_applied``) count only in ``outcomes``: they neither survived nor failed a push."""
     groups: dict[tuple[str, float, str], list[tuple[float, bool]]] = {}
 
     def direction(r: dict[str, str]) -> float:
         d = float(r["direction"])
         return d if sector is None else (round(d / sector) * sector) % 360.0
 
-    for r in rows:
+    pushed = [r for r in rows if r["outcome"] != PUSH_NOT_APPLIED]  # no push: nothing survived
+    for r in pushed:
         k = (r["controller"], direction(r), _phase_label(r) if sector is None else "random start")
         groups.setdefault(k, []).append((float(r["magnitude"]), r["outcome"] == "no_fall"))
     out: dict[str, Any] = {"by_direction_and_phase": [], "outcomes": {}}
@@ -218,7 +411,7 @@ def summarise(rows: list[dict[str, str]], sector: float | None = None) -> dict[s
         per_dir[key] = None if v is None or cur is None else min(cur, v)
     out["largest_survived_per_direction_n"] = per_dir
     counts: dict[str, dict[str, int]] = {}
-    for r in rows:
+    for r in pushed:
         c = counts.setdefault(f"{direction(r):g}", {"survived": 0, "rollouts": 0})
         c["rollouts"] += 1
         c["survived"] += r["outcome"] == "no_fall"

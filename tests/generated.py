@@ -4,8 +4,8 @@ in the 15th digit (``1.85e-15`` against ``0.0``), so generated files are never c
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-import numpy as np
 
+import numpy as np
 
 
 def _floats(text: str) -> list[float] | None:
@@ -19,7 +19,8 @@ def assert_xml_close(a: str, b: str, tol: float = 1e-6) -> None:
     """Two XML texts with the same elements and attributes, numbers equal within ``tol`` (abs and rel)."""
     def walk(x: ET.Element, y: ET.Element, where: str) -> None:
         assert x.tag == y.tag, f"{where}: element {x.tag} against {y.tag}"
-        assert set(x.attrib) == set(y.attrib), f"{where}/{x.tag}: attributes {sorted(x.attrib)} against {sorted(y.attrib)}"
+        assert set(x.attrib) == set(y.attrib), \
+            f"{where}/{x.tag}: attributes {sorted(x.attrib)} against {sorted(y.attrib)}"
         for k, va in x.attrib.items():
             vb = y.attrib[k]
             fa, fb = _floats(va), _floats(vb)

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+from generated import assert_text_close
+
 from bipedsim.data import BUILTIN_WALK, SHIPPED_BVH_PRECISION, builtin_walk_text
 from bipedsim.motion import read_bvh
 from bipedsim.motion.gaitgen import WalkParams
-from generated import assert_text_close
 
 
 def test_builtin_walk_regenerates_identically() -> None:

@@ -239,11 +239,6 @@ def mutate(meta: MetaSkeleton, act_a: FloatArray, act_b: FloatArray, count: int 
 
 
 # ---------------------------------------------------------------------- 3. survivor
-def _local_rotvecs(motion: Motion, joints: list[int]) -> FloatArray:
-    return Rotation.from_quat(motion.rotations[:, joints].reshape(-1, 4)).as_rotvec().reshape(
-        motion.num_frames, len(joints), 3)
-
-
 @dataclass
 class SurvivorResult:
     rotations: FloatArray  #: (T, J_meta, 4) child rotations

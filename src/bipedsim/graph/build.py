@@ -33,7 +33,6 @@ import numpy as np
 import numpy.typing as npt
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components, floyd_warshall
-from scipy.spatial.transform import Rotation
 
 from bipedsim import config
 from bipedsim.errors import BipedsimError, ConfigError
@@ -387,7 +386,3 @@ def build_graph(cfg: GraphConfig, base: Path, clips: list[Motion] | None = None)
     timings = {"load_s": t_load, "total_s": time.perf_counter() - t0,
                "frames": int(sum(m.num_frames for m in clips))}
     return MotionGraph(config=cfg, skeleton=sk, clips=clips, tags=tags, layers=layers, timings=timings)
-
-
-def heading_quat(yaw: float) -> FloatArray:
-    return Rotation.from_rotvec([0.0, 0.0, yaw]).as_quat()

@@ -137,8 +137,3 @@ def gait_events(contacts: npt.NDArray[np.bool_], feet: list[str]) -> dict[str, d
         out[f] = {"strike": [int(i) + 1 for i in np.flatnonzero(d == 1)],
                   "liftoff": [int(i) + 1 for i in np.flatnonzero(d == -1)]}
     return out
-
-
-def check_clip_model(clip: ReferenceClip, nq: int) -> None:
-    if clip.qpos.shape[1] != nq:
-        raise ModelError(f"clip has {clip.qpos.shape[1]} position coordinates, the model {nq}")

@@ -75,12 +75,6 @@ class HumanoidMap:
     legs: dict[str, dict[str, str | None]] = field(default_factory=dict)  # side -> role -> joint
     arms: dict[str, dict[str, str]] = field(default_factory=dict)
 
-    def used_joints(self) -> set[str]:
-        out = {self.pelvis, self.torso_base, self.chest, self.neck, self.head}
-        for d in (*self.legs.values(), *self.arms.values()):
-            out.update(v for v in d.values() if v)
-        return out
-
 
 @dataclass(frozen=True)
 class MapFile:
@@ -133,10 +127,6 @@ def _lca(sk: Skeleton, a: int, b: int) -> int:
         if j in anc:
             return j
     return 0
-
-
-def _match(base: str, words: list[str]) -> bool:
-    return base in words
 
 
 def _topmost_on_chain(sk: Skeleton, start: int, words_groups: list[list[str]], side: str,

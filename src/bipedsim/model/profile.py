@@ -121,12 +121,6 @@ class HumanoidProfile:
         if self.ankle_x_range[0] >= self.ankle_x_range[1]:
             raise ValueError("ankle_x_range: limits reversed (need lo < hi)")
 
-    @property
-    def table_mass(self) -> float:
-        """Whole-body mass (kg) of the table: bilateral segments count twice."""
-        single = ("pelvis", "torso", "head")
-        return float(sum(m * (1 if s in single else 2) for s, m in self.masses.items()))
-
 
 @dataclass(frozen=True)
 class CreatureProfile:

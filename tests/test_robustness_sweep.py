@@ -204,7 +204,7 @@ def test_progress_bar_on_stderr_and_capped_workers_said(tmp_path: Path, small, c
 @pytest.mark.parametrize("push,seconds,flag,words", [
     ("200:0:0.2:50", "3", "--push", "push 200:0:0.2:50 starts at 50 s, after the run ends at 3 s"),
     ("200:0:0.2:2.9", "3", "--push", "a push must end within the run"),
-    ("200:0:0.2:s2.5", "2", "--push", "waits for its gait phase until after 2 s (after), but the run ends at 2 s"),
+    ("200:0:0.2:s2.5", "2", "--push", "waits until 2 s of walking (after) for its gait phase, but the run ends at 2 s"),
     ("1e9:0:0.2:1", "3", "--push", f"magnitude: must be 0-{MAX_PUSH_N:g} N"),
     ("nan:0:0.2:1", "3", "--push", "magnitude"),
     ("100:0:0.2:1", "1e12", "--seconds", f"must be a run length in (0, {MAX_ROLLOUT_S:g}] s"),
@@ -271,7 +271,7 @@ def test_sweep_leaves_pushes_not_applied_out_of_survival(tmp_path: Path) -> None
     ("name: x\nseed: -1\ngrid: {start: [1.0]}\n", "seed", "must be >= 0"),
     ("name: x\nseconds: 3\ngrid: {start: [50]}\n", "grid", "starts at 50 s, after the run ends at 3 s"),
     ("name: x\nseconds: 3\ngrid: {start: [2.9]}\n", "grid", "must end within the run"),
-    ("name: x\nseconds: 3\nafter: 3\ngrid: {phase: [[2, 0.5]]}\n", "grid", "until after 3 s (after)"),
+    ("name: x\nseconds: 3\nafter: 3\ngrid: {phase: [[2, 0.5]]}\n", "grid", "waits until 3 s of walking (after)"),
     ("name: x\nseconds: 3\nrandom: {count: 4, window: [2, 5]}\n", "random.window", "may start at 5 s"),
     ("name: x\ngrid: {magnitude: [100, 100], start: [1.0]}\n", "grid.magnitude", "100.0 is listed twice"),
     ("name: x\ngrid: {phase: [[2, 0.5], [2, 0.5]]}\n", "grid.phase", "[2, 0.5] is listed twice"),

@@ -92,7 +92,7 @@ class Push:
         if self.start is not None and self.start >= seconds:
             return f"starts at {self.start:g} s, after the run ends at {seconds:g} s"
         if self.start is None and self.after >= seconds:
-            return (f"waits for its gait phase until after {self.after:g} s (after), but the run ends at "
+            return (f"waits until {self.after:g} s of walking (after) for its gait phase, but the run ends at "
                     f"{seconds:g} s")
         if self.earliest_end() > seconds + _END_SLACK_S:
             start = f"starts at {self.start:g} s" if self.start is not None else \

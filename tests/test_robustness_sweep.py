@@ -137,6 +137,18 @@ def test_results_of_another_setup_are_refused(tmp_path: Path, small) -> None:
     assert len(rows_of(out / "results.csv")) == 2
 
 
+def test_another_experiments_results_are_not_deleted(tmp_path: Path, small) -> None:
+    other = tmp_path / "other.yaml"
+    other.write_text(SMALL.replace("magnitude: [50, 100]", "magnitude: [60, 70]"))
+    out = tmp_path / "out"
+    out.mkdir()
+    write_results(out / "results.csv", fake_rows(load_experiment(other)))
+    before = (out / "results.csv").read_text()
+    with pytest.raises(BipedsimError, match=r"holds 2 row\(s\), none of them a rollout of experiment 'small'"):
+        run_sweep(small, out, progress=False)
+    assert (out / "results.csv").read_text() == before
+
+
 # ---------------------------------------------------------------------- output folder and files
 def test_unwritable_outputs_are_errors_not_tracebacks(tmp_path: Path, small, monkeypatch) -> None:
     afile = tmp_path / "afile"

@@ -277,6 +277,8 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
     rows = exp.rows()
     _check_setup(out, exp)
     done, problems = load_results(results, rows)
+    if problems and not done:
+        _check_not_foreign(results, exp, rows)
     if problems:
         _rewrite(results, done)  # before anything is appended: a torn last line would swallow the next row
         say(_report_dropped(results, problems))
@@ -312,6 +314,17 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
     except OSError as exc:
         raise BipedsimError(f"{out / 'push_polar.png'}: cannot write: {exc.strerror or exc}") from None
     return summary
+
+
+def _check_not_foreign(results: Path, exp: Experiment, rows: list[Row]) -> None:
+    """Refuse to drop a results file none of whose rows is a rollout of ``exp``: another experiment's
+    results, which resuming would delete."""
+    keys = {r.key for r in rows}
+    theirs = read_results(results)
+    if theirs and not any(r["key"] in keys for r in theirs):
+        raise BipedsimError(f"--out {results.parent}: {results.name} holds {len(theirs)} row(s), none of them a "
+                            f"rollout of experiment {exp.spec.name!r} ({exp.path}): another experiment's results? "
+                            "Give another --out, or remove the file to start again")
 
 
 def _make_out(out: Path) -> None:
@@ -450,7 +463,8 @@ def polar_plot(rows: list[dict[str, str]], path: Path, fan: bool = True) -> None
     if step:
         fig.text(0.98, 0.02, "around each direction, counter-clockwise:\n" + "\n".join(phases), ha="right",
                  va="bottom", fontsize=7)
-    ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.1), fontsize=8)
+    if ax.get_legend_handles_labels()[0]:  # none when no push happened (every row push_not_applied)
+        ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.1), fontsize=8)
     fig.tight_layout()
     tmp = path.with_name(f".{path.name}.tmp.png")
     fig.savefig(tmp, dpi=100)

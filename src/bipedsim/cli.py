@@ -8,16 +8,20 @@ exit status is 2, without a traceback.
 from __future__ import annotations
 
 import argparse
+import errno
 import json
+import math
 import signal
 import sys
 import threading
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
 import numpy as np
 
 from bipedsim import __version__
-from bipedsim.errors import BipedsimError
+from bipedsim.errors import BipedsimError, ConfigError
+from bipedsim.io import check_output_file, os_reason, prepare_output_dir, progress_bar, remove_stale
 
 Command = Callable[[argparse.Namespace], int]
 
@@ -92,14 +96,15 @@ def _add_info(sub: argparse._SubParsersAction) -> None:
 
 # ---------------------------------------------------------------------- convert
 def cmd_convert(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from bipedsim.model import build_model, retarget
     from bipedsim.model.naming import load_map
     from bipedsim.motion.bvh import read_bvh
 
     motion, info = read_bvh(args.input, scale=args.scale, up=args.up)
     motion = motion.to_project_frame()
+    check_output_file(args.output, "-o")
+    if args.clip:
+        check_output_file(args.clip, "--clip")
     mapping = load_map(args.map, motion.skeleton) if args.map else None
     profile = args.profile_file or args.profile
     built = build_model(motion, profile, total_mass=args.mass, mapping=mapping, name=Path(args.output).stem)
@@ -142,54 +147,117 @@ def _add_convert(sub: argparse._SubParsersAction) -> None:
 
 
 # ---------------------------------------------------------------------- run
-def cmd_run(args: argparse.Namespace) -> int:
-    from pathlib import Path
+#: Flags that only the humanoid (balance controller) run uses: a creature run records no trajectory
+#: (nothing to render, plot or export) and takes no pushes or controller file.
+HUMANOID_ONLY = {"config": "CONTROLLER.yaml", "push": "--push", "video": "--video", "gif": "--gif",
+                 "plots": "--plots", "csv": "--csv", "export_bvh": "--export-bvh", "record_hz": "--record-hz",
+                 "init_noise": "--init-noise"}
+#: Trajectory samples per second when --record-hz is not given.
+DEFAULT_RECORD_HZ = 120.0
 
+
+def check_run_args(args: argparse.Namespace) -> None:
+    """Refuse `bipedsim run` flags that would be ignored or meaningless, before anything runs: each
+    error names the flag and what is allowed. Ranges of the run length and pushes are checked by
+    :func:`~bipedsim.sim.push.check_pushes`, the video flags by :meth:`VideoOptions.validate`."""
+    if args.support and args.profile != "creature":
+        raise ConfigError("holds a creature's root; it needs --profile creature", key="--support")
+    if args.bvh is None:
+        for flag, value, what in (("--scale", args.scale, "unit"), ("--up", args.up, "up axis")):
+            if value is not None:
+                raise ConfigError(f"sets the {what} of a --bvh file; the built-in walk's {what} is known "
+                                  f"(give --bvh FILE or drop {flag})", key=flag)
+    if args.profile == "creature":
+        for attr, flag in HUMANOID_ONLY.items():
+            if getattr(args, attr) not in (None, False, 0.0, []):
+                raise ConfigError("is not available with --profile creature (a creature run tracks its clip "
+                                  "without the balance controller and records no trajectory)", key=flag)
+    if not (math.isfinite(args.init_noise) and args.init_noise >= 0):
+        raise ConfigError(f"must be a standard deviation >= 0 (rad/s, m/s), got {args.init_noise}",
+                          key="--init-noise")
+    if args.seed < 0:
+        raise ConfigError(f"must be a whole number >= 0, got {args.seed}", key="--seed")
+
+
+def check_run_outputs(args: argparse.Namespace) -> Path:
+    """Check (and create) every output location of `bipedsim run` before the simulation starts;
+    returns the run folder."""
+    from bipedsim.render.video import VIDEO_SUFFIXES
+
+    folder = prepare_output_dir(args.out, "--out")
+    for flag, path, suffixes in (("--csv", args.csv, ()), ("--export-bvh", args.export_bvh, ()),
+                                 ("--video", args.video, VIDEO_SUFFIXES), ("--gif", args.gif, (".gif",))):
+        if path:
+            check_output_file(path, flag, suffixes)
+    return folder
+
+
+def run_files_kept(args: argparse.Namespace, folder: Path) -> tuple[list[str], set[str]]:
+    """The files a run folder may hold from a run (by name) and those this run writes; the rest of
+    the first list, when present, are stale."""
+    from bipedsim.render.plots import PLOT_FILES
+    from bipedsim.render.video import DEFAULT_VIDEO, MODEL_FILE, OUTCOME_FILE, TRAJECTORY_FILE
+
+    known = [OUTCOME_FILE, TRAJECTORY_FILE, MODEL_FILE, *PLOT_FILES, DEFAULT_VIDEO]
+    keep = {OUTCOME_FILE, MODEL_FILE}
+    if args.profile != "creature":
+        keep.add(TRAJECTORY_FILE)
+    if getattr(args, "plots", False):
+        keep.update(PLOT_FILES)
+    for extra in (args.video, args.gif, args.csv, args.export_bvh):
+        if extra and Path(extra).resolve().parent == folder.resolve():
+            keep.add(Path(extra).name)
+    return known, keep
+
+
+def clear_stale(args: argparse.Namespace, folder: Path) -> None:
+    """Remove what an earlier run left in ``folder`` that this run will not rewrite (only the known
+    run files), so the folder never mixes two runs' outputs; says so in one line."""
+    removed = remove_stale(folder, *run_files_kept(args, folder))
+    if removed:
+        print(f"removed from an earlier run in {folder}: {', '.join(removed)}")
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from bipedsim.sim.push import Push, check_pushes
+    from bipedsim.sim.recorder import Recorder
     from bipedsim.sim.rollout import RolloutSpec
     from bipedsim.sim.runner import load_scenario, run_scenario, write_outcome
 
-    if not args.seconds > 0:
-        from bipedsim.errors import ConfigError
-
-        raise ConfigError(f"must be a positive number of seconds, got {args.seconds}", key="--seconds")
+    check_run_args(args)
+    video_options(args).validate()
+    pushes = [Push.parse(x) for x in (args.push or [])]
+    check_pushes(pushes, args.seconds)  # the run length too, before anything is built
     if args.profile == "creature":
         return run_creature_cli(args)
     sc = load_scenario(args.config, args.bvh, scale=args.scale, up=args.up, mass=args.mass)
+    hz = DEFAULT_RECORD_HZ if args.record_hz is None else args.record_hz
+    rec = Recorder(sc.built.model, record_hz=hz, seconds=args.seconds, key="--record-hz")
+    folder = check_run_outputs(args)
     spec = RolloutSpec(seconds=args.seconds, seed=args.seed, init_noise=args.init_noise)
-    bar = None
-    if args.seconds >= 5 and sys.stderr.isatty():
-        from tqdm import tqdm
-
-        bar = tqdm(total=args.seconds, unit="sim s", desc="bipedsim run", leave=False)
+    bar = progress_bar(args.seconds, "bipedsim run", "sim s") if args.seconds >= 5 else None
 
     def progress(t: float) -> None:
         if bar is not None:
             bar.n = round(t, 2)
             bar.refresh()
 
-    from bipedsim.sim.push import Push
-    from bipedsim.sim.recorder import Recorder
-
-    pushes = [Push.parse(x) for x in (args.push or [])]
-    rec = Recorder(sc.built.model, record_hz=args.record_hz)
     out, ctrl = run_scenario(sc, spec, progress=progress, hooks=[rec], pushes=pushes)
     if bar is not None:
         bar.close()
-    folder = Path(args.out)
+    clear_stale(args, folder)
     path = write_outcome(out, folder)
-    save_run_files(sc, rec, ctrl, out, folder)
+    tr = save_run_files(sc, rec, ctrl, out, folder)
+    del rec  # the trajectory holds the samples
     fall = f" at {out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else ""
     print(f"{out.outcome}{fall}: {out.sim_seconds:.2f} s simulated in {out.wall_seconds:.1f} s, "
           f"{out.foot_strikes} foot strikes, {out.distance_m:.2f} m at {out.mean_speed_mps:.2f} m/s "
           f"(reference {out.reference_speed_mps:.2f} m/s), tracking RMSE {out.tracking_rmse_rad:.3f} rad")
     print(f"wrote {path}, {folder / 'trajectory.npz'}, {folder / 'model.xml'}")
-    return finish_outputs(args, folder, sc)
+    return finish_outputs(args, folder, sc, tr)
 
 
 def run_creature_cli(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from bipedsim.errors import ConfigError
     from bipedsim.io import atomic_write_text
     from bipedsim.model import build_model, retarget
     from bipedsim.motion.bvh import load_bvh
@@ -201,10 +269,11 @@ def run_creature_cli(args: argparse.Namespace) -> int:
     motion = load_bvh(args.bvh, scale=args.scale, up=args.up)
     built = build_model(motion, "creature", total_mass=args.mass, name=Path(args.bvh).stem)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=str(args.bvh))
+    folder = check_run_outputs(args)
     out = run_creature(built, clip, CreatureRunSpec(seconds=args.seconds, seed=args.seed, support=args.support))
     out.config = {"profile": "creature", "reference": str(args.bvh), "seconds": args.seconds,
                   "support": args.support, "model_hash": built.hash}
-    folder = Path(args.out)
+    clear_stale(args, folder)
     path = write_outcome(out, folder)
     atomic_write_text(folder / "model.xml", built.xml)
     fall = f" at {out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else ""
@@ -219,27 +288,28 @@ def run_creature_cli(args: argparse.Namespace) -> int:
     return 0
 
 
-def save_run_files(sc, rec, ctrl, out, folder) -> None:  # noqa: ANN001
-    """trajectory.npz (everything rendering and export read) and model.xml beside outcome.json."""
+def save_run_files(sc, rec, ctrl, out, folder):  # noqa: ANN001, ANN201
+    """trajectory.npz (everything rendering and export read) and model.xml beside outcome.json;
+    returns the trajectory."""
     from bipedsim.io import atomic_write_text
 
     meta = {"hinge_names": ctrl.h.names, "hinge_qadr": [int(a) for a in ctrl.h.qadr],
             "outcome": out.outcome, "fall_time_s": out.fall_time_s, "model_hash": sc.built.hash,
             "reference": sc.source_path, "trimmed_frames": sc.clip.trimmed_frames,
             "source_unit": getattr(sc.bvh_info, "unit_scale", 1.0), "source_up": getattr(sc.bvh_info, "up", "y")}
-    rec.trajectory(meta).save(folder / "trajectory.npz")
+    tr = rec.trajectory(meta)
+    tr.save(folder / "trajectory.npz")
     atomic_write_text(folder / "model.xml", sc.built.xml)
+    return tr
 
 
-def finish_outputs(args: argparse.Namespace, folder, sc=None) -> int:  # noqa: ANN001
-    """Plots, exports and video for a run folder; video last, since it may fail without GL."""
-    from pathlib import Path
-
-    import numpy as np
-
+def finish_outputs(args: argparse.Namespace, folder, sc=None, tr=None) -> int:  # noqa: ANN001
+    """Plots, exports and video for a run folder; video last, since it may fail without GL. ``tr``: the
+    run's trajectory when in memory (else read from the folder)."""
     from bipedsim.sim.recorder import Trajectory
 
-    tr = Trajectory.load(Path(folder) / "trajectory.npz")
+    if tr is None:
+        tr = Trajectory.load(Path(folder) / "trajectory.npz")
     names, qadr = tr.meta["hinge_names"], tr.meta["hinge_qadr"]
     if getattr(args, "plots", False):
         import mujoco
@@ -272,7 +342,8 @@ def finish_outputs(args: argparse.Namespace, folder, sc=None) -> int:  # noqa: A
         if video:
             from bipedsim.render.video import render_video
 
-            n = render_video(folder, video, video_options(args), progress=sys.stderr.isatty())
+            flag = "--video" if video == getattr(args, "video", None) else "--gif"
+            n = render_video(folder, video, video_options(args), progress=sys.stderr.isatty(), out_flag=flag)
             print(f"wrote {video} ({n} frames)")
     return 0
 
@@ -298,13 +369,11 @@ def _video_args(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from bipedsim.render.video import render_video
+    from bipedsim.render.video import DEFAULT_VIDEO, render_video
 
     folder = Path(args.run_dir)
-    out = args.output or str(folder / "rollout.mp4")
-    n = render_video(folder, out, video_options(args), progress=sys.stderr.isatty())
+    out = args.output or str(folder / DEFAULT_VIDEO)
+    n = render_video(folder, out, video_options(args), progress=sys.stderr.isatty(), out_flag="-o")
     print(f"wrote {out} ({n} frames)")
     if args.plots:
         args.video = args.gif = None
@@ -337,7 +406,8 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--support", action="store_true",
                    help="creature only: hold the root toward the clip with an external, reported wrench "
                         "(root-support mode, e.g. for flying clips)")
-    p.add_argument("--record-hz", type=float, default=120.0, help="trajectory samples per second (default 120)")
+    p.add_argument("--record-hz", type=float, default=None,
+                   help=f"trajectory samples per second (default {DEFAULT_RECORD_HZ:g})")
     p.add_argument("--push", action="append", metavar="MAG:DIR:DUR:START",
                    help="push the torso: N, degrees from heading (0 forward, 90 left), s, start s "
                         "(or sSTATE.FRACTION, e.g. s2.5); repeatable")
@@ -362,13 +432,14 @@ def _weight(text: str) -> tuple[str, float]:
 
 
 def cmd_breed(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from bipedsim.creature.evolve import breed, load_joint_map
     from bipedsim.io import atomic_write_json
     from bipedsim.motion.bvh import load_bvh, write_bvh
 
     a, b = load_bvh(args.parent_a), load_bvh(args.parent_b)
+    check_output_file(args.output, "-o")
+    if args.report:
+        check_output_file(args.report, "--report")
     mapping = load_joint_map(args.map, a.skeleton, b.skeleton) if args.map else None
     child, report = breed(a, b, x=args.x, mutations=args.mutations, weights=dict(args.weight or []),
                           mapping=mapping, names=(str(args.parent_a), str(args.parent_b)))
@@ -400,12 +471,12 @@ def _add_breed(sub: argparse._SubParsersAction) -> None:
 
 # ---------------------------------------------------------------------- graph
 def cmd_graph_build(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
     from bipedsim.graph import build_graph, load_graph_config
 
     p = Path(args.config)
-    g = build_graph(load_graph_config(p), p.resolve().parent)
+    cfg = load_graph_config(p)
+    check_output_file(args.output, "-o")
+    g = build_graph(cfg, p.resolve().parent)
     g.save(args.output)
     print(f"wrote {args.output}: {len(g.clips)} clips, {g.timings['frames']} frames, built in "
           f"{g.timings['total_s']:.2f} s")
@@ -416,9 +487,6 @@ def cmd_graph_build(args: argparse.Namespace) -> int:
 
 
 def cmd_graph_play(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from bipedsim.errors import BipedsimError
     from bipedsim.graph import MotionGraph, Player, parse
     from bipedsim.io import atomic_write_json
     from bipedsim.motion.bvh import write_bvh
@@ -429,6 +497,9 @@ def cmd_graph_play(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise BipedsimError(f"{args.script}: cannot read: {exc.strerror or exc}") from None
     cmds = parse(text, source=str(args.script), layers=tuple(g.layers))
+    check_output_file(args.output, "-o")
+    if args.report:
+        check_output_file(args.report, "--report")
     player = Player(g, start=args.start)
     motion = player.run(cmds)
     write_bvh(motion.with_up("y").scaled(100.0), args.output, precision=6)
@@ -464,12 +535,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from bipedsim.sim.sweep import run_sweep
 
     exp = load_experiment(args.experiment)  # every check before any rollout
+    prepare_output_dir(args.out, "--out")
     try:
         summary = run_sweep(exp, args.out, workers=args.workers, backend=args.backend,
                             progress=sys.stderr.isatty())
     except KeyboardInterrupt:
-        from pathlib import Path
-
         from bipedsim.sim.sweep import read_results
 
         n = len(read_results(Path(args.out) / "results.csv"))
@@ -548,9 +618,24 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. `bipedsim info | head`
         sys.stderr.close()
         return 0
+    except OSError as exc:  # a write (or read) the checks could not foresee: a full disk, a vanished folder
+        print(f"bipedsim {args.command}: error: {describe_os_error(exc)}", file=sys.stderr)
+        return 2
     finally:
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
+
+
+#: errno values that only a write raises: for these the message says "cannot write".
+WRITE_ERRNOS = {errno.ENOSPC, errno.EROFS, errno.EDQUOT, errno.EFBIG, errno.EISDIR}
+
+
+def describe_os_error(exc: OSError) -> str:
+    """One line for an OSError that reached the command line: what, where and why."""
+    where = exc.filename if exc.filename is not None else "a file"
+    target = f" -> {exc.filename2}" if exc.filename2 is not None else ""
+    verb = "cannot write" if exc.errno in WRITE_ERRNOS else "cannot access"
+    return f"{verb} {where}{target}: {os_reason(exc)}"
 
 
 def _terminate(signum: int, frame: object) -> None:

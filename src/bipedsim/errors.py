@@ -43,3 +43,8 @@ class ConfigError(BipedsimError):
 
 class ModelError(BipedsimError):
     """A skeleton or motion that cannot become a simulated body (no legs, zero-length bones...)."""
+
+
+class OutputError(BipedsimError):
+    """An output location that cannot be written: a folder where a file is wanted (or the reverse), a
+    path under a file, no permission, a read-only or full disk. Names the flag or file and the cause."""

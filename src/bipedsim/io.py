@@ -1,31 +1,168 @@
-"""Small file helpers: atomic writes and provenance (what made an output)."""
+"""Small file helpers: output locations checked before long work, atomic writes that respect the umask,
+stale-output clean-up, terminal progress bars, and provenance (what made an output)."""
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import json
 import os
 import platform
+import shutil
+import sys
 import tempfile
+import threading
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
+
+from bipedsim.errors import OutputError
+
+#: Permissions a new file gets before the umask, as ``open(path, "w")`` would give it.
+NEW_FILE_MODE = 0o666
+#: Terminal size (columns, rows) used where the terminal reports none (0 x 0: some pseudo-terminals,
+#: CI consoles, containers started without a size), where tqdm would otherwise draw nothing.
+FALLBACK_SIZE = (80, 24)
+
+_umask_lock = threading.Lock()
+
+
+def os_reason(exc: OSError) -> str:
+    """The human part of an OSError ("Permission denied", "Read-only file system"), without the path."""
+    return exc.strerror or str(exc) or type(exc).__name__
+
+
+@functools.cache
+def process_umask() -> int:
+    """The process's umask, read once. Linux reports it in /proc/self/status without changing it;
+    elsewhere it is read by setting and restoring it, under a lock, once per process."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    with _umask_lock:
+        mask = os.umask(0o022)
+        os.umask(mask)
+    return mask
+
+
+# ---------------------------------------------------------------------- checking output locations
+def _make_folder(folder: Path, what: str) -> None:
+    """Create ``folder`` (and its parents) or raise :class:`OutputError` saying why not."""
+    if folder.is_dir():
+        return
+    if folder.exists() or folder.is_symlink():
+        raise OutputError(f"{what}: {folder} exists and is not a folder")
+    for anc in folder.parents:
+        if anc.exists():
+            if not anc.is_dir():
+                raise OutputError(f"{what}: cannot create folder {folder}: {anc} is a file, not a folder")
+            break
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{what}: cannot create folder {folder}: {os_reason(exc)}") from None
+
+
+def _probe_writable(folder: Path, what: str) -> None:
+    """Create and remove a file in ``folder``: the only check that sees permissions, read-only mounts
+    and access control alike (``os.access`` says yes to root on a read-only mount)."""
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".bipedsim-probe-", dir=folder)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as exc:
+        raise OutputError(f"{what}: cannot write in {folder}: {os_reason(exc)}") from None
+
+
+def prepare_output_dir(path: str | os.PathLike[str], flag: str) -> Path:
+    """Make sure ``path`` is a folder this process can write in, creating it (and its parents) when it
+    is missing. Raises :class:`OutputError` naming ``flag`` (e.g. ``"--out"``), the path and the cause
+    when it is a file, lies under a file, or cannot be created or written in."""
+    p = Path(path)
+    what = f"{flag} {p}"
+    if p.exists() and not p.is_dir():
+        raise OutputError(f"{what}: is an existing file; give a folder")
+    _make_folder(p, what)
+    _probe_writable(p, what)
+    return p
+
+
+def check_output_file(path: str | os.PathLike[str], flag: str, suffixes: tuple[str, ...] = ()) -> Path:
+    """Make sure a file can be written at ``path``: not a folder, its folder creatable (created now, as
+    every command creates missing output folders) and writable, and, when ``suffixes`` are given
+    (lower case, with the dot), ending in one of them. Raises :class:`OutputError` naming ``flag``."""
+    p = Path(path)
+    what = f"{flag} {p}"
+    if suffixes and p.suffix.lower() not in suffixes:
+        raise OutputError(f"{what}: must end in {' or '.join(suffixes)}")
+    if p.is_dir():
+        raise OutputError(f"{what}: is a folder; give a file name")
+    if p.exists() and not p.is_file():
+        # outputs are written beside and renamed over: that would replace a device such as /dev/null
+        raise OutputError(f"{what}: is not a regular file (a device, pipe or socket); give a file name")
+    _make_folder(p.parent, what)
+    _probe_writable(p.parent, what)
+    return p
+
+
+def remove_stale(folder: str | os.PathLike[str], known: Iterable[str], keep: Iterable[str]) -> list[str]:
+    """Delete the files named in ``known`` (plain names inside ``folder``) that are not in ``keep``:
+    what an earlier job wrote there and this one will not rewrite. Nothing else is touched. Returns the
+    names removed, in ``known``'s order."""
+    keep_set = set(keep)
+    removed = []
+    for name in known:
+        p = Path(folder) / name
+        if name in keep_set or not p.is_file():
+            continue
+        try:
+            p.unlink()
+        except OSError as exc:
+            raise OutputError(f"cannot remove stale {p} from an earlier run: {os_reason(exc)}") from None
+        removed.append(name)
+    return removed
+
+
+# ---------------------------------------------------------------------- atomic writes
+@contextlib.contextmanager
+def atomic_writer(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
+    """A binary file to write ``path`` through: a temporary file in the same folder, renamed over
+    ``path`` when the block ends without an error (a reader never sees half a file), removed otherwise.
+    The file gets ``0666 & ~umask`` like any file the user's programs create (``mkstemp`` makes
+    ``0600``). Errors from the file system raise :class:`OutputError` naming the path."""
+    p = Path(path)
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+    except OSError as exc:
+        raise OutputError(f"cannot write {p}: {os_reason(exc)}") from None
+    try:
+        with os.fdopen(fd, "wb") as f:
+            yield f
+            f.flush()
+            os.fsync(f.fileno())
+            os.fchmod(f.fileno(), NEW_FILE_MODE & ~process_umask())
+        os.replace(tmp, p)
+    except OSError as exc:
+        _unlink_quietly(tmp)
+        raise OutputError(f"cannot write {p}: {os_reason(exc)}") from None
+    except BaseException:
+        _unlink_quietly(tmp)
+        raise
+
+
+def _unlink_quietly(path: str) -> None:
+    with contextlib.suppress(OSError):
+        os.unlink(path)
 
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same folder and a rename, so a
-    reader never sees half a file."""
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, p)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_writer`)."""
+    with atomic_writer(path) as f:
+        f.write(data)
 
 
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
@@ -46,6 +183,31 @@ def _json_default(o: Any) -> Any:
     if isinstance(o, Path):
         return str(o)
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+# ---------------------------------------------------------------------- progress
+def stderr_size() -> tuple[int, int]:
+    """Columns and rows of the terminal on stderr, each from :data:`FALLBACK_SIZE` where it reports 0
+    (tqdm draws nothing on a terminal of 0 columns or 0 rows)."""
+    try:
+        cols, rows = os.get_terminal_size(sys.stderr.fileno())
+    except (OSError, ValueError, AttributeError):
+        cols, rows = 0, 0
+    if not (cols and rows):
+        fb_cols, fb_rows = shutil.get_terminal_size(FALLBACK_SIZE)
+        cols, rows = cols or fb_cols or FALLBACK_SIZE[0], rows or fb_rows or FALLBACK_SIZE[1]
+    return cols, rows
+
+
+def progress_bar(total: float, desc: str, unit: str, *, force: bool = False, leave: bool = False) -> Any:
+    """A tqdm bar on stderr when stderr is a terminal (or ``force``), else None: nothing extra goes to a
+    log file or a pipe. Sized to the terminal, with a fallback size where it reports none."""
+    if not (force or sys.stderr.isatty()):
+        return None
+    from tqdm import tqdm
+
+    cols, rows = stderr_size()
+    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, ncols=cols, nrows=rows, leave=leave)
 
 
 def versions() -> dict[str, str]:

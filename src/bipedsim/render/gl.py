@@ -34,6 +34,11 @@ class RenderError(BipedsimError):
     """Headless rendering is impossible here (no working GL backend) or failed."""
 
 
+#: Why each backend probed in this process did not render (backend -> the probe's last error line);
+#: error messages say which backends were tried before the one used.
+PROBE_FAILURES: dict[str, str] = {}
+
+
 def backend_env(backend: str) -> dict[str, str]:
     env = dict(os.environ)
     env.pop("BIPEDSIM_MUJOCO_GL", None)
@@ -66,6 +71,7 @@ def choose_backend(requested: str | None = None) -> str:
         why = _probe(b)
         if why is None:
             return b
+        PROBE_FAILURES[b] = why
         failures.append(f"{b}: {why}")
     need = "; ".join(f"{b} needs {PACKAGES[b]}" for b in candidates if b in PACKAGES)
     if wanted and wanted not in PACKAGES:
@@ -73,3 +79,10 @@ def choose_backend(requested: str | None = None) -> str:
     raise RenderError("no working OpenGL backend for headless rendering (" + "; ".join(failures) + "). "
                       + need + ". The simulation results were written; render them later with "
                       "`bipedsim render`.")
+
+
+def backends_tried(used: str) -> str:
+    """Which GL backends were tried to get ``used``, for error messages: "egl" or
+    "osmesa, after egl failed: REASON"."""
+    before = [f"{b} failed: {why}" for b, why in PROBE_FAILURES.items() if b != used]
+    return used + (f", after {'; '.join(before)}" if before else "")

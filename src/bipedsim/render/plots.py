@@ -11,6 +11,9 @@ import numpy as np
 from bipedsim.sim.recorder import Trajectory
 
 DEFAULT_JOINTS = ("left_hip_y", "left_knee", "left_ankle", "right_hip_y", "right_knee", "right_ankle")
+#: The files :func:`plot_run` writes, in its order.
+PLOT_FILES = ("joint_angles.png", "tracking_error.png", "com_top_view.png", "contacts.png")
+JOINT_ANGLES, TRACKING_ERROR, COM_TOP_VIEW, CONTACTS = PLOT_FILES
 
 
 def _shade_pushes(ax, tr: Trajectory) -> None:  # noqa: ANN001
@@ -46,7 +49,7 @@ def plot_run(tr: Trajectory, hinge_names: list[str], hinge_qadr: list[int], foot
     axes[0].legend(loc="upper right", fontsize=8)
     axes[-1].set_xlabel("time (s)")
     fig.tight_layout()
-    paths.append(out / "joint_angles.png")
+    paths.append(out / JOINT_ANGLES)
     fig.savefig(paths[-1], dpi=100)
     plt.close(fig)
     # 2. tracking error
@@ -58,7 +61,7 @@ def plot_run(tr: Trajectory, hinge_names: list[str], hinge_qadr: list[int], foot
     ax.set_ylabel("tracking RMSE (rad)")
     ax.set_title("joint tracking error against the reference")
     fig.tight_layout()
-    paths.append(out / "tracking_error.png")
+    paths.append(out / TRACKING_ERROR)
     fig.savefig(paths[-1], dpi=100)
     plt.close(fig)
     # 3. COM and support feet, top view
@@ -74,7 +77,7 @@ def plot_run(tr: Trajectory, hinge_names: list[str], hinge_qadr: list[int], foot
     ax.legend(fontsize=8)
     ax.set_title("top view")
     fig.tight_layout()
-    paths.append(out / "com_top_view.png")
+    paths.append(out / COM_TOP_VIEW)
     fig.savefig(paths[-1], dpi=100)
     plt.close(fig)
     # 4. contact timeline
@@ -89,7 +92,7 @@ def plot_run(tr: Trajectory, hinge_names: list[str], hinge_qadr: list[int], foot
     ax.set_xlabel("time (s)")
     ax.set_title("foot contact")
     fig.tight_layout()
-    paths.append(out / "contacts.png")
+    paths.append(out / CONTACTS)
     fig.savefig(paths[-1], dpi=100)
     plt.close(fig)
     return paths

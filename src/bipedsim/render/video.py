@@ -8,25 +8,43 @@ can be shown as a translucent ghost beside the body.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import signal
 import subprocess
 import sys
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from bipedsim.errors import BipedsimError
-from bipedsim.render.gl import RenderError, backend_env, choose_backend
+from bipedsim.errors import BipedsimError, ConfigError
+from bipedsim.io import check_output_file, progress_bar
+from bipedsim.render.gl import RenderError, backend_env, backends_tried, choose_backend
 
 MODEL_FILE = "model.xml"
 TRAJECTORY_FILE = "trajectory.npz"
 OUTCOME_FILE = "outcome.json"
+#: The file ``bipedsim render`` writes into a run folder when no ``-o`` is given.
+DEFAULT_VIDEO = "rollout.mp4"
+#: Video formats written (by file name ending).
+VIDEO_SUFFIXES = (".mp4", ".gif")
 #: Newtons per metre of arrow.
 ARROW_N_PER_M = 400.0
 #: Camera smoothing: the look-at point closes this fraction of the gap per second.
 CAMERA_TIME_CONSTANT_S = 0.4
+#: Accepted ranges of the video options (inclusive), with the flag that sets each: frame size in pixels
+#: (MuJoCo's offscreen buffer and H.264 both handle 16..4096); frames per second of video (1..240: below
+#: one frame a second is a slide show, above 240 no player shows them); playback speed (0.01..100:
+#: 100x slow motion to 100x fast forward; beyond that a 10 s run is days of frames or a single one);
+#: camera distance (m) and elevation (degrees; beyond +-90 the camera flips over).
+VIDEO_LIMITS: dict[str, tuple[str, float, float, str]] = {
+    "width": ("--width", 16, 4096, "pixels"), "height": ("--height", 16, 4096, "pixels"),
+    "fps": ("--fps", 1.0, 240.0, "frames/s"), "speed": ("--speed", 0.01, 100.0, "x real time"),
+    "distance": ("--cam-distance", 0.1, 100.0, "m"), "elevation": ("--cam-elevation", -90.0, 90.0, "degrees"),
+    "azimuth": ("--cam-azimuth", -360.0, 360.0, "degrees")}
 
 
 @dataclass
@@ -45,10 +63,11 @@ class VideoOptions:
     end: float | None = None
 
     def validate(self) -> None:
-        if self.width < 16 or self.height < 16 or self.width > 4096 or self.height > 4096:
-            raise BipedsimError(f"video size must be 16..4096 pixels, got {self.width}x{self.height}")
-        if not self.fps > 0 or not self.speed > 0:
-            raise BipedsimError("fps and speed must be positive")
+        """Raise :class:`ConfigError` naming the flag of the first option outside :data:`VIDEO_LIMITS`."""
+        for name, (flag, lo, hi, unit) in VIDEO_LIMITS.items():
+            v = getattr(self, name)
+            if not lo <= v <= hi:  # also NaN
+                raise ConfigError(f"must be {lo:g}..{hi:g} {unit}, got {v}", key=flag)
 
 
 def frame_times(t0: float, t1: float, opts: VideoOptions) -> np.ndarray:
@@ -85,12 +104,9 @@ def render_frames(run_dir: str | os.PathLike[str], opts: VideoOptions, progress:
     look[2] = 0.9
     alpha = 1.0 - np.exp(-(opts.speed / opts.fps) / CAMERA_TIME_CONSTANT_S)
     fall_t = outcome.get("fall_time_s")
-    it = times
-    if progress and len(times) > 90:
-        from tqdm import tqdm
-
-        it = tqdm(times, unit="frame", desc="render", file=sys.stderr)
-    for t in it:
+    # the parent asked for a bar only when its stderr (which this process shares) is a terminal
+    bar = progress_bar(len(times), "render", "frame", force=True) if progress else None
+    for t in times:
         i = int(np.clip(np.searchsorted(tr.time, t, side="right") - 1, 0, tr.num_samples - 1))
         data.qpos[:] = tr.qpos[i]
         data.qvel[:] = tr.qvel[i]
@@ -133,6 +149,10 @@ def render_frames(run_dir: str | os.PathLike[str], opts: VideoOptions, progress:
                 status = "walking"
             img = _label(img, f"t = {t:5.2f} s   state {int(tr.fsm_state[i])}   {status}")
         yield img
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:
+        bar.close()
     renderer.close()
 
 
@@ -151,45 +171,101 @@ def write_video(frames, path: str | os.PathLike[str], fps: float) -> int:  # noq
     import imageio.v2 as imageio
 
     p = Path(path)
-    tmp = p.with_name(f".{p.stem}.tmp{p.suffix}")
+    # beside the output (same file system for the rename); removed if anything fails, so a failed
+    # render leaves neither half a video nor a temporary file
+    tmp = p.with_name(f".{p.stem}.{os.getpid()}.tmp{p.suffix}")
     n = 0
-    if p.suffix.lower() == ".gif":
-        with imageio.get_writer(tmp, mode="I", duration=1.0 / fps, loop=0) as w:
+    try:
+        # made here first so that a folder that cannot take it fails with the file and the reason,
+        # not with imageio's "Broken pipe" from an ffmpeg that could not open it
+        open(tmp, "xb").close()
+        if p.suffix.lower() == ".gif":
+            writer = imageio.get_writer(tmp, mode="I", duration=1.0 / fps, loop=0)
+        else:
+            writer = imageio.get_writer(tmp, fps=fps, codec="libx264", quality=7, macro_block_size=8,
+                                        ffmpeg_log_level="error", pixelformat="yuv420p")
+        with writer as w:
             for f in frames:
                 w.append_data(f)
                 n += 1
-    else:
-        with imageio.get_writer(tmp, fps=fps, codec="libx264", quality=7, macro_block_size=8,
-                                ffmpeg_log_level="error", pixelformat="yuv420p") as w:
-            for f in frames:
-                w.append_data(f)
-                n += 1
-    os.replace(tmp, p)
+        os.replace(tmp, p)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
     return n
 
 
 def render_video(run_dir: str | os.PathLike[str], out: str | os.PathLike[str], opts: VideoOptions | None = None,
-                 progress: bool = False) -> int:
-    """Render a recorded run to ``out`` in a child process with a working GL backend; returns the
-    frame count. Raises :class:`RenderError` with what to install when no backend works."""
+                 progress: bool = False, out_flag: str = "video") -> int:
+    """Render a recorded run to ``out`` (.mp4 or .gif; missing folders are created) in a child process
+    with a working GL backend; returns the frame count. ``progress``: show a bar on stderr (pass
+    ``sys.stderr.isatty()``). Raises :class:`RenderError` naming the file and the cause when the run
+    folder is incomplete or rendering fails (with the GL backends tried), with what to install when no
+    backend works, and :class:`~bipedsim.errors.OutputError` (naming ``out_flag``) when ``out`` cannot
+    be written."""
     opts = opts or VideoOptions()
     opts.validate()
-    suffix = Path(out).suffix.lower()
-    if suffix not in (".mp4", ".gif"):
-        raise RenderError(f"{out}: video must end in .mp4 or .gif")
     run = Path(run_dir)
     for f in (MODEL_FILE, TRAJECTORY_FILE):
         if not (run / f).is_file():
             raise RenderError(f"{run}: no {f} -- render a folder written by `bipedsim run`")
+    check_output_file(out, out_flag, VIDEO_SUFFIXES)
     backend = choose_backend()
     args = json.dumps({"run_dir": str(run), "out": str(out), "opts": asdict(opts), "progress": progress})
-    # with a progress bar the child's stderr goes straight to the terminal (live), else it is kept
-    # for the error message
+    # the child reports on its stdout (one JSON line: the frame count or the error); its stderr goes
+    # straight to the terminal with a progress bar (live), else it is kept for a crash's last words
     p = subprocess.run([sys.executable, "-m", "bipedsim.render.worker", args], env=backend_env(backend),
                        stdout=subprocess.PIPE, stderr=None if progress else subprocess.PIPE, text=True,
                        check=False)
-    if p.returncode != 0:
-        lines = [ln for ln in (p.stderr or "").strip().splitlines() if ln.strip()]
-        why = lines[-1] if lines else f"exit status {p.returncode} (see the messages above)"
-        raise RenderError(f"rendering with {backend} failed: {why}")
-    return int(p.stdout.strip().splitlines()[-1])
+    report = _worker_report(p.stdout)
+    if p.returncode == 0 and "frames" in report:
+        return int(report["frames"])
+    why = report.get("error") or _crash_reason(p)
+    last = _last_line(p.stderr)
+    if report.get("error") and last and last not in why:  # e.g. ffmpeg's reason after imageio's "Broken pipe"
+        why = f"{why} ({last})"
+    raise RenderError(f"cannot render {out}: {why} (GL backend {backends_tried(backend)})")
+
+
+def _worker_report(stdout: str | None) -> dict[str, Any]:
+    for line in reversed((stdout or "").strip().splitlines()):
+        try:
+            d = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(d, dict):
+            return d
+    return {}
+
+
+def _crash_reason(p: subprocess.CompletedProcess[str]) -> str:
+    """Why a render child ended without its report: a signal (a GL driver crash) or its last line."""
+    if p.returncode < 0:
+        try:
+            name = signal.Signals(-p.returncode).name
+        except ValueError:
+            name = f"signal {-p.returncode}"
+        return f"the renderer was killed by {name}"
+    last = _last_line(p.stderr)
+    return f"the renderer stopped (exit status {p.returncode})" + (f": {last}" if last else "")
+
+
+def _last_line(text: str | None) -> str:
+    lines = [ln.strip() for ln in (text or "").splitlines() if ln.strip()]
+    return lines[-1][:300] if lines else ""
+
+
+def describe_exception(exc: BaseException, limit: int = 300) -> str:
+    """One line for an error inside rendering: an OSError's reason and file; a project error's message;
+    otherwise the type and the message, line breaks folded. imageio's ffmpeg errors ("Broken pipe"
+    followed by the whole ffmpeg command line) are cut to their first line: ffmpeg's own reason is the
+    last line it printed, which :func:`render_video` adds."""
+    if isinstance(exc, OSError) and exc.strerror:
+        text = f"{exc.strerror} ({exc.filename})" if exc.filename else exc.strerror
+    elif isinstance(exc, BipedsimError):
+        text = str(exc)
+    else:
+        text = f"{type(exc).__name__}: {str(exc).split('FFMPEG COMMAND')[0]}"
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[:limit - 3] + "..."

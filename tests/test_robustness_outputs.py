@@ -188,6 +188,17 @@ def test_render_errors_name_the_file_and_the_cause(tmp_path: Path, capsys) -> No
     assert not (run / "v.mp4").exists() and not list(run.glob(".v.*"))
 
 
+def test_no_gl_after_a_run_says_where_the_results_are(tmp_path: Path) -> None:
+    env = dict(os.environ, MUJOCO_GL="bogus")
+    p = subprocess.run([sys.executable, "-m", "bipedsim.cli", "run", "--seconds", "0.3", "--out", str(tmp_path),
+                        "--video", str(tmp_path / "v.mp4")], env=env, capture_output=True, text=True, check=False)
+    assert p.returncode == 2 and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert f"results were written to {tmp_path}; render them later with `bipedsim render {tmp_path}`" in p.stderr
+    p = subprocess.run([sys.executable, "-m", "bipedsim.cli", "render", str(tmp_path)], env=env, capture_output=True,
+                       text=True, check=False)
+    assert p.returncode == 2 and "no working OpenGL backend" in p.stderr and "results were written" not in p.stderr
+
+
 def test_render_creates_missing_folders(tmp_path: Path) -> None:
     gl_or_skip()
     assert main(["run", "--seconds", "0.3", "--out", str(tmp_path)]) == 0
@@ -273,6 +284,16 @@ def test_a_reused_run_folder_keeps_no_stale_outputs(tmp_path: Path, capsys) -> N
     assert (tmp_path / "joint_angles.png").read_bytes()[:4] == b"\x89PNG"
     assert main(["run", "--seconds", "0.3", "--out", str(tmp_path), "--plots"]) == 0
     assert "removed" not in capsys.readouterr().out
+
+
+def test_a_creature_run_removes_the_humanoid_runs_trajectory(tmp_path: Path, capsys) -> None:
+    """A creature run records no trajectory: one left by an earlier run would be rendered as this one."""
+    assert main(["run", "--seconds", "0.3", "--out", str(tmp_path)]) == 0
+    capsys.readouterr()
+    horse = Path(WALK).parent / "horse_walk.bvh"
+    assert main(["run", "--profile", "creature", "--bvh", str(horse), "--seconds", "0.3", "--out", str(tmp_path)]) == 0
+    assert f"removed from an earlier run in {tmp_path}: trajectory.npz\n" in capsys.readouterr().out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.xml", "outcome.json"]
 
 
 def test_remove_stale_touches_only_known_names(tmp_path: Path) -> None:

@@ -340,10 +340,17 @@ def finish_outputs(args: argparse.Namespace, folder, sc=None, tr=None) -> int:  
         print(f"wrote {args.export_bvh}")
     for video in (getattr(args, "video", None), getattr(args, "gif", None)):
         if video:
+            from bipedsim.render.gl import RenderError
             from bipedsim.render.video import render_video
 
             flag = "--video" if video == getattr(args, "video", None) else "--gif"
-            n = render_video(folder, video, video_options(args), progress=sys.stderr.isatty(), out_flag=flag)
+            try:
+                n = render_video(folder, video, video_options(args), progress=sys.stderr.isatty(), out_flag=flag)
+            except RenderError as exc:
+                if sc is None:  # `bipedsim render`: nothing was simulated
+                    raise
+                raise RenderError(f"{exc} The simulation results were written to {folder}; render them later "
+                                  f"with `bipedsim render {folder}`.") from None
             print(f"wrote {video} ({n} frames)")
     return 0
 

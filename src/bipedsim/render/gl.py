@@ -77,8 +77,7 @@ def choose_backend(requested: str | None = None) -> str:
     if wanted and wanted not in PACKAGES:
         need = f"MUJOCO_GL={wanted!r} is not a headless backend; use one of {', '.join(BACKENDS)}"
     raise RenderError("no working OpenGL backend for headless rendering (" + "; ".join(failures) + "). "
-                      + need + ". The simulation results were written; render them later with "
-                      "`bipedsim render`.")
+                      + need + ".")
 
 
 def backends_tried(used: str) -> str:

@@ -212,6 +212,7 @@ FLAG_CASES = [
     (["run", "--seconds", "inf"], ["--seconds", "(0, 3600]", "inf"]),
     (["run", "--seconds", "nan"], ["--seconds", "nan"]),
     (["run", "--seconds", "3601"], ["--seconds", "3600"]),
+    (["run", "--seconds", "1e-9"], ["--seconds", "at least one physics step (0.002 s)"]),
     (["run", "--init-noise", "-1"], ["--init-noise", ">= 0", "-1"]),
     (["run", "--init-noise", "nan"], ["--init-noise"]),
     (["run", "--seed", "-1"], ["--seed", ">= 0"]),

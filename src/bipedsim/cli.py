@@ -179,6 +179,13 @@ def check_run_args(args: argparse.Namespace) -> None:
         raise ConfigError(f"must be a whole number >= 0, got {args.seed}", key="--seed")
 
 
+def check_run_length(seconds: float, timestep: float) -> None:
+    """Refuse a run shorter than one physics step (``timestep``, s): it would take no step and record
+    nothing (the upper bound is :func:`~bipedsim.sim.push.check_pushes`'s)."""
+    if seconds < timestep:
+        raise ConfigError(f"must be at least one physics step ({timestep:g} s), got {seconds:g}", key="--seconds")
+
+
 def check_run_outputs(args: argparse.Namespace) -> Path:
     """Check (and create) every output location of `bipedsim run` before the simulation starts;
     returns the run folder."""
@@ -231,6 +238,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.profile == "creature":
         return run_creature_cli(args)
     sc = load_scenario(args.config, args.bvh, scale=args.scale, up=args.up, mass=args.mass)
+    check_run_length(args.seconds, sc.built.model.opt.timestep)
     hz = DEFAULT_RECORD_HZ if args.record_hz is None else args.record_hz
     rec = Recorder(sc.built.model, record_hz=hz, seconds=args.seconds, key="--record-hz")
     folder = check_run_outputs(args)
@@ -269,6 +277,7 @@ def run_creature_cli(args: argparse.Namespace) -> int:
     motion = load_bvh(args.bvh, scale=args.scale, up=args.up)
     built = build_model(motion, "creature", total_mass=args.mass, name=Path(args.bvh).stem)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=str(args.bvh))
+    check_run_length(args.seconds, built.model.opt.timestep)
     folder = check_run_outputs(args)
     out = run_creature(built, clip, CreatureRunSpec(seconds=args.seconds, seed=args.seed, support=args.support))
     out.config = {"profile": "creature", "reference": str(args.bvh), "seconds": args.seconds,

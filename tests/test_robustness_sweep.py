@@ -212,6 +212,37 @@ def test_progress_bar_on_stderr_and_capped_workers_said(tmp_path: Path, small, c
     assert len(rows_of(out / "results.csv")) == 2
 
 
+def test_progress_bar_shows_on_a_terminal_that_reports_no_width(tmp_path: Path, small) -> None:
+    """A pseudo-terminal that reports 0 columns (some consoles do): tqdm alone printed an empty line
+    for the whole sweep; the bar must still show."""
+    pty = pytest.importorskip("pty", reason="needs a POSIX pseudo-terminal")
+    import os
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    out.mkdir()
+    write_results(out / "results.csv", fake_rows(small)[:1])
+    code = ("import sys\nfrom bipedsim.sim.experiment import load_experiment\n"
+            "from bipedsim.sim.sweep import run_sweep\n"
+            f"run_sweep(load_experiment({str(small.path)!r}), {str(out)!r}, progress=sys.stderr.isatty())")
+    main_fd, sub_fd = pty.openpty()  # a fresh pty: 0 rows x 0 columns
+    proc = subprocess.Popen([sys.executable, "-c", code], stderr=sub_fd, stdout=subprocess.DEVNULL)
+    os.close(sub_fd)
+    seen = b""
+    while True:
+        try:
+            chunk = os.read(main_fd, 4096)
+        except OSError:  # the child closed the terminal
+            break
+        if not chunk:
+            break
+        seen += chunk
+    assert proc.wait(timeout=120) == 0
+    os.close(main_fd)
+    assert b"2/2" in seen and b"small" in seen, seen[-300:]
+
+
 # ---------------------------------------------------------------------- pushes against the run length
 @pytest.mark.parametrize("push,seconds,flag,words", [
     ("200:0:0.2:50", "3", "--push", "push 200:0:0.2:50 starts at 50 s, after the run ends at 3 s"),

@@ -19,7 +19,8 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from bipedsim.errors import BipedsimError, ConfigError
+from bipedsim.errors import BipedsimError, ConfigError, OutputError
+from bipedsim.io import atomic_write_text, os_reason, prepare_output_dir, progress_bar
 from bipedsim.sim.experiment import Experiment, Row
 from bipedsim.sim.rollout import OUTCOMES, PUSH_NOT_APPLIED
 
@@ -122,7 +123,7 @@ def load_results(path: Path, rows: list[Row]) -> tuple[list[dict[str, str]], lis
     except FileNotFoundError:
         return [], []
     except OSError as exc:
-        raise BipedsimError(f"{path}: cannot read: {exc.strerror or exc}") from None
+        raise OutputError(f"{path}: cannot read: {os_reason(exc)}") from None
     text = raw.decode("utf-8", errors="replace")  # a byte torn in a character shows as a bad value
     records: list[tuple[int, list[str]]] = []
     reader = csv.reader(io.StringIO(text, newline=""))
@@ -181,8 +182,8 @@ def _append(path: Path, row: dict[str, Any]) -> None:
             f.flush()
             os.fsync(f.fileno())
     except OSError as exc:
-        raise BipedsimError(f"{path}: cannot write: {exc.strerror or exc}; the rows written before are kept "
-                            "(run the same command again to resume)") from None
+        raise OutputError(f"{path}: cannot write: {os_reason(exc)}; the rows written before are kept "
+                          "(run the same command again to resume)") from None
 
 
 def _tasks(exp: Experiment, rows: list[Row]) -> list[tuple[Row, str | None, float, float, dict[str, Any]]]:
@@ -271,8 +272,7 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
         raise ConfigError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}", key="--backend")
     if workers < 1:
         raise ConfigError(f"must be at least 1, got {workers}", key="--workers")
-    out = Path(out_dir)
-    _make_out(out)
+    out = prepare_output_dir(out_dir, "--out")
     results = out / "results.csv"
     rows = exp.rows()
     _check_setup(out, exp)
@@ -284,17 +284,16 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
         say(_report_dropped(results, problems))
     done_keys = {r["key"] for r in done}
     todo = [r for r in rows if r.key not in done_keys]
-    _write(out / "experiment.json", json.dumps({"name": exp.spec.name, "file": str(exp.path), "rollouts": len(rows),
-                                                "setup": _setup(exp)}, indent=2) + "\n")
+    record = {"name": exp.spec.name, "file": str(exp.path), "rollouts": len(rows), "setup": _setup(exp)}
+    atomic_write_text(out / "experiment.json", json.dumps(record, indent=2) + "\n")
     n_workers, note = worker_count(workers, len(todo))
     if note:
         say(note)
     bar = None
     if progress and todo:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(rows), initial=len(rows) - len(todo), unit="rollout", desc=exp.spec.name,
-                   file=sys.stderr)
+        # io's bar: sized even where the terminal reports 0 columns (tqdm alone drew nothing there)
+        bar = progress_bar(len(rows), exp.spec.name, "rollout", force=True, leave=True)
+        bar.update(len(rows) - len(todo))
     try:
         for res in BACKENDS[backend](_tasks(exp, todo), n_workers):
             _append(results, res)
@@ -308,11 +307,11 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
     _rewrite(results, final)
     summary = summarise(final, sector=exp.spec.random.sector if exp.spec.random else None)
     summary.update({"experiment": exp.spec.name, "rollouts": len(final)})
-    _write(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
     try:
         polar_plot(final, out / "push_polar.png", fan=exp.spec.random is None)
     except OSError as exc:
-        raise BipedsimError(f"{out / 'push_polar.png'}: cannot write: {exc.strerror or exc}") from None
+        raise OutputError(f"cannot write {out / 'push_polar.png'}: {os_reason(exc)}") from None
     return summary
 
 
@@ -325,25 +324,6 @@ def _check_not_foreign(results: Path, exp: Experiment, rows: list[Row]) -> None:
         raise BipedsimError(f"--out {results.parent}: {results.name} holds {len(theirs)} row(s), none of them a "
                             f"rollout of experiment {exp.spec.name!r} ({exp.path}): another experiment's results? "
                             "Give another --out, or remove the file to start again")
-
-
-def _make_out(out: Path) -> None:
-    """Create the output folder, or say in one line why it cannot be one."""
-    if out.exists() and not out.is_dir():
-        raise BipedsimError(f"--out {out}: is an existing file; give a folder")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise BipedsimError(f"--out {out}: cannot create the folder: {exc.strerror or exc}") from None
-
-
-def _write(path: Path, text: str) -> None:
-    from bipedsim.io import atomic_write_text
-
-    try:
-        atomic_write_text(path, text)
-    except OSError as exc:
-        raise BipedsimError(f"{path}: cannot write: {exc.strerror or exc}") from None
 
 
 def _setup(exp: Experiment) -> dict[str, Any]:
@@ -378,7 +358,7 @@ def _rewrite(path: Path, rows: list[dict[str, str]]) -> None:
     w.writeheader()
     for r in rows:
         w.writerow({k: r.get(k, "") for k in RESULT_COLUMNS})
-    _write(path, buf.getvalue())
+    atomic_write_text(path, buf.getvalue())
 
 
 def _phase_label(r: dict[str, str]) -> str:

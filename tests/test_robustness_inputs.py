@@ -134,3 +134,9 @@ def test_given_scale_that_makes_an_absurd_body_is_refused(capsys: pytest.Capture
     err = capsys.readouterr().err
     assert "the body's height is" in err and "suggests cm (0.01 m per unit)" in err
     assert main(["info", str(BUILTIN_WALK), "--scale", "cm"]) == 0
+
+
+@pytest.mark.parametrize("mass", ["inf", "nan", "-3", "0"])
+def test_impossible_mass_is_refused(tmp_path: Path, mass: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", "--mass", mass, "--seconds", "1", "--out", str(tmp_path)]) == 2
+    assert "total mass must be a finite number > 0 kg" in capsys.readouterr().err

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -54,8 +55,8 @@ def build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfil
     ``total_mass`` (kg) scales every segment. ``mapping``: a :class:`~bipedsim.model.naming.MapFile`
     (humanoid only).
     """
-    if total_mass is not None and not total_mass > 0:
-        raise ModelError(f"total mass must be > 0 kg, got {total_mass}")
+    if total_mass is not None and not (math.isfinite(total_mass) and total_mass > 0):
+        raise ModelError(f"total mass must be a finite number > 0 kg, got {total_mass}")
     prof = profile if isinstance(profile, HumanoidProfile | CreatureProfile) else load_profile(profile)
     if motion.up != "z" or motion.unit != 1.0:
         motion = motion.to_project_frame()

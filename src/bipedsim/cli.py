@@ -261,6 +261,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"{out.outcome}{fall}: {out.sim_seconds:.2f} s simulated in {out.wall_seconds:.1f} s, "
           f"{out.foot_strikes} foot strikes, {out.distance_m:.2f} m at {out.mean_speed_mps:.2f} m/s "
           f"(reference {out.reference_speed_mps:.2f} m/s), tracking RMSE {out.tracking_rmse_rad:.3f} rad")
+    for why in out.extra.get("pushes_not_applied", []):
+        print(f"  push not applied: {why}")
     print(f"wrote {path}, {folder / 'trajectory.npz'}, {folder / 'model.xml'}")
     return finish_outputs(args, folder, sc, tr)
 
@@ -426,7 +428,7 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
                    help=f"trajectory samples per second (default {DEFAULT_RECORD_HZ:g})")
     p.add_argument("--push", action="append", metavar="MAG:DIR:DUR:START",
                    help="push the torso: N, degrees from heading (0 forward, 90 left), s, start s "
-                        "(or sSTATE.FRACTION, e.g. s2.5); repeatable")
+                        "(or sSTATE.FRACTION, e.g. s2.5); repeatable; a push must end within --seconds")
     p.add_argument("--video", default=None, help="render the rollout to this .mp4 (or .gif)")
     p.add_argument("--gif", default=None, help="render the rollout to this .gif")
     p.add_argument("--plots", action="store_true", help="write PNG plots into --out")

@@ -13,7 +13,7 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bipedsim.creature.evolve import breed
+from bipedsim.breed.evolve import breed
 from bipedsim.motion import Motion, Skeleton
 
 PAPER_S = {"crossover": 0.016, "mutation": 0.016, "survivor": 1.235}

@@ -450,7 +450,7 @@ def _weight(text: str) -> tuple[str, float]:
 
 
 def cmd_breed(args: argparse.Namespace) -> int:
-    from bipedsim.creature.evolve import breed, load_joint_map
+    from bipedsim.breed.evolve import breed, load_joint_map
     from bipedsim.io import atomic_write_json
     from bipedsim.motion.bvh import load_bvh, write_bvh
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from bipedsim.creature.evolve import (
+from bipedsim.breed.evolve import (
                                       BreedError,
                                       BreedReport,
                                       MetaSkeleton,
@@ -14,7 +14,7 @@ from bipedsim.creature.evolve import (
                                       mutate,
                                       survivor,
 )
-from bipedsim.creature.samples import horse_walk, pterosaur_flight
+from bipedsim.breed.samples import horse_walk, pterosaur_flight
 
 __all__ = ["BreedError", "BreedReport", "MetaSkeleton", "breed", "crossover", "floor_constraint", "horse_walk",
            "joint_activity", "load_joint_map", "mutate", "pterosaur_flight", "survivor"]

@@ -12,7 +12,7 @@ from conftest import shared_params
 from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
-from bipedsim.creature.evolve import BreedError, breed, crossover, floor_constraint, joint_activity, mutate, survivor
+from bipedsim.breed.evolve import BreedError, breed, crossover, floor_constraint, joint_activity, mutate, survivor
 from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT, sample_texts
 from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.model import build_model, retarget
@@ -195,7 +195,7 @@ def test_breed_cli_errors(tmp_path: Path) -> None:
     bad_map.write_text("Hips: Hips\nMane: Crest\n")
     assert main(["breed", str(HORSE_WALK), str(PTEROSAUR_FLIGHT), "-o", out, "--map", str(bad_map)]) == 2
     with pytest.raises(ConfigError, match="parent A has no joint 'Mane'"):
-        from bipedsim.creature.evolve import load_joint_map
+        from bipedsim.breed.evolve import load_joint_map
 
         load_joint_map(bad_map, load_bvh(HORSE_WALK).skeleton, load_bvh(PTEROSAUR_FLIGHT).skeleton)
 

@@ -27,6 +27,19 @@ def feedback_angle(theta0: float, cd: float, cv: float, d: float, v: float, limi
     return theta0 + (limit if fb > limit else -limit if fb < -limit else fb)
 
 
+def beyond(offset: float, band: float) -> float:
+    """The part of ``offset`` outside the band [-band, band] (0 inside it), same units."""
+    return offset - band if offset > band else offset + band if offset < -band else 0.0
+
+
+def course_turn(offset: float, rate: float, gain: float, damping: float, max_turn: float) -> float:
+    """Heading correction (rad, positive left) that steers back onto a course:
+    ``clamp(-gain offset - damping rate, +-max_turn)``, ``offset`` (m) and ``rate`` (m/s) the lateral
+    offset from the course and its rate, positive left; gains in rad/m and rad/(m/s)."""
+    turn = -gain * offset - damping * rate
+    return max_turn if turn > max_turn else -max_turn if turn < -max_turn else turn
+
+
 def rotvec_error(r_desired: FloatArray, r_actual: FloatArray) -> FloatArray:
     """World rotation vector (rad) turning ``r_actual`` into ``r_desired`` (3x3 matrices)."""
     e = r_desired @ r_actual.T

@@ -127,13 +127,44 @@ class VelocityConfig:
 
 
 @dataclass(frozen=True)
+class CourseConfig:
+    """Heading and course control (not in the paper; the heading-frame steering of SIMBICON's and
+    Coros et al.'s controllers, here on the reference's own path).
+
+    The course is the reference's centre of mass averaged over a gait cycle (no sway, any veer kept),
+    looped with the clip's per-cycle displacement and turn, laid at the start on the body's root and
+    heading (``reference.Course``). Each control step the COM is projected onto it: e is the lateral
+    offset (m, positive left of the course), e_dot its rate (m/s, low-passed over ``rate_filter`` s).
+    Outside a ``deadband`` (the offset beyond it, e_b = e - deadband sign(e); inside it the law is
+    silent) the torso law's heading target is the course's heading turned back toward it,
+
+        heading_target = heading_ref + clamp(-steer_gain e_b - steer_damping e_dot, +-max_turn)
+
+    and the swing hip's coronal feedback adds ``clamp(placement_gain e_b + placement_damping e_dot,
+    +-max_placement)`` (off by default: measured, it costs push recovery). ``enabled: false``: the
+    heading target stays the pelvis heading at the start, as before (a veering clip is walked straight).
+    Measured on the built-in walk (docs/controller.md): the 60 s walk's COM ends 0.43 m from the
+    reference's line (1.17 m at most), a clip bent on a 10 m radius is followed 112 degrees round."""
+
+    enabled: bool = True
+    deadband: float = field(default=0.5, metadata={"min": 0.0})  #: m
+    rate_filter: float = field(default=0.5, metadata={"gt": 0.0})  #: s, time constant of e_dot's low-pass
+    steer_gain: float = field(default=0.15, metadata={"min": 0.0})  #: rad of turn per m of offset
+    steer_damping: float = field(default=0.3, metadata={"min": 0.0})  #: rad of turn per m/s
+    max_turn: float = field(default=0.25, metadata={"min": 0.0, "max": 1.5})  #: rad
+    placement_gain: float = field(default=0.0, metadata={"min": 0.0})  #: rad of swing hip per m
+    placement_damping: float = field(default=0.0, metadata={"min": 0.0})  #: rad of swing hip per m/s
+    max_placement: float = field(default=0.05, metadata={"min": 0.0})  #: rad
+
+
+@dataclass(frozen=True)
 class BalanceConfig:
     """SIMBICON balance: world-frame torso (pelvis) control through the stance hip, swing-hip
     feedback theta_d = theta_d0 + c_d d + c_v v per plane, contact-weighted redistribution."""
 
     enabled: bool = True
     feedback: bool = True
-    sagittal: PlaneGains = field(default_factory=lambda: PlaneGains(0.65, 0.2))
+    sagittal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.2))
     coronal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.3))
     torso_kp: float = field(default=1000.0, metadata={"min": 0.0})
     roll_kp: float | None = field(default=None, metadata={"min": 0.0})  #: null: torso_kp
@@ -153,6 +184,7 @@ class BalanceConfig:
     #: only a deviation from the walk's sway about the stance foot moves the swing leg sideways)
     relative: str = field(default="lateral_reference",
                           metadata={"choices": ("none", "mean_velocity", "full", "lateral_reference")})
+    course: CourseConfig = field(default_factory=CourseConfig)
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,8 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.control.balance import (
+    beyond,
+    course_turn,
     euler_from_matrix,
     feedback_angle,
     heading_of,
@@ -33,7 +35,7 @@ from bipedsim.control.balance import (
 )
 from bipedsim.control.config import ControllerConfig
 from bipedsim.control.fsm import GaitFSM
-from bipedsim.control.reference import SIDES, GaitSource, Hinges
+from bipedsim.control.reference import SIDES, CourseTracker, GaitSource, Hinges
 from bipedsim.errors import ConfigError, ModelError
 from bipedsim.model.plan import BodyPlanSet
 
@@ -63,6 +65,8 @@ class ControllerState:
     holding: bool = False
     virtual_force: tuple[float, float] = (0.0, 0.0)  #: velocity tuning, heading frame (N)
     tempo: float = 1.0  #: the gait clock's rate (fsm.tempo)
+    course_offset: float = 0.0  #: the COM's lateral offset from the reference's course (m, positive left)
+    heading_target: float = 0.0  #: the torso law's heading target (rad, world)
 
 
 class Controller:
@@ -183,6 +187,13 @@ class Controller:
         self._kp_l, self._kd_l = self.kp.tolist(), self.kd.tolist()
         self._tlo_l, self._thi_l = self.tlo.tolist(), self.thi.tolist()
         self._r_heading = np.eye(3)
+        self.course = CourseTracker(source.course())
+        self._course_on = cfg.balance.enabled and cfg.balance.course.enabled
+        self._rate_f = 0.0  #: the course offset's rate, low-passed (m/s)
+        cc = cfg.balance.course
+        self._course_gains = (cc.deadband, cc.rate_filter, cc.steer_gain, cc.steer_damping, cc.max_turn,
+                              cc.placement_gain, cc.placement_damping, cc.max_placement)
+        self._dt = model.opt.timestep  #: the last control step's length (s)
         # scratch 3x3s refilled on every step (building a fresh array costs more than the product)
         self._ry = np.eye(3)
         self._r_fb = np.eye(3)
@@ -237,6 +248,10 @@ class Controller:
         self.pending_shift = 0.0
         self.heading_target = heading_of(data.xmat[self.pelvis].reshape(3, 3))
         self._r_heading = yaw_matrix(self.heading_target)
+        self.state.heading_target = self.heading_target
+        ref_pose, seg = self.source.course_start(self.frame)
+        self.course.reset(ref_pose, (float(data.qpos[0]), float(data.qpos[1]), self.heading_target), seg)
+        self._rate_f = 0.0
         self.last_strike_time, self.last_strike_frame = t, self.frame
         self.clock = self.last_strike_clock = t
         self._v_sag = self._speed
@@ -355,6 +370,7 @@ class Controller:
         st = self.state
         st.frame, st.fsm_state, st.fade, st.holding, st.tempo = self.frame, fsm.state, a, holding, rate
         if cfg.balance.enabled:
+            self._dt = dt
             self._balance(data, q, qd, q_d, qd_d, tau, forces)
         self.torque = np.minimum(np.maximum(tau, self._neg_limit), self.limit)
         if self.cfg.pd.servo:
@@ -397,7 +413,11 @@ class Controller:
         c, s = math.cos(heading), math.sin(heading)
         ry = self._ry
         ry[0, 0], ry[0, 1], ry[1, 0], ry[1, 1] = c, -s, s, c
-        # torso (pelvis) in the world frame: reference pitch/roll, the walk's straight heading; gains
+        mujoco.mj_subtreeVel(self.model, data)
+        cx, cy, _ = data.subtree_com[self.pelvis].tolist()
+        vx, vy, _ = data.subtree_linvel[self.pelvis].tolist()
+        place = self._steer(cx, cy, vx, vy) if self._course_on else 0.0
+        # torso (pelvis) in the world frame: reference pitch/roll, the heading target; gains
         # per heading-frame axis (roll about forward x, pitch about lateral y, yaw about z)
         # (ndarray.dot, not @: on 3x3s the matmul ufunc's dispatch costs twice the product)
         w0, w1, w2 = _rotvec3(self._r_heading.dot(src.pelvis_target(frame, state)).dot(r_p.T))
@@ -409,9 +429,6 @@ class Controller:
         h1 = b.torso_kp * e1 - b.torso_kd * o1
         tau_torso = (c * h0 - s * h1, s * h0 + c * h1, b.heading_kp * w2 - b.torso_kd * ow2)
         # swing hip: world-frame thigh target turned by the feedback (eq. 6)
-        mujoco.mj_subtreeVel(self.model, data)
-        cx, cy, _ = data.subtree_com[self.pelvis].tolist()
-        vx, vy, _ = data.subtree_linvel[self.pelvis].tolist()
         ax, ay, _ = data.xpos[self.foot_body[stance]].tolist()
         dx, dy = cx - ax, cy - ay
         d0, d1 = c * dx + s * dy, -s * dx + c * dy
@@ -428,7 +445,7 @@ class Controller:
             v0 -= self._speed
         if b.feedback:
             fs = feedback_angle(0.0, b.sagittal.cd, b.sagittal.cv, d0, v0, b.max_feedback)
-            fc = feedback_angle(0.0, b.coronal.cd, b.coronal.cv, d1, v1, b.max_feedback)
+            fc = feedback_angle(place, b.coronal.cd, b.coronal.cv, d1, v1, b.max_feedback)
         else:
             fs = fc = 0.0
         self.state.feedback_sagittal, self.state.feedback_coronal = fs, fc
@@ -495,6 +512,29 @@ class Controller:
         self.state.tau_torso = tau_torso
         if self._vel_on:  # last: the feet's world targets above set the ankle torques outright
             self._virtual_force(data, tau, forces, c, s, vh0, vh1)
+
+    def _steer(self, cx: float, cy: float, vx: float, vy: float) -> float:
+        """Course control (``balance.course``): the COM at (cx, cy) m moving at (vx, vy) m/s (world) is
+        placed on the reference's course; the torso law's heading target becomes the course's heading
+        turned back toward it, ``h_ref + clamp(-k_y e - k_v e_dot, +-max_turn)``. Returns the swing
+        hip's coronal placement angle (rad), ``clamp(k_p e + k_d e_dot, +-max_placement)``."""
+        band, tau, ky, kv, max_turn, kp, kd, max_place = self._course_gains
+        offset, rate, h_ref = self.course.update(cx, cy, vx, vy)
+        self.state.course_offset = offset
+        # the rate is low-passed: the walk's own sway swings it by about 0.1 m/s within every cycle
+        a = self._dt / tau
+        self._rate_f += (a if a < 1.0 else 1.0) * (rate - self._rate_f)
+        # inside the band the law is silent (damping included): the balance law keeps the walk's sway
+        offset = beyond(offset, band)
+        rate = self._rate_f if offset != 0.0 else 0.0
+        h_t = h_ref + course_turn(offset, rate, ky, kv, max_turn)
+        self.heading_target = self.state.heading_target = h_t
+        rh, ch, sh = self._r_heading, math.cos(h_t), math.sin(h_t)
+        rh[0, 0], rh[0, 1], rh[1, 0], rh[1, 1] = ch, -sh, sh, ch
+        if kp == 0.0 and kd == 0.0:
+            return 0.0
+        # a foot placed further out on the side the body should leave pushes it back toward the course
+        return feedback_angle(0.0, kp, kd, offset, rate, max_place)
 
     def _virtual_force(self, data: mujoco.MjData, tau: FloatArray, forces: dict[str, float], c: float, s: float,
                        v0: float, v1: float) -> None:

@@ -8,6 +8,7 @@ ankle and COM velocity (heading frame) so balance feedback can act on deviations
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -24,6 +25,174 @@ FloatArray = npt.NDArray[np.float64]
 SIDES = ("right", "left")
 #: A rollout starts this fraction of a step after the first right-foot strike of the loop.
 START_AFTER_STRIKE = 0.05
+
+
+#: A course whose cycle moves the reference less than this (m) is a walk in place: it has no line to
+#: hold, and the course law only follows its heading.
+MIN_CYCLE_TRAVEL = 0.05
+
+
+@dataclass(frozen=True)
+class Course:
+    """The reference's sway-free path over one looped cycle, reference world frame (m, rad).
+
+    ``xy`` are course points, one per reference frame of the cycle (first to last inclusive): the
+    reference's centre of mass averaged over one gait cycle centred on that frame, which removes the
+    step-to-step sway and keeps any veer. ``heading`` is the pelvis heading averaged the same way
+    (unwrapped). ``cycle`` = (angle rad, tx m, ty m) is the rigid planar motion that carries the cycle's
+    start onto its end, p -> R(angle) p + t: the looped clip's k-th cycle is the course moved k times."""
+
+    xy: tuple[tuple[float, float], ...]
+    heading: tuple[float, ...]
+    cycle: tuple[float, float, float]
+
+    @property
+    def travel(self) -> float:
+        """How far (m) one cycle carries the course's first point."""
+        x, y = self.xy[0]
+        cyc = _Rigid.of(*self.cycle)
+        x1, y1 = cyc.apply(x, y)
+        return float(np.hypot(x1 - x, y1 - y))
+
+
+def clip_course(com_xy: FloatArray, heading: FloatArray, root_xy: FloatArray, a: int, b: int) -> Course:
+    """The :class:`Course` of a clip looped over frames [a, b]: ``com_xy`` (n, 2) its centre of mass,
+    ``heading`` (n,) its pelvis heading (rad, unwrapped), ``root_xy`` (n, 2) its root, world frame.
+
+    The loop's per-cycle motion is the root's from a to b (both strikes of one foot, the same phase);
+    frames half a cycle beyond either end are the loop's neighbouring cycles moved by it, so the
+    cycle average is centred on every frame. The average spans exactly one period (P + 1 samples with
+    half weights at the ends for an even P), which cancels every harmonic of a periodic sway."""
+    period = b - a
+    if period < 2:
+        raise ModelError(f"a looped cycle needs at least 2 frames, got {period}")
+    turn = float(heading[b] - heading[a])
+    c, s = np.cos(turn), np.sin(turn)
+    rot = np.array([[c, -s], [s, c]])
+    shift = root_xy[b] - rot @ root_xy[a]
+    half = period // 2
+    before = (com_xy[b - half:b] - shift) @ rot  # R^T (p - t): the previous cycle
+    after = com_xy[a + 1:a + half + 1] @ rot.T + shift
+    ext_xy = np.vstack([before, com_xy[a:b + 1], after])
+    ext_h = np.concatenate([heading[b - half:b] - turn, heading[a:b + 1], heading[a + 1:a + half + 1] + turn])
+    if period % 2 == 0:
+        w = np.ones(period + 1)
+        w[0] = w[-1] = 0.5
+    else:
+        w = np.ones(period)
+    w /= w.sum()
+    xy = np.stack([np.convolve(ext_xy[:, k], w, mode="valid") for k in range(2)], axis=1)[:period + 1]
+    h = np.convolve(ext_h, w, mode="valid")[:period + 1]
+    # the last point is the first one moved by a cycle, exactly, so consecutive cycles join
+    xy[-1] = rot @ xy[0] + shift
+    h[-1] = h[0] + turn
+    return Course(xy=tuple((float(x), float(y)) for x, y in xy), heading=tuple(float(v) for v in h),
+                  cycle=(turn, float(shift[0]), float(shift[1])))
+
+
+@dataclass(frozen=True)
+class _Rigid:
+    """A planar rigid motion p -> R(angle) p + (tx, ty) on plain floats."""
+
+    angle: float
+    c: float
+    s: float
+    tx: float
+    ty: float
+
+    @staticmethod
+    def of(angle: float, tx: float, ty: float) -> _Rigid:
+        return _Rigid(angle, math.cos(angle), math.sin(angle), tx, ty)
+
+    def apply(self, x: float, y: float) -> tuple[float, float]:
+        return self.c * x - self.s * y + self.tx, self.s * x + self.c * y + self.ty
+
+    def rotate(self, x: float, y: float) -> tuple[float, float]:
+        return self.c * x - self.s * y, self.s * x + self.c * y
+
+    def then(self, other: _Rigid) -> _Rigid:
+        """``other`` after ``self``: p -> other(self(p))."""
+        tx, ty = other.apply(self.tx, self.ty)
+        return _Rigid.of(self.angle + other.angle, tx, ty)
+
+    def inverse(self) -> _Rigid:
+        return _Rigid.of(-self.angle, -(self.c * self.tx + self.s * self.ty), -(-self.s * self.tx + self.c * self.ty))
+
+
+class CourseTracker:
+    """The body's place relative to the reference's course, per control step, on plain floats.
+
+    At :meth:`reset` the reference's start (root position and pelvis heading at the start frame) is
+    laid on the body's, so the course starts under the body and points where the reference points
+    relative to it. :meth:`update` projects the centre of mass onto the course polyline (the nearest
+    segment, searched from the last one forward or backward, crossing into the next or previous cycle)
+    and returns the lateral offset (m, positive left of the course), its rate (m/s) and the course's
+    heading there (rad, world)."""
+
+    #: segments searched per step at most (a step moves the body a few millimetres: one or two suffice)
+    MAX_SEARCH = 64
+
+    def __init__(self, course: Course) -> None:
+        self.xs = [p[0] for p in course.xy]
+        self.ys = [p[1] for p in course.xy]
+        self.hs = list(course.heading)
+        self.n_seg = len(course.xy) - 1
+        # per segment: direction, squared length and unit left normal (zero for a zero-length segment)
+        self.dx = [self.xs[i + 1] - self.xs[i] for i in range(self.n_seg)]
+        self.dy = [self.ys[i + 1] - self.ys[i] for i in range(self.n_seg)]
+        self.ll = [x * x + y * y for x, y in zip(self.dx, self.dy)]
+        norm = [math.sqrt(v) or 1.0 for v in self.ll]
+        self.nx = [-y / n for y, n in zip(self.dy, norm)]
+        self.ny = [x / n for x, n in zip(self.dx, norm)]
+        self.cycle = _Rigid.of(*course.cycle)
+        self.cycle_inv = self.cycle.inverse()
+        self.moving = course.travel >= MIN_CYCLE_TRAVEL
+        self.to_course = _Rigid.of(0.0, 0.0, 0.0)  #: world -> the current cycle's course coordinates
+        self.seg = 0
+
+    def reset(self, ref_pose: tuple[float, float, float], body_pose: tuple[float, float, float], seg: int) -> None:
+        """``ref_pose``: the reference's root (x, y) (m) and pelvis heading (rad) at the start frame, in
+        the course's own coordinates (its first cycle); ``body_pose``: the body's, world frame;
+        ``seg``: the course segment of the start frame."""
+        (rx, ry, rh), (bx, by, bh) = ref_pose, body_pose
+        # course -> world: turn by bh - rh, then move the reference's root onto the body's
+        tx, ty = _Rigid.of(bh - rh, 0.0, 0.0).apply(rx, ry)
+        self.to_course = _Rigid.of(bh - rh, bx - tx, by - ty).inverse()
+        self.seg = min(max(seg, 0), self.n_seg - 1)
+
+    def update(self, cx: float, cy: float, vx: float, vy: float) -> tuple[float, float, float]:
+        """(lateral offset m, lateral velocity m/s, course heading rad) of a centre of mass at (cx, cy)
+        moving at (vx, vy), world frame."""
+        q = self.to_course
+        c, s = q.c, q.s
+        px, py = c * cx - s * cy + q.tx, s * cx + c * cy + q.ty
+        ux, uy = c * vx - s * vy, s * vx + c * vy
+        xs, ys, dx, dy, ll, i, n = self.xs, self.ys, self.dx, self.dy, self.ll, self.seg, self.n_seg
+        direction = 0
+        for _ in range(self.MAX_SEARCH if self.moving else 0):
+            u = ((px - xs[i]) * dx[i] + (py - ys[i]) * dy[i]) / ll[i] if ll[i] > 0.0 else 1.0
+            if u > 1.0 and direction >= 0:
+                direction, i = 1, i + 1
+                if i == n:  # into the next cycle: its coordinates are this one's moved back by a cycle
+                    i, q = 0, q.then(self.cycle_inv)
+                    px, py = self.cycle_inv.apply(px, py)
+                    ux, uy = self.cycle_inv.rotate(ux, uy)
+            elif u < 0.0 and direction <= 0:
+                direction, i = -1, i - 1
+                if i < 0:
+                    i, q = n - 1, q.then(self.cycle)
+                    px, py = self.cycle.apply(px, py)
+                    ux, uy = self.cycle.rotate(ux, uy)
+            else:
+                break
+        self.seg, self.to_course = i, q
+        if not self.moving or ll[i] <= 0.0:
+            return 0.0, 0.0, self.hs[i] - q.angle
+        ex, ey = px - xs[i], py - ys[i]
+        u = (ex * dx[i] + ey * dy[i]) / ll[i]
+        u = 0.0 if u < 0.0 else 1.0 if u > 1.0 else u
+        nx, ny = self.nx[i], self.ny[i]
+        return ex * nx + ey * ny, ux * nx + uy * ny, self.hs[i] + u * (self.hs[i + 1] - self.hs[i]) - q.angle
 
 
 @dataclass
@@ -100,6 +269,16 @@ class GaitSource:
 
     def state1_time(self) -> float:
         return 0.3
+
+    def course(self) -> Course:
+        """The reference's course: for a source without a path of its own, straight ahead from the
+        start (a 1 m segment repeated, heading 0)."""
+        return Course(xy=((0.0, 0.0), (1.0, 0.0)), heading=(0.0, 0.0), cycle=(0.0, 1.0, 0.0))
+
+    def course_start(self, f: float) -> tuple[tuple[float, float, float], int]:
+        """Where the reference is at frame ``f`` in its course's coordinates (the first cycle): root
+        (x, y) (m) and pelvis heading (rad), and the course segment the frame falls in."""
+        return (0.0, 0.0, 0.0), 0
 
     def speed(self) -> float:
         return 0.0
@@ -181,6 +360,18 @@ class ClipSource(GaitSource):
         self._speed = float(np.linalg.norm(root[int(self.b)] - root[int(self.a)]) / (self.period * self.frame_time))
         steps = np.sort(np.concatenate([self.strikes["right"], self.strikes["left"]]))
         self._step = float(np.mean(np.diff(np.append(steps, self.b)))) * self.frame_time
+        self._heading = heading
+        self._course = clip_course(com[:, :2], np.unwrap(heading), clip.qpos[:, :2], int(self.a), int(self.b))
+
+    def course(self) -> Course:
+        return self._course
+
+    def course_start(self, f: float) -> tuple[tuple[float, float, float], int]:
+        w = self.wrap(f)
+        t = min(int(round(w)), self.n - 1)
+        x, y = self.clip.qpos[t, :2].tolist()
+        seg = min(max(int(w - self.a), 0), len(self._course.xy) - 2)
+        return (x, y, float(self._heading[t])), seg
 
     # ------------------------------------------------------------------ frames
     # (these run on every control step: plain float maths, one interpolation for q and qdot)

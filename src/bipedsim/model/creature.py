@@ -18,7 +18,7 @@ Rules:
 
 from __future__ import annotations
 
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -27,8 +27,9 @@ from scipy.spatial.transform import Rotation
 from bipedsim.errors import ModelError
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
 from bipedsim.model.profile import CreatureProfile
-from bipedsim.model.source import motion_points, rest_points
+from bipedsim.model.source import SourcePoints, motion_points, rest_points
 from bipedsim.motion.motion import Motion
+from bipedsim.motion.skeleton import Skeleton
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -41,6 +42,7 @@ MIN_CAPSULE_M = 1e-3
 
 
 def _safe(name: str) -> str:
+    """``name`` with every character MuJoCo names should not hold replaced by ``_``."""
     return "".join(c if c.isalnum() or c in "_-." else "_" for c in name)
 
 
@@ -49,36 +51,93 @@ def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float
     """The creature body plan for a motion's skeleton (motion in the project frame: m, Z up)."""
     sk = motion.skeleton
     rest = rest_points(motion)
-    pos = rest.positions[:sk.num_joints]
-    pts_all = rest.positions
-    size = float(np.max(pts_all.max(axis=0) - pts_all.min(axis=0)))
+    size = _extent(rest)
+    tree = _reduce(rest, profile.merge_fraction, size)
+    moving = motion_points(motion)
+    ranges = _ball_ranges(tree, moving, profile)
+    feet = _feet(tree, moving)
+    bodies = [_body(tree, j, ranges.get(j), j in feet, profile, size) for j in tree.kept]
+    mass_of = {j: sum(g.mass for g in b.geoms) for j, b in zip(tree.kept, bodies)}
+    target = total_mass if total_mass is not None else profile.total_mass
+    scale = _scale_masses(bodies, mass_of, target)
+    _set_motors(bodies, tree, {j: m * scale for j, m in mass_of.items()}, profile, size)
+    lift = _stand_on_floor(bodies)
+    markers = {sk.names[j]: ["body", tree.names[j]] for j in tree.kept}
+    return BodyPlanSet(name=name, profile="creature", bodies=bodies, heading_yaw=0.0,
+                       source_names=list(sk.names), sim=asdict(profile.sim),
+                       extra={"markers": markers, "merged": [sk.names[j] for j in range(sk.num_joints)
+                                                             if tree.body_of[j] != j],
+                              "size_m": size, "rest_lift": lift})
+
+
+def _extent(rest: SourcePoints) -> float:
+    """The creature's size (m): the largest extent of its rest pose (joints and End Sites) along x, y
+    or z. A ModelError for a skeleton with no extent or only zero-length bones."""
+    sk = rest.skeleton
+    pts = rest.positions
+    size = float(np.max(pts.max(axis=0) - pts.min(axis=0)))
     if size <= 0:
         raise ModelError("the skeleton has no extent: every joint sits at one point")
     lengths = np.linalg.norm(sk.offsets, axis=1)
     if sk.num_joints > 1 and np.all(lengths[1:] < 1e-9):
         raise ModelError("zero-length bones: every joint offset is zero")
+    return size
 
-    # which joints become bodies: a joint whose own bone -- the longest segment from it to a child
-    # joint or End Site -- is short moves almost nothing when it turns, so it merges into its parent
+
+@dataclass
+class _Tree:
+    """The source skeleton reduced to the creature's bodies (rest pose, m, project frame).
+
+    ``body_of[j]``: the joint whose body joint ``j`` belongs to (itself when kept); ``kept``: the joints
+    that are bodies, in skeleton order (parents first); ``children[j]``: the kept joints hanging from
+    body ``j``; ``ends[j]``: rest positions (m) of the End Sites on body ``j``; ``names[j]``: body names.
+    """
+
+    skeleton: Skeleton
+    pos: FloatArray
+    body_of: npt.NDArray[np.int_]
+    kept: list[int]
+    children: dict[int, list[int]]
+    ends: dict[int, list[FloatArray]]
+    names: dict[int, str]
+
+    def parent_body(self, j: int) -> int:
+        """The kept joint whose body is the parent of kept joint ``j`` (not the root)."""
+        return int(self.body_of[self.skeleton.parents[j]])
+
+
+def _own_bones(rest: SourcePoints) -> FloatArray:
+    """(J,) length (m) of each joint's own bone: the longest segment from it to a child joint or End
+    Site (0 for a leaf without an End Site)."""
+    sk = rest.skeleton
+    pos = rest.positions[:sk.num_joints]
     bone = np.zeros(sk.num_joints)
     for c in range(1, sk.num_joints):
         p = int(sk.parents[c])
         bone[p] = max(bone[p], float(np.linalg.norm(pos[c] - pos[p])))
     for e, p in enumerate(sk.end_site_parents):
-        bone[p] = max(bone[p], float(np.linalg.norm(pts_all[sk.num_joints + e] - pos[p])))
+        bone[p] = max(bone[p], float(np.linalg.norm(rest.positions[sk.num_joints + e] - pos[p])))
+    return bone
+
+
+def _reduce(rest: SourcePoints, merge_fraction: float, size: float) -> _Tree:
+    """Which joints become bodies: a joint whose own bone is shorter than ``merge_fraction`` x the
+    creature's ``size`` (m) moves almost nothing when it turns, so it merges into its parent's body
+    (its children hang from that body at their rest positions)."""
+    sk = rest.skeleton
+    bone = _own_bones(rest)
     body_of = np.arange(sk.num_joints)
     for j in range(1, sk.num_joints):
-        if bone[j] < profile.merge_fraction * size:
+        if bone[j] < merge_fraction * size:
             body_of[j] = body_of[sk.parents[j]]
     kept = sorted({int(b) for b in body_of})
     if len(kept) < 2:
         # one rigid body has nothing to move: a rollout of it would "track" the clip with RMSE 0
         raise ModelError(
             f"every one of the {sk.num_joints} joints merges into the root: each bone is shorter than "
-            f"merge_fraction {profile.merge_fraction:g} x the body's size {size:.3g} m "
+            f"merge_fraction {merge_fraction:g} x the body's size {size:.3g} m "
             f"(longest bone {bone.max():.3g} m), so the body would be one rigid piece with no joint to "
             "drive; give a creature profile YAML with a smaller merge_fraction (convert --profile-file)")
-    names = {j: _safe(sk.names[j]) for j in kept}
     children: dict[int, list[int]] = {j: [] for j in kept}
     for j in kept:
         if j != 0:
@@ -86,93 +145,135 @@ def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float
     ends: dict[int, list[FloatArray]] = {j: [] for j in kept}
     for e, p in enumerate(sk.end_site_parents):
         ends[int(body_of[p])].append(rest.positions[sk.num_joints + e])
+    return _Tree(skeleton=sk, pos=rest.positions[:sk.num_joints], body_of=body_of, kept=kept, children=children,
+                 ends=ends, names={j: _safe(sk.names[j]) for j in kept})
 
-    # joint ranges from the motion: local rotation of each kept joint relative to its parent body
-    moving = motion_points(motion)
+
+def _ball_ranges(tree: _Tree, moving: SourcePoints, profile: CreatureProfile) -> dict[int, float]:
+    """Ball-joint limit (rad) of each kept non-root joint: the largest rotation of its body relative
+    to its parent body over the motion plus ``range_margin``, at least ``range_min``, at most pi."""
+    assert moving.rotations is not None
     ranges: dict[int, float] = {}
-    for j in kept:
+    for j in tree.kept:
         if j == 0:
             continue
-        gp = moving.rotations[:, int(body_of[sk.parents[j]])]  # type: ignore[index]
-        gj = moving.rotations[:, j]  # type: ignore[index]
+        gp = moving.rotations[:, tree.parent_body(j)]
+        gj = moving.rotations[:, j]
         local = np.transpose(gp, (0, 2, 1)) @ gj
         ang = np.linalg.norm(Rotation.from_matrix(local).as_rotvec(), axis=1)
         ranges[j] = float(min(np.pi, max(profile.range_min, ang.max() + profile.range_margin)))
+    return ranges
 
-    lo_r, hi_r = profile.radius_min * size, profile.radius_max * size
-    bodies: list[BodyPlan] = []
-    mass_of: dict[int, float] = {}
-    # feet: end effectors that spend the motion low -- median height above the frame's lowest point
-    # within FOOT_HEIGHT_FRACTION of the body's median height
-    leaves = [j for j in kept if not children[j]]
+
+def _feet(tree: _Tree, moving: SourcePoints) -> set[int]:
+    """The end effectors (kept joints with no child body) that spend the motion low: median height of
+    their tip above the frame's lowest point within FOOT_HEIGHT_FRACTION of the body's median height;
+    every end effector when none does."""
+    sk = tree.skeleton
+    leaves = [j for j in tree.kept if not tree.children[j]]
     zs = moving.positions[:, :, 2]
     rel = zs - zs.min(axis=1, keepdims=True)
     body_h = float(np.median(rel.max(axis=1))) or 1e-9
+
     def tip_index(j: int) -> int:
-        e = [k for k, p in enumerate(sk.end_site_parents) if body_of[p] == j]
+        e = [k for k, p in enumerate(sk.end_site_parents) if tree.body_of[p] == j]
         return sk.num_joints + e[0] if e else j
-    feet = {j for j in leaves if np.median(rel[:, tip_index(j)]) <= FOOT_HEIGHT_FRACTION * body_h} or set(leaves)
-    for j in kept:
-        targets = [pos[c] for c in children[j]] + ends[j]
-        geoms = []
-        for t in targets:
-            length = float(np.linalg.norm(t - pos[j]))
-            if length < MIN_CAPSULE_M:
-                continue
-            r = float(np.clip(profile.radius_fraction * length, lo_r, hi_r))
-            vol = np.pi * r * r * length + 4.0 / 3.0 * np.pi * r ** 3
-            geoms.append(GeomPlan(kind="capsule", size=[r], fromto=[0.0, 0.0, 0.0, *(t - pos[j])],
-                                  mass=profile.density * vol))
-        if not geoms:
-            r = float(lo_r)
-            geoms.append(GeomPlan(kind="sphere", size=[r], pos=[0.0, 0.0, 0.0],
-                                  mass=profile.density * 4.0 / 3.0 * np.pi * r ** 3))
-        mass_of[j] = sum(g.mass for g in geoms)
-        sites = []
-        if j in leaves:
-            tip = ends[j][0] if ends[j] else pos[j]
-            r = max(g.size[0] for g in geoms) + 0.01 * size
-            sites.append(SitePlan(name=f"{names[j]}_touch", pos=list(tip - pos[j]), size=[r], touch=True))
-        joints = []
-        if j != 0:
-            joints.append(JointPlan(name=f"{names[j]}_ball", kind="ball", axis=[0.0, 0.0, 1.0],
-                                    range=[0.0, ranges[j]], group="ball"))
-        bodies.append(BodyPlan(name=names[j], parent=None if j == 0 else names[int(body_of[sk.parents[j]])],
-                               pos=[float(v) for v in pos[j]], source=sk.names[j], joints=joints, geoms=geoms,
-                               sites=sites, fit=FitPlan(method="ref", origin=sk.names[j], ref=f"bvh:{sk.names[j]}"),
-                               is_foot=j in feet))
-    target = total_mass if total_mass is not None else profile.total_mass
-    scale = 1.0
-    if target is not None:
-        scale = target / sum(mass_of.values())
-        for b in bodies:
-            for g in b.geoms:
-                g.mass *= scale
-    # motor strength from the subtree each joint carries
-    order = {j: i for i, j in enumerate(kept)}
-    sub_mass = {j: mass_of[j] * scale for j in kept}
-    reach = {j: 0.0 for j in kept}
-    for j in reversed(kept):
-        tips = [pos[c] for c in children[j]] + ends[j]
+
+    return {j for j in leaves if np.median(rel[:, tip_index(j)]) <= FOOT_HEIGHT_FRACTION * body_h} or set(leaves)
+
+
+def _geoms(tree: _Tree, j: int, profile: CreatureProfile, size: float) -> list[GeomPlan]:
+    """Body ``j``'s geoms (body frame, m, kg): a capsule along each bone leaving it (to each child body
+    and End Site), radius ``radius_fraction`` x length clamped to [radius_min, radius_max] x ``size``,
+    mass density x volume; a sphere of the smallest radius when no bone is long enough."""
+    lo_r, hi_r = profile.radius_min * size, profile.radius_max * size
+    pos = tree.pos
+    geoms = []
+    for t in [pos[c] for c in tree.children[j]] + tree.ends[j]:
+        length = float(np.linalg.norm(t - pos[j]))
+        if length < MIN_CAPSULE_M:
+            continue
+        r = float(np.clip(profile.radius_fraction * length, lo_r, hi_r))
+        vol = np.pi * r * r * length + 4.0 / 3.0 * np.pi * r ** 3
+        geoms.append(GeomPlan(kind="capsule", size=[r], fromto=[0.0, 0.0, 0.0, *(t - pos[j])],
+                              mass=profile.density * vol))
+    if not geoms:
+        r = float(lo_r)
+        geoms.append(GeomPlan(kind="sphere", size=[r], pos=[0.0, 0.0, 0.0],
+                              mass=profile.density * 4.0 / 3.0 * np.pi * r ** 3))
+    return geoms
+
+
+def _body(tree: _Tree, j: int, ball_range: float | None, is_foot: bool, profile: CreatureProfile,
+          size: float) -> BodyPlan:
+    """Kept joint ``j``'s body at its rest position (m): its geoms, a ball joint limited to
+    ``ball_range`` (rad; none on the root, which gets the free joint), a touch site at the tip of an
+    end effector, oriented like the source joint."""
+    sk, pos, names = tree.skeleton, tree.pos, tree.names
+    geoms = _geoms(tree, j, profile, size)
+    sites = []
+    if not tree.children[j]:
+        tip = tree.ends[j][0] if tree.ends[j] else pos[j]
+        r = max(g.size[0] for g in geoms) + 0.01 * size
+        sites.append(SitePlan(name=f"{names[j]}_touch", pos=list(tip - pos[j]), size=[r], touch=True))
+    joints = []
+    if j != 0:
+        assert ball_range is not None
+        joints.append(JointPlan(name=f"{names[j]}_ball", kind="ball", axis=[0.0, 0.0, 1.0],
+                                range=[0.0, ball_range], group="ball"))
+    return BodyPlan(name=names[j], parent=None if j == 0 else names[tree.parent_body(j)],
+                    pos=[float(v) for v in pos[j]], source=sk.names[j], joints=joints, geoms=geoms,
+                    sites=sites, fit=FitPlan(method="ref", origin=sk.names[j], ref=f"bvh:{sk.names[j]}"),
+                    is_foot=is_foot)
+
+
+def _scale_masses(bodies: list[BodyPlan], mass_of: dict[int, float], target: float | None) -> float:
+    """Scale every geom's mass so the bodies (masses ``mass_of``, kg) weigh ``target`` (kg) in all;
+    returns the factor (1 for None)."""
+    if target is None:
+        return 1.0
+    scale = target / sum(mass_of.values())
+    for b in bodies:
+        for g in b.geoms:
+            g.mass *= scale
+    return scale
+
+
+def _subtrees(tree: _Tree, mass: dict[int, float]) -> tuple[dict[int, float], dict[int, float]]:
+    """Per kept joint: the mass (kg) of the subtree it carries (``mass``: each body's own) and the
+    subtree's reach (m), the farthest bone tip from the joint along the tree."""
+    pos = tree.pos
+    sub_mass = dict(mass)
+    reach = {j: 0.0 for j in tree.kept}
+    for j in reversed(tree.kept):
+        tips = [pos[c] for c in tree.children[j]] + tree.ends[j]
         reach[j] = max([float(np.linalg.norm(t - pos[j])) for t in tips] +
-                       [float(np.linalg.norm(pos[c] - pos[j])) + reach[c] for c in children[j]] + [0.0])
-        for c in children[j]:
+                       [float(np.linalg.norm(pos[c] - pos[j])) + reach[c] for c in tree.children[j]] + [0.0])
+        for c in tree.children[j]:
             sub_mass[j] += sub_mass[c]
+    return sub_mass, reach
+
+
+def _set_motors(bodies: list[BodyPlan], tree: _Tree, mass: dict[int, float], profile: CreatureProfile,
+                size: float) -> None:
+    """Motor strength from the subtree each ball joint carries: torque limit (N m) ``torque_scale`` x
+    subtree mass x reach (at least 5 % of ``size``) x g, gains the profile's unit gains x mass x reach.
+    ``mass``: each body's own mass (kg), after scaling."""
+    sub_mass, reach = _subtrees(tree, mass)
     kp_unit, kd_unit = profile.gains
-    for j in kept:
+    for b, j in zip(bodies, tree.kept):
         if j == 0:
             continue
-        b = bodies[order[j]]
         scale_j = sub_mass[j] * max(reach[j], 0.05 * size)
         b.joints[0].torque = float(profile.torque_scale * scale_j * GRAVITY)
         b.joints[0].kp = float(kp_unit * scale_j)
         b.joints[0].kd = float(kd_unit * scale_j)
-    lift = -min(b.pos[2] - (g.size[0] if g.kind != "box" else g.size[2]) for b in bodies for g in b.geoms)
+
+
+def _stand_on_floor(bodies: list[BodyPlan]) -> float:
+    """Lift the zero pose so that the lowest of (body origin height - geom radius), over every geom,
+    is z = 0; returns the lift (m)."""
+    lift = -min(b.pos[2] - g.size[0] for b in bodies for g in b.geoms)
     for b in bodies:
         b.pos[2] += lift
-    markers = {sk.names[j]: ["body", names[j]] for j in kept}
-    return BodyPlanSet(name=name, profile="creature", bodies=bodies, heading_yaw=0.0,
-                       source_names=list(sk.names), sim=asdict(profile.sim),
-                       extra={"markers": markers, "merged": [sk.names[j] for j in range(sk.num_joints)
-                                                             if body_of[j] != j],
-                              "size_m": size, "rest_lift": lift})
+    return lift

@@ -9,13 +9,17 @@ its rotation is absorbed into the orientation fit of the body it belongs to.
 
 from __future__ import annotations
 
+from dataclasses import asdict
+
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
 from bipedsim.model.naming import HumanoidMap, MapFile, recognise_humanoid
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
 from bipedsim.model.profile import HumanoidProfile, JointSpec
+from bipedsim.model.retarget import kabsch
 from bipedsim.model.source import SourcePoints, motion_points, rest_points
 from bipedsim.motion.motion import Motion
 
@@ -27,6 +31,8 @@ FORWARD = np.array([1.0, 0.0, 0.0])
 MIN_BONE_M = 0.01
 #: Touch-sensor sites reach this far below and above the sole (m).
 TOUCH_MARGIN_M = 0.02
+#: Touch-sensor boxes reach this far (m) beyond the sides of the foot and toe boxes.
+TOUCH_PAD_M = 0.005
 
 
 def _axis_vec(name: str) -> FloatArray:
@@ -133,10 +139,34 @@ def _flat_frame(moving: SourcePoints, joint: str, points: list[str], forward: Fl
     most MAX_SOLE_PITCH). Without ``hinge_plane`` (or where the leg is too straight to define its
     plane) only the pitch is corrected. Identity when the correction is under FLAT_MIN_TILT or the
     motion never shows the segment flat (one-frame files)."""
-    pos = moving.positions
     eye = np.eye(3)
-    if pos.ndim != 3 or pos.shape[0] < 3:
+    flat = _flat_frames(moving, joint, points)
+    if flat is None:
         return eye
+    bone = moving[points[1]][flat] - moving[points[0]][flat]
+    if float(np.median(np.linalg.norm(bone, axis=1))) < MIN_BONE_M:
+        return eye
+    f_rest = np.asarray(forward, dtype=float)
+    lateral_rest = np.cross([0.0, 0.0, 1.0], f_rest)
+    if np.linalg.norm(lateral_rest) < 1e-6:
+        return eye
+    plane = None
+    if hinge_plane is not None and hinge_axis is not None:
+        plane = _leg_plane_normals(moving, flat, hinge_plane, bone)
+    if plane is None:
+        normal, y_rest = _pitch_normals(bone, lateral_rest), lateral_rest
+    else:
+        (normal, bone), y_rest = plane, np.asarray(hinge_axis, dtype=float)
+    return _levelling_rotation(f_rest, y_rest, bone, normal)
+
+
+def _flat_frames(moving: SourcePoints, joint: str, points: list[str]) -> npt.NDArray[np.bool_] | None:
+    """Frames (T,) on which a foot segment lies flat: every one of ``points`` within FLAT_HEIGHT_M (m)
+    of its lowest level (its 10th height percentile) and ``joint`` still; None when fewer than 3
+    frames (or fewer than 3 in the motion) qualify."""
+    pos = moving.positions
+    if pos.ndim != 3 or pos.shape[0] < 3:
+        return None
     h = np.stack([moving[p][:, 2] for p in points], axis=1)
     low = np.all(h < np.percentile(h, 10, axis=0) + FLAT_HEIGHT_M, axis=1)
     j = moving[joint]
@@ -147,35 +177,42 @@ def _flat_frame(moving: SourcePoints, joint: str, points: list[str], forward: Fl
     still = speed <= max(FLAT_SPEED / 120.0, 0.1 * float(np.median(speed[1:])))
     flat = low & still
     if flat.sum() < 3:
-        return eye
-    bone = moving[points[1]][flat] - moving[points[0]][flat]
-    if float(np.median(np.linalg.norm(bone, axis=1))) < MIN_BONE_M:
-        return eye
-    f_rest = np.asarray(forward, dtype=float)
-    lateral_rest = np.cross([0.0, 0.0, 1.0], f_rest)
-    if np.linalg.norm(lateral_rest) < 1e-6:
-        return eye
-    normal = None
-    if hinge_plane is not None and hinge_axis is not None:
-        a, b, c = (moving[n][flat] for n in hinge_plane)
-        n = np.cross(b - a, c - b)
-        size = np.linalg.norm(n, axis=1) / np.maximum(np.linalg.norm(b - a, axis=1) * np.linalg.norm(c - b, axis=1),
-                                                      1e-12)
-        ok = size > np.sin(MIN_PLANE_BEND)
-        if ok.sum() >= 3:
-            normal, bone = n[ok] / np.linalg.norm(n[ok], axis=1, keepdims=True), bone[ok]
-            # the knee bends one way: the normal on the foot's left-hand side (a straightened or
-            # over-extended knee would flip the plane's orientation)
-            left = np.cross([0.0, 0.0, 1.0], bone)
-            normal = np.where(np.sum(normal * left, axis=1, keepdims=True) < 0, -normal, normal)
-    if normal is None:
-        # the lateral axis stays horizontal: pitch only (the bone's dip against the rest pose's)
-        normal = np.cross(bone, [0.0, 0.0, 1.0])
-        normal = normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
-        normal = np.where((normal @ lateral_rest)[:, None] < 0, -normal, normal)
-        y_rest = lateral_rest
-    else:
-        y_rest = np.asarray(hinge_axis, dtype=float)
+        return None
+    return flat
+
+
+def _leg_plane_normals(moving: SourcePoints, flat: npt.NDArray[np.bool_], hinge_plane: tuple[str, str, str],
+                       bone: FloatArray) -> tuple[FloatArray, FloatArray] | None:
+    """Unit normals (N, 3, world frame) of the leg's plane ``hinge_plane`` (hip, knee, ankle) on the
+    flat frames where the knee bends at least MIN_PLANE_BEND, turned to the foot's left, with the foot
+    bones ``bone`` of those frames; None when fewer than 3 frames bend enough."""
+    a, b, c = (moving[n][flat] for n in hinge_plane)
+    n = np.cross(b - a, c - b)
+    size = np.linalg.norm(n, axis=1) / np.maximum(np.linalg.norm(b - a, axis=1) * np.linalg.norm(c - b, axis=1),
+                                                  1e-12)
+    ok = size > np.sin(MIN_PLANE_BEND)
+    if ok.sum() < 3:
+        return None
+    normal, bone = n[ok] / np.linalg.norm(n[ok], axis=1, keepdims=True), bone[ok]
+    # the knee bends one way: the normal on the foot's left-hand side (a straightened or
+    # over-extended knee would flip the plane's orientation)
+    left = np.cross([0.0, 0.0, 1.0], bone)
+    return np.where(np.sum(normal * left, axis=1, keepdims=True) < 0, -normal, normal), bone
+
+
+def _pitch_normals(bone: FloatArray, lateral_rest: FloatArray) -> FloatArray:
+    """Horizontal unit lateral axes (N, 3, world frame) normal to the foot bones ``bone``, on the side
+    of ``lateral_rest``: the sole keeps its roll and only its pitch (the bone's dip against the rest
+    pose's) is corrected."""
+    normal = np.cross(bone, [0.0, 0.0, 1.0])
+    normal = normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+    return np.where((normal @ lateral_rest)[:, None] < 0, -normal, normal)
+
+
+def _levelling_rotation(f_rest: FloatArray, y_rest: FloatArray, bone: FloatArray, normal: FloatArray) -> FloatArray:
+    """Rotation (3, 3, body coordinates) that levels the sole: turns the world vertical, averaged over
+    the flat frames where the rest frame (``f_rest``, ``y_rest``) is carried onto (``bone``,
+    ``normal``), back onto +z; at most MAX_SOLE_PITCH (rad), identity under FLAT_MIN_TILT."""
     # per flat frame: G = B A^T carries the rest frame A = (forward, lateral, ...) onto B = (bone, normal, ...)
     rest_frame = _frame_from(f_rest[None], y_rest[None])[0]
     frames = _frame_from(bone, normal)
@@ -185,11 +222,9 @@ def _flat_frame(moving: SourcePoints, joint: str, points: list[str], forward: Fl
     s = s / np.linalg.norm(s)
     angle = float(np.arccos(np.clip(s[2], -1.0, 1.0)))
     if angle < FLAT_MIN_TILT:
-        return eye
+        return np.eye(3)
     axis = np.cross([0.0, 0.0, 1.0], s)
     axis = axis / np.linalg.norm(axis)
-    from scipy.spatial.transform import Rotation
-
     return Rotation.from_rotvec(axis * min(angle, MAX_SOLE_PITCH)).as_matrix()
 
 
@@ -205,16 +240,13 @@ def _quat(r: FloatArray) -> list[float] | None:
     """MuJoCo quaternion (w, x, y, z) of a rotation matrix; None for the identity."""
     if np.allclose(r, np.eye(3)):
         return None
-    from scipy.spatial.transform import Rotation
-
     return [float(v) for v in Rotation.from_matrix(r).as_quat(scalar_first=True)]
 
 
 def _matrix(quat: list[float] | None) -> FloatArray:
+    """Rotation matrix of a MuJoCo quaternion (w, x, y, z); the identity for None."""
     if quat is None:
         return np.eye(3)
-    from scipy.spatial.transform import Rotation
-
     return Rotation.from_quat(quat, scalar_first=True).as_matrix()
 
 
@@ -235,8 +267,6 @@ def calibrate_rigid(pts: SourcePoints, origin: str, points: list[str], ref_joint
     several spine links); a rigid body cannot. Fit the body's orientation on every frame, express the
     points in that frame, average, and repeat: the result is the rigid layout closest to the motion.
     """
-    from bipedsim.model.retarget import kabsch
-
     cur = np.stack([pts[p] - pts[origin] for p in points], axis=1)
     ref = pts.rotation(ref_joint)
     vecs = rest_vecs
@@ -252,8 +282,6 @@ def rigid_residual(pts: SourcePoints, origin: str, points: list[str], ref_joint:
                    weights: FloatArray | None = None) -> FloatArray:
     """Worst distance (m) over the motion between each point and where the rigid layout ``vecs``,
     fitted per frame, puts it."""
-    from bipedsim.model.retarget import kabsch
-
     cur = np.stack([pts[p] - pts[origin] for p in points], axis=1)
     r = kabsch(vecs, cur, pts.rotation(ref_joint), weights)
     return np.linalg.norm(np.einsum("tij,nj->tni", r, vecs) - cur, axis=-1).max(axis=0)
@@ -304,254 +332,369 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
     Limb geometry comes from the skeleton's rest pose; the layout of the rigid pelvis (hips, spine
     base) and torso (neck, shoulders) is calibrated on the motion (:func:`calibrate_rigid`).
     """
-    sk = motion.skeleton
-    hm = recognise_humanoid(sk, mapping)
-    pts0 = rest_points(motion)
-    yaw = _facing_yaw(pts0, hm)
-    rest = pts0.turned(yaw)
-    moving = motion_points(motion).turned(yaw)
-    g = profile.geometry
-    bodies: list[BodyPlan] = []
-    markers: dict[str, list[str]] = {}
-    legs = hm.legs
-    thl, thr = legs["left"]["thigh"], legs["right"]["thigh"]
-    assert thl and thr
+    b = _HumanoidBuilder(motion, profile, mapping)
+    b.fit_pelvis()
+    b.fit_torso()
+    b.add_pelvis()
+    b.add_trunk()
+    b.add_head()
+    for side in ("left", "right"):
+        if side in b.hm.arms:
+            b.add_arm(side)
+    for side in ("left", "right"):
+        b.add_leg(side)
+    b.scale_masses(total_mass if total_mass is not None else profile.total_mass)
+    return b.plan(name, b.stand_on_floor())
 
-    def gains(group: str) -> tuple[float, float]:
-        kp, kd = profile.gains[group]
-        return float(kp), float(kd)
 
-    def vec(a: str, b: str) -> FloatArray:
-        return rest[b] - rest[a]
+def _check_bone(v: FloatArray, a: str, b: str, what: str) -> FloatArray:
+    """``v`` (m), the bone from joint ``a`` to ``b``; a ModelError when shorter than MIN_BONE_M."""
+    if np.linalg.norm(v) < MIN_BONE_M:
+        raise ModelError(f"zero-length bone: {what} from {a!r} to {b!r} is "
+                         f"{np.linalg.norm(v) * 1000:.1f} mm long (need >= {MIN_BONE_M * 1000:.0f} mm)")
+    return v
 
-    def check(v: FloatArray, a: str, b: str, what: str) -> FloatArray:
-        if np.linalg.norm(v) < MIN_BONE_M:
-            raise ModelError(f"zero-length bone: {what} from {a!r} to {b!r} is "
-                             f"{np.linalg.norm(v) * 1000:.1f} mm long (need >= {MIN_BONE_M * 1000:.0f} mm)")
-        return v
 
-    # ----------------------------------------------------------------- model geometry Q
-    Q: dict[str, FloatArray] = {hm.pelvis: rest[hm.pelvis]}
-    pelvis_pts = [thl, thr, hm.torso_base]
-    pv = calibrate_rigid(moving, hm.pelvis, pelvis_pts, hm.pelvis,
-                         np.stack([vec(hm.pelvis, p) for p in pelvis_pts]))
-    for p_, v in zip(pelvis_pts, pv):
-        Q[p_] = Q[hm.pelvis] + v
-    check(Q[thr] - Q[thl], thl, thr, "pelvis width")
-    torso_pts = [hm.neck] + [hm.arms[s]["upper_arm"] for s in ("left", "right") if s in hm.arms]
-    if len(torso_pts) == 1:
-        torso_pts.append(hm.chest)
-    torso_w = np.array([NECK_FIT_WEIGHT] + [1.0] * (len(torso_pts) - 1))
-    tv = calibrate_rigid(moving, hm.torso_base, torso_pts, hm.chest,
-                         np.stack([vec(hm.torso_base, p) for p in torso_pts]), torso_w)
-    for p_, v in zip(torso_pts, tv):
-        Q[p_] = Q[hm.torso_base] + v
-    split = _split_spine(profile, rest, moving, hm, torso_pts, tv, torso_w)
-    if split:
-        # abdomen: spine base -> the split joint; chest: the rigid layout of neck and shoulders about it
-        (av,) = calibrate_rigid(moving, hm.torso_base, [split], hm.torso_base, vec(hm.torso_base, split)[None])
-        Q[split] = Q[hm.torso_base] + av
-        tv = calibrate_rigid(moving, split, torso_pts, split, np.stack([vec(split, p) for p in torso_pts]),
-                             torso_w)
-        for p_, v in zip(torso_pts, tv):
-            Q[p_] = Q[split] + v
-    head_top = rest.tip(hm.head)
-    Q[head_top] = Q[hm.neck] + vec(hm.neck, head_top)
+class _HumanoidBuilder:
+    """Builds a humanoid body plan step by step (see :func:`humanoid_plan` for the order).
 
-    def chain(a: str, b: str) -> None:
-        Q[b] = Q[a] + vec(a, b)
+    Frames: every point and vector is in the project frame (m, Z up) with the skeleton turned by
+    ``yaw`` about +z to face +x. ``q`` maps source joint (and End Site) names to where the model puts
+    them in its zero pose: the rigid pelvis and torso layouts come from the motion, the limbs from
+    the rest pose chained joint to joint. Bodies are appended parents first.
+    """
 
-    # ----------------------------------------------------------------- pelvis, torso, head
-    origin = Q[hm.pelvis]
-    bodies.append(BodyPlan(
-        name="pelvis", parent=None, pos=list(origin), source=hm.pelvis, segment="pelvis",
-        geoms=[_capsule(Q[thl], Q[thr], origin, g.pelvis_radius, profile.masses["pelvis"])],
-        fit=FitPlan(method="kabsch", origin=hm.pelvis, points=pelvis_pts, ref=f"bvh:{hm.pelvis}",
-                    rest_vectors=[list(v) for v in pv])))
-    markers[hm.pelvis] = ["body", "pelvis"]
-    kp, kd = gains("spine")
-    if split:
-        ab = check(Q[split] - Q[hm.torso_base], hm.torso_base, split, "abdomen")
-        ch = check(Q[hm.neck] - Q[split], split, hm.neck, "chest")
+    # set by fit_pelvis: the pelvis's points and their rigid layout (N, 3; m) about the pelvis joint
+    pelvis_pts: list[str]
+    pelvis_vecs: FloatArray
+    # set by fit_torso: the torso's points, their layout (m) about the spine base (or ``split``) and
+    # fit weights; the joint where the spine splits (None: one torso); the head top (an End Site)
+    torso_pts: list[str]
+    torso_vecs: FloatArray
+    torso_w: FloatArray
+    split: str | None
+    head_top: str
+
+    def __init__(self, motion: Motion, profile: HumanoidProfile, mapping: MapFile | None) -> None:
+        self.source_names = list(motion.skeleton.names)
+        self.profile = profile
+        self.geometry = profile.geometry
+        self.hm = recognise_humanoid(motion.skeleton, mapping)
+        pts0 = rest_points(motion)
+        self.yaw = _facing_yaw(pts0, self.hm)
+        self.rest = pts0.turned(self.yaw)
+        self.moving = motion_points(motion).turned(self.yaw)
+        self.bodies: list[BodyPlan] = []
+        self.markers: dict[str, list[str]] = {}
+        self.q: dict[str, FloatArray] = {}
+        thl, thr = self.hm.legs["left"]["thigh"], self.hm.legs["right"]["thigh"]
+        assert thl and thr
+        self.hips = (thl, thr)
+
+    # ----------------------------------------------------------------- small helpers
+    def _vec(self, a: str, b: str) -> FloatArray:
+        """Rest-pose bone (m) from ``a`` to ``b``."""
+        return self.rest[b] - self.rest[a]
+
+    def _rest_vecs(self, origin: str, points: list[str]) -> FloatArray:
+        """(N, 3) rest-pose vectors (m) from ``origin`` to each of ``points``."""
+        return np.stack([self._vec(origin, p) for p in points])
+
+    def _chain(self, a: str, b: str) -> None:
+        """Place ``b`` at its rest-pose offset from ``a``."""
+        self.q[b] = self.q[a] + self._vec(a, b)
+
+    def _place(self, origin: str, points: list[str], vecs: FloatArray) -> None:
+        """Place ``points`` at the rigid layout ``vecs`` (N, 3; m) about ``origin``."""
+        for p, v in zip(points, vecs):
+            self.q[p] = self.q[origin] + v
+
+    def _group_hinges(self, prefix: str, group: str, bone: FloatArray, mirror: bool = False, *,
+                      spec: JointSpec | None = None, parent_bone: FloatArray | None = None) -> list[JointPlan]:
+        """The hinges of one joint group, with the group's spec (unless ``spec``) and gains."""
+        kp, kd = self.profile.gains[group]
+        spec = spec if spec is not None else self.profile.joints[group]
+        return _hinges(prefix, spec, bone, mirror, float(kp), float(kd), group, parent_bone=parent_bone)
+
+    # ----------------------------------------------------------------- rigid layouts (q)
+    def fit_pelvis(self) -> None:
+        """The pelvis: hips and spine base about the pelvis joint, calibrated on the motion."""
+        hm, (thl, thr) = self.hm, self.hips
+        self.q[hm.pelvis] = self.rest[hm.pelvis]
+        self.pelvis_pts = [thl, thr, hm.torso_base]
+        self.pelvis_vecs = calibrate_rigid(self.moving, hm.pelvis, self.pelvis_pts, hm.pelvis,
+                                           self._rest_vecs(hm.pelvis, self.pelvis_pts))
+        self._place(hm.pelvis, self.pelvis_pts, self.pelvis_vecs)
+        _check_bone(self.q[thr] - self.q[thl], thl, thr, "pelvis width")
+
+    def fit_torso(self) -> None:
+        """The torso: neck and shoulders (or chest, without arms) about the spine base, calibrated on
+        the motion; when the spine splits (:func:`_split_spine`), the abdomen's bone to the split joint
+        and the layout about that joint instead. Then the head top at its rest offset from the neck."""
+        hm, moving = self.hm, self.moving
+        pts = [hm.neck] + [hm.arms[s]["upper_arm"] for s in ("left", "right") if s in hm.arms]
+        if len(pts) == 1:
+            pts.append(hm.chest)
+        w = np.array([NECK_FIT_WEIGHT] + [1.0] * (len(pts) - 1))
+        vecs = calibrate_rigid(moving, hm.torso_base, pts, hm.chest, self._rest_vecs(hm.torso_base, pts), w)
+        self._place(hm.torso_base, pts, vecs)
+        split = _split_spine(self.profile, self.rest, moving, self.hm, pts, vecs, w)
+        if split:
+            # abdomen: spine base -> the split joint; chest: the rigid layout of neck and shoulders about it
+            av = calibrate_rigid(moving, hm.torso_base, [split], hm.torso_base, self._rest_vecs(hm.torso_base, [split]))
+            self._place(hm.torso_base, [split], av)
+            vecs = calibrate_rigid(moving, split, pts, split, self._rest_vecs(split, pts), w)
+            self._place(split, pts, vecs)
+        self.torso_pts, self.torso_vecs, self.torso_w, self.split = pts, vecs, w, split
+        self.head_top = self.rest.tip(hm.head)
+        self._chain(hm.neck, self.head_top)
+
+    # ----------------------------------------------------------------- trunk bodies
+    def add_pelvis(self) -> None:
+        """The root body: a capsule between the hips, oriented by the calibrated pelvis layout."""
+        hm, (thl, thr) = self.hm, self.hips
+        origin = self.q[hm.pelvis]
+        self.bodies.append(BodyPlan(
+            name="pelvis", parent=None, pos=list(origin), source=hm.pelvis, segment="pelvis",
+            geoms=[_capsule(self.q[thl], self.q[thr], origin, self.geometry.pelvis_radius,
+                            self.profile.masses["pelvis"])],
+            fit=FitPlan(method="kabsch", origin=hm.pelvis, points=self.pelvis_pts, ref=f"bvh:{hm.pelvis}",
+                        rest_vectors=[list(v) for v in self.pelvis_vecs])))
+        self.markers[hm.pelvis] = ["body", "pelvis"]
+
+    def add_trunk(self) -> None:
+        """The torso body on the spine hinges, or abdomen and torso when the spine splits."""
+        if self.split:
+            self._add_abdomen_and_chest(self.split)
+        else:
+            self._add_torso()
+
+    def _add_torso(self) -> None:
+        """One rigid torso from the spine base to the neck; the mass is the profile's torso mass."""
+        hm, q = self.hm, self.q
+        bone = _check_bone(q[hm.neck] - q[hm.torso_base], hm.torso_base, hm.neck, "torso")
+        self.bodies.append(BodyPlan(
+            name="torso", parent="pelvis", pos=list(q[hm.torso_base]), source=hm.torso_base, segment="torso",
+            joints=self._group_hinges("spine", "spine", bone),
+            geoms=[_capsule(q[hm.torso_base], q[hm.neck], q[hm.torso_base], self.geometry.torso_radius,
+                            self.profile.masses["torso"])],
+            fit=FitPlan(method="kabsch", origin=hm.torso_base, points=self.torso_pts, ref=f"bvh:{hm.chest}",
+                        rest_vectors=[list(v) for v in self.torso_vecs], weights=list(self.torso_w))))
+
+    def _add_abdomen_and_chest(self, split: str) -> None:
+        """Abdomen (spine base to ``split``) and chest (``split`` to the neck, named torso), each on
+        spine-group hinges; the torso mass is shared between them by length."""
+        hm, q, radius, mass = self.hm, self.q, self.geometry.torso_radius, self.profile.masses["torso"]
+        ab = _check_bone(q[split] - q[hm.torso_base], hm.torso_base, split, "abdomen")
+        ch = _check_bone(q[hm.neck] - q[split], split, hm.neck, "chest")
         share = float(np.linalg.norm(ab) / (np.linalg.norm(ab) + np.linalg.norm(ch)))
-        bodies.append(BodyPlan(
-            name="abdomen", parent="pelvis", pos=list(Q[hm.torso_base]), source=hm.torso_base,
+        self.bodies.append(BodyPlan(
+            name="abdomen", parent="pelvis", pos=list(q[hm.torso_base]), source=hm.torso_base,
             segment="torso",
-            joints=_hinges("spine", profile.joints["spine"], ab, False, kp, kd, "spine"),
-            geoms=[_capsule(Q[hm.torso_base], Q[split], Q[hm.torso_base], g.torso_radius,
-                            share * profile.masses["torso"])],
+            joints=self._group_hinges("spine", "spine", ab),
+            geoms=[_capsule(q[hm.torso_base], q[split], q[hm.torso_base], radius, share * mass)],
             fit=FitPlan(method="aim", origin=hm.torso_base, points=[split], ref=f"bvh:{hm.torso_base}",
                         rest_vectors=[list(ab)])))
-        bodies.append(BodyPlan(
-            name="torso", parent="abdomen", pos=list(Q[split]), source=split, segment="torso",
-            joints=_hinges("chest", profile.joints["spine"], ch, False, kp, kd, "spine"),
-            geoms=[_capsule(Q[split], Q[hm.neck], Q[split], g.torso_radius,
-                            (1.0 - share) * profile.masses["torso"])],
-            fit=FitPlan(method="kabsch", origin=split, points=torso_pts, ref=f"bvh:{split}",
-                        rest_vectors=[list(v) for v in tv], weights=list(torso_w))))
-    else:
-        torso_bone = check(Q[hm.neck] - Q[hm.torso_base], hm.torso_base, hm.neck, "torso")
-        bodies.append(BodyPlan(
-            name="torso", parent="pelvis", pos=list(Q[hm.torso_base]), source=hm.torso_base, segment="torso",
-            joints=_hinges("spine", profile.joints["spine"], torso_bone, False, kp, kd, "spine"),
-            geoms=[_capsule(Q[hm.torso_base], Q[hm.neck], Q[hm.torso_base], g.torso_radius,
-                            profile.masses["torso"])],
-            fit=FitPlan(method="kabsch", origin=hm.torso_base, points=torso_pts, ref=f"bvh:{hm.chest}",
-                        rest_vectors=[list(v) for v in tv], weights=list(torso_w))))
-    head_bone = check(vec(hm.neck, head_top), hm.neck, head_top, "neck to head top")
-    kp, kd = gains("neck")
-    centre = Q[hm.neck] + 0.6 * head_bone
-    bodies.append(BodyPlan(
-        name="head", parent="torso", pos=list(Q[hm.neck]), source=hm.neck, segment="head",
-        joints=_hinges("neck", profile.joints["neck"], head_bone, False, kp, kd, "neck"),
-        geoms=[GeomPlan(kind="sphere", size=[g.head_radius], pos=list(centre - Q[hm.neck]),
-                        mass=profile.masses["head"])],
-        fit=FitPlan(method="aim", origin=hm.neck, points=[head_top], ref=f"bvh:{hm.head}",
-                    rest_vectors=[list(head_bone)])))
-    # ----------------------------------------------------------------- arms
-    for side in ("left", "right"):
-        if side not in hm.arms:
-            continue
-        arm = hm.arms[side]
-        mirror = side == "right"
-        sh, el, wr = arm["upper_arm"], arm["elbow"], arm["wrist"]
-        chain(sh, el)
-        chain(el, wr)
-        ub = check(vec(sh, el), sh, el, f"{side} upper arm")
-        lb = check(vec(el, wr), el, wr, f"{side} lower arm")
-        elbow_joint = _hinges(f"{side}_elbow", profile.joints["elbow"], lb, mirror, *gains("elbow"),
-                              "elbow", parent_bone=ub)
-        kp, kd = gains("shoulder")
-        bodies.append(BodyPlan(
-            name=f"{side}_upper_arm", parent="torso", pos=list(Q[sh]), source=sh, segment="upper_arm",
-            joints=_hinges(f"{side}_shoulder", profile.joints["shoulder"], ub, mirror, kp, kd, "shoulder"),
-            geoms=[_capsule(Q[sh], Q[el], Q[sh], g.upper_arm_radius, profile.masses["upper_arm"])],
+        self.bodies.append(BodyPlan(
+            name="torso", parent="abdomen", pos=list(q[split]), source=split, segment="torso",
+            joints=self._group_hinges("chest", "spine", ch),
+            geoms=[_capsule(q[split], q[hm.neck], q[split], radius, (1.0 - share) * mass)],
+            fit=FitPlan(method="kabsch", origin=split, points=self.torso_pts, ref=f"bvh:{split}",
+                        rest_vectors=[list(v) for v in self.torso_vecs], weights=list(self.torso_w))))
+
+    def add_head(self) -> None:
+        """The head on the neck hinges: a sphere 60 % of the way from the neck to the head top."""
+        hm, q = self.hm, self.q
+        bone = _check_bone(self._vec(hm.neck, self.head_top), hm.neck, self.head_top, "neck to head top")
+        centre = q[hm.neck] + 0.6 * bone
+        self.bodies.append(BodyPlan(
+            name="head", parent="torso", pos=list(q[hm.neck]), source=hm.neck, segment="head",
+            joints=self._group_hinges("neck", "neck", bone),
+            geoms=[GeomPlan(kind="sphere", size=[self.geometry.head_radius], pos=list(centre - q[hm.neck]),
+                            mass=self.profile.masses["head"])],
+            fit=FitPlan(method="aim", origin=hm.neck, points=[self.head_top], ref=f"bvh:{hm.head}",
+                        rest_vectors=[list(bone)])))
+
+    # ----------------------------------------------------------------- limbs
+    def add_arm(self, side: str) -> None:
+        """Upper arm (3 shoulder hinges, twobone fit) and lower arm (elbow hinge; the hand merged, a
+        wrist site at its end) on one side; the right side's axes mirrored."""
+        sh, el, wr = (self.hm.arms[side][k] for k in ("upper_arm", "elbow", "wrist"))
+        mirror, q, g, masses = side == "right", self.q, self.geometry, self.profile.masses
+        self._chain(sh, el)
+        self._chain(el, wr)
+        ub = _check_bone(self._vec(sh, el), sh, el, f"{side} upper arm")
+        lb = _check_bone(self._vec(el, wr), el, wr, f"{side} lower arm")
+        elbow = self._group_hinges(f"{side}_elbow", "elbow", lb, mirror, parent_bone=ub)
+        self.bodies.append(BodyPlan(
+            name=f"{side}_upper_arm", parent="torso", pos=list(q[sh]), source=sh, segment="upper_arm",
+            joints=self._group_hinges(f"{side}_shoulder", "shoulder", ub, mirror),
+            geoms=[_capsule(q[sh], q[el], q[sh], g.upper_arm_radius, masses["upper_arm"])],
             fit=FitPlan(method="twobone", origin=sh, points=[el, wr], ref=f"bvh:{sh}",
-                        hinge_axis=elbow_joint[0].axis, rest_vectors=[list(ub), list(lb)],
-                        hinge_range=elbow_joint[0].range)))
-        bodies.append(BodyPlan(
-            name=f"{side}_lower_arm", parent=f"{side}_upper_arm", pos=list(Q[el]), source=el,
-            segment="lower_arm", joints=elbow_joint,
-            geoms=[_capsule(Q[el], Q[wr], Q[el], g.lower_arm_radius, profile.masses["lower_arm"], inset=True)],
+                        hinge_axis=elbow[0].axis, rest_vectors=[list(ub), list(lb)],
+                        hinge_range=elbow[0].range)))
+        self.bodies.append(BodyPlan(
+            name=f"{side}_lower_arm", parent=f"{side}_upper_arm", pos=list(q[el]), source=el,
+            segment="lower_arm", joints=elbow,
+            geoms=[_capsule(q[el], q[wr], q[el], g.lower_arm_radius, masses["lower_arm"], inset=True)],
             sites=[SitePlan(name=f"{side}_wrist", pos=list(lb))],
             fit=FitPlan(method="hinge", origin=el, points=[wr], ref="parent",
-                        hinge_axis=elbow_joint[0].axis, rest_vectors=[list(lb)])))
-        markers[sh] = ["body", f"{side}_upper_arm"]
-        markers[el] = ["body", f"{side}_lower_arm"]
-        markers[wr] = ["site", f"{side}_wrist"]
-    # ----------------------------------------------------------------- legs
-    for side in ("left", "right"):
-        leg = legs[side]
-        mirror = side == "right"
+                        hinge_axis=elbow[0].axis, rest_vectors=[list(lb)])))
+        self.markers[sh] = ["body", f"{side}_upper_arm"]
+        self.markers[el] = ["body", f"{side}_lower_arm"]
+        self.markers[wr] = ["site", f"{side}_wrist"]
+
+    def add_leg(self, side: str) -> None:
+        """Thigh (3 hip hinges, twobone fit), shin (knee hinge), foot and, when the source has a toe
+        joint, toe on one side; the right side's axes mirrored."""
+        leg = self.hm.legs[side]
+        th, kn, an = leg["thigh"], leg["knee"], leg["ankle"]
+        assert th and kn and an
+        mirror, q, g, masses = side == "right", self.q, self.geometry, self.profile.masses
+        self._chain(th, kn)
+        self._chain(kn, an)
+        tb = _check_bone(self._vec(th, kn), th, kn, f"{side} thigh")
+        sb = _check_bone(self._vec(kn, an), kn, an, f"{side} shin")
+        knee = self._group_hinges(f"{side}_knee", "knee", sb, mirror, parent_bone=tb)
+        self.bodies.append(BodyPlan(
+            name=f"{side}_thigh", parent="pelvis", pos=list(q[th]), source=th, segment="thigh",
+            joints=self._group_hinges(f"{side}_hip", "hip", tb, mirror),
+            geoms=[_capsule(q[th], q[kn], q[th], g.thigh_radius, masses["thigh"])],
+            fit=FitPlan(method="twobone", origin=th, points=[kn, an], ref=f"bvh:{th}",
+                        hinge_axis=knee[0].axis, rest_vectors=[list(tb), list(sb)],
+                        hinge_range=knee[0].range)))
+        self.bodies.append(BodyPlan(
+            name=f"{side}_shin", parent=f"{side}_thigh", pos=list(q[kn]), source=kn, segment="shin",
+            joints=knee,
+            geoms=[_capsule(q[kn], q[an], q[kn], g.shin_radius, masses["shin"], inset=True)],
+            fit=FitPlan(method="hinge", origin=kn, points=[an], ref="parent",
+                        hinge_axis=knee[0].axis, rest_vectors=[list(sb)])))
+        self.markers[th] = ["body", f"{side}_thigh"]
+        self.markers[kn] = ["body", f"{side}_shin"]
+        self.markers[an] = ["body", f"{side}_foot"]
+        foot_frame, sole = self._add_foot(side, sb, np.asarray(knee[0].axis))
+        if leg["toe"]:
+            self._add_toe(side, sb, np.asarray(knee[0].axis), foot_frame, sole)
+
+    # ----------------------------------------------------------------- feet
+    def _ankle_spec(self) -> JointSpec:
+        """The ankle's joint spec, with the profile's roll hinge (x) added for a 2-DOF ankle."""
+        spec = self.profile.joints["ankle"]
+        if self.profile.ankle_2dof:
+            spec = JointSpec(axes=[*spec.axes, "x"], range=[*spec.range, list(self.profile.ankle_x_range)],
+                             torque=spec.torque)
+        return spec
+
+    def _add_foot(self, side: str, shin_bone: FloatArray, knee_axis: FloatArray) -> tuple[FloatArray, float]:
+        """The foot: a box from ``heel_length`` behind the ankle to the toe joint (or, without one, the
+        toe tip), its sole at the lowest rest-pose point of the foot chain in the frame where the foot
+        is flat on the floor (a skeleton's rest pose need not stand flat-footed). Returns that sole
+        frame (3, 3; columns, foot body coordinates) and the sole's height (m) below the ankle in it."""
+        leg = self.hm.legs[side]
         th, kn, an, toe = leg["thigh"], leg["knee"], leg["ankle"], leg["toe"]
         assert th and kn and an
-        chain(th, kn)
-        chain(kn, an)
-        tb = check(vec(th, kn), th, kn, f"{side} thigh")
-        sb = check(vec(kn, an), kn, an, f"{side} shin")
-        knee_joint = _hinges(f"{side}_knee", profile.joints["knee"], sb, mirror, *gains("knee"), "knee",
-                             parent_bone=tb)
-        bodies.append(BodyPlan(
-            name=f"{side}_thigh", parent="pelvis", pos=list(Q[th]), source=th, segment="thigh",
-            joints=_hinges(f"{side}_hip", profile.joints["hip"], tb, mirror, *gains("hip"), "hip"),
-            geoms=[_capsule(Q[th], Q[kn], Q[th], g.thigh_radius, profile.masses["thigh"])],
-            fit=FitPlan(method="twobone", origin=th, points=[kn, an], ref=f"bvh:{th}",
-                        hinge_axis=knee_joint[0].axis, rest_vectors=[list(tb), list(sb)],
-                        hinge_range=knee_joint[0].range)))
-        bodies.append(BodyPlan(
-            name=f"{side}_shin", parent=f"{side}_thigh", pos=list(Q[kn]), source=kn, segment="shin",
-            joints=knee_joint,
-            geoms=[_capsule(Q[kn], Q[an], Q[kn], g.shin_radius, profile.masses["shin"], inset=True)],
-            fit=FitPlan(method="hinge", origin=kn, points=[an], ref="parent",
-                        hinge_axis=knee_joint[0].axis, rest_vectors=[list(sb)])))
-        markers[th] = ["body", f"{side}_thigh"]
-        markers[kn] = ["body", f"{side}_shin"]
-        markers[an] = ["body", f"{side}_foot"]
-        # feet: the sole sits at the lowest rest-pose point of the foot chain, in the frame where the
-        # foot is flat on the floor (a skeleton's rest pose need not stand flat-footed)
-        tip = rest.tip(toe) if toe else rest.tip(an)
+        q, g, masses = self.q, self.geometry, self.profile.masses
+        tip = self.rest.tip(toe) if toe else self.rest.tip(an)
         front_name = toe or tip
-        chain(an, front_name)
+        self._chain(an, front_name)
         if toe:
-            chain(toe, tip)
+            self._chain(toe, tip)
         else:
-            Q[tip] = Q[front_name]
-        front = Q[front_name]
-        check(front - Q[an], an, front_name, f"{side} foot")
-        rf = _flat_frame(moving, an, [an, front_name], front - Q[an], (th, kn, an), knee_joint[0].axis)
-        front_f = rf.T @ (front - Q[an])
-        tip_f = rf.T @ (Q[tip] - Q[an])
+            q[tip] = q[front_name]
+        front = q[front_name]
+        _check_bone(front - q[an], an, front_name, f"{side} foot")
+        rf = _flat_frame(self.moving, an, [an, front_name], front - q[an], (th, kn, an), knee_axis)
+        front_f = rf.T @ (front - q[an])
+        tip_f = rf.T @ (q[tip] - q[an])
         sole = min(-0.03, tip_f[2], front_f[2])
-        ankle_spec = profile.joints["ankle"]
-        if profile.ankle_2dof:
-            ankle_spec = JointSpec(axes=[*ankle_spec.axes, "x"],
-                                   range=[*ankle_spec.range, list(profile.ankle_x_range)],
-                                   torque=ankle_spec.torque)
-        kp, kd = gains("ankle")
         heel_x = -g.heel_length
         x1 = front_f[0]
         top = g.foot_top
-        foot_mass = profile.masses["foot"] + (0.0 if toe else profile.masses["toe"])
         half = [max((x1 - heel_x) / 2, 0.02), g.foot_width / 2, max((top - sole) / 2, 0.01)]
         centre = np.array([(heel_x + x1) / 2, 0.0, (top + sole) / 2])
-        touch_c = np.array([centre[0], 0.0, sole + TOUCH_MARGIN_M / 2])
-        bodies.append(BodyPlan(
-            name=f"{side}_foot", parent=f"{side}_shin", pos=list(Q[an]), source=an, segment="foot",
+        geom, site = _sole_box(f"{side}_foot", half, centre, sole, rf,
+                               masses["foot"] + (0.0 if toe else masses["toe"]))
+        self.bodies.append(BodyPlan(
+            name=f"{side}_foot", parent=f"{side}_shin", pos=list(q[an]), source=an, segment="foot",
             is_foot=True,
-            joints=_hinges(f"{side}_ankle", ankle_spec, sb, mirror, kp, kd, "ankle"),
-            geoms=[GeomPlan(kind="box", size=half, pos=list(rf @ centre), mass=foot_mass,
-                            name=f"{side}_foot_geom", quat=_quat(rf))],
-            sites=[SitePlan(name=f"{side}_foot_touch", pos=list(rf @ touch_c), kind="box", touch=True,
-                            size=[half[0] + 0.005, half[1] + 0.005, TOUCH_MARGIN_M * 1.5], quat=_quat(rf))],
+            joints=self._group_hinges(f"{side}_ankle", "ankle", shin_bone, side == "right", spec=self._ankle_spec()),
+            geoms=[geom], sites=[site],
             fit=FitPlan(method="aim", origin=an, points=[front_name], ref=f"bvh:{an}",
-                        rest_vectors=[list(front - Q[an])])))
-        if toe:
-            tip_vec = Q[tip] - Q[toe]
-            if np.linalg.norm(tip_vec) < MIN_BONE_M:
-                # no toe bone to measure: the toe's sole continues the foot's
-                tip_vec = np.array([0.03, 0.0, 0.0])
-                rt = rf
-            else:
-                rt = _flat_frame(moving, toe, [toe, tip], tip_vec, (th, kn, an), knee_joint[0].axis)
-            # the sole's depth below the toe joint (foot frame), carried into the toe's frame
-            sole_t = sole - (rf.T @ (Q[toe] - Q[an]))[2]
-            tip_t = rt.T @ (Q[tip] - Q[toe])
-            x2 = max(tip_t[0], 0.03)
-            ttop = max(0.01, sole_t + 0.03)
-            thalf = [x2 / 2, g.foot_width / 2, (ttop - sole_t) / 2]
-            tc = np.array([x2 / 2, 0.0, (ttop + sole_t) / 2])
-            ttc = np.array([tc[0], 0.0, sole_t + TOUCH_MARGIN_M / 2])
-            bodies.append(BodyPlan(
-                name=f"{side}_toe", parent=f"{side}_foot", pos=list(Q[toe]), source=toe, segment="toe",
-                is_foot=True,
-                joints=_hinges(f"{side}_toe", profile.joints["toe"], sb, mirror,
-                               *gains("toe"), "toe"),
-                geoms=[GeomPlan(kind="box", size=thalf, pos=list(rt @ tc), mass=profile.masses["toe"],
-                                name=f"{side}_toe_geom", quat=_quat(rt))],
-                sites=[SitePlan(name=f"{side}_toe_touch", pos=list(rt @ ttc), kind="box", touch=True,
-                                size=[thalf[0] + 0.005, thalf[1] + 0.005, TOUCH_MARGIN_M * 1.5], quat=_quat(rt))],
-                fit=FitPlan(method="aim", origin=toe, points=[tip], ref=f"bvh:{toe}",
-                            rest_vectors=[list(tip_vec)])))
-    # ----------------------------------------------------------------- mass scaling
-    target = total_mass if total_mass is not None else profile.total_mass
-    if target is not None:
+                        rest_vectors=[list(front - q[an])])))
+        return rf, sole
+
+    def _add_toe(self, side: str, shin_bone: FloatArray, knee_axis: FloatArray, foot_frame: FloatArray,
+                 sole: float) -> None:
+        """The toe: a box from the toe joint to the toe tip whose sole continues the foot's
+        (``foot_frame`` and ``sole`` from :meth:`_add_foot`), levelled on the toe's own flat frames."""
+        leg = self.hm.legs[side]
+        th, kn, an, toe = leg["thigh"], leg["knee"], leg["ankle"], leg["toe"]
+        assert th and kn and an and toe
+        q, g = self.q, self.geometry
+        tip = self.rest.tip(toe)
+        tip_vec = q[tip] - q[toe]
+        if np.linalg.norm(tip_vec) < MIN_BONE_M:
+            # no toe bone to measure: the toe's sole continues the foot's
+            tip_vec = np.array([0.03, 0.0, 0.0])
+            rt = foot_frame
+        else:
+            rt = _flat_frame(self.moving, toe, [toe, tip], tip_vec, (th, kn, an), knee_axis)
+        # the sole's depth below the toe joint (foot frame), carried into the toe's frame
+        sole_t = sole - (foot_frame.T @ (q[toe] - q[an]))[2]
+        tip_t = rt.T @ (q[tip] - q[toe])
+        x2 = max(tip_t[0], 0.03)
+        ttop = max(0.01, sole_t + 0.03)
+        half = [x2 / 2, g.foot_width / 2, (ttop - sole_t) / 2]
+        centre = np.array([x2 / 2, 0.0, (ttop + sole_t) / 2])
+        geom, site = _sole_box(f"{side}_toe", half, centre, sole_t, rt, self.profile.masses["toe"])
+        self.bodies.append(BodyPlan(
+            name=f"{side}_toe", parent=f"{side}_foot", pos=list(q[toe]), source=toe, segment="toe",
+            is_foot=True,
+            joints=self._group_hinges(f"{side}_toe", "toe", shin_bone, side == "right"),
+            geoms=[geom], sites=[site],
+            fit=FitPlan(method="aim", origin=toe, points=[tip], ref=f"bvh:{toe}",
+                        rest_vectors=[list(tip_vec)])))
+
+    # ----------------------------------------------------------------- whole body
+    def scale_masses(self, target: float | None) -> None:
+        """Scale every geom's mass so the body weighs ``target`` (kg); nothing for None."""
+        if target is None:
+            return
         if not target > 0:
             raise ModelError(f"total mass must be > 0 kg, got {target}")
-        built = sum(gm.mass for b in bodies for gm in b.geoms)
-        for b in bodies:
+        built = sum(gm.mass for b in self.bodies for gm in b.geoms)
+        for b in self.bodies:
             for gm in b.geoms:
                 gm.mass *= target / built
-    # stand the zero pose on the floor
-    lift = -min(b.pos[2] + gm.pos[2] - float(np.abs(_matrix(gm.quat)[2]) @ gm.size)
-                for b in bodies for gm in b.geoms if gm.kind == "box")
-    for b in bodies:
-        b.pos[2] += lift
-    for b in bodies:
-        b.pos = [float(v) for v in b.pos]
-        if b.fit:
-            b.fit.rest_vectors = [[float(x) for x in v] for v in b.fit.rest_vectors]
-    from dataclasses import asdict
 
-    return BodyPlanSet(name=name, profile="humanoid", bodies=bodies, heading_yaw=yaw,
-                       source_names=list(sk.names), sim=asdict(profile.sim),
-                       extra={"markers": markers, "roles": asdict(hm), "rest_lift": lift})
+    def stand_on_floor(self) -> float:
+        """Lift the zero pose so the lowest foot box corner touches z = 0; returns the lift (m)."""
+        lift = -min(b.pos[2] + gm.pos[2] - float(np.abs(_matrix(gm.quat)[2]) @ gm.size)
+                    for b in self.bodies for gm in b.geoms if gm.kind == "box")
+        for b in self.bodies:
+            b.pos[2] += lift
+        return lift
+
+    def plan(self, name: str, lift: float) -> BodyPlanSet:
+        """The finished plan (positions and rest vectors as plain floats); ``lift`` (m) from
+        :meth:`stand_on_floor`."""
+        for b in self.bodies:
+            b.pos = [float(v) for v in b.pos]
+            if b.fit:
+                b.fit.rest_vectors = [[float(x) for x in v] for v in b.fit.rest_vectors]
+        return BodyPlanSet(name=name, profile="humanoid", bodies=self.bodies, heading_yaw=self.yaw,
+                           source_names=self.source_names, sim=asdict(self.profile.sim),
+                           extra={"markers": self.markers, "roles": asdict(self.hm), "rest_lift": lift})
+
+
+def _sole_box(prefix: str, half: list[float], centre: FloatArray, sole: float, frame: FloatArray,
+              mass: float) -> tuple[GeomPlan, SitePlan]:
+    """A foot segment's box geom (half sizes ``half`` and ``centre`` in m, sole frame ``frame``, body
+    coordinates) and its touch-sensor box, TOUCH_PAD_M wider each side, from TOUCH_MARGIN_M below the
+    sole height ``sole`` (m, sole frame) to twice that above it."""
+    touch_c = np.array([centre[0], 0.0, sole + TOUCH_MARGIN_M / 2])
+    geom = GeomPlan(kind="box", size=half, pos=list(frame @ centre), mass=mass, name=f"{prefix}_geom",
+                    quat=_quat(frame))
+    site = SitePlan(name=f"{prefix}_touch", pos=list(frame @ touch_c), kind="box", touch=True,
+                    size=[half[0] + TOUCH_PAD_M, half[1] + TOUCH_PAD_M, TOUCH_MARGIN_M * 1.5], quat=_quat(frame))
+    return geom, site

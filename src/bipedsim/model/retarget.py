@@ -18,6 +18,8 @@ quaternions. Velocities come from ``mj_differentiatePos`` (central differences o
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import mujoco
 import numpy as np
 import numpy.typing as npt
@@ -25,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip, contact_labels, debounce, foot_speeds, gait_events
-from bipedsim.model.plan import BodyPlanSet, model_hash, plan_from_model
+from bipedsim.model.plan import BodyPlanSet, FitPlan, model_hash, plan_from_model
 from bipedsim.model.source import SourcePoints, motion_points
 from bipedsim.motion.motion import Motion
 
@@ -130,33 +132,64 @@ def fit_orientations(plan: BodyPlanSet, pts: SourcePoints) -> dict[str, FloatArr
             ref = np.tile(np.eye(3), (n, 1, 1))
         o_cur = pts[f.origin]
         rv = np.asarray(f.rest_vectors, dtype=float)
-        if f.method == "ref":
-            g = ref.copy()
-        elif f.method == "kabsch":
-            cv = np.stack([pts[p] - o_cur for p in f.points], axis=1)
-            g = kabsch(rv, cv, ref, f.weights)
-        elif f.method in ("aim", "twobone"):
-            u0 = rv[0]
-            u = pts[f.points[0]] - o_cur
-            g = _min_rotation(np.einsum("tij,j->ti", ref, u0), u) @ ref
-            if f.method == "twobone":
-                assert f.hinge_axis is not None
-                g = _twobone_twist(g, u, pts[f.points[1]] - pts[f.points[0]], np.asarray(f.hinge_axis), rv[1],
-                                   f.hinge_range)
-        elif f.method == "hinge":
-            # rotate the parent's frame about the hinge until the bone points at the motion's point
-            assert f.hinge_axis is not None
-            a = _unit(np.einsum("tij,j->ti", ref, np.asarray(f.hinge_axis)))
-            s0 = np.einsum("tij,j->ti", ref, rv[0])
-            w = pts[f.points[0]] - o_cur
-            p0 = s0 - np.sum(s0 * a, axis=-1, keepdims=True) * a
-            p1 = w - np.sum(w * a, axis=-1, keepdims=True) * a
-            theta = np.arctan2(np.sum(a * np.cross(p0, p1), axis=-1), np.sum(p0 * p1, axis=-1))
-            g = Rotation.from_rotvec(a * theta[:, None]).as_matrix() @ ref
-        else:
+        method = _FIT_METHODS.get(f.method)
+        if method is None:
             raise ModelError(f"body {b.name!r}: unknown fit method {f.method!r}")
-        out[b.name] = g
+        out[b.name] = method(f, pts, ref, o_cur, rv)
     return out
+
+
+def _fit_ref(f: FitPlan, pts: SourcePoints, ref: FloatArray, o_cur: FloatArray, rv: FloatArray) -> FloatArray:
+    """``ref``: the reference rotation (T, 3, 3) itself."""
+    return ref.copy()
+
+
+def _fit_kabsch(f: FitPlan, pts: SourcePoints, ref: FloatArray, o_cur: FloatArray, rv: FloatArray) -> FloatArray:
+    """``kabsch``: the rotations (T, 3, 3) that best carry the rest vectors ``rv`` (N, 3; m) onto the
+    motion's vectors from the origin ``o_cur`` (T, 3; m) to ``f.points``."""
+    cv = np.stack([pts[p] - o_cur for p in f.points], axis=1)
+    return kabsch(rv, cv, ref, f.weights)
+
+
+def _fit_aim(f: FitPlan, pts: SourcePoints, ref: FloatArray, o_cur: FloatArray, rv: FloatArray) -> FloatArray:
+    """``aim``: ``ref`` (T, 3, 3) turned by the smallest rotation that makes the rest bone ``rv[0]``
+    point from the origin ``o_cur`` (T, 3; m) at ``f.points[0]``."""
+    u = pts[f.points[0]] - o_cur
+    return _min_rotation(np.einsum("tij,j->ti", ref, rv[0]), u) @ ref
+
+
+def _fit_twobone(f: FitPlan, pts: SourcePoints, ref: FloatArray, o_cur: FloatArray, rv: FloatArray) -> FloatArray:
+    """``twobone``: the ``aim`` at the middle joint ``f.points[0]``, twisted so the child's hinge
+    ``f.hinge_axis`` can reach the end joint ``f.points[1]`` (:func:`_twobone_twist`)."""
+    g = _fit_aim(f, pts, ref, o_cur, rv)
+    u = pts[f.points[0]] - o_cur
+    assert f.hinge_axis is not None
+    return _twobone_twist(g, u, pts[f.points[1]] - pts[f.points[0]], np.asarray(f.hinge_axis), rv[1], f.hinge_range)
+
+
+def _fit_hinge(f: FitPlan, pts: SourcePoints, ref: FloatArray, o_cur: FloatArray, rv: FloatArray) -> FloatArray:
+    """``hinge``: the parent's frame ``ref`` (T, 3, 3) rotated about the hinge ``f.hinge_axis`` until
+    the rest bone ``rv[0]`` points from the origin ``o_cur`` (T, 3; m) as near ``f.points[0]`` as the
+    hinge allows."""
+    assert f.hinge_axis is not None
+    a = _unit(np.einsum("tij,j->ti", ref, np.asarray(f.hinge_axis)))
+    s0 = np.einsum("tij,j->ti", ref, rv[0])
+    w = pts[f.points[0]] - o_cur
+    p0 = s0 - np.sum(s0 * a, axis=-1, keepdims=True) * a
+    p1 = w - np.sum(w * a, axis=-1, keepdims=True) * a
+    theta = np.arctan2(np.sum(a * np.cross(p0, p1), axis=-1), np.sum(p0 * p1, axis=-1))
+    return Rotation.from_rotvec(a * theta[:, None]).as_matrix() @ ref
+
+
+#: Fit methods by :attr:`FitPlan.method` name: (fit plan, source points, reference rotations (T, 3, 3),
+#: origin positions (T, 3; m), rest vectors (N, 3; m)) -> world rotations (T, 3, 3).
+_FIT_METHODS: dict[str, Callable[[FitPlan, SourcePoints, FloatArray, FloatArray, FloatArray], FloatArray]] = {
+    "ref": _fit_ref,
+    "kabsch": _fit_kabsch,
+    "aim": _fit_aim,
+    "twobone": _fit_twobone,
+    "hinge": _fit_hinge,
+}
 
 
 def _hinge_angles(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
@@ -202,10 +235,29 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
         raise ModelError("this motion's skeleton is not the one the model was built from "
                          f"({motion.num_joints} joints vs {len(plan.source_names)}); convert its BVH first")
     pts = motion_points(motion).turned(plan.heading_yaw)
-    g = fit_orientations(plan, pts)
-    t = motion.num_frames
-    qpos = np.zeros((t, model.nq))
-    names = {b.name: b for b in plan.bodies}
+    qpos = _pose_qpos(model, plan, pts, fit_orientations(plan, pts))
+    feet = plan.foot_bodies or [b.name for b in plan.bodies]
+    low, fpos = foot_heights(model, qpos, feet)
+    low, tilt, lift = _put_on_floor(qpos, low, fpos, motion.frame_time, contact_speed)
+    qvel = velocities(model, qpos, motion.frame_time)
+    side_feet = _foot_groups(plan, feet)
+    low_g = _group_min(low, feet, side_feet)
+    speed_g = _group_min(foot_speeds(fpos, motion.frame_time), feet, side_feet)
+    grouped = debounce(contact_labels(low_g, speed_g, contact_height, contact_speed), motion.frame_time)
+    return ReferenceClip(qpos=qpos, qvel=qvel, frame_time=motion.frame_time, contacts=grouped,
+                         foot_names=list(side_feet), foot_heights=low_g,
+                         events=gait_events(grouped, list(side_feet)),
+                         model_hash=model_hash(xml) if xml is not None else "",
+                         joint_names=[model.joint(i).name for i in range(model.njnt)], source=source,
+                         vertical_shift=lift, trimmed_frames=trimmed,
+                         floor_slope=(0.0, 0.0) if tilt is None else tilt)
+
+
+def _pose_qpos(model: mujoco.MjModel, plan: BodyPlanSet, pts: SourcePoints, g: dict[str, FloatArray]) -> FloatArray:
+    """(T, nq) joint positions for the bodies' world rotations ``g`` (T, 3, 3 each): the root's free
+    joint at the source root (m) and rotation, each other body's local rotation ``G_parent^T G_body``
+    as a ball quaternion or split into its hinge angles (rad)."""
+    qpos = np.zeros((pts.positions.shape[0], model.nq))
     for b in plan.bodies:
         if b.parent is None:
             qpos[:, 0:3] = pts[b.source]
@@ -223,11 +275,16 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
         for k, j in enumerate(b.joints):
             jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
             qpos[:, model.jnt_qposadr[jid]] = ang[:, k]
-    del names
-    # floor: level a tilted capture floor, then the lowest point any foot reaches touches z = 0
-    feet = plan.foot_bodies or [b.name for b in plan.bodies]
-    low, fpos = foot_heights(model, qpos, feet)
-    tilt = floor_tilt(low, fpos, motion.frame_time, contact_speed)
+    return qpos
+
+
+def _put_on_floor(qpos: FloatArray, low: FloatArray, fpos: FloatArray, dt: float,
+                  speed: float) -> tuple[FloatArray, tuple[float, float] | None, float]:
+    """Level a tilted capture floor (:func:`floor_tilt`), then lift so the lowest point any foot
+    reaches touches z = 0. Shifts the root height in ``qpos`` (T, nq) and the foot positions ``fpos``
+    (T, F, 3; m) in place; returns the feet's lowest points ``low`` (T, F; m) shifted alike, the floor
+    slope (or None) and the lift (m)."""
+    tilt = floor_tilt(low, fpos, dt, speed)
     if tilt is not None:
         dz = -(tilt[0] * qpos[:, 0] + tilt[1] * qpos[:, 1])
         qpos[:, 2] += dz
@@ -237,18 +294,7 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
     qpos[:, 2] += lift
     low = low + lift
     fpos[..., 2] += lift
-    qvel = velocities(model, qpos, motion.frame_time)
-    side_feet = _foot_groups(plan, feet)
-    low_g = _group_min(low, feet, side_feet)
-    speed_g = _group_min(foot_speeds(fpos, motion.frame_time), feet, side_feet)
-    grouped = debounce(contact_labels(low_g, speed_g, contact_height, contact_speed), motion.frame_time)
-    return ReferenceClip(qpos=qpos, qvel=qvel, frame_time=motion.frame_time, contacts=grouped,
-                         foot_names=list(side_feet), foot_heights=low_g,
-                         events=gait_events(grouped, list(side_feet)),
-                         model_hash=model_hash(xml) if xml is not None else "",
-                         joint_names=[model.joint(i).name for i in range(model.njnt)], source=source,
-                         vertical_shift=lift, trimmed_frames=trimmed,
-                         floor_slope=(0.0, 0.0) if tilt is None else tilt)
+    return low, tilt, lift
 
 
 #: Minimum stance samples and horizontal spread (m) for fitting the capture's floor plane.

@@ -240,7 +240,7 @@ def test_zero_length_bone_is_a_clear_error(walk_model) -> None:
 
 def test_mass_must_be_positive(walk_model) -> None:
     m, _ = walk_model
-    with pytest.raises(ModelError, match="total mass must be > 0"):
+    with pytest.raises(ModelError, match="total mass must be a finite number > 0"):
         build_model(m, total_mass=0.0)
     assert main(["convert", str(BUILTIN_WALK), "-o", "/dev/null", "--mass", "-3"]) == 2
 

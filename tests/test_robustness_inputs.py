@@ -22,9 +22,10 @@ def _write(tmp_path: Path, text: str) -> Path:
     "# nothing but a comment\n",
     "pd:\n  gains:\n    hip: {kp: 1000.0, kd: 100.0}\n",    # only the default's own hip gains
     "pd:\n  gains:\n    hip: {kp: 1000.0}\n",               # one value of one group
-    "balance:\n  sagittal: {cd: 0.65}\n",
+    "balance:\n  sagittal: {{cd: {cd}}}\n",                # the default's own sagittal c_d
 ])
 def test_partial_controller_file_is_the_default_controller(tmp_path: Path, text: str) -> None:
+    text = text.format(cd=ControllerConfig().balance.sagittal.cd) if "{cd}" in text else text
     assert load_controller(_write(tmp_path, text)) == ControllerConfig()
 
 

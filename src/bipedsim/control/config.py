@@ -150,7 +150,7 @@ class CourseConfig:
     deadband: float = field(default=0.5, metadata={"min": 0.0})  #: m
     rate_filter: float = field(default=0.5, metadata={"gt": 0.0})  #: s, time constant of e_dot's low-pass
     steer_gain: float = field(default=0.15, metadata={"min": 0.0})  #: rad of turn per m of offset
-    steer_damping: float = field(default=0.3, metadata={"min": 0.0})  #: rad of turn per m/s
+    steer_damping: float = field(default=0.6, metadata={"min": 0.0})  #: rad of turn per m/s
     max_turn: float = field(default=0.25, metadata={"min": 0.0, "max": 1.5})  #: rad
     placement_gain: float = field(default=0.0, metadata={"min": 0.0})  #: rad of swing hip per m
     placement_damping: float = field(default=0.0, metadata={"min": 0.0})  #: rad of swing hip per m/s

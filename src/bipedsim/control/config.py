@@ -131,8 +131,8 @@ class CourseConfig:
     """Heading and course control (not in the paper; the heading-frame steering of SIMBICON's and
     Coros et al.'s controllers, here on the reference's own path).
 
-    The course is the reference's centre of mass averaged over a gait cycle (no sway, any veer kept),
-    looped with the clip's per-cycle displacement and turn, laid at the start on the body's root and
+    The course is the reference's centre of mass averaged over the clip's loop (no sway, any veer kept),
+    repeated with the loop's displacement and turn, laid at the start on the body's root and
     heading (``reference.Course``). Each control step the COM is projected onto it: e is the lateral
     offset (m, positive left of the course), e_dot its rate (m/s, low-passed over ``rate_filter`` s).
     Outside a ``deadband`` (the offset beyond it, e_b = e - deadband sign(e); inside it the law is

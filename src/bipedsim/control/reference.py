@@ -34,13 +34,15 @@ MIN_CYCLE_TRAVEL = 0.05
 
 @dataclass(frozen=True)
 class Course:
-    """The reference's sway-free path over one looped cycle, reference world frame (m, rad).
+    """The reference's sway-free path over one loop of the clip, reference world frame (m, rad).
 
-    ``xy`` are course points, one per reference frame of the cycle (first to last inclusive): the
-    reference's centre of mass averaged over one gait cycle centred on that frame, which removes the
-    step-to-step sway and keeps any veer. ``heading`` is the pelvis heading averaged the same way
-    (unwrapped). ``cycle`` = (angle rad, tx m, ty m) is the rigid planar motion that carries the cycle's
-    start onto its end, p -> R(angle) p + t: the looped clip's k-th cycle is the course moved k times."""
+    The loop ("cycle" here) runs from a foot strike to a later strike of the same foot: one or more gait
+    cycles. ``xy`` are course points, one per reference frame of the loop (first to last inclusive): the
+    reference's centre of mass averaged over one loop centred on that frame, which removes the
+    step-to-step sway and keeps any veer (an arc of radius R is kept R theta^2 / 24 inside, theta the
+    loop's turn). ``heading`` is the pelvis heading averaged the same way (unwrapped). ``cycle`` =
+    (angle rad, tx m, ty m) is the rigid planar motion that carries the loop's start onto its end,
+    p -> R(angle) p + t: the looped clip's k-th loop is the course moved k times."""
 
     xy: tuple[tuple[float, float], ...]
     heading: tuple[float, ...]
@@ -59,10 +61,10 @@ def clip_course(com_xy: FloatArray, heading: FloatArray, root_xy: FloatArray, a:
     """The :class:`Course` of a clip looped over frames [a, b]: ``com_xy`` (n, 2) its centre of mass,
     ``heading`` (n,) its pelvis heading (rad, unwrapped), ``root_xy`` (n, 2) its root, world frame.
 
-    The loop's per-cycle motion is the root's from a to b (both strikes of one foot, the same phase);
-    frames half a cycle beyond either end are the loop's neighbouring cycles moved by it, so the
-    cycle average is centred on every frame. The average spans exactly one period (P + 1 samples with
-    half weights at the ends for an even P), which cancels every harmonic of a periodic sway."""
+    The loop's motion is the root's from a to b (both strikes of one foot, the same phase); frames half
+    a loop beyond either end are the neighbouring loops moved by it, so the average is centred on every
+    frame. It spans exactly one period P = b - a (P + 1 samples with half weights at the ends for an even
+    P), which cancels every harmonic of a sway periodic in the loop."""
     period = b - a
     if period < 2:
         raise ModelError(f"a looped cycle needs at least 2 frames, got {period}")
@@ -129,7 +131,8 @@ class CourseTracker:
     and returns the lateral offset (m, positive left of the course), its rate (m/s) and the course's
     heading there (rad, world)."""
 
-    #: segments searched per step at most (a step moves the body a few millimetres: one or two suffice)
+    #: segments searched per step at most (a step moves the body a few millimetres: one or two suffice;
+    #: a body moved further at once is caught up with over the next steps)
     MAX_SEARCH = 64
 
     def __init__(self, course: Course) -> None:

@@ -8,9 +8,9 @@ One call maps (model, data, time) to actuator controls (joint torques, N*m). Per
 3. PD tracking (eq. 1) of every hinge toward the reference, scaled by the fade factor.
 4. Balance (when enabled): course control turns the heading target toward the reference's own course
    (``balance.course``, :meth:`Controller._steer`); world-frame pelvis torque tau_torso toward it; the
-   swing hip tracks a world-frame
-   thigh target turned by the feedback theta_d0 + c_d d + c_v v (eq. 6) in the sagittal and coronal
-   planes; the stance hip takes the rest, redistributed by the feet's load (eq. 2-5).
+   swing hip tracks a world-frame thigh target turned by the feedback theta_d0 + c_d d + c_v v (eq. 6)
+   in the sagittal and coronal planes; the stance hip takes the rest, redistributed by the feet's load
+   (eq. 2-5).
 """
 
 from __future__ import annotations

@@ -165,7 +165,7 @@ class BalanceConfig:
 
     enabled: bool = True
     feedback: bool = True
-    #: sagittal c_d 0.55 rad/m: at 0.6 and above the built-in walk limps (a foot lands behind the COM, the
+    #: sagittal c_d 0.55 rad/m: at 0.6 and 0.65 the built-in walk limps (a foot lands behind the COM, the
     #: next far ahead) and crabs off its heading, 27 m off the line in 60 s at 0.65 (docs/controller.md)
     sagittal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.2))
     coronal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.3))

@@ -276,25 +276,52 @@ def test_describe_reads_back() -> None:
         assert Push.parse(p.describe()) == p
 
 
+def state_arrivals(scenario, after: float = 2.0, seconds: float = 4.0) -> dict[int, float]:
+    """The first time (s) at or after ``after`` s of the unpushed walk that the FSM is in each state
+    (a state-timed push at fraction 0 starts then): measured, so the tests below do not hang on the
+    gait's timing."""
+    from bipedsim.sim.recorder import Recorder
+
+    rec = Recorder(scenario.built.model, record_hz=500.0)
+    run_scenario(scenario, RolloutSpec(seconds=seconds), hooks=[rec])
+    tr = rec.trajectory({})
+    out: dict[int, float] = {}
+    for k in range(tr.num_samples):
+        s = int(tr.fsm_state[k])
+        if tr.time[k] >= after and s not in out:
+            out[s] = float(tr.time[k])
+    return out
+
+
 def test_phase_push_that_never_came_is_not_survived(scenario) -> None:
-    """Built-in walk: after 2 s, state 2 at half way does not come before 2.25 s, and state 1 at half
-    way comes at 2.18 s, so its 0.2 s push is cut short by the end: neither is a survived push."""
-    out, _ = run_scenario(scenario, RolloutSpec(seconds=2.25),
-                          pushes=[Push(magnitude=200, duration=0.2, state=2, fraction=0.5)])
+    """Built-in walk, pushes at the start of a state (after 2 s of walking): a run that ends before
+    the state comes never pushes, one that ends within the push cuts it short -- neither counts as a
+    survived push; one that ends after it is an ordinary no_fall."""
+    arrive = state_arrivals(scenario)
+    late = max(arrive, key=arrive.__getitem__)  # the last state to come after 2 s
+    assert arrive[late] - 0.01 >= 2.2
+    out, _ = run_scenario(scenario, RolloutSpec(seconds=arrive[late] - 0.01),
+                          pushes=[Push(magnitude=200, duration=0.2, state=late, fraction=0.0)])
     assert out.outcome == PUSH_NOT_APPLIED and out.fall_time_s is None
     assert "never started" in out.extra["pushes_not_applied"][0] and out.extra["push_start_s"] is None
-    out, _ = run_scenario(scenario, RolloutSpec(seconds=2.25),
-                          pushes=[Push(magnitude=200, duration=0.2, state=1, fraction=0.5)])
+    cut = max(2.2, arrive[late] + 0.1)
+    out, _ = run_scenario(scenario, RolloutSpec(seconds=cut),
+                          pushes=[Push(magnitude=200, duration=0.2, state=late, fraction=0.0)])
     assert out.outcome == PUSH_NOT_APPLIED and "cut short by the end of the run" in out.extra["pushes_not_applied"][0]
-    out, _ = run_scenario(scenario, RolloutSpec(seconds=2.25), pushes=[Push(magnitude=200, duration=0.2, state=4,
-                                                                              fraction=0.5)])
+    out, _ = run_scenario(scenario, RolloutSpec(seconds=arrive[late] + 0.5),
+                          pushes=[Push(magnitude=200, duration=0.2, state=late, fraction=0.0)])
     assert out.outcome == "no_fall" and "pushes_not_applied" not in out.extra
 
 
-def test_sweep_leaves_pushes_not_applied_out_of_survival(tmp_path: Path) -> None:
+def test_sweep_leaves_pushes_not_applied_out_of_survival(scenario, tmp_path: Path) -> None:
+    arrive = state_arrivals(scenario)
+    first, late = min(arrive, key=arrive.__getitem__), max(arrive, key=arrive.__getitem__)
+    seconds = round(arrive[late] - 0.01, 3)  # the first state's push fits, the last state never comes
+    assert arrive[first] + 0.2 < seconds
     spec = tmp_path / "late.yaml"
-    spec.write_text("name: late\nseconds: 2.25\nruns:\n  - {magnitude: 50, direction: 0, state: 4, fraction: 0.5}\n"
-                    "  - {magnitude: 50, direction: 90, state: 2, fraction: 0.5}\n")
+    spec.write_text(f"name: late\nseconds: {seconds}\nruns:\n"
+                    f"  - {{magnitude: 50, direction: 0, state: {first}, fraction: 0.0}}\n"
+                    f"  - {{magnitude: 50, direction: 90, state: {late}, fraction: 0.0}}\n")
     summary = run_sweep(load_experiment(spec), tmp_path / "out", progress=False)
     rows = rows_of(tmp_path / "out" / "results.csv")
     assert [r["outcome"] for r in rows] == ["no_fall", PUSH_NOT_APPLIED]

@@ -34,52 +34,12 @@ def _scale_arg(text: str) -> float | str:
 
 
 # ---------------------------------------------------------------------- info
-def info_dict(path: str, scale: float | str | None = None, up: str | None = None) -> dict[str, object]:
-    """Facts about a BVH file: joints, frames, timing, rotation orders, unit, up axis, root speed."""
-    from bipedsim.motion.bvh import read_bvh
-    from bipedsim.motion.conventions import horizontal_axes
-
-    motion, info = read_bvh(path, scale=scale, up=up)
-    m = motion.to_project_frame()
-    h = list(horizontal_axes(m.up))
-    root = m.root_translation[:, h]
-    path_len = float(np.linalg.norm(np.diff(root, axis=0), axis=1).sum()) if m.num_frames > 1 else 0.0
-    net = float(np.linalg.norm(root[-1] - root[0]))
-    d = info.to_dict()
-    d.update({
-        "duration_s": m.duration,
-        "joint_names": list(m.skeleton.names),
-        "root_path_m": path_len,
-        "root_displacement_m": net,
-        "root_speed_mps": path_len / m.duration if m.duration > 0 else 0.0,
-    })
-    return d
-
-
 def cmd_info(args: argparse.Namespace) -> int:
     from bipedsim.data import builtin_walk_path
+    from bipedsim.motion.describe import describe_bvh, format_description
 
-    path = args.file or str(builtin_walk_path())
-    d = info_dict(path, scale=args.scale, up=args.up)
-    if args.json:
-        print(json.dumps(d, indent=2))
-        return 0
-    orders = ", ".join(f"{k} x{v}" for k, v in d["rotation_orders"].items())  # type: ignore[union-attr]
-    six = d["position_channels"]
-    print(f"file        {d['path']}")
-    print(f"joints      {d['num_joints']}  (end sites: {d['end_sites']})")
-    print(f"frames      {d['num_frames']} at {d['fps']:.4g} fps (frame time {d['frame_time']:.6g} s), "
-          f"duration {d['duration_s']:.3f} s")
-    print(f"rotations   {orders}")
-    if six:
-        modes = ", ".join(f"{k}: {v}" for k, v in six.items())  # type: ignore[union-attr]
-        print(f"positions   {len(six)} joint(s) with position channels -- {modes}")
-    print(f"unit        {d['unit_name']} = {d['unit_scale']:.6g} m/unit ({d['unit_source']}: {d['unit_reason']})")
-    print(f"height      {d['height_m']:.3f} m ({'upright' if d['upright'] else 'not upright: largest extent'})")
-    print(f"up axis     {str(d['up']).upper()} ({d['up_source']}: {d['up_reason']})")
-    print(f"root        path {d['root_path_m']:.3f} m, net {d['root_displacement_m']:.3f} m, "
-          f"speed {d['root_speed_mps']:.3f} m/s")
-    print(f"text        line endings {d['line_endings']}, final newline {'yes' if d['final_newline'] else 'no'}")
+    d = describe_bvh(args.file or str(builtin_walk_path()), scale=args.scale, up=args.up)
+    print(json.dumps(d, indent=2) if args.json else format_description(d))
     return 0
 
 

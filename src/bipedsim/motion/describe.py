@@ -1,0 +1,60 @@
+"""What a BVH file holds, as ``bipedsim info`` reports it: joints, frames, timing, rotation orders, the
+unit and up axis (with where each came from), the root's travel and speed."""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import numpy as np
+
+from bipedsim.motion.bvh import read_bvh
+from bipedsim.motion.conventions import horizontal_axes
+
+
+def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
+                 up: str | None = None) -> dict[str, Any]:
+    """Facts about the BVH file at ``path``: what reading it found (:meth:`BVHInfo.to_dict`: joints,
+    frames, fps, rotation orders, position channels, unit, height, up axis, line endings) plus
+    ``duration_s`` (s), ``joint_names``, and the root's horizontal travel in the project frame:
+    ``root_path_m`` (m, along the path), ``root_displacement_m`` (m, first frame to last) and
+    ``root_speed_mps`` (m/s, path over duration). ``scale`` (metres per file unit or a unit name) and
+    ``up`` (``"y"`` or ``"z"``) override the guesses."""
+    motion, info = read_bvh(path, scale=scale, up=up)
+    m = motion.to_project_frame()
+    root = m.root_translation[:, list(horizontal_axes(m.up))]
+    path_len = float(np.linalg.norm(np.diff(root, axis=0), axis=1).sum()) if m.num_frames > 1 else 0.0
+    d = info.to_dict()
+    d.update({
+        "duration_s": m.duration,
+        "joint_names": list(m.skeleton.names),
+        "root_path_m": path_len,
+        "root_displacement_m": float(np.linalg.norm(root[-1] - root[0])),
+        "root_speed_mps": path_len / m.duration if m.duration > 0 else 0.0,
+    })
+    return d
+
+
+def format_description(d: dict[str, Any]) -> str:
+    """The text form of :func:`describe_bvh`'s dict: one labelled line per fact, no final newline."""
+    orders = ", ".join(f"{k} x{v}" for k, v in d["rotation_orders"].items())
+    six = d["position_channels"]
+    lines = [
+        f"file        {d['path']}",
+        f"joints      {d['num_joints']}  (end sites: {d['end_sites']})",
+        f"frames      {d['num_frames']} at {d['fps']:.4g} fps (frame time {d['frame_time']:.6g} s), "
+        f"duration {d['duration_s']:.3f} s",
+        f"rotations   {orders}",
+    ]
+    if six:
+        modes = ", ".join(f"{k}: {v}" for k, v in six.items())
+        lines.append(f"positions   {len(six)} joint(s) with position channels -- {modes}")
+    lines += [
+        f"unit        {d['unit_name']} = {d['unit_scale']:.6g} m/unit ({d['unit_source']}: {d['unit_reason']})",
+        f"height      {d['height_m']:.3f} m ({'upright' if d['upright'] else 'not upright: largest extent'})",
+        f"up axis     {str(d['up']).upper()} ({d['up_source']}: {d['up_reason']})",
+        f"root        path {d['root_path_m']:.3f} m, net {d['root_displacement_m']:.3f} m, "
+        f"speed {d['root_speed_mps']:.3f} m/s",
+        f"text        line endings {d['line_endings']}, final newline {'yes' if d['final_newline'] else 'no'}",
+    ]
+    return "\n".join(lines)

@@ -17,6 +17,7 @@ from dataclasses import replace
 
 import mujoco
 
+from bipedsim.control.simbicon import gait_source
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
 
@@ -28,7 +29,7 @@ def main() -> int:
     sc = load_scenario()
     model = sc.built.model
     n = int(round(args.seconds / model.opt.timestep))
-    src = sc.gait_source()
+    src = gait_source(sc.built.model, sc.built.plan, sc.clip, sc.cfg)
     f = int(src.start_frame())
 
     data = mujoco.MjData(model)

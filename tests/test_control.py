@@ -21,8 +21,9 @@ from bipedsim.control.balance import (
     world_to_hinges,
 )
 from bipedsim.control.config import ControllerConfig, load_controller
-from bipedsim.control.controller import Controller
 from bipedsim.control.fsm import GaitFSM
+from bipedsim.control.simbicon import SimbiconController as Controller
+from bipedsim.control.simbicon import gait_source
 from bipedsim.errors import ConfigError
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
@@ -113,7 +114,7 @@ def test_resync_moves_reference_the_right_way(scenario) -> None:
 
     cfg = replace(scenario.cfg, resync=replace(scenario.cfg.resync, enabled=True, gain=1.0, spread=0.0))
     model = scenario.built.model
-    src = scenario.gait_source()
+    src = gait_source(scenario.built.model, scenario.built.plan, scenario.clip, scenario.cfg)
     c = Controller(model, scenario.built.plan, src, cfg)
     try:
         data = mujoco.MjData(model)
@@ -257,7 +258,7 @@ def test_pose_gait_source_walks(tmp_path: Path) -> None:
 
 def test_hot_path_rotation_helpers_match_scipy() -> None:
     """The controller's float-only helpers: rotation vector, one- and two-hinge angles."""
-    from bipedsim.control.controller import _hinge_angles_small, _rotvec3
+    from bipedsim.control.simbicon import _hinge_angles_small, _rotvec3
 
     rng = np.random.default_rng(5)
     for r in Rotation.random(20, random_state=7):
@@ -341,7 +342,7 @@ def test_tempo_rate_drives_the_gait_clock(scenario, v_excess: float, minimum: fl
     tempo = TempoConfig(gain=2.0, deadband=0.1, min=minimum, max=1.5)
     cfg = replace(scenario.cfg, fsm=replace(scenario.cfg.fsm, tempo=tempo))
     model = scenario.built.model
-    src = scenario.gait_source()
+    src = gait_source(scenario.built.model, scenario.built.plan, scenario.clip, scenario.cfg)
     c = Controller(model, scenario.built.plan, src, cfg)
     try:
         data = mujoco.MjData(model)

@@ -1,6 +1,6 @@
 """Heading and course control (issue 24, case 7): the body walks where the reference walks.
 
-The law (``balance.course``, control/controller.py ``Controller._steer``): the COM's lateral offset e from
+The law (``balance.course``, control/simbicon.py ``SimbiconController._steer``): the COM's lateral offset e from
 the reference's own course (its cycle-averaged path, looped with the clip's per-cycle motion) turns the
 torso law's heading target, ``h_ref + clamp(-k_y e_b - k_v e_dot, +-max_turn)`` with e_b the offset beyond a
 deadband. These tests check the law at equation level, the course and the tracker on synthetic paths, and
@@ -22,8 +22,9 @@ from scipy.spatial.transform import Rotation
 from bipedsim.config import from_dict, to_dict
 from bipedsim.control.balance import beyond, course_turn
 from bipedsim.control.config import ControllerConfig, load_controller, merged
-from bipedsim.control.controller import Controller
 from bipedsim.control.reference import ClipSource, Course, CourseTracker, GaitSource, Hinges, clip_course
+from bipedsim.control.simbicon import SimbiconController as Controller
+from bipedsim.control.simbicon import gait_source
 from bipedsim.errors import ConfigError
 from bipedsim.sim.rollout import RolloutSpec, rollout
 from bipedsim.sim.runner import load_scenario, run_scenario
@@ -65,7 +66,7 @@ def test_deadband_passes_only_the_offset_beyond_it() -> None:
 
 def _controller(walk, over: dict | None = None) -> tuple[Controller, mujoco.MjData]:
     sc = walk
-    src = sc.gait_source()
+    src = gait_source(sc.built.model, sc.built.plan, sc.clip, sc.cfg)
     f0 = int(round(src.start_frame()))
     data = mujoco.MjData(sc.built.model)
     data.qpos[:] = sc.clip.qpos[f0]
@@ -225,7 +226,7 @@ def test_a_walk_in_place_has_no_offset() -> None:
 
 
 def test_builtin_walk_course_is_its_straight_line(walk) -> None:
-    src = walk.gait_source()
+    src = gait_source(walk.built.model, walk.built.plan, walk.clip, walk.cfg)
     co = src.course()
     xy = np.array(co.xy)
     assert co.cycle[0] == pytest.approx(0.0, abs=1e-9) and np.ptp(xy[:, 1]) < 1e-3
@@ -243,7 +244,7 @@ def _line_offset(sc, cfg: ControllerConfig, seconds: float) -> tuple[str, float,
         com.append(data.subtree_com[1, :2].copy())
 
     out, _ = run_scenario(sc, RolloutSpec(seconds=seconds), hooks=[hook])
-    _, tx, ty = sc.gait_source().course().cycle
+    _, tx, ty = gait_source(sc.built.model, sc.built.plan, sc.clip, sc.cfg).course().cycle
     n = np.array([-ty, tx]) / math.hypot(tx, ty)
     lat = (np.array(com) - com[0]) @ n
     return out.outcome, float(lat[-1]), float(np.abs(lat).max())
@@ -317,8 +318,8 @@ def _veer(walk, cfg: ControllerConfig, radius: float = 10.0, seconds: float = 20
         yaw.append(math.atan2(r[3], r[0]))
         com.append(data.subtree_com[1, :2].copy())
 
-    out, _ = rollout(m, plan, src, cfg, RolloutSpec(seconds=seconds, start_frame=float(f0)), initial_qpos=clip.qpos[f0],
-                     initial_qvel=clip.qvel[f0], hooks=[hook])
+    out, _ = rollout(m, plan, Controller(m, plan, src, cfg), RolloutSpec(seconds=seconds, start_frame=float(f0)),
+                     initial_qpos=clip.qpos[f0], initial_qvel=clip.qvel[f0], hooks=[hook])
     x, y = com[-1]
     return (out.outcome, math.degrees(np.unwrap(yaw)[-1] - yaw[0]), math.degrees(math.atan2(x, radius - y)),
             abs(radius - math.hypot(x, y - radius)))
@@ -335,7 +336,7 @@ def test_a_veering_reference_is_followed(walk) -> None:
 
 def test_pose_gait_course_is_straight_ahead() -> None:
     sc = load_scenario(Path(__file__).resolve().parent.parent / "controllers" / "pose_gait.yaml")
-    src = sc.gait_source()
+    src = gait_source(sc.built.model, sc.built.plan, sc.clip, sc.cfg)
     assert src.course() == GaitSource().course() and src.course_start(0.0) == ((0.0, 0.0, 0.0), 0)
 
 

@@ -349,17 +349,23 @@ def test_terminal_width_falls_back_when_unknown(monkeypatch) -> None:
 
 # ---------------------------------------------------------------------- 8. compact recording
 class FakeCtrl:
-    """What the recorder reads from a controller (a torque-less one: ctrl is recorded from data)."""
+    """What the recorder reads from a controller: the interface's read-outs only."""
 
-    def __init__(self, nq: int) -> None:
-        self.touch = {"left": [0], "right": [0]}
-        self.fsm = type("Fsm", (), {"state": 3})()
+    def __init__(self, nq: int, nu: int = 0) -> None:
         self.frame = 0.0
-        self.torque = None
-        self.nq = nq
+        self.nq, self.nu = nq, nu
 
     def reference_qpos(self) -> np.ndarray:
         return np.full(self.nq, self.frame)
+
+    def actuator_torques(self) -> np.ndarray:
+        return np.zeros(self.nu)
+
+    def foot_forces(self, data) -> list[float]:  # noqa: ANN001
+        return [float(data.sensordata[0])] * 2
+
+    def gait_state(self) -> int:
+        return 3
 
 
 TINY_XML = ('<mujoco><option timestep="0.002"/><worldbody><body><freejoint/><geom size=".1"/><site name="s"/>'

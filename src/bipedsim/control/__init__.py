@@ -1,16 +1,20 @@
-"""PD tracking, the four-state gait FSM, SIMBICON balance, fade and resynchronisation.
-
-``Controller(model, plan, source, config)`` maps (model, data, t) to joint torques. Sources:
-:class:`ClipSource` (a reference clip, looped at gait events) and :class:`PoseSource` (SIMBICON key
-poses). This package never parses files except through :func:`load_controller`.
+"""Controllers behind one interface (:class:`~bipedsim.control.base.Controller`), one per body kind,
+found by profile in :data:`CONTROLLERS`: the humanoid's :class:`SimbiconController` (PD tracking, the
+four-state gait FSM, SIMBICON balance, fade, resynchronisation, course control; gait sources
+:class:`ClipSource` and :class:`PoseSource`) and the creature's :class:`CreatureController` (PD
+tracking on ball joints, optional root support). This package never parses files except through
+:func:`load_controller`.
 """
 
 from __future__ import annotations
 
+from bipedsim.control.base import CONTROLLERS, Controller
 from bipedsim.control.config import ControllerConfig, load_controller
-from bipedsim.control.controller import Controller
+from bipedsim.control.creature import CreatureControlConfig, CreatureController
 from bipedsim.control.fsm import GaitFSM
 from bipedsim.control.reference import ClipSource, GaitSource, Hinges, PoseSource
+from bipedsim.control.simbicon import SimbiconController
 
-__all__ = ["ClipSource", "Controller", "ControllerConfig", "GaitFSM", "GaitSource", "Hinges", "PoseSource",
+__all__ = ["CONTROLLERS", "ClipSource", "Controller", "ControllerConfig", "CreatureControlConfig",
+           "CreatureController", "GaitFSM", "GaitSource", "Hinges", "PoseSource", "SimbiconController",
            "load_controller"]

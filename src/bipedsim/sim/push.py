@@ -23,11 +23,15 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from bipedsim.control.base import Controller
 from bipedsim.errors import ConfigError
 from bipedsim.sim.rollout import MAX_ROLLOUT_S
 
 #: Seconds of walking before a phase-timed push may start (the gait settles first).
 DEFAULT_AFTER_S = 2.0
+#: The body a push acts on unless it names another: the humanoid's torso; a body without a torso
+#: (a creature) is pushed at its root body, where its trunk is.
+DEFAULT_PUSH_BODY = "torso"
 #: Largest push force (N, horizontal or vertical) accepted: 100 kN is ~170 g on a 60 kg body, far past
 #: any fall (the 2000 N of the push grid's top already topples it); beyond it a value is a typo.
 MAX_PUSH_N = 100_000.0
@@ -46,7 +50,8 @@ class Push:
     fraction: float = 0.5  #: of the state's nominal duration
     after: float = DEFAULT_AFTER_S  #: earliest time (s) for a phase-timed push
     vertical: float = 0.0  #: N, up positive
-    body: str = "torso"
+    #: the body pushed; the default, the torso, is the root body on a body without one (a creature)
+    body: str = DEFAULT_PUSH_BODY
 
     def validate(self) -> None:
         """Each value on its own (the run length is :func:`check_pushes`'s); ``ValueError`` naming the key."""
@@ -184,28 +189,35 @@ class PushSchedule:
     def __post_init__(self) -> None:
         names = {self.model.body(i).name for i in range(self.model.nbody)}
         for p in self.pushes:
-            if p.body not in names:
+            if p.body not in names and p.body != DEFAULT_PUSH_BODY:
                 raise ConfigError(f"unknown body {p.body!r}; bodies are {', '.join(sorted(names - {'world'}))}",
                                   key="push.body")
         self.pending = list(self.pushes)
 
-    def _due(self, p: Push, t: float, ctrl) -> bool:  # noqa: ANN001
+    def check_controller(self, ctrl: Controller) -> None:
+        """Every phase-timed push names a gait state this body's controller has."""
+        for p in self.pushes:
+            if p.state is not None and ctrl.state_duration(p.state) is None:
+                raise ConfigError(f"push {p.describe()} is timed by gait state {p.state}, but this body's controller "
+                                  "has no gait states; give a start time in seconds", key="push.state")
+
+    def _due(self, p: Push, t: float, ctrl: Controller) -> bool:
         if p.start is not None:
             return t >= p.start
-        if t < p.after or ctrl.fsm.state != p.state:
+        if t < p.after or ctrl.gait_state() != p.state:
             return False
-        nominal = ctrl.fsm.state1_time if p.state in (1, 3) else max(ctrl.source.step_time() - ctrl.fsm.state1_time,
-                                                                       0.05)
-        return ctrl.fsm.time_in_state >= p.fraction * nominal
+        return ctrl.time_in_state() >= p.fraction * (ctrl.state_duration(p.state) or 0.0)
 
-    def __call__(self, t: float, data: mujoco.MjData, ctrl) -> None:  # noqa: ANN001
+    def _body(self, p: Push, ctrl: Controller) -> int:
+        i = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, p.body)
+        return i if i >= 0 else ctrl.root_body
+
+    def __call__(self, t: float, data: mujoco.MjData, ctrl: Controller) -> None:
         for p in list(self.pending):
             if self._due(p, t, ctrl):
-                r = data.xmat[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "pelvis")].reshape(3, 3)
-                heading = math.atan2(r[1, 0], r[0, 0])
-                a = heading + math.radians(p.direction)
+                a = ctrl.heading(data) + math.radians(p.direction)
                 force = np.array([p.magnitude * math.cos(a), p.magnitude * math.sin(a), p.vertical])
-                self.fired.append(_Active(p, self.model.body(p.body).id, force, t, t + p.duration))
+                self.fired.append(_Active(p, self._body(p, ctrl), force, t, t + p.duration))
                 self.pending.remove(p)
         data.xfrc_applied[:] = 0.0
         active = False

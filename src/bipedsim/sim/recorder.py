@@ -24,6 +24,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from bipedsim.control.base import Controller
 from bipedsim.errors import BipedsimError, ConfigError
 
 FloatArray = npt.NDArray[np.floating]
@@ -66,7 +67,7 @@ class Trajectory:
     qpos: FloatArray
     qvel: FloatArray
     ctrl: FloatArray
-    contact_force: FloatArray  # (T, 2) left, right
+    contact_force: FloatArray  # (T, feet) N, in the controller's foot_names order (humanoid: left, right)
     fsm_state: npt.NDArray[np.integer]
     ref_frame: FloatArray
     ref_qpos: FloatArray
@@ -133,7 +134,7 @@ class Recorder:
     """
 
     def __init__(self, model: mujoco.MjModel, record_hz: float = 120.0, seconds: float | None = None,
-                 key: str = "record_hz") -> None:
+                 key: str = "record_hz", feet: int = 2) -> None:
         # one sample per physics step at most: the recorder runs between steps
         max_hz = 1.0 / model.opt.timestep
         if not MIN_RECORD_HZ <= record_hz <= max_hz:  # also NaN
@@ -143,7 +144,7 @@ class Recorder:
         self.every = 1.0 / record_hz
         self.next_t = 0.0
         self._layout: dict[str, tuple[int, ...]] = {
-            "time": (), "qpos": (model.nq,), "qvel": (model.nv,), "ctrl": (model.nu,), "contact_force": (2,),
+            "time": (), "qpos": (model.nq,), "qvel": (model.nv,), "ctrl": (model.nu,), "contact_force": (feet,),
             "fsm_state": (), "ref_frame": (), "ref_qpos": (model.nq,), "xfrc": (model.nbody, 3), "com": (3,)}
         self._blocks: list[dict[str, np.ndarray]] = []
         self._used: list[int] = []  # samples written per block
@@ -161,7 +162,7 @@ class Recorder:
         self._blocks.append({k: np.zeros((n, *shape), dtype=SAMPLE_DTYPES[k]) for k, shape in self._layout.items()})
         self._used.append(0)
 
-    def __call__(self, t: float, data: mujoco.MjData, ctrl: Any) -> None:
+    def __call__(self, t: float, data: mujoco.MjData, ctrl: Controller) -> None:
         if t + 1e-9 < self.next_t:
             return
         self.next_t += self.every
@@ -171,13 +172,9 @@ class Recorder:
         b["time"][i] = t
         b["qpos"][i] = data.qpos
         b["qvel"][i] = data.qvel
-        tau = getattr(ctrl, "torque", None)
-        if tau is None:
-            b["ctrl"][i] = data.ctrl
-        else:  # torques per actuator (data.ctrl holds servo targets for servo joints)
-            b["ctrl"][i, ctrl.h.actuator] = tau
-        b["contact_force"][i] = [sum(float(data.sensordata[a]) for a in ctrl.touch[s]) for s in ("left", "right")]
-        b["fsm_state"][i] = ctrl.fsm.state
+        b["ctrl"][i] = ctrl.actuator_torques()
+        b["contact_force"][i] = ctrl.foot_forces(data)
+        b["fsm_state"][i] = ctrl.gait_state()
         b["ref_frame"][i] = ctrl.frame
         b["ref_qpos"][i] = ctrl.reference_qpos()
         b["xfrc"][i] = data.xfrc_applied[:, :3]

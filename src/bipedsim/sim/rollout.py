@@ -1,7 +1,9 @@
-"""The rollout loop: controller + physics + fall detection + metrics -> :class:`Outcome`.
+"""The rollout loop, the one for every body: controller + physics + fall detection + metrics ->
+:class:`Outcome`.
 
-``sim/`` never knows where a clip came from: it takes a model, its body plan, a gait source and a
-controller configuration.
+``sim/`` never knows where a clip came from or which controller runs: it takes a model, its body plan
+and a :class:`~bipedsim.control.base.Controller`, and its hooks (pushes, the recorder) use only that
+interface.
 """
 
 from __future__ import annotations
@@ -16,9 +18,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.config import ControllerConfig
-from bipedsim.control.controller import Controller
-from bipedsim.control.reference import GaitSource
+from bipedsim.control.base import Controller
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
 
 FloatArray = npt.NDArray[np.float64]
@@ -36,8 +36,10 @@ class FallCriteria:
     """When the character has fallen (any criterion, checked every ``check_every`` s).
 
     ``non_foot_contact``: a body other than the feet (and the ``allowed`` bodies) touches the floor.
-    ``pelvis_height_fraction``: pelvis below this fraction of its height at the start.
-    ``torso_tilt``: the torso's up axis more than this many rad from vertical.
+    ``pelvis_height_fraction``: the root body (pelvis) below this fraction of its height at the start.
+    ``torso_tilt``: the torso (a body without one: the root) tilted more than this many rad -- from
+    vertical (``tilt_from: world``, an upright body) or from the reference's own root orientation at
+    that moment (``reference``: a creature whose root frame is not upright, a dog lying along X).
     """
 
     non_foot_contact: bool = True
@@ -45,6 +47,20 @@ class FallCriteria:
     pelvis_height_fraction: float = 0.55
     torso_tilt: float = 1.0
     check_every: float = 0.01
+    tilt_from: str = "world"
+
+    @staticmethod
+    def for_body(profile: str, support: bool = False) -> FallCriteria:
+        """The default criteria of a body kind: the humanoid's above; a creature falls when its root
+        drops below 0.4 of its height or tilts 1.4 rad from the reference's root (its belly or knees may
+        touch the ground: a lying dog has not fallen); a supported creature (held by an external
+        wrench) is never judged fallen."""
+        if profile != "creature":
+            return FallCriteria()
+        if support:
+            return FallCriteria(non_foot_contact=False, pelvis_height_fraction=0.0, torso_tilt=math.pi)
+        return FallCriteria(non_foot_contact=False, pelvis_height_fraction=0.4, torso_tilt=1.4,
+                            tilt_from="reference")
 
 
 @dataclass
@@ -76,7 +92,8 @@ class Outcome:
 
 
 class FallDetector:
-    def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, crit: FallCriteria, data: mujoco.MjData) -> None:
+    def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, crit: FallCriteria, data: mujoco.MjData,
+                 root: int = 1) -> None:
         self.crit = crit
         self.floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, FLOOR_NAME)
         ok_bodies = {model.body(b).id for b in (*plan.foot_bodies, *crit.allowed)}
@@ -84,15 +101,15 @@ class FallDetector:
         #: over a walking body's few contacts beats numpy's per-call cost)
         self._bad_geoms = {g for g in range(model.ngeom)
                            if model.geom_bodyid[g] not in ok_bodies and model.geom_bodyid[g] != 0}
-        self.pelvis = model.body("pelvis").id
-        self.torso = model.body("torso").id if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso") >= 0 \
-            else self.pelvis
+        self.pelvis = root
+        torso = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso")
+        self.torso = torso if torso >= 0 else root
         self.h0 = float(data.xpos[self.pelvis][2])
         self.min_height = crit.pelvis_height_fraction * self.h0
         self.min_up = float(np.cos(crit.torso_tilt))
         self.model = model
 
-    def check(self, data: mujoco.MjData) -> str | None:
+    def check(self, data: mujoco.MjData, ctrl: Controller | None = None) -> str | None:
         """The reason the character has fallen, or None (this runs every few ms: a walking body has a
         handful of contacts, so a plain loop over them beats numpy's per-call cost)."""
         c = self.crit
@@ -103,10 +120,22 @@ class FallDetector:
                     other = g2 if g1 == floor else g1
                     return f"{self.model.body(self.model.geom_bodyid[other]).name} touched the ground"
         if data.xpos[self.pelvis, 2] < self.min_height:
-            return f"pelvis below {c.pelvis_height_fraction:.2f} of its starting height"
-        if data.xmat[self.torso, 8] < self.min_up:  # the torso's up axis, z component
+            return f"{self.model.body(self.pelvis).name} below {c.pelvis_height_fraction:.2f} of its starting height"
+        if c.tilt_from == "reference" and ctrl is not None:
+            if self._up_from_reference(data, ctrl) < self.min_up:
+                return f"root tilted more than {c.torso_tilt:.2f} rad from the reference's root"
+        elif data.xmat[self.torso, 8] < self.min_up:  # the torso's up axis, z component
             return f"torso tilted more than {c.torso_tilt:.2f} rad"
         return None
+
+    def _up_from_reference(self, data: mujoco.MjData, ctrl: Controller) -> float:
+        """cos of the angle between world up and where the body's frame now carries the direction
+        that was world up in the reference's root frame (yaw does not count)."""
+        ref = np.zeros(9)
+        mujoco.mju_quat2Mat(ref, ctrl.reference_qpos()[3:7])
+        v = ref.reshape(3, 3)[2]  # world z in the reference root's frame: R_ref^T z
+        r = data.xmat[self.pelvis].reshape(3, 3)
+        return float(r[2].dot(v))  # z-component of R v
 
 
 _INSTABILITY = (mujoco.mjtWarning.mjWARN_BADQACC, mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
@@ -223,7 +252,8 @@ class RolloutSpec:
     #: standard deviation (rad/s, m/s) of noise added to the initial velocities, drawn from ``seed``
     init_noise: float = 0.0
     control_dt: float | None = None
-    fall: FallCriteria = field(default_factory=FallCriteria)
+    #: ``None``: the body kind's default (:meth:`FallCriteria.for_body`)
+    fall: FallCriteria | None = None
     start_frame: float | None = None
 
 
@@ -231,14 +261,15 @@ class RolloutSpec:
 Hook = Callable[[float, mujoco.MjData, Controller], None]
 
 
-def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: ControllerConfig,
+def rollout(model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller,
             spec: RolloutSpec, *, initial_qpos: FloatArray | None = None, initial_qvel: FloatArray | None = None,
             hooks: list[Hook] | None = None, before_step: list[Hook] | None = None,
             progress: Callable[[float], None] | None = None, pushes: list[Any] | None = None,
             nominal_com: tuple[FloatArray, FloatArray] | None = None,
             record_com: bool = False) -> tuple[Outcome, Controller]:
-    """Run one rollout. The model's state starts at ``initial_qpos``/``initial_qvel`` (the reference's
-    pose at its loop start when given by the caller). Returns the outcome and the controller."""
+    """Run one rollout of any body under ``ctrl``. The model's state starts at ``initial_qpos``/
+    ``initial_qvel`` (the reference's pose at its start when given by the caller). Returns the outcome
+    and the controller."""
     t0 = time.perf_counter()
     data = mujoco.MjData(model)
     if initial_qpos is not None:
@@ -246,15 +277,15 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
     if initial_qvel is not None:
         data.qvel[:] = initial_qvel
     mujoco.mj_forward(model, data)
-    ctrl = Controller(model, plan, source, cfg)
     mj_warnings = MujocoWarnings().start()
     try:
         ctrl.reset(data, spec.start_frame)
-        falls = FallDetector(model, plan, spec.fall, data)
+        fall = spec.fall or FallCriteria.for_body(plan.profile)
+        falls = FallDetector(model, plan, fall, data, root=ctrl.root_body)
         dt = model.opt.timestep
-        cdt = spec.control_dt or cfg.control_dt or dt
+        cdt = spec.control_dt or ctrl.control_dt or dt
         every = max(1, int(round(cdt / dt)))
-        check_every = max(1, int(round(spec.fall.check_every / dt)))
+        check_every = max(1, int(round(fall.check_every / dt)))
         n_steps = int(round(spec.seconds / dt))
         start_xy = data.qpos[0:2].copy()
         err2, n_err = 0.0, 0
@@ -267,6 +298,7 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
             from bipedsim.sim.push import PushSchedule
 
             schedule = PushSchedule(model, list(pushes))
+            schedule.check_controller(ctrl)
             before_step.insert(0, schedule)
         # per control period: time (s), RMS tracking error (rad), COM xy (m); preallocated, not lists of
         # floats and small arrays that cost ~10x the memory on long runs
@@ -307,7 +339,7 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
                 if bad:
                     outcome, fall_t, reason = "diverged", step * dt, mj_warnings.reason(bad)
                     break
-                why = falls.check(data)
+                why = falls.check(data, ctrl)
                 if why:
                     outcome, fall_t, reason = "fall", step * dt, why
                     break
@@ -317,12 +349,13 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
         step = max(step - 1, 0)  # index of the last physics step taken
         sim_s = (step + 1) * dt
         dist = float(np.linalg.norm(data.qpos[0:2] - start_xy)) if outcome != "diverged" else 0.0
-        ratios = [r.ratio for r in ctrl.resyncs]
-        extra: dict[str, Any] = {}
+        metrics = ctrl.metrics()
+        strikes = ctrl.foot_strikes()
+        extra: dict[str, Any] = {k: v for k, v in metrics.items() if k not in ("resyncs", "mean_resync_ratio")}
         series_t, series_err, series_com = series_t[:n_series], series_err[:n_series], series_com[:n_series]
         if schedule is not None:
-            extra = recovery_metrics(schedule, series_t, series_err, series_com, [s[0] for s in ctrl.fsm.strikes],
-                                     spec, nominal_com)
+            extra.update(recovery_metrics(schedule, series_t, series_err, series_com, [s[0] for s in strikes],
+                                          spec, nominal_com))
             # only a run that reached its end: a fall or divergence is one, pushed in full or not
             missed = not_applied(schedule, sim_s, dt) if outcome == "no_fall" else []
             if missed:
@@ -331,12 +364,13 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: C
         if record_com:
             extra["com_series"] = (series_t.copy(), series_com.copy())
         result = Outcome(outcome=outcome, sim_seconds=sim_s, fall_time_s=fall_t, fall_reason=reason,
-                         foot_strikes=len(ctrl.fsm.strikes), distance_m=dist,
+                         foot_strikes=len(strikes), distance_m=dist,
                          mean_speed_mps=dist / sim_s if sim_s > 0 else 0.0,
-                         reference_speed_mps=source.speed(),
+                         reference_speed_mps=ctrl.reference_speed(),
                          tracking_rmse_rad=float(np.sqrt(err2 / max(n_err, 1))),
-                         wall_seconds=time.perf_counter() - t0, steps=step + 1, resyncs=len(ratios),
-                         mean_resync_ratio=float(np.mean(ratios)) if ratios else None, seed=spec.seed,
+                         wall_seconds=time.perf_counter() - t0, steps=step + 1,
+                         resyncs=int(metrics.get("resyncs", 0)), mean_resync_ratio=metrics.get("mean_resync_ratio"),
+                         seed=spec.seed,
                          extra=extra)
         return result, ctrl
     finally:

@@ -4,27 +4,32 @@ profile. Used by ``bipedsim run``, sweeps and regression suites."""
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from bipedsim.config import to_dict
+from bipedsim.control import CONTROLLERS, Controller, CreatureControlConfig
 from bipedsim.control.config import ControllerConfig, load_controller
-from bipedsim.control.reference import ClipSource, GaitSource, Hinges, PoseSource
+from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import check_pushes
-from bipedsim.sim.rollout import Outcome, RolloutSpec, rollout
+from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout
+
+
+#: body kinds a scenario can be built as (``--profile``)
+PROFILES = ("humanoid", "creature")
 
 
 @dataclass
 class Scenario:
-    """Everything one rollout needs."""
+    """Everything one rollout needs: a built body, its reference clip and its controller's settings
+    (``cfg`` for the humanoid's SIMBICON controller, ``creature_cfg`` for a creature's)."""
 
     built: BuiltModel
     clip: ReferenceClip
@@ -34,20 +39,43 @@ class Scenario:
     motion: Any = None  #: the source motion, project frame
     bvh_info: Any = None  #: what reading the source BVH found (unit, up axis)
     extra: dict[str, Any] = field(default_factory=dict)
+    creature_cfg: CreatureControlConfig = field(default_factory=CreatureControlConfig)
 
-    def gait_source(self) -> GaitSource:
-        h = Hinges.of(self.built.model, self.built.plan)
-        if self.cfg.source == "pose":
-            return PoseSource(self.cfg.pose_gait, h)
-        return ClipSource(self.clip, self.built.model, self.built.plan, h)
+    @property
+    def profile(self) -> str:
+        return self.built.plan.profile
+
+    def controller(self) -> Controller:
+        """A fresh controller for this body, from the registry of controllers by body kind."""
+        cfg = self.creature_cfg if self.profile == "creature" else self.cfg
+        return CONTROLLERS[self.profile](self.built.model, self.built.plan, self.clip, cfg)
+
+    def fall_criteria(self) -> FallCriteria:
+        return FallCriteria.for_body(self.profile, support=self.creature_cfg.support)
+
+    def controller_config(self) -> dict[str, Any]:
+        """The controller's settings as recorded with an outcome."""
+        return to_dict(self.creature_cfg) if self.profile == "creature" else to_dict(self.cfg)
 
 
 def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.PathLike[str] | None = None, *,
-                  scale: float | str | None = None, up: str | None = None, mass: float | None = None) -> Scenario:
-    """The built-in humanoid and walk, or a body built from ``bvh`` and its motion retargeted onto it."""
+                  scale: float | str | None = None, up: str | None = None, mass: float | None = None,
+                  profile: str = "humanoid", support: bool = False) -> Scenario:
+    """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
+    retargeted onto it. A controller YAML configures the humanoid's controller; ``support`` (root
+    support) is a creature's."""
     from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
     from bipedsim.motion.bvh import read_bvh
 
+    if profile not in PROFILES:
+        raise ConfigError(f"unknown body profile {profile!r}; profiles: {', '.join(PROFILES)}", key="profile")
+    if profile == "creature" and config is not None:
+        raise ConfigError("a controller YAML configures the humanoid's balance controller; a creature is "
+                          "tracked by its own (give --support for root support)", key="config")
+    if profile != "creature" and support:
+        raise ConfigError("root support holds a creature's root; it needs the creature profile", key="support")
+    if profile == "creature" and bvh is None:
+        raise ConfigError("the creature profile needs a motion: give a BVH (--bvh FILE)", key="profile")
     cfg = load_controller(config)
     if bvh is None:
         raw, info = read_bvh(BUILTIN_WALK)
@@ -59,30 +87,30 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
     else:
         raw, info = read_bvh(bvh, scale=scale, up=up)
         motion = raw.to_project_frame()
-        built = build_model(motion, "humanoid", total_mass=mass, name=Path(bvh).stem)
+        built = build_model(motion, profile, total_mass=mass, name=Path(bvh).stem)
         src = str(bvh)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src)
     return Scenario(built=built, clip=clip, cfg=cfg, source_path=src,
-                    config_path=None if config is None else str(config), motion=motion, bvh_info=info)
+                    config_path=None if config is None else str(config), motion=motion, bvh_info=info,
+                    creature_cfg=CreatureControlConfig(support=support))
 
 
 def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, before_step: list | None = None,
-                 progress: Any = None, pushes: list | None = None) -> tuple[Outcome, Any]:
-    """Run one rollout from the gait source's loop start (the reference pose and velocity there).
+                 progress: Any = None, pushes: list | None = None) -> tuple[Outcome, Controller]:
+    """Run one rollout of any body from its controller's start frame (the reference pose and velocity
+    there).
 
     The run length and the pushes are checked first (:func:`~bipedsim.sim.push.check_pushes`: every
     rollout, from ``bipedsim run``, a sweep or a suite, goes through here); errors name the command
     line's ``--seconds`` and ``--push`` (sweeps and suites check their files, with file and key, when
     they load them)."""
     check_pushes(list(pushes or []), spec.seconds)
-    source = sc.gait_source()
-    frame = int(round(source.start_frame())) if isinstance(source, ClipSource) else 0
-    if spec.start_frame is None and isinstance(source, ClipSource):
-        from dataclasses import replace
-
-        spec = replace(spec, start_frame=float(frame))
+    ctrl = sc.controller()
+    frame = ctrl.start_frame()
+    spec = replace(spec, start_frame=float(frame) if spec.start_frame is None and ctrl.starts_moving
+                   else spec.start_frame, fall=spec.fall or sc.fall_criteria())
     qpos0 = sc.clip.qpos[frame].copy()
-    qvel0 = sc.clip.qvel[frame].copy() if isinstance(source, ClipSource) else np.zeros(sc.built.model.nv)
+    qvel0 = sc.clip.qvel[frame].copy() if ctrl.starts_moving else np.zeros(sc.built.model.nv)
     if spec.seed and spec.init_noise > 0:
         rng = np.random.default_rng(spec.seed)
         qvel0 = qvel0 + rng.normal(scale=spec.init_noise, size=qvel0.shape)
@@ -92,16 +120,16 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
         key = (spec.seconds, spec.seed, spec.init_noise, spec.start_frame)
         cache = sc.extra.setdefault("nominal_com", {})
         if key not in cache:
-            o, _ = rollout(sc.built.model, sc.built.plan, sc.gait_source(), sc.cfg, spec, initial_qpos=qpos0,
+            o, _ = rollout(sc.built.model, sc.built.plan, sc.controller(), spec, initial_qpos=qpos0,
                            initial_qvel=qvel0, record_com=True)
             cache[key] = o.extra["com_series"]
         nominal = cache[key]
-    out, ctrl = rollout(sc.built.model, sc.built.plan, source, sc.cfg, spec, initial_qpos=qpos0, initial_qvel=qvel0,
+    out, ctrl = rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=qpos0, initial_qvel=qvel0,
                         hooks=hooks, before_step=before_step, progress=progress, pushes=pushes,
                         nominal_com=nominal)
-    out.config = {"controller": to_dict(sc.cfg), "controller_file": sc.config_path, "reference": sc.source_path,
-                  "model": sc.built.plan.name, "model_hash": sc.built.hash, "seconds": spec.seconds,
-                  "fall": to_dict(spec.fall), "init_noise": spec.init_noise,
+    out.config = {"profile": sc.profile, "controller": sc.controller_config(), "controller_file": sc.config_path,
+                  "reference": sc.source_path, "model": sc.built.plan.name, "model_hash": sc.built.hash,
+                  "seconds": spec.seconds, "fall": to_dict(spec.fall), "init_noise": spec.init_noise,
                   "timestep_s": float(sc.built.model.opt.timestep),
                   "pushes": [to_dict(p) for p in (pushes or [])]}
     out.versions = versions()
@@ -114,4 +142,4 @@ def write_outcome(out: Outcome, folder: str | os.PathLike[str]) -> Path:
     return path
 
 
-__all__ = ["Scenario", "load_scenario", "run_scenario", "write_outcome", "mujoco"]
+__all__ = ["PROFILES", "Scenario", "load_scenario", "run_scenario", "write_outcome"]

@@ -1,4 +1,5 @@
-"""The :class:`Controller`: PD tracking + gait FSM + SIMBICON balance + fade + resynchronisation.
+"""The humanoid's :class:`SimbiconController` (behind the :class:`~bipedsim.control.base.Controller`
+interface): PD tracking + gait FSM + SIMBICON balance + fade + resynchronisation.
 
 One call maps (model, data, time) to actuator controls (joint torques, N*m). Per control step:
 
@@ -7,7 +8,7 @@ One call maps (model, data, time) to actuator controls (joint torques, N*m). Per
    late, if configured).
 3. PD tracking (eq. 1) of every hinge toward the reference, scaled by the fade factor.
 4. Balance (when enabled): course control turns the heading target toward the reference's own course
-   (``balance.course``, :meth:`Controller._steer`); world-frame pelvis torque tau_torso toward it; the
+   (``balance.course``, :meth:`SimbiconController._steer`); world-frame pelvis torque tau_torso toward it; the
    swing hip tracks a world-frame thigh target turned by the feedback theta_d0 + c_d d + c_v v (eq. 6)
    in the sagittal and coronal planes; the stance hip takes the rest, redistributed by the feet's load
    (eq. 2-5).
@@ -35,13 +36,20 @@ from bipedsim.control.balance import (
     world_to_hinges3,
     yaw_matrix,
 )
+from bipedsim.control.base import Controller, register
 from bipedsim.control.config import ControllerConfig
 from bipedsim.control.fsm import GaitFSM
-from bipedsim.control.reference import SIDES, CourseTracker, GaitSource, Hinges
+from bipedsim.control.reference import SIDES, ClipSource, CourseTracker, GaitSource, Hinges, PoseSource
 from bipedsim.errors import ConfigError, ModelError
+from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
 
 FloatArray = npt.NDArray[np.float64]
+#: the shortest nominal swing state (s) a phase-timed push assumes when the reference's step is
+#: shorter than ``state1_time`` (a key-pose gait)
+MIN_SWING_STATE_S = 0.05
+#: the order of the feet in recordings (trajectory.npz's contact_force columns)
+FOOT_ORDER = ("left", "right")
 
 
 @dataclass
@@ -71,7 +79,9 @@ class ControllerState:
     heading_target: float = 0.0  #: the torso law's heading target (rad, world)
 
 
-class Controller:
+class SimbiconController(Controller):
+    """PD tracking of a gait source (a clip or key poses) with the four-state FSM and SIMBICON balance."""
+
     def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, cfg: ControllerConfig) -> None:
         if plan.profile != "humanoid":
             raise ModelError("the balance controller drives humanoid bodies (two legs, a pelvis)")
@@ -127,23 +137,11 @@ class Controller:
         self.base_damping = model.dof_damping.copy()
         # the configuration's torque limits replace the model's actuator ranges while it runs
         self._saved = {k: getattr(model, k).copy() for k in _ACTUATOR_FIELDS}
-        acts = self.h.actuator
         self.servo = cfg.pd.servo & (self.kp > 0)
         self.servo_gain = np.ones(n)
-        if cfg.pd.servo:
-            # force = gain ctrl - gain q for servo joints (ctrl is a target angle), = ctrl for motors;
-            # the torque limit clamps the actuator force on every physics step
-            model.actuator_gaintype[acts] = mujoco.mjtGain.mjGAIN_FIXED
-            model.actuator_biastype[acts] = mujoco.mjtBias.mjBIAS_AFFINE
-            model.actuator_biasprm[acts] = 0.0
-            model.actuator_ctrllimited[acts] = 0
-            model.actuator_forcelimited[acts] = 1
-            model.actuator_forcerange[acts, 0] = -self.limit
-            model.actuator_forcerange[acts, 1] = self.limit
-        else:
-            model.actuator_ctrlrange[acts, 0] = -self.limit
-            model.actuator_ctrlrange[acts, 1] = self.limit
-        self.pelvis = model.body("pelvis").id
+        self.pelvis = self.root_body = model.body("pelvis").id
+        self.control_dt = cfg.control_dt
+        self.starts_moving = isinstance(source, ClipSource)
         self.foot_body = {s: model.body(f"{s}_foot").id for s in SIDES}
         # stance-leg joints below the hip (knee, ankle, toe) per side, for weight support
         self.leg_low = {s: np.array([i for i, n in enumerate(self.h.names)
@@ -215,9 +213,28 @@ class Controller:
         #: the hip (which belongs to the torso law) for velocity tuning
         self._vf_joints = {s: [(int(i), int(self.h.jid[i])) for i in self.leg_low[s]
                                if not self.h.names[i].endswith("toe")] for s in SIDES}
-        self._apply_damping(1.0)
+        self._apply_damping(1.0)  # the gain tables; the model itself is left as it was
+        self.restore_model()
 
     # ------------------------------------------------------------------ setup
+    def _configure_actuators(self) -> None:
+        """Put this controller's actuator settings into the model (on reset; ``restore_model`` undoes
+        them): constructing a controller leaves the model as it was, so several may be made for one model."""
+        model, acts = self.model, self.h.actuator
+        if self.cfg.pd.servo:
+            # force = gain ctrl - gain q for servo joints (ctrl is a target angle), = ctrl for motors;
+            # the torque limit clamps the actuator force on every physics step
+            model.actuator_gaintype[acts] = mujoco.mjtGain.mjGAIN_FIXED
+            model.actuator_biastype[acts] = mujoco.mjtBias.mjBIAS_AFFINE
+            model.actuator_biasprm[acts] = 0.0
+            model.actuator_ctrllimited[acts] = 0
+            model.actuator_forcelimited[acts] = 1
+            model.actuator_forcerange[acts, 0] = -self.limit
+            model.actuator_forcerange[acts, 1] = self.limit
+        else:
+            model.actuator_ctrlrange[acts, 0] = -self.limit
+            model.actuator_ctrlrange[acts, 1] = self.limit
+
     def _apply_damping(self, scale: float) -> None:
         """Gains scaled by the fade factor: MuJoCo joint damping (implicit kd) and servo stiffness."""
         d = self.base_damping.copy()
@@ -258,11 +275,57 @@ class Controller:
         self.clock = self.last_strike_clock = t
         self._v_sag = self._speed
         self.fade = 1.0
+        self._configure_actuators()
         self._apply_damping(1.0)
 
+    def start_frame(self) -> int:
+        """A clip starts at its loop start (a foot strike); key poses at frame 0, at rest."""
+        return int(round(self.source.start_frame())) if self.starts_moving else 0
+
+    # ------------------------------------------------------------------ read-outs (the interface)
     def reference_qpos(self) -> FloatArray:
         """The reference pose now, as a full qpos (root where the reference has it)."""
         return self.source.reference_qpos(self.frame, self.fsm.state, self._qpos_now)
+
+    def reference_speed(self) -> float:
+        return float(self.source.speed())
+
+    def actuator_torques(self) -> FloatArray:
+        """Torques per actuator (``data.ctrl`` holds servo targets for servo joints, not torques)."""
+        out = np.zeros(self.model.nu)
+        out[self.h.actuator] = self.torque
+        return out
+
+    def foot_names(self) -> tuple[str, ...]:
+        return FOOT_ORDER
+
+    def foot_forces(self, data: mujoco.MjData) -> list[float]:
+        return [sum(float(data.sensordata[a]) for a in self.touch[s]) for s in FOOT_ORDER]
+
+    def gait_state(self) -> int:
+        return self.fsm.state
+
+    def time_in_state(self) -> float:
+        return self.fsm.time_in_state
+
+    def state_duration(self, state: int) -> float | None:
+        """States 1 and 3 last ``state1_time``; 2 and 4 the rest of the reference's step (>= 50 ms)."""
+        if state not in (1, 2, 3, 4):
+            return None
+        if state in (1, 3):
+            return self.fsm.state1_time
+        return max(self.source.step_time() - self.fsm.state1_time, MIN_SWING_STATE_S)
+
+    def foot_strikes(self) -> list[tuple[float, str]]:
+        return self.fsm.strikes
+
+    def metrics(self) -> dict[str, object]:
+        ratios = [r.ratio for r in self.resyncs]
+        return {"resyncs": len(ratios), "mean_resync_ratio": float(np.mean(ratios)) if ratios else None}
+
+    def tracked_joints(self) -> tuple[list[str], list[int]]:
+        """Names and qpos addresses of the hinges tracked (for joint-angle plots and CSV)."""
+        return list(self.h.names), [int(a) for a in self.h.qadr]
 
     # ------------------------------------------------------------------ external force and fade
     def set_external_force(self, active: bool, t: float) -> None:
@@ -609,3 +672,16 @@ def _as_slice(idx: npt.NDArray[np.int64]) -> slice | npt.NDArray[np.int64]:
     if len(idx) and np.array_equal(idx, np.arange(idx[0], idx[0] + len(idx))):
         return slice(int(idx[0]), int(idx[0]) + len(idx))
     return idx
+
+
+@register("humanoid")
+def make_humanoid(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip, cfg: ControllerConfig
+                  ) -> SimbiconController:
+    """The humanoid's controller: tracking ``clip`` (``source: clip``) or SIMBICON's key poses (``pose``)."""
+    return SimbiconController(model, plan, gait_source(model, plan, clip, cfg), cfg)
+
+
+def gait_source(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip, cfg: ControllerConfig) -> GaitSource:
+    """What the humanoid tracks: the clip (``source: clip``) or SIMBICON's key poses (``pose``)."""
+    h = Hinges.of(model, plan)
+    return PoseSource(cfg.pose_gait, h) if cfg.source == "pose" else ClipSource(clip, model, plan, h)

@@ -18,6 +18,8 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from bipedsim.control.balance import heading_of
+
 FloatArray = npt.NDArray[np.float64]
 
 
@@ -95,8 +97,7 @@ class Controller(ABC):
 
     def heading(self, data: mujoco.MjData) -> float:
         """The root body's heading: its yaw about world Z (rad)."""
-        r = data.xmat[self.root_body]
-        return float(np.arctan2(r[3], r[0]))
+        return heading_of(data.xmat[self.root_body].reshape(3, 3))
 
     def set_external_force(self, active: bool, t: float) -> None:  # noqa: B027 - optional hook
         """Told whether an external force (a push) acts now; a controller may react (fade, sec. 4.4)."""

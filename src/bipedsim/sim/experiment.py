@@ -26,21 +26,6 @@ from bipedsim.sim.rollout import MAX_ROLLOUT_S, FallCriteria
 #: Most rollouts one experiment may expand to: 100 000 rollouts of a few seconds are days of CPU time
 #: and a results.csv of ~30 MB; a larger count is a typo (and would not fit in memory: 1e12 pushes).
 MAX_ROLLOUTS = 100_000
-#: Longest interval (s) between fall checks: past a second a fall is seen long after it happened.
-MAX_CHECK_EVERY_S = 1.0
-
-
-@dataclass(frozen=True)
-class FallSpec:
-    non_foot_contact: bool = True
-    allowed: tuple[str, ...] = ()
-    pelvis_height_fraction: float = field(default=0.55, metadata={"gt": 0.0, "max": 1.0})
-    #: rad; past pi every tilt is within it (the check compares cosines)
-    torso_tilt: float = field(default=1.0, metadata={"gt": 0.0, "max": math.pi})
-    check_every: float = field(default=0.01, metadata={"gt": 0.0, "max": MAX_CHECK_EVERY_S})
-
-    def criteria(self) -> FallCriteria:
-        return FallCriteria(**asdict(self))
 
 
 @dataclass(frozen=True)
@@ -164,7 +149,8 @@ class ExperimentSpec:
     grid: Grid | None = None
     runs: tuple[PushItem, ...] = ()
     random: RandomPushes | None = None
-    fall: FallSpec = field(default_factory=FallSpec)
+    #: null: the body kind's default criteria (FallCriteria.for_body)
+    fall: FallCriteria | None = None
 
     def validate(self) -> None:
         given = [k for k, v in (("grid", self.grid), ("runs", self.runs), ("random", self.random)) if v]
@@ -312,7 +298,9 @@ EXPECTATIONS = ("no_fall", "fall", "diverged")
 
 
 @dataclass(frozen=True)
-class Scenario:
+class SuiteScenario:
+    """One scenario of a regression suite: a reference, a controller, pushes and the expected outcome."""
+
     name: str
     expect: str = field(default="no_fall", metadata={"choices": EXPECTATIONS})
     reference: str | None = None
@@ -336,8 +324,9 @@ class Scenario:
 @dataclass(frozen=True)
 class Suite:
     name: str = "suite"
-    scenarios: tuple[Scenario, ...] = ()
-    fall: FallSpec = field(default_factory=FallSpec)
+    scenarios: tuple[SuiteScenario, ...] = ()
+    #: null: the body kind's default criteria (FallCriteria.for_body)
+    fall: FallCriteria | None = None
 
     def validate(self) -> None:
         if not self.scenarios:

@@ -36,7 +36,7 @@ def run_scenarios(suite: Suite, base: Path) -> list[ScenarioResult]:
     out = []
     for sc_spec in suite.scenarios:
         sc = load_scenario(resolve_relative(base, sc_spec.controller), resolve_relative(base, sc_spec.reference))
-        spec = RolloutSpec(seconds=sc_spec.seconds, seed=sc_spec.seed, fall=suite.fall.criteria())
+        spec = RolloutSpec(seconds=sc_spec.seconds, seed=sc_spec.seed, fall=suite.fall)
         o, _ = run_scenario(sc, spec, pushes=sc_spec.push_list())
         note = "; ".join(o.extra.get("pushes_not_applied", []))
         out.append(ScenarioResult(sc_spec.name, sc_spec.expect, o.outcome, o.fall_time_s, note))

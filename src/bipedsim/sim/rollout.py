@@ -31,9 +31,14 @@ OUTCOMES = ("no_fall", "fall", "diverged", PUSH_NOT_APPLIED)
 MAX_ROLLOUT_S = 3600.0
 
 
+#: Longest interval (s) between fall checks: past a second a fall is seen long after it happened.
+MAX_CHECK_EVERY_S = 1.0
+
+
 @dataclass(frozen=True)
 class FallCriteria:
-    """When the character has fallen (any criterion, checked every ``check_every`` s).
+    """When the character has fallen (any criterion, checked every ``check_every`` s). The ``fall:``
+    block of experiment and suite files is validated into this type.
 
     ``non_foot_contact``: a body other than the feet (and the ``allowed`` bodies) touches the floor.
     ``pelvis_height_fraction``: the root body (pelvis) below this fraction of its height at the start.
@@ -44,10 +49,11 @@ class FallCriteria:
 
     non_foot_contact: bool = True
     allowed: tuple[str, ...] = ()
-    pelvis_height_fraction: float = 0.55
-    torso_tilt: float = 1.0
-    check_every: float = 0.01
-    tilt_from: str = "world"
+    pelvis_height_fraction: float = field(default=0.55, metadata={"min": 0.0, "max": 1.0})
+    #: rad; past pi every tilt is within it (the check compares cosines)
+    torso_tilt: float = field(default=1.0, metadata={"gt": 0.0, "max": math.pi})
+    check_every: float = field(default=0.01, metadata={"gt": 0.0, "max": MAX_CHECK_EVERY_S})
+    tilt_from: str = field(default="world", metadata={"choices": ("world", "reference")})
 
     @staticmethod
     def for_body(profile: str, support: bool = False) -> FallCriteria:

@@ -21,7 +21,6 @@ from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import check_pushes
 from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout
 
-
 #: body kinds a scenario can be built as (``--profile``)
 PROFILES = ("humanoid", "creature")
 

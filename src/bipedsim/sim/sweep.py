@@ -42,14 +42,15 @@ def _scenario(reference: str | None, controller: str | None) -> Any:
     return _CACHE[key]
 
 
-def run_row(task: tuple[Row, str | None, float, float, dict[str, Any]]) -> dict[str, Any]:
+def run_row(task: tuple[Row, str | None, float, float, dict[str, Any] | None]) -> dict[str, Any]:
     """Run one rollout of an experiment (in whichever process); returns its result row."""
     from bipedsim.sim.rollout import FallCriteria, RolloutSpec
     from bipedsim.sim.runner import run_scenario
 
     row, reference, seconds, init_noise, fall = task
     sc = _scenario(reference, row.controller)
-    spec = RolloutSpec(seconds=seconds, seed=row.seed, init_noise=init_noise, fall=FallCriteria(**fall))
+    crit = None if fall is None else FallCriteria(**fall)
+    spec = RolloutSpec(seconds=seconds, seed=row.seed, init_noise=init_noise, fall=crit)
     out, _ = run_scenario(sc, spec, pushes=[row.push])
     e = out.extra
     res = row.params()
@@ -186,11 +187,12 @@ def _append(path: Path, row: dict[str, Any]) -> None:
                           "(run the same command again to resume)") from None
 
 
-def _tasks(exp: Experiment, rows: list[Row]) -> list[tuple[Row, str | None, float, float, dict[str, Any]]]:
+def _tasks(exp: Experiment, rows: list[Row]) -> list[tuple[Row, str | None, float, float, dict[str, Any] | None]]:
     from dataclasses import asdict
 
     s = exp.spec
-    return [(r, exp.resolve(s.reference), s.seconds, s.init_noise, asdict(s.fall.criteria())) for r in rows]
+    fall = None if s.fall is None else asdict(s.fall)
+    return [(r, exp.resolve(s.reference), s.seconds, s.init_noise, fall) for r in rows]
 
 
 def _ignore_sigint() -> None:
@@ -331,7 +333,7 @@ def _setup(exp: Experiment) -> dict[str, Any]:
     setup are not rows of this one."""
     s = exp.spec
     return {"seconds": s.seconds, "reference": exp.resolve(s.reference), "init_noise": s.init_noise,
-            "fall": asdict(s.fall)}
+            "fall": None if s.fall is None else asdict(s.fall)}
 
 
 def _check_setup(out: Path, exp: Experiment) -> None:

@@ -8,7 +8,6 @@ exit status is 2, without a traceback.
 from __future__ import annotations
 
 import argparse
-import errno
 import json
 import math
 import signal
@@ -16,12 +15,15 @@ import sys
 import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from bipedsim import __version__
 from bipedsim.errors import BipedsimError, ConfigError
-from bipedsim.io import check_output_file, os_reason, prepare_output_dir, progress_bar, remove_stale
+from bipedsim.io import check_output_file, describe_os_error, prepare_output_dir, progress_bar
+
+if TYPE_CHECKING:
+    from bipedsim.sim.recorder import Trajectory
+    from bipedsim.sim.runner import Scenario
 
 Command = Callable[[argparse.Namespace], int]
 
@@ -146,46 +148,13 @@ def check_run_length(seconds: float, timestep: float) -> None:
         raise ConfigError(f"must be at least one physics step ({timestep:g} s), got {seconds:g}", key="--seconds")
 
 
-def check_run_outputs(args: argparse.Namespace) -> Path:
-    """Check (and create) every output location of `bipedsim run` before the simulation starts;
-    returns the run folder."""
-    from bipedsim.render.video import VIDEO_SUFFIXES
-
-    folder = prepare_output_dir(args.out, "--out")
-    for flag, path, suffixes in (("--csv", args.csv, ()), ("--export-bvh", args.export_bvh, ()),
-                                 ("--video", args.video, VIDEO_SUFFIXES), ("--gif", args.gif, (".gif",))):
-        if path:
-            check_output_file(path, flag, suffixes)
-    return folder
-
-
-def run_files_kept(args: argparse.Namespace, folder: Path) -> tuple[list[str], set[str]]:
-    """The files a run folder may hold from a run (by name) and those this run writes; the rest of
-    the first list, when present, are stale."""
-    from bipedsim.render.plots import PLOT_FILES
-    from bipedsim.render.video import DEFAULT_VIDEO, MODEL_FILE, OUTCOME_FILE, TRAJECTORY_FILE
-
-    known = [OUTCOME_FILE, TRAJECTORY_FILE, MODEL_FILE, *PLOT_FILES, DEFAULT_VIDEO]
-    keep = {OUTCOME_FILE, MODEL_FILE}
-    if args.profile != "creature":
-        keep.add(TRAJECTORY_FILE)
-    if getattr(args, "plots", False):
-        keep.update(PLOT_FILES)
-    for extra in (args.video, args.gif, args.csv, args.export_bvh):
-        if extra and Path(extra).resolve().parent == folder.resolve():
-            keep.add(Path(extra).name)
-    return known, keep
-
-
-def clear_stale(args: argparse.Namespace, folder: Path) -> None:
-    """Remove what an earlier run left in ``folder`` that this run will not rewrite (only the known
-    run files), so the folder never mixes two runs' outputs; says so in one line."""
-    removed = remove_stale(folder, *run_files_kept(args, folder))
+def _print_removed(folder: Path, removed: list[str]) -> None:
     if removed:
         print(f"removed from an earlier run in {folder}: {', '.join(removed)}")
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from bipedsim.sim.outputs import check_run_outputs, clear_stale, save_run_files
     from bipedsim.sim.push import Push, check_pushes
     from bipedsim.sim.recorder import Recorder
     from bipedsim.sim.rollout import RolloutSpec
@@ -201,7 +170,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_run_length(args.seconds, sc.built.model.opt.timestep)
     hz = DEFAULT_RECORD_HZ if args.record_hz is None else args.record_hz
     rec = Recorder(sc.built.model, record_hz=hz, seconds=args.seconds, key="--record-hz")
-    folder = check_run_outputs(args)
+    folder = check_run_outputs(args.out, csv=args.csv, export_bvh=args.export_bvh, video=args.video, gif=args.gif)
     spec = RolloutSpec(seconds=args.seconds, seed=args.seed, init_noise=args.init_noise)
     bar = progress_bar(args.seconds, "bipedsim run", "sim s") if args.seconds >= 5 else None
 
@@ -210,12 +179,13 @@ def cmd_run(args: argparse.Namespace) -> int:
             bar.n = round(t, 2)
             bar.refresh()
 
-    out, ctrl = run_scenario(sc, spec, progress=progress, hooks=[rec], pushes=pushes)
+    out, _ = run_scenario(sc, spec, progress=progress, hooks=[rec], pushes=pushes)
     if bar is not None:
         bar.close()
-    clear_stale(args, folder)
+    _print_removed(folder, clear_stale(folder, plots=args.plots,
+                                       extra_files=(args.video, args.gif, args.csv, args.export_bvh)))
     path = write_outcome(out, folder)
-    tr = save_run_files(sc, rec, ctrl, out, folder)
+    tr = save_run_files(folder, sc, rec, out)
     del rec  # the trajectory holds the samples
     fall = f" at {out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else ""
     print(f"{out.outcome}{fall}: {out.sim_seconds:.2f} s simulated in {out.wall_seconds:.1f} s, "
@@ -224,7 +194,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     for why in out.extra.get("pushes_not_applied", []):
         print(f"  push not applied: {why}")
     print(f"wrote {path}, {folder / 'trajectory.npz'}, {folder / 'model.xml'}")
-    return finish_outputs(args, folder, sc, tr)
+    return _finish_run(args, folder, sc, tr)
 
 
 def run_creature_cli(args: argparse.Namespace) -> int:
@@ -232,6 +202,7 @@ def run_creature_cli(args: argparse.Namespace) -> int:
     from bipedsim.model import build_model, retarget
     from bipedsim.motion.bvh import load_bvh
     from bipedsim.sim.creature_run import CreatureRunSpec, run_creature
+    from bipedsim.sim.outputs import check_run_outputs, clear_stale
     from bipedsim.sim.runner import write_outcome
 
     if not args.bvh:
@@ -240,11 +211,11 @@ def run_creature_cli(args: argparse.Namespace) -> int:
     built = build_model(motion, "creature", total_mass=args.mass, name=Path(args.bvh).stem)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=str(args.bvh))
     check_run_length(args.seconds, built.model.opt.timestep)
-    folder = check_run_outputs(args)
+    folder = check_run_outputs(args.out)  # the humanoid-only output flags were refused
     out = run_creature(built, clip, CreatureRunSpec(seconds=args.seconds, seed=args.seed, support=args.support))
     out.config = {"profile": "creature", "reference": str(args.bvh), "seconds": args.seconds,
                   "support": args.support, "model_hash": built.hash}
-    clear_stale(args, folder)
+    _print_removed(folder, clear_stale(folder, trajectory=False))
     path = write_outcome(out, folder)
     atomic_write_text(folder / "model.xml", built.xml)
     fall = f" at {out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else ""
@@ -259,70 +230,23 @@ def run_creature_cli(args: argparse.Namespace) -> int:
     return 0
 
 
-def save_run_files(sc, rec, ctrl, out, folder):  # noqa: ANN001, ANN201
-    """trajectory.npz (everything rendering and export read) and model.xml beside outcome.json;
-    returns the trajectory."""
-    from bipedsim.io import atomic_write_text
-
-    meta = {"hinge_names": ctrl.h.names, "hinge_qadr": [int(a) for a in ctrl.h.qadr],
-            "outcome": out.outcome, "fall_time_s": out.fall_time_s, "model_hash": sc.built.hash,
-            "reference": sc.source_path, "trimmed_frames": sc.clip.trimmed_frames,
-            "source_unit": getattr(sc.bvh_info, "unit_scale", 1.0), "source_up": getattr(sc.bvh_info, "up", "y")}
-    tr = rec.trajectory(meta)
-    tr.save(folder / "trajectory.npz")
-    atomic_write_text(folder / "model.xml", sc.built.xml)
-    return tr
+def _print_written(path: object, frames: int | None) -> None:
+    print(f"wrote {path}" + ("" if frames is None else f" ({frames} frames)"))
 
 
-def finish_outputs(args: argparse.Namespace, folder, sc=None, tr=None) -> int:  # noqa: ANN001
-    """Plots, exports and video for a run folder; video last, since it may fail without GL. ``tr``: the
-    run's trajectory when in memory (else read from the folder)."""
-    from bipedsim.sim.recorder import Trajectory
+def _finish_run(args: argparse.Namespace, folder: Path, sc: Scenario, tr: Trajectory) -> int:
+    """The optional outputs of `bipedsim run`, each printed as it is written."""
+    from bipedsim.render.gl import RenderError
+    from bipedsim.sim.outputs import finish_outputs
 
-    if tr is None:
-        tr = Trajectory.load(Path(folder) / "trajectory.npz")
-    names, qadr = tr.meta["hinge_names"], tr.meta["hinge_qadr"]
-    if getattr(args, "plots", False):
-        import mujoco
-
-        from bipedsim.render.plots import plot_run
-
-        model = mujoco.MjModel.from_xml_path(str(Path(folder) / "model.xml"))
-        data = mujoco.MjData(model)
-        feet = [model.body(f"{s}_foot").id for s in ("left", "right")]
-        foot_xy = np.zeros((tr.num_samples, 2, 2))
-        for i in range(tr.num_samples):
-            data.qpos[:] = tr.qpos[i]
-            mujoco.mj_kinematics(model, data)
-            foot_xy[i] = data.xpos[feet, :2]
-        for p in plot_run(tr, names, qadr, foot_xy, folder):
-            print(f"wrote {p}")
-    if getattr(args, "csv", None):
-        from bipedsim.sim.export import write_joint_csv
-
-        write_joint_csv(tr, names, qadr, args.csv)
-        print(f"wrote {args.csv}")
-    if getattr(args, "export_bvh", None) and sc is not None:
-        from bipedsim.sim.export import simulated_motion, write_motion_bvh
-
-        frames = np.round(tr.ref_frame).astype(int) + sc.clip.trimmed_frames
-        motion = simulated_motion(tr, sc.built.model, sc.built.plan, sc.motion, frames % sc.motion.num_frames)
-        write_motion_bvh(motion, args.export_bvh, unit=tr.meta["source_unit"], up=tr.meta["source_up"])
-        print(f"wrote {args.export_bvh}")
-    for video in (getattr(args, "video", None), getattr(args, "gif", None)):
-        if video:
-            from bipedsim.render.gl import RenderError
-            from bipedsim.render.video import render_video
-
-            flag = "--video" if video == getattr(args, "video", None) else "--gif"
-            try:
-                n = render_video(folder, video, video_options(args), progress=sys.stderr.isatty(), out_flag=flag)
-            except RenderError as exc:
-                if sc is None:  # `bipedsim render`: nothing was simulated
-                    raise
-                raise RenderError(f"{exc} The simulation results were written to {folder}; render them later "
-                                  f"with `bipedsim render {folder}`.") from None
-            print(f"wrote {video} ({n} frames)")
+    videos = [(v, flag) for v, flag in ((args.video, "--video"), (args.gif, "--gif")) if v]
+    try:
+        finish_outputs(folder, plots=args.plots, csv=args.csv, export_bvh=args.export_bvh, videos=videos,
+                       video_options=video_options(args), scenario=sc, trajectory=tr,
+                       progress=sys.stderr.isatty(), on_write=_print_written)
+    except RenderError as exc:
+        raise RenderError(f"{exc} The simulation results were written to {folder}; render them later "
+                          f"with `bipedsim render {folder}`.") from None
     return 0
 
 
@@ -354,8 +278,9 @@ def cmd_render(args: argparse.Namespace) -> int:
     n = render_video(folder, out, video_options(args), progress=sys.stderr.isatty(), out_flag="-o")
     print(f"wrote {out} ({n} frames)")
     if args.plots:
-        args.video = args.gif = None
-        finish_outputs(args, folder)
+        from bipedsim.sim.outputs import finish_outputs
+
+        finish_outputs(folder, plots=True, on_write=_print_written)
     return 0
 
 
@@ -602,18 +527,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
-
-
-#: errno values that only a write raises: for these the message says "cannot write".
-WRITE_ERRNOS = {errno.ENOSPC, errno.EROFS, errno.EDQUOT, errno.EFBIG, errno.EISDIR}
-
-
-def describe_os_error(exc: OSError) -> str:
-    """One line for an OSError that reached the command line: what, where and why."""
-    where = exc.filename if exc.filename is not None else "a file"
-    target = f" -> {exc.filename2}" if exc.filename2 is not None else ""
-    verb = "cannot write" if exc.errno in WRITE_ERRNOS else "cannot access"
-    return f"{verb} {where}{target}: {os_reason(exc)}"
 
 
 def _terminate(signum: int, frame: object) -> None:

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 
 from bipedsim import __version__
 from bipedsim.errors import BipedsimError, ConfigError
-from bipedsim.io import check_output_file, describe_os_error, prepare_output_dir, progress_bar
+from bipedsim.io import check_output_file, describe_os_error, prepare_output_dir, progress_bar, read_text_file
 
 if TYPE_CHECKING:
     from bipedsim.sim.recorder import Trajectory
@@ -395,11 +395,7 @@ def cmd_graph_play(args: argparse.Namespace) -> int:
     from bipedsim.motion.bvh import write_bvh
 
     g = MotionGraph.load(args.graph)
-    try:
-        text = Path(args.script).read_text()
-    except OSError as exc:
-        raise BipedsimError(f"{args.script}: cannot read: {exc.strerror or exc}") from None
-    cmds = parse(text, source=str(args.script), layers=tuple(g.layers))
+    cmds = parse(read_text_file(args.script), source=str(args.script), layers=tuple(g.layers))
     check_output_file(args.output, "-o")
     if args.report:
         check_output_file(args.report, "--report")

@@ -17,7 +17,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
-from bipedsim.errors import OutputError
+from bipedsim.errors import BipedsimError, OutputError
 
 #: Permissions a new file gets before the umask, as ``open(path, "w")`` would give it.
 NEW_FILE_MODE = 0o666
@@ -60,6 +60,15 @@ def process_umask() -> int:
         mask = os.umask(0o022)
         os.umask(mask)
     return mask
+
+
+def read_text_file(path: str | os.PathLike[str]) -> str:
+    """The text of the file at ``path``; raises :class:`BipedsimError` naming the file and the reason
+    when it cannot be read (missing, a folder, no permission)."""
+    try:
+        return Path(path).read_text()
+    except OSError as exc:
+        raise BipedsimError(f"{path}: cannot read: {os_reason(exc)}") from None
 
 
 # ---------------------------------------------------------------------- checking output locations

@@ -74,7 +74,7 @@ def test_quaternion_error_matches_scipy() -> None:
 
 
 def test_creature_runs_through_the_same_loop_with_pushes_and_recorder(horse) -> None:
-    rec = Recorder(horse.built.model, feet=len(horse.built.plan.foot_bodies))
+    rec = Recorder(horse.built.model, feet=len(horse.foot_names()))
     out, ctrl = run_scenario(horse, RolloutSpec(seconds=1.5), hooks=[rec],
                              pushes=[Push(magnitude=300, direction=90, duration=0.2, start=0.5)])
     assert isinstance(ctrl, CreatureController) and out.config["profile"] == "creature"

@@ -32,6 +32,7 @@ from bipedsim.io import (
     stderr_size,
 )
 from bipedsim.render.gl import RenderError, choose_backend
+from bipedsim.render.plots import PLOT_FILES
 from bipedsim.render.video import describe_exception, write_video
 from bipedsim.sim.recorder import CHUNK_SAMPLES, SAMPLE_DTYPES, Recorder, Trajectory, write_npz_compressed
 
@@ -229,9 +230,10 @@ FLAG_CASES = [
     (["run", "--speed", "nan"], ["--speed"]),
     (["render", "RUN", "--fps", "inf"], ["--fps"]),
     (["render", "RUN", "--cam-distance", "0"], ["--cam-distance"]),
-    (["run", "--profile", "creature", "--bvh", WALK, "--video", "v.mp4"], ["--video", "--profile creature"]),
-    (["run", "--profile", "creature", "--bvh", WALK, "--push", "100:0:0.1:1"], ["--push", "--profile creature"]),
-    (["run", "--profile", "creature", "--bvh", WALK, "--record-hz", "60"], ["--record-hz", "--profile creature"]),
+    (["run", str(Path(__file__).resolve().parent.parent / "controllers" / "default.yaml"), "--profile", "creature",
+      "--bvh", WALK], ["config", "configures the humanoid"]),
+    (["run", "--profile", "creature", "--bvh", WALK, "--push", "100:0:0.1:s2.5", "--seconds", "3"],
+     ["push.state", "no gait states"]),
 ]
 
 
@@ -287,14 +289,19 @@ def test_a_reused_run_folder_keeps_no_stale_outputs(tmp_path: Path, capsys) -> N
     assert "removed" not in capsys.readouterr().out
 
 
-def test_a_creature_run_removes_the_humanoid_runs_trajectory(tmp_path: Path, capsys) -> None:
-    """A creature run records no trajectory: one left by an earlier run would be rendered as this one."""
-    assert main(["run", "--seconds", "0.3", "--out", str(tmp_path)]) == 0
-    capsys.readouterr()
+def test_a_creature_run_writes_the_run_files_and_takes_every_output_flag(tmp_path: Path, capsys) -> None:
+    """One loop for every body: a creature run records a trajectory and takes pushes, plots and CSV
+    (they were refused, or silently ignored, before)."""
     horse = Path(WALK).parent / "horse_walk.bvh"
-    assert main(["run", "--profile", "creature", "--bvh", str(horse), "--seconds", "0.3", "--out", str(tmp_path)]) == 0
-    assert f"removed from an earlier run in {tmp_path}: trajectory.npz\n" in capsys.readouterr().out
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.xml", "outcome.json"]
+    csv_path = tmp_path / "j.csv"
+    assert main(["run", "--profile", "creature", "--bvh", str(horse), "--seconds", "1.5", "--out", str(tmp_path / "r"),
+                 "--push", "100:90:0.2:0.5", "--plots", "--csv", str(csv_path)]) == 0
+    names = sorted(p.name for p in (tmp_path / "r").iterdir())
+    assert names == sorted(["model.xml", "outcome.json", "trajectory.npz", *PLOT_FILES])
+    header = csv_path.read_text().splitlines()[0].split(",")
+    assert header[0] == "time_s" and len(header) > 10 and header[-1].endswith("_ref")
+    out = json.loads((tmp_path / "r" / "outcome.json").read_text())
+    assert out["config"]["profile"] == "creature" and out["extra"]["push_start_s"] == pytest.approx(0.5, abs=0.01)
 
 
 def test_remove_stale_touches_only_known_names(tmp_path: Path) -> None:

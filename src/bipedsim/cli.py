@@ -23,9 +23,8 @@ from bipedsim.io import check_output_file, describe_os_error, prepare_output_dir
 
 if TYPE_CHECKING:
     from bipedsim.sim.recorder import Trajectory
+    from bipedsim.sim.rollout import Outcome
     from bipedsim.sim.runner import Scenario
-
-Command = Callable[[argparse.Namespace], int]
 
 
 def _scale_arg(text: str) -> float | str:
@@ -109,11 +108,6 @@ def _add_convert(sub: argparse._SubParsersAction) -> None:
 
 
 # ---------------------------------------------------------------------- run
-#: Flags that only the humanoid (balance controller) run uses: a creature run records no trajectory
-#: (nothing to render, plot or export) and takes no pushes or controller file.
-HUMANOID_ONLY = {"config": "CONTROLLER.yaml", "push": "--push", "video": "--video", "gif": "--gif",
-                 "plots": "--plots", "csv": "--csv", "export_bvh": "--export-bvh", "record_hz": "--record-hz",
-                 "init_noise": "--init-noise"}
 #: Trajectory samples per second when --record-hz is not given.
 DEFAULT_RECORD_HZ = 120.0
 
@@ -129,11 +123,6 @@ def check_run_args(args: argparse.Namespace) -> None:
             if value is not None:
                 raise ConfigError(f"sets the {what} of a --bvh file; the built-in walk's {what} is known "
                                   f"(give --bvh FILE or drop {flag})", key=flag)
-    if args.profile == "creature":
-        for attr, flag in HUMANOID_ONLY.items():
-            if getattr(args, attr) not in (None, False, 0.0, []):
-                raise ConfigError("is not available with --profile creature (a creature run tracks its clip "
-                                  "without the balance controller and records no trajectory)", key=flag)
     if not (math.isfinite(args.init_noise) and args.init_noise >= 0):
         raise ConfigError(f"must be a standard deviation >= 0 (rad/s, m/s), got {args.init_noise}",
                           key="--init-noise")
@@ -164,12 +153,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     video_options(args).validate()
     pushes = [Push.parse(x) for x in (args.push or [])]
     check_pushes(pushes, args.seconds)  # the run length too, before anything is built
-    if args.profile == "creature":
-        return run_creature_cli(args)
-    sc = load_scenario(args.config, args.bvh, scale=args.scale, up=args.up, mass=args.mass)
+    sc = load_scenario(args.config, args.bvh, scale=args.scale, up=args.up, mass=args.mass, profile=args.profile,
+                       support=args.support)
     check_run_length(args.seconds, sc.built.model.opt.timestep)
+    sc.check_pushes(pushes)
     hz = DEFAULT_RECORD_HZ if args.record_hz is None else args.record_hz
-    rec = Recorder(sc.built.model, record_hz=hz, seconds=args.seconds, key="--record-hz")
+    rec = Recorder(sc.built.model, record_hz=hz, seconds=args.seconds, key="--record-hz",
+                   feet=len(sc.foot_names()))
     folder = check_run_outputs(args.out, csv=args.csv, export_bvh=args.export_bvh, video=args.video, gif=args.gif)
     spec = RolloutSpec(seconds=args.seconds, seed=args.seed, init_noise=args.init_noise)
     bar = progress_bar(args.seconds, "bipedsim run", "sim s") if args.seconds >= 5 else None
@@ -187,47 +177,24 @@ def cmd_run(args: argparse.Namespace) -> int:
     path = write_outcome(out, folder)
     tr = save_run_files(folder, sc, rec, out)
     del rec  # the trajectory holds the samples
-    fall = f" at {out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else ""
-    print(f"{out.outcome}{fall}: {out.sim_seconds:.2f} s simulated in {out.wall_seconds:.1f} s, "
-          f"{out.foot_strikes} foot strikes, {out.distance_m:.2f} m at {out.mean_speed_mps:.2f} m/s "
-          f"(reference {out.reference_speed_mps:.2f} m/s), tracking RMSE {out.tracking_rmse_rad:.3f} rad")
+    print(outcome_line(out, sc))
     for why in out.extra.get("pushes_not_applied", []):
         print(f"  push not applied: {why}")
     print(f"wrote {path}, {folder / 'trajectory.npz'}, {folder / 'model.xml'}")
     return _finish_run(args, folder, sc, tr)
 
 
-def run_creature_cli(args: argparse.Namespace) -> int:
-    from bipedsim.io import atomic_write_text
-    from bipedsim.model import build_model, retarget
-    from bipedsim.motion.bvh import load_bvh
-    from bipedsim.sim.creature_run import CreatureRunSpec, run_creature
-    from bipedsim.sim.outputs import check_run_outputs, clear_stale
-    from bipedsim.sim.runner import write_outcome
-
-    if not args.bvh:
-        raise ConfigError("the creature profile needs a motion: give --bvh FILE", key="--profile")
-    motion = load_bvh(args.bvh, scale=args.scale, up=args.up)
-    built = build_model(motion, "creature", total_mass=args.mass, name=Path(args.bvh).stem)
-    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=str(args.bvh))
-    check_run_length(args.seconds, built.model.opt.timestep)
-    folder = check_run_outputs(args.out)  # the humanoid-only output flags were refused
-    out = run_creature(built, clip, CreatureRunSpec(seconds=args.seconds, seed=args.seed, support=args.support))
-    out.config = {"profile": "creature", "reference": str(args.bvh), "seconds": args.seconds,
-                  "support": args.support, "model_hash": built.hash}
-    _print_removed(folder, clear_stale(folder, trajectory=False))
-    path = write_outcome(out, folder)
-    atomic_write_text(folder / "model.xml", built.xml)
+def outcome_line(out: Outcome, sc: Scenario) -> str:
+    """One line: the verdict and the run's figures; a supported creature says how much it was helped."""
     fall = f" at {out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else ""
-    sup = ""
-    if args.support:
-        e = out.extra
-        sup = (f"; ROOT SUPPORT assisted: mean {e.get('support_force_mean_n', 0):.0f} N "
-               f"(body weight {e['weight_n']:.0f} N), peak {e.get('support_force_max_n', 0):.0f} N")
-    print(f"{out.outcome}{fall}: creature, {built.summary()['bodies']} bodies, {out.sim_seconds:.2f} s simulated, "
-          f"tracking RMSE {out.tracking_rmse_rad:.3f} rad{sup}")
-    print(f"wrote {path}")
-    return 0
+    body = "" if sc.profile == "humanoid" else f"{sc.profile}, {sc.built.summary()['bodies']} bodies, "
+    e = out.extra
+    sup = "" if not e.get("support_mode") else (
+        f"; ROOT SUPPORT assisted: mean {e.get('support_force_mean_n', 0):.0f} N (body weight {e['weight_n']:.0f} N), "
+        f"peak {e.get('support_force_max_n', 0):.0f} N")
+    return (f"{out.outcome}{fall}: {body}{out.sim_seconds:.2f} s simulated in {out.wall_seconds:.1f} s, "
+            f"{out.foot_strikes} foot strikes, {out.distance_m:.2f} m at {out.mean_speed_mps:.2f} m/s "
+            f"(reference {out.reference_speed_mps:.2f} m/s), tracking RMSE {out.tracking_rmse_rad:.3f} rad{sup}")
 
 
 def _print_written(path: object, frames: int | None) -> None:

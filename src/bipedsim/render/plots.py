@@ -21,10 +21,17 @@ def _shade_pushes(ax, tr: Trajectory) -> None:  # noqa: ANN001
         ax.axvspan(s, max(e, s + 1e-3), color="tab:red", alpha=0.15, lw=0)
 
 
-def plot_run(tr: Trajectory, hinge_names: list[str], hinge_qadr: list[int], foot_xy: np.ndarray | None,
-             out_dir: str | os.PathLike[str], joints: tuple[str, ...] = DEFAULT_JOINTS) -> list[Path]:
-    """Write the four plots into ``out_dir``; returns their paths. ``foot_xy``: (T, 2, 2) left/right
-    ankle positions per sample, or None."""
+#: a foot is "down" while its vertical contact force exceeds this (N)
+CONTACT_N = 30.0
+#: colours of the feet in the top view and the contact timeline (left, right, then more legs)
+FOOT_COLOURS = ("tab:green", "tab:orange", "tab:blue", "tab:red", "tab:purple", "tab:brown")
+
+
+def plot_run(tr: Trajectory, hinge_names: list[str], q: np.ndarray, qr: np.ndarray, foot_xy: np.ndarray | None,
+             feet: list[str], out_dir: str | os.PathLike[str], joints: tuple[str, ...] = DEFAULT_JOINTS) -> list[Path]:
+    """Write the four plots into ``out_dir``; returns their paths. ``hinge_names``, ``q``, ``qr``: the
+    joints and their simulated and reference angles (rad), (T, J); ``feet``: the names of
+    ``tr.contact_force``'s columns; ``foot_xy``: (T, feet, 2) their positions per sample, or None."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -34,8 +41,6 @@ def plot_run(tr: Trajectory, hinge_names: list[str], hinge_qadr: list[int], foot
     out.mkdir(parents=True, exist_ok=True)
     paths = []
     t = tr.time
-    q = tr.qpos[:, hinge_qadr]
-    qr = tr.ref_qpos[:, hinge_qadr]
     # 1. joint angles vs reference
     shown = [j for j in joints if j in hinge_names] or hinge_names[:6]
     fig, axes = plt.subplots(len(shown), 1, figsize=(9, 1.6 * len(shown) + 0.8), sharex=True)
@@ -68,8 +73,9 @@ def plot_run(tr: Trajectory, hinge_names: list[str], hinge_qadr: list[int], foot
     fig, ax = plt.subplots(figsize=(9, 4))
     ax.plot(tr.com[:, 0], tr.com[:, 1], color="k", lw=1.2, label="centre of mass")
     if foot_xy is not None:
-        for k, (name, col) in enumerate((("left", "tab:green"), ("right", "tab:orange"))):
-            down = tr.contact_force[:, k] > 30.0
+        for k, name in enumerate(feet):
+            col = FOOT_COLOURS[k % len(FOOT_COLOURS)]
+            down = tr.contact_force[:, k] > CONTACT_N
             ax.scatter(foot_xy[down, k, 0], foot_xy[down, k, 1], s=4, color=col, label=f"{name} foot down")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
@@ -81,14 +87,15 @@ def plot_run(tr: Trajectory, hinge_names: list[str], hinge_qadr: list[int], foot
     fig.savefig(paths[-1], dpi=100)
     plt.close(fig)
     # 4. contact timeline
-    fig, ax = plt.subplots(figsize=(9, 2))
-    for k, col in enumerate(("tab:green", "tab:orange")):
-        down = tr.contact_force[:, k] > 30.0
+    fig, ax = plt.subplots(figsize=(9, 1.2 + 0.4 * len(feet)))
+    for k in range(len(feet)):
+        col = FOOT_COLOURS[k % len(FOOT_COLOURS)]
+        down = tr.contact_force[:, k] > CONTACT_N
         edges = np.flatnonzero(np.diff(np.concatenate([[0], down.astype(int), [0]])))
         spans = [(t[s], t[min(e, len(t) - 1)] - t[s]) for s, e in zip(edges[::2], edges[1::2])]
         ax.broken_barh(spans, (k - 0.4, 0.8), color=col)
     _shade_pushes(ax, tr)
-    ax.set_yticks([0, 1], ["left", "right"])
+    ax.set_yticks(list(range(len(feet))), feet)
     ax.set_xlabel("time (s)")
     ax.set_title("foot contact")
     fig.tight_layout()

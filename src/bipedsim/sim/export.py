@@ -99,14 +99,15 @@ def write_motion_bvh(motion: Motion, path: str | os.PathLike[str], unit: float =
     write_bvh(motion.with_up(up).scaled(1.0 / unit), path, precision=6)
 
 
-def write_joint_csv(tr: Trajectory, names: list[str], qadr: list[int], path: str | os.PathLike[str]) -> None:
-    """Time and every hinge angle (rad), simulated and reference, one row per sample."""
+def write_joint_csv(tr: Trajectory, names: list[str], q: FloatArray, q_ref: FloatArray,
+                    path: str | os.PathLike[str]) -> None:
+    """Time and every joint angle (rad), simulated and reference, one row per sample (``q``, ``q_ref``:
+    (T, J), from :func:`bipedsim.sim.outputs.joint_series`)."""
     from bipedsim.io import atomic_write_text
 
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(["time_s"] + names + [f"{n}_ref" for n in names])
     for i in range(tr.num_samples):
-        w.writerow([f"{tr.time[i]:.4f}"] + [f"{v:.6f}" for v in tr.qpos[i, qadr]]
-                   + [f"{v:.6f}" for v in tr.ref_qpos[i, qadr]])
+        w.writerow([f"{tr.time[i]:.4f}"] + [f"{v:.6f}" for v in q[i]] + [f"{v:.6f}" for v in q_ref[i]])
     atomic_write_text(Path(path), buf.getvalue())

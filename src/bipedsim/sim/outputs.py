@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from bipedsim.sim.runner import Scenario
 
 PathLike = str | os.PathLike[str]
+FloatArray = npt.NDArray[np.float64]
 #: Called as each output file is written: the path as it was given, and a video's frame count (else None).
 OnWrite = Callable[[PathLike, int | None], None]
 #: The feet whose positions the top-view plot marks, left then right (bodies ``<side>_foot``).
@@ -97,17 +98,39 @@ def save_run_files(folder: PathLike, scenario: Scenario, recorder: Recorder, out
     meta = {"hinge_names": names, "hinge_qadr": qadr, "outcome": outcome.outcome, "fall_time_s": outcome.fall_time_s,
             "model_hash": scenario.built.hash, "reference": scenario.source_path,
             "trimmed_frames": scenario.clip.trimmed_frames,
-            "source_unit": getattr(info, "unit_scale", 1.0), "source_up": getattr(info, "up", "y")}
+            "source_unit": getattr(info, "unit_scale", 1.0), "source_up": getattr(info, "up", "y"),
+            "profile": scenario.profile,
+            "foot_names": list(scenario.foot_names())}
     tr = recorder.trajectory(meta)
     tr.save(Path(folder) / TRAJECTORY_FILE)
     atomic_write_text(Path(folder) / MODEL_FILE, scenario.built.xml)
     return tr
 
 
+def foot_names(tr: Trajectory) -> list[str]:
+    """The feet of ``contact_force``'s columns: the humanoid's left and right, a creature's foot bodies."""
+    return list(tr.meta.get("foot_names") or PLOT_FEET)
+
+
+def joint_series(model: mujoco.MjModel, tr: Trajectory) -> tuple[list[str], FloatArray, FloatArray]:
+    """(names, simulated, reference) joint angles (rad) per sample, shape (T, J): each hinge's angle;
+    for a body of ball joints (a creature), each ball joint's rotation angle from its rest pose."""
+    names, qadr = tr.meta.get("hinge_names", []), tr.meta.get("hinge_qadr", [])
+    if names:
+        return list(names), tr.qpos[:, qadr], tr.ref_qpos[:, qadr].astype(np.float64)
+    balls = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL]
+    w = np.array([model.jnt_qposadr[j] for j in balls], dtype=np.int64)
+
+    def angle(q: FloatArray) -> FloatArray:
+        return 2.0 * np.arccos(np.clip(np.abs(q[:, w]), 0.0, 1.0))
+
+    return [model.joint(j).name for j in balls], angle(tr.qpos), angle(tr.ref_qpos.astype(np.float64))
+
+
 def foot_tracks(model: mujoco.MjModel, tr: Trajectory) -> npt.NDArray[np.float64]:
-    """Positions (m, world x and y) of the :data:`PLOT_FEET` bodies per sample, shape (T, 2, 2)."""
+    """Positions (m, world x and y) of the feet (:func:`foot_names`) per sample, shape (T, feet, 2)."""
     data = mujoco.MjData(model)
-    feet = [model.body(f"{s}_foot").id for s in PLOT_FEET]
+    feet = [model.body(f if f not in PLOT_FEET else f"{f}_foot").id for f in foot_names(tr)]
     xy = np.zeros((tr.num_samples, len(feet), 2))
     for i in range(tr.num_samples):
         data.qpos[:] = tr.qpos[i]
@@ -123,7 +146,8 @@ def write_plots(folder: PathLike, tr: Trajectory | None = None) -> list[Path]:
     if tr is None:
         tr = Trajectory.load(folder / TRAJECTORY_FILE)
     model = mujoco.MjModel.from_xml_path(str(folder / MODEL_FILE))
-    return plot_run(tr, tr.meta["hinge_names"], tr.meta["hinge_qadr"], foot_tracks(model, tr), folder)
+    names, q, qr = joint_series(model, tr)
+    return plot_run(tr, names, q, qr, foot_tracks(model, tr), foot_names(tr), folder)
 
 
 def write_simulated_bvh(tr: Trajectory, scenario: Scenario, path: PathLike) -> None:
@@ -163,7 +187,8 @@ def finish_outputs(folder: PathLike, *, plots: bool = False, csv: PathLike | Non
         for p in write_plots(folder, tr):
             wrote(p)
     if csv:
-        write_joint_csv(tr, tr.meta["hinge_names"], tr.meta["hinge_qadr"], csv)
+        model = mujoco.MjModel.from_xml_path(str(folder / MODEL_FILE))
+        write_joint_csv(tr, *joint_series(model, tr), csv)
         wrote(csv)
     if export_bvh:
         write_simulated_bvh(tr, scenario, export_bvh)

@@ -18,7 +18,7 @@ from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.retarget import retarget
-from bipedsim.sim.push import check_pushes
+from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout
 
 #: body kinds a scenario can be built as (``--profile``)
@@ -48,6 +48,15 @@ class Scenario:
         """A fresh controller for this body, from the registry of controllers by body kind."""
         cfg = self.creature_cfg if self.profile == "creature" else self.cfg
         return CONTROLLERS[self.profile](self.built.model, self.built.plan, self.clip, cfg)
+
+    def foot_names(self) -> tuple[str, ...]:
+        """The feet the controller reports contact forces for (the recorder's columns)."""
+        return self.controller().foot_names()
+
+    def check_pushes(self, pushes: list[Push]) -> None:
+        """The pushes fit this body: bodies it has, gait states its controller has (before any run)."""
+        if pushes:
+            PushSchedule(self.built.model, list(pushes)).check_controller(self.controller())
 
     def fall_criteria(self) -> FallCriteria:
         return FallCriteria.for_body(self.profile, support=self.creature_cfg.support)

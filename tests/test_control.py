@@ -15,9 +15,7 @@ from bipedsim.control.balance import (
     feedback_angle,
     hinges_to_world,
     hip_torques,
-    pd_torque,
     stance_share,
-    torso_torque,
     world_to_hinges,
 )
 from bipedsim.control.config import ControllerConfig, load_controller
@@ -31,12 +29,36 @@ from bipedsim.sim.runner import load_scenario, run_scenario
 REPO = Path(__file__).resolve().parent.parent
 
 
-def test_pd_torque_eq1() -> None:
-    tau = pd_torque(np.array([300.0, 50.0]), np.array([30.0, 5.0]), np.array([0.5, -0.2]), np.array([0.1, 0.0]),
-                    np.array([2.0, -1.0]))
-    assert np.allclose(tau, [300 * 0.4 - 30 * 2.0, 50 * -0.2 - 5 * -1.0])
-    # with a reference velocity the damping acts on the velocity error
-    assert pd_torque(10.0, 2.0, 1.0, 1.0, 3.0, qdot_target=3.0) == 0.0
+def test_pd_step_is_eq1(scenario) -> None:
+    """Eq. 1 on the control step that runs: with balance, feedforward, servos and implicit damping off,
+    every hinge's torque is kp (theta_d - theta) - kd theta_dot (clipped to its limit), and with
+    ``pd_ref_velocity`` the damping acts on the velocity error."""
+    from dataclasses import replace
+
+    import mujoco
+
+    model = scenario.built.model
+    for mode in ("pd", "pd_ref_velocity"):
+        cfg = replace(scenario.cfg, control_dt=None, balance=replace(scenario.cfg.balance, enabled=False),
+                      pd=replace(scenario.cfg.pd, mode=mode, servo=False, implicit_damping=False,
+                                 gravity_compensation=False))
+        c = Controller(model, scenario.built.plan, gait_source(model, scenario.built.plan, scenario.clip, cfg), cfg)
+        data = mujoco.MjData(model)
+        f = c.start_frame()
+        data.qpos[:] = scenario.clip.qpos[f + 3]  # a pose off the reference's, moving
+        data.qvel[:] = scenario.clip.qvel[f + 3] * 1.5
+        mujoco.mj_forward(model, data)
+        c.reset(data, float(f))
+        try:
+            c(model, data, 0.0, model.opt.timestep)
+            q, qd = data.qpos[c.h.qadr], data.qvel[c.h.dadr]
+            q_d = q - c.tracking_error  # the reference's targets this step
+            qd_d = c.source.hinge_targets(c.frame, c.fsm.state)[1] if mode == "pd_ref_velocity" else 0.0
+            tau = c.kp * (q_d - q) - c.kd * (qd - qd_d)
+            assert np.allclose(c.torque, np.clip(tau, -c.limit, c.limit), atol=1e-9)
+            assert np.abs(c.tracking_error).max() > 0.01  # a real error, not a trivial zero
+        finally:
+            c.restore_model()
 
 
 def test_stance_hip_single_support_eq2() -> None:
@@ -72,12 +94,6 @@ def test_hinge_world_torque_mapping_round_trip() -> None:
     axes = Rotation.random(1, random_state=3).as_matrix()[0]
     t = np.array([10.0, -20.0, 5.0])
     assert np.allclose(hinges_to_world(axes, world_to_hinges(axes, t)), t)
-
-
-def test_torso_torque_turns_toward_target() -> None:
-    r_d = Rotation.from_rotvec([0.0, 0.2, 0.0]).as_matrix()
-    tau = torso_torque(100.0, 10.0, r_d, np.eye(3), np.zeros(3))
-    assert np.allclose(tau, [0.0, 20.0, 0.0])
 
 
 @pytest.mark.parametrize("order", [(1, 0, 2), (0, 1, 2), (2, 0, 1), (0, 2, 1)])

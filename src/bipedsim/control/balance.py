@@ -14,13 +14,6 @@ import numpy.typing as npt
 FloatArray = npt.NDArray[np.float64]
 
 
-def pd_torque(kp: FloatArray | float, kd: FloatArray | float, target: FloatArray, q: FloatArray,
-              qdot: FloatArray, qdot_target: FloatArray | float = 0.0) -> FloatArray:
-    """Eq. 1: tau = kp (theta_d - theta) - kd (theta_dot - theta_dot_d); with ``qdot_target = 0`` the
-    paper's absolute-velocity damping."""
-    return kp * (target - q) - kd * (qdot - qdot_target)
-
-
 def feedback_angle(theta0: float, cd: float, cv: float, d: float, v: float, limit: float = np.inf) -> float:
     """Eq. 6: theta_d = theta_d0 + c_d d + c_v v, the feedback part clipped to +-``limit`` rad."""
     fb = cd * float(d) + cv * float(v)
@@ -38,31 +31,6 @@ def course_turn(offset: float, rate: float, gain: float, damping: float, max_tur
     offset from the course and its rate, positive left; gains in rad/m and rad/(m/s)."""
     turn = -gain * offset - damping * rate
     return max_turn if turn > max_turn else -max_turn if turn < -max_turn else turn
-
-
-def rotvec_error(r_desired: FloatArray, r_actual: FloatArray) -> FloatArray:
-    """World rotation vector (rad) turning ``r_actual`` into ``r_desired`` (3x3 matrices)."""
-    e = r_desired @ r_actual.T
-    cos = np.clip((np.trace(e) - 1.0) * 0.5, -1.0, 1.0)
-    ang = np.arccos(cos)
-    w = np.array([e[2, 1] - e[1, 2], e[0, 2] - e[2, 0], e[1, 0] - e[0, 1]])
-    s = np.sin(ang)
-    if s < 1e-9:
-        return 0.5 * w if ang < 1.0 else _rotvec_pi(e)
-    return w * (ang / (2.0 * s))
-
-
-def _rotvec_pi(e: FloatArray) -> FloatArray:
-    from scipy.spatial.transform import Rotation
-
-    return Rotation.from_matrix(e).as_rotvec()
-
-
-def torso_torque(kp: float, kd: float, r_desired: FloatArray, r_actual: FloatArray, omega: FloatArray,
-                 omega_desired: FloatArray | None = None) -> FloatArray:
-    """World-frame PD torque (N*m) that turns the torso toward ``r_desired``."""
-    w = omega if omega_desired is None else omega - omega_desired
-    return kp * rotvec_error(r_desired, r_actual) - kd * w
 
 
 def stance_share(force_stance: float, force_swing: float) -> float:

@@ -90,11 +90,24 @@ class SimbiconController(Controller):
         self.source = source
         self.cfg = cfg
         self.h = Hinges.of(model, plan)
+        jplan = {j.name: j for b in plan.bodies for j in b.joints}
+        self._gain_table(jplan)
+        self._leg_tables(jplan)
+        self._model_tables()
+        self._foot_tables()
+        self._gait_state()
+        self._hot_path_tables()
+        self._apply_damping(1.0)  # the gain tables; the model itself is left as it was
+        self.restore_model()
+
+    def _gain_table(self, jplan: dict) -> None:
+        """kp, kd (N*m/rad, N*m*s/rad) and torque limits (N*m) per hinge: the joint's own entry in
+        ``pd.joint_gains``, else its group's in ``pd.gains``, else the body profile's; target ranges."""
+        model, cfg = self.model, self.cfg
         n = len(self.h.names)
         self.kp = np.zeros(n)
         self.kd = np.zeros(n)
         self.limit = np.abs(model.actuator_ctrlrange[self.h.actuator, 1]).copy()
-        jplan = {j.name: j for b in plan.bodies for j in b.joints}
         for i, name in enumerate(self.h.names):
             g = cfg.pd.gains.get(self.h.groups[i])
             kp, kd = (g.kp, g.kd) if g else (jplan[name].kp, jplan[name].kd)
@@ -115,6 +128,10 @@ class SimbiconController(Controller):
         self.thi = model.jnt_range[self.h.jid, 1].copy()
         for j, (lo, hi) in cfg.pd.target_limits.items():
             self.tlo[self.h.index(j)], self.thi[self.h.index(j)] = lo, hi
+
+    def _leg_tables(self, jplan: dict) -> None:
+        """Hip and ankle hinge indices, world-axis joint ids and Euler decompositions of their axes."""
+        model = self.model
         # hips: hinge indices, world-axis joint ids, Euler decomposition of their axis sets
         self.hip = {}
         for s in SIDES:
@@ -132,6 +149,10 @@ class SimbiconController(Controller):
             axes = [np.asarray(jplan[x].axis) for x in names]
             self.ankle[s] = (idx, axes)
         self.shin_body = {s: model.body(f"{s}_shin").id for s in SIDES}
+
+    def _model_tables(self) -> None:
+        """What the controller changes in the model (damping, actuator fields), saved to restore."""
+        model, cfg, n = self.model, self.cfg, len(self.h.names)
         # implicit damping: MuJoCo's joint damping carries kd
         self.implicit = cfg.pd.implicit_damping
         self.base_damping = model.dof_damping.copy()
@@ -141,7 +162,11 @@ class SimbiconController(Controller):
         self.servo_gain = np.ones(n)
         self.pelvis = self.root_body = model.body("pelvis").id
         self.control_dt = cfg.control_dt
-        self.starts_moving = isinstance(source, ClipSource)
+        self.starts_moving = isinstance(self.source, ClipSource)
+
+    def _foot_tables(self) -> None:
+        """Feet, stance-leg chains, body weight and the touch sensors of each side."""
+        model = self.model
         self.foot_body = {s: model.body(f"{s}_foot").id for s in SIDES}
         # stance-leg joints below the hip (knee, ankle, toe) per side, for weight support
         self.leg_low = {s: np.array([i for i, n in enumerate(self.h.names)
@@ -153,6 +178,10 @@ class SimbiconController(Controller):
         self.touch = {s: [model.sensor_adr[model.sensor(f"touch_{b}_touch").id]
                           for b in (f"{s}_foot", f"{s}_toe") if _has_sensor(model, f"touch_{b}_touch")]
                       for s in SIDES}
+
+    def _gait_state(self) -> None:
+        """The FSM, the reference's playback and the per-run state (reset by :meth:`reset`)."""
+        model, cfg, source, n = self.model, self.cfg, self.source, len(self.h.names)
         self.fsm = GaitFSM(state1_time=cfg.fsm.state1_time or source.state1_time(),
                            min_swing_time=cfg.fsm.min_swing_time, contact_force=cfg.fsm.contact_force)
         self.state = ControllerState()
@@ -170,6 +199,10 @@ class SimbiconController(Controller):
         self.torque = np.zeros(n)  #: the torques (N*m) of the last control step
         self.tracking_error = np.zeros(n)
         self._qpos_now = np.zeros(model.nq)
+
+    def _hot_path_tables(self) -> None:
+        """Constants of the control step in the forms it reads fastest (slices, lists, floats)."""
+        model, cfg, source = self.model, self.cfg, self.source
         # hot-path constants (see __call__)
         self._qsel, self._dsel, self._asel = (_as_slice(self.h.qadr), _as_slice(self.h.dadr),
                                               _as_slice(self.h.actuator))
@@ -213,8 +246,6 @@ class SimbiconController(Controller):
         #: the hip (which belongs to the torso law) for velocity tuning
         self._vf_joints = {s: [(int(i), int(self.h.jid[i])) for i in self.leg_low[s]
                                if not self.h.names[i].endswith("toe")] for s in SIDES}
-        self._apply_damping(1.0)  # the gain tables; the model itself is left as it was
-        self.restore_model()
 
     # ------------------------------------------------------------------ setup
     def _configure_actuators(self) -> None:

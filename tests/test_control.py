@@ -404,3 +404,30 @@ def test_tempo_recovers_forward_pushes_late_in_the_swing(scenario, direction: fl
         out[name], _ = run_scenario(replace(scenario, cfg=cfg), RolloutSpec(seconds=6.0), pushes=push)
     assert out["off"].outcome == "fall"
     assert out["default"].outcome == "no_fall"
+
+
+def test_torso_law_on_the_running_method(scenario) -> None:
+    """The torso law as the control step computes it (``SimbiconController._torso_torque``): a pelvis
+    pitched by delta from its target and turning at omega about world y gets the world torque
+    (0, kp delta - kd omega, 0) whatever its heading (roll and pitch gains equal by default)."""
+    import mujoco
+
+    cfg = scenario.cfg
+    model = scenario.built.model
+    c = Controller(model, scenario.built.plan, gait_source(model, scenario.built.plan, scenario.clip, cfg), cfg)
+    data = mujoco.MjData(model)
+    data.qpos[:] = scenario.clip.qpos[c.start_frame()]
+    mujoco.mj_forward(model, data)
+    c.reset(data, float(c.start_frame()))
+    try:
+        r_des = c._r_heading.dot(c.source.pelvis_target(c.frame, c.fsm.state))
+        b = cfg.balance
+        assert b.roll_kp is None  # the law below assumes roll_kp = torso_kp
+        for delta, omega in ((0.1, 0.0), (-0.05, 0.3), (0.0, -0.5)):
+            r_p = Rotation.from_rotvec([0.0, -delta, 0.0]).as_matrix() @ r_des  # r_des r_p^T = R_y(delta)
+            h = math.atan2(r_p[1, 0], r_p[0, 0])
+            w_body = r_p.T @ np.array([0.0, omega, 0.0])
+            tau = c._torso_torque(r_p, r_p.ravel().tolist(), w_body.tolist(), math.cos(h), math.sin(h))
+            assert np.allclose(tau, [0.0, b.torso_kp * delta - b.torso_kd * omega, 0.0], atol=1e-6)
+    finally:
+        c.restore_model()

@@ -500,12 +500,13 @@ class SimbiconController(Controller):
 
     def _balance(self, data: mujoco.MjData, q: FloatArray, qd: FloatArray, q_d: FloatArray, qd_d: FloatArray,
                  tau: FloatArray, forces: dict[str, float]) -> None:
-        b, src, fsm = self.cfg.balance, self.source, self.fsm
+        """The balance terms of one control step, in order: course steering, the torso law, swing-hip
+        feedback (eq. 6), the feet's world targets, the hips' torque split (eq. 2-5), velocity tuning."""
+        b, fsm = self.cfg.balance, self.fsm
         stance, swing = fsm.stance, fsm.swing
-        frame, state = self.frame, fsm.state
         r_p = data.xmat[self.pelvis].reshape(3, 3)
-        p00, p01, p02, p10, p11, p12, p20, p21, p22 = data.xmat[self.pelvis].tolist()
-        heading = math.atan2(p10, p00)
+        pm = data.xmat[self.pelvis].tolist()
+        heading = math.atan2(pm[3], pm[0])
         c, s = math.cos(heading), math.sin(heading)
         ry = self._ry
         ry[0, 0], ry[0, 1], ry[1, 0], ry[1, 1] = c, -s, s, c
@@ -513,23 +514,49 @@ class SimbiconController(Controller):
         cx, cy, _ = data.subtree_com[self.pelvis].tolist()
         vx, vy, _ = data.subtree_linvel[self.pelvis].tolist()
         place = self._steer(cx, cy, vx, vy) if self._course_on else 0.0
-        # torso (pelvis) in the world frame: reference pitch/roll, the heading target; gains
-        # per heading-frame axis (roll about forward x, pitch about lateral y, yaw about z)
-        # (ndarray.dot, not @: on 3x3s the matmul ufunc's dispatch costs twice the product)
-        w0, w1, w2 = _rotvec3(self._r_heading.dot(src.pelvis_target(frame, state)).dot(r_p.T))
+        tau_torso = self._torso_torque(r_p, pm, data.qvel[3:6].tolist(), c, s)
+        ax, ay, _ = data.xpos[self.foot_body[stance]].tolist()
+        fs, fc, vh0, vh1 = self._feedback(cx - ax, cy - ay, vx, vy, c, s, place)
+        if b.swing_hip_world:
+            tb = self._swing_hip(data, r_p, q, qd, q_d, qd_d, fs, fc)
+        else:
+            sl_b, idx_b = self._hip_fast[swing][:2]
+            tb = tau[sl_b].tolist() if isinstance(sl_b, slice) else [float(tau[i]) for i in idx_b]
+        if b.feet_world:
+            self._feet_world(data, q, qd, q_d, qd_d, tau)
+        self._hips(data, tau, tau_torso, tb, forces)
+        if self._vel_on:  # last: the feet's world targets above set the ankle torques outright
+            self._virtual_force(data, tau, forces, c, s, vh0, vh1)
+
+    def _torso_torque(self, r_p: FloatArray, pm: list[float], omega_body: list[float], c: float, s: float
+                      ) -> tuple[float, float, float]:
+        """The torso law: world torque (N*m) turning the pelvis (rotation ``r_p``, ``pm`` its 9 entries
+        row by row, angular velocity ``omega_body`` rad/s in its own frame) toward the reference's pitch
+        and roll under the heading target; PD per heading-frame axis (roll about forward x with
+        ``roll_kp``, pitch about lateral y with ``torso_kp``, yaw with ``heading_kp``); ``c``, ``s``:
+        cos and sin of the pelvis's heading. (ndarray.dot, not @: on 3x3s the matmul ufunc's dispatch
+        costs twice the product.)"""
+        b = self.cfg.balance
+        w0, w1, w2 = _rotvec3(self._r_heading.dot(self.source.pelvis_target(self.frame, self.fsm.state)).dot(r_p.T))
         e0, e1 = c * w0 + s * w1, -s * w0 + c * w1
-        x, y, z = data.qvel[3:6].tolist()  # pelvis angular velocity, body frame
+        p00, p01, p02, p10, p11, p12, p20, p21, p22 = pm
+        x, y, z = omega_body
         ow0, ow1, ow2 = p00 * x + p01 * y + p02 * z, p10 * x + p11 * y + p12 * z, p20 * x + p21 * y + p22 * z
         o0, o1 = c * ow0 + s * ow1, -s * ow0 + c * ow1
         h0 = self._roll_kp * e0 - b.torso_kd * o0
         h1 = b.torso_kp * e1 - b.torso_kd * o1
-        tau_torso = (c * h0 - s * h1, s * h0 + c * h1, b.heading_kp * w2 - b.torso_kd * ow2)
-        # swing hip: world-frame thigh target turned by the feedback (eq. 6)
-        ax, ay, _ = data.xpos[self.foot_body[stance]].tolist()
-        dx, dy = cx - ax, cy - ay
+        return (c * h0 - s * h1, s * h0 + c * h1, b.heading_kp * w2 - b.torso_kd * ow2)
+
+    def _feedback(self, dx: float, dy: float, vx: float, vy: float, c: float, s: float, place: float
+                  ) -> tuple[float, float, float, float]:
+        """Eq. 6's feedback angles (rad) theta_d0 + c_d d + c_v v, sagittal and coronal, from the COM's
+        offset (dx, dy) m from the stance ankle and velocity (vx, vy) m/s (world), measured against the
+        walk's own as ``balance.relative`` says; ``place``: the course law's coronal term. Also returns
+        the COM velocity in the heading frame (for velocity tuning)."""
+        b, src, stance, frame = self.cfg.balance, self.source, self.fsm.stance, self.frame
         d0, d1 = c * dx + s * dy, -s * dx + c * dy
         v0, v1 = c * vx + s * vy, -s * vx + c * vy
-        vh0, vh1 = v0, v1  # the COM velocity in the heading frame, for velocity tuning
+        vh0, vh1 = v0, v1
         self._v_sag = v0
         if b.relative == "full":
             d_ref, v_ref = src.com_reference(frame, stance)
@@ -545,69 +572,84 @@ class SimbiconController(Controller):
         else:
             fs = fc = 0.0
         self.state.feedback_sagittal, self.state.feedback_coronal = fs, fc
-        sl_b, idx_b, jid_b, order_b, sign_b, dadr_b = self._hip_fast[swing]
-        sl_a, _, jid_a, _, _, _ = self._hip_fast[stance]
+        return fs, fc, vh0, vh1
+
+    def _swing_hip(self, data: mujoco.MjData, r_p: FloatArray, q: FloatArray, qd: FloatArray, q_d: FloatArray,
+                   qd_d: FloatArray, fs: float, fc: float) -> list[float]:
+        """The swing hip's hinge torques (N*m) toward the world-frame thigh target turned by the
+        feedback angles ``fs`` (sagittal) and ``fc`` (coronal) about the heading frame's axes."""
+        src, swing, state, frame = self.source, self.fsm.swing, self.fsm.state, self.frame
+        sl_b, idx_b, _jid_b, order_b, sign_b, dadr_b = self._hip_fast[swing]
+        fade, kp, kd, tlo, thi = self.fade, self._kp_l, self._kd_l, self._tlo_l, self._thi_l
+        ref_vel, implicit = self._ref_vel, self.implicit
+        # r_fb = ry R_y(-fs) R_x(fc) ry^T (feedback about the heading frame's axes), so
+        # pelvis^T r_fb ry thigh_ref = pelvis^T ry R_y(-fs) R_x(fc) thigh_ref
+        cs, ss, cc, sc = math.cos(fs), math.sin(fs), math.cos(fc), math.sin(fc)
+        r_fb = self._r_fb
+        r_fb[0, 0], r_fb[0, 1], r_fb[0, 2] = cs, -ss * sc, -ss * cc
+        r_fb[1, 1], r_fb[1, 2] = cc, -sc
+        r_fb[2, 0], r_fb[2, 1], r_fb[2, 2] = ss, cs * sc, cs * cc
+        ang = euler_from_matrix(r_p.T.dot(self._ry).dot(r_fb.dot(src.thigh_target(frame, state, swing))), order_b)
+        # the world target sets where the thigh points; its twist about its own axis (the last
+        # hinge, applied after flexion and abduction) stays the reference's: turning the leg
+        # about itself does not place the foot, it only yaws the body
+        i0, i1, i2 = idx_b
+        v0 = min(max(ang[0] * sign_b[0], tlo[i0]), thi[i0])
+        v1 = min(max(ang[1] * sign_b[1], tlo[i1]), thi[i1])
+        q_d[i0], q_d[i1] = v0, v1
+        qb = q[sl_b].tolist() if isinstance(sl_b, slice) else [float(q[i]) for i in idx_b]
+        tb = [kp[i0] * (v0 - qb[0]), kp[i1] * (v1 - qb[1]), kp[i2] * (float(q_d[i2]) - qb[2])]
+        if not implicit or ref_vel:
+            for k, i in enumerate(idx_b):
+                vel = (0.0 if implicit else float(qd[i])) - (float(qd_d[i]) if ref_vel else 0.0)
+                tb[k] -= kd[i] * vel
+        tb = [fade * x for x in tb]
+        if self.cfg.pd.gravity_compensation:
+            bias = data.qfrc_bias
+            tb = [x + float(bias[d]) for x, d in zip(tb, dadr_b)]
+        return tb
+
+    def _feet_world(self, data: mujoco.MjData, q: FloatArray, qd: FloatArray, q_d: FloatArray, qd_d: FloatArray,
+                    tau: FloatArray) -> None:
+        """Ankle torques (into ``tau``) aiming each foot at the reference's heading-frame orientation."""
+        src, state, frame, ry = self.source, self.fsm.state, self.frame, self._ry
         fade, kp, kd, tlo, thi = self.fade, self._kp_l, self._kd_l, self._tlo_l, self._thi_l
         ref_vel, implicit, grav = self._ref_vel, self.implicit, self.cfg.pd.gravity_compensation
-        if b.swing_hip_world:
-            # r_fb = ry R_y(-fs) R_x(fc) ry^T (feedback about the heading frame's axes), so
-            # pelvis^T r_fb ry thigh_ref = pelvis^T ry R_y(-fs) R_x(fc) thigh_ref
-            cs, ss, cc, sc = math.cos(fs), math.sin(fs), math.cos(fc), math.sin(fc)
-            r_fb = self._r_fb
-            r_fb[0, 0], r_fb[0, 1], r_fb[0, 2] = cs, -ss * sc, -ss * cc
-            r_fb[1, 1], r_fb[1, 2] = cc, -sc
-            r_fb[2, 0], r_fb[2, 1], r_fb[2, 2] = ss, cs * sc, cs * cc
-            ang = euler_from_matrix(r_p.T.dot(ry).dot(r_fb.dot(src.thigh_target(frame, state, swing))), order_b)
-            # the world target sets where the thigh points; its twist about its own axis (the last
-            # hinge, applied after flexion and abduction) stays the reference's: turning the leg
-            # about itself does not place the foot, it only yaws the body
-            i0, i1, i2 = idx_b
-            v0 = min(max(ang[0] * sign_b[0], tlo[i0]), thi[i0])
-            v1 = min(max(ang[1] * sign_b[1], tlo[i1]), thi[i1])
-            q_d[i0], q_d[i1] = v0, v1
-            qb = q[sl_b].tolist() if isinstance(sl_b, slice) else [float(q[i]) for i in idx_b]
-            tb = [kp[i0] * (v0 - qb[0]), kp[i1] * (v1 - qb[1]), kp[i2] * (float(q_d[i2]) - qb[2])]
-            if not implicit or ref_vel:
-                for k, i in enumerate(idx_b):
+        for side in SIDES:
+            r_f = src.foot_target(frame, state, side)
+            if r_f is None:
+                continue
+            idx, axes = self._ankle_fast[side]
+            local = data.xmat[self.shin_body[side]].reshape(3, 3).T.dot(ry.dot(r_f))
+            ang = _hinge_angles_small(local, axes)
+            for k, i in enumerate(idx):
+                v = min(max(ang[k], tlo[i]), thi[i])
+                q_d[i] = v
+                t_i = fade * kp[i] * (v - float(q[i]))
+                if ref_vel or not implicit:
                     vel = (0.0 if implicit else float(qd[i])) - (float(qd_d[i]) if ref_vel else 0.0)
-                    tb[k] -= kd[i] * vel
-            tb = [fade * x for x in tb]
-            if grav:
-                bias = data.qfrc_bias
-                tb = [x + float(bias[d]) for x, d in zip(tb, dadr_b)]
-        else:
-            tb = tau[sl_b].tolist() if isinstance(sl_b, slice) else [float(tau[i]) for i in idx_b]
-        if b.feet_world:
-            for side in SIDES:
-                r_f = src.foot_target(frame, state, side)
-                if r_f is None:
-                    continue
-                idx, axes = self._ankle_fast[side]
-                local = data.xmat[self.shin_body[side]].reshape(3, 3).T.dot(ry.dot(r_f))
-                ang = _hinge_angles_small(local, axes)
-                for k, i in enumerate(idx):
-                    v = min(max(ang[k], tlo[i]), thi[i])
-                    q_d[i] = v
-                    t_i = fade * kp[i] * (v - float(q[i]))
-                    if ref_vel or not implicit:
-                        vel = (0.0 if implicit else float(qd[i])) - (float(qd_d[i]) if ref_vel else 0.0)
-                        t_i -= fade * kd[i] * vel
-                    if grav:
-                        t_i += float(self._ff[i])
-                    tau[i] = t_i
-        # the hips: the swing hip's world torque, the stance hip takes the rest (eq. 2-5)
+                    t_i -= fade * kd[i] * vel
+                if grav:
+                    t_i += float(self._ff[i])
+                tau[i] = t_i
+
+    def _hips(self, data: mujoco.MjData, tau: FloatArray, tau_torso: tuple[float, float, float], tb: list[float],
+              forces: dict[str, float]) -> None:
+        """Eq. 2-5: the swing hip keeps its world torque, the stance hip takes the torso's less the
+        swing hip's, redistributed by the feet's loads; both written into ``tau`` as hinge torques."""
+        stance, swing = self.fsm.stance, self.fsm.swing
+        sl_b, jid_b = self._hip_fast[swing][0], self._hip_fast[swing][2]
+        sl_a, jid_a = self._hip_fast[stance][0], self._hip_fast[stance][2]
         axes_b = data.xaxis[jid_b].tolist()
         t_b = hinges_to_world3(axes_b, tb)
         if t_b is None:
             t_b = tuple(hinges_to_world(np.array(axes_b), np.array(tb)).tolist())
         gamma = stance_share(forces[stance], forces[swing])
-        t_a, t_b_total = hip_torques3(tau_torso, t_b, gamma, b.redistribution)
+        t_a, t_b_total = hip_torques3(tau_torso, t_b, gamma, self.cfg.balance.redistribution)
         tau[sl_a] = world_to_hinges3(data.xaxis[jid_a].tolist(), t_a)
         tau[sl_b] = world_to_hinges3(axes_b, t_b_total)
         self.state.gamma = gamma
         self.state.tau_torso = tau_torso
-        if self._vel_on:  # last: the feet's world targets above set the ankle torques outright
-            self._virtual_force(data, tau, forces, c, s, vh0, vh1)
 
     def _steer(self, cx: float, cy: float, vx: float, vy: float) -> float:
         """Course control (``balance.course``): the COM at (cx, cy) m moving at (vx, vy) m/s (world) is

@@ -263,6 +263,48 @@ class RolloutSpec:
     start_frame: float | None = None
 
 
+def _push_schedule(model: mujoco.MjModel, pushes: list[Any] | None, ctrl: Controller,
+                   before_step: list[Hook]) -> Any:
+    """The pushes' schedule, first of the hooks run before each physics step (None without pushes)."""
+    if not pushes:
+        return None
+    from bipedsim.sim.push import PushSchedule
+
+    schedule = PushSchedule(model, list(pushes))
+    schedule.check_controller(ctrl)
+    before_step.insert(0, schedule)
+    return schedule
+
+
+def _outcome(ctrl: Controller, spec: RolloutSpec, schedule: Any, verdict: tuple[str, float | None, str | None],
+             step: int, dt: float, dist: float, rmse: float, series: tuple[FloatArray, FloatArray, FloatArray],
+             nominal_com: tuple[FloatArray, FloatArray] | None, record_com: bool) -> Outcome:
+    """The rollout's verdict and metrics once the loop has ended at physics step ``step`` (its index)
+    having moved the root ``dist`` m; ``series``: time, tracking error and COM per control period."""
+    outcome, fall_t, reason = verdict
+    sim_s = (step + 1) * dt
+    dist = dist if outcome != "diverged" else 0.0
+    metrics = ctrl.metrics()
+    strikes = ctrl.foot_strikes()
+    extra: dict[str, Any] = {k: v for k, v in metrics.items() if k not in ("resyncs", "mean_resync_ratio")}
+    series_t, series_err, series_com = series
+    if schedule is not None:
+        extra.update(recovery_metrics(schedule, series_t, series_err, series_com, [s[0] for s in strikes],
+                                      spec, nominal_com))
+        # only a run that reached its end: a fall or divergence is one, pushed in full or not
+        missed = not_applied(schedule, sim_s, dt) if outcome == "no_fall" else []
+        if missed:
+            extra["pushes_not_applied"] = missed
+            outcome = PUSH_NOT_APPLIED
+    if record_com:
+        extra["com_series"] = (series_t.copy(), series_com.copy())
+    return Outcome(outcome=outcome, sim_seconds=sim_s, fall_time_s=fall_t, fall_reason=reason,
+                   foot_strikes=len(strikes), distance_m=dist, mean_speed_mps=dist / sim_s if sim_s > 0 else 0.0,
+                   reference_speed_mps=ctrl.reference_speed(), tracking_rmse_rad=rmse, wall_seconds=0.0,
+                   steps=step + 1, resyncs=int(metrics.get("resyncs", 0)),
+                   mean_resync_ratio=metrics.get("mean_resync_ratio"), seed=spec.seed, extra=extra)
+
+
 #: A hook called after every control step: (t, data, controller) -> None. Pushes and recorders use it.
 Hook = Callable[[float, mujoco.MjData, Controller], None]
 
@@ -299,13 +341,7 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller,
         step = 0
         hooks = list(hooks or [])
         before_step = list(before_step or [])
-        schedule = None
-        if pushes:
-            from bipedsim.sim.push import PushSchedule
-
-            schedule = PushSchedule(model, list(pushes))
-            schedule.check_controller(ctrl)
-            before_step.insert(0, schedule)
+        schedule = _push_schedule(model, pushes, ctrl, before_step)
         # per control period: time (s), RMS tracking error (rad), COM xy (m); preallocated, not lists of
         # floats and small arrays that cost ~10x the memory on long runs
         n_ctrl = -(-n_steps // every) if schedule is not None or record_com else 0
@@ -353,31 +389,11 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller,
                     progress(step * dt)
                     next_progress += 1.0
         step = max(step - 1, 0)  # index of the last physics step taken
-        sim_s = (step + 1) * dt
-        dist = float(np.linalg.norm(data.qpos[0:2] - start_xy)) if outcome != "diverged" else 0.0
-        metrics = ctrl.metrics()
-        strikes = ctrl.foot_strikes()
-        extra: dict[str, Any] = {k: v for k, v in metrics.items() if k not in ("resyncs", "mean_resync_ratio")}
-        series_t, series_err, series_com = series_t[:n_series], series_err[:n_series], series_com[:n_series]
-        if schedule is not None:
-            extra.update(recovery_metrics(schedule, series_t, series_err, series_com, [s[0] for s in strikes],
-                                          spec, nominal_com))
-            # only a run that reached its end: a fall or divergence is one, pushed in full or not
-            missed = not_applied(schedule, sim_s, dt) if outcome == "no_fall" else []
-            if missed:
-                extra["pushes_not_applied"] = missed
-                outcome = PUSH_NOT_APPLIED
-        if record_com:
-            extra["com_series"] = (series_t.copy(), series_com.copy())
-        result = Outcome(outcome=outcome, sim_seconds=sim_s, fall_time_s=fall_t, fall_reason=reason,
-                         foot_strikes=len(strikes), distance_m=dist,
-                         mean_speed_mps=dist / sim_s if sim_s > 0 else 0.0,
-                         reference_speed_mps=ctrl.reference_speed(),
-                         tracking_rmse_rad=float(np.sqrt(err2 / max(n_err, 1))),
-                         wall_seconds=time.perf_counter() - t0, steps=step + 1,
-                         resyncs=int(metrics.get("resyncs", 0)), mean_resync_ratio=metrics.get("mean_resync_ratio"),
-                         seed=spec.seed,
-                         extra=extra)
+        series = (series_t[:n_series], series_err[:n_series], series_com[:n_series])
+        result = _outcome(ctrl, spec, schedule, (outcome, fall_t, reason), step, dt,
+                          float(np.linalg.norm(data.qpos[0:2] - start_xy)), float(np.sqrt(err2 / max(n_err, 1))),
+                          series, nominal_com, record_com)
+        result.wall_seconds = time.perf_counter() - t0
         return result, ctrl
     finally:
         mj_warnings.stop()

@@ -51,7 +51,7 @@ def test_pd_step_is_eq1(scenario) -> None:
         c.reset(data, float(f))
         try:
             c(model, data, 0.0, model.opt.timestep)
-            q, qd = data.qpos[c.h.qadr], data.qvel[c.h.dadr]
+            q, qd = data.qpos[c.hinges.qadr], data.qvel[c.hinges.dadr]
             q_d = q - c.tracking_error  # the reference's targets this step
             qd_d = c.source.hinge_targets(c.frame, c.fsm.state)[1] if mode == "pd_ref_velocity" else 0.0
             tau = c.kp * (q_d - q) - c.kd * (qd - qd_d)

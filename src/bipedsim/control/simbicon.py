@@ -89,7 +89,7 @@ class SimbiconController(Controller):
         self.plan = plan
         self.source = source
         self.cfg = cfg
-        self.h = Hinges.of(model, plan)
+        self.hinges = Hinges.of(model, plan)
         jplan = {j.name: j for b in plan.bodies for j in b.joints}
         self._gain_table(jplan)
         self._leg_tables(jplan)
@@ -104,12 +104,12 @@ class SimbiconController(Controller):
         """kp, kd (N*m/rad, N*m*s/rad) and torque limits (N*m) per hinge: the joint's own entry in
         ``pd.joint_gains``, else its group's in ``pd.gains``, else the body profile's; target ranges."""
         model, cfg = self.model, self.cfg
-        n = len(self.h.names)
+        n = len(self.hinges.names)
         self.kp = np.zeros(n)
         self.kd = np.zeros(n)
-        self.limit = np.abs(model.actuator_ctrlrange[self.h.actuator, 1]).copy()
-        for i, name in enumerate(self.h.names):
-            g = cfg.pd.gains.get(self.h.groups[i])
+        self.limit = np.abs(model.actuator_ctrlrange[self.hinges.actuator, 1]).copy()
+        for i, name in enumerate(self.hinges.names):
+            g = cfg.pd.gains.get(self.hinges.groups[i])
             kp, kd = (g.kp, g.kd) if g else (jplan[name].kp, jplan[name].kd)
             lim = g.torque_limit if g and g.torque_limit else None
             jg = cfg.pd.joint_gains.get(name)
@@ -119,15 +119,15 @@ class SimbiconController(Controller):
             self.kp[i], self.kd[i] = kp, kd
             if lim:
                 self.limit[i] = lim
-        unknown = [j for j in (*cfg.pd.joint_gains, *cfg.pd.target_limits) if j not in self.h.names]
+        unknown = [j for j in (*cfg.pd.joint_gains, *cfg.pd.target_limits) if j not in self.hinges.names]
         if unknown:
             raise ConfigError(f"names joint {unknown[0]!r}, which the model does not have; hinges are "
-                              f"{', '.join(self.h.names)}", key="pd.joint_gains")
+                              f"{', '.join(self.hinges.names)}", key="pd.joint_gains")
         # targets stay inside the joints' ranges (a retargeted clip may reach past them)
-        self.tlo = model.jnt_range[self.h.jid, 0].copy()
-        self.thi = model.jnt_range[self.h.jid, 1].copy()
+        self.tlo = model.jnt_range[self.hinges.jid, 0].copy()
+        self.thi = model.jnt_range[self.hinges.jid, 1].copy()
         for j, (lo, hi) in cfg.pd.target_limits.items():
-            self.tlo[self.h.index(j)], self.thi[self.h.index(j)] = lo, hi
+            self.tlo[self.hinges.index(j)], self.thi[self.hinges.index(j)] = lo, hi
 
     def _leg_tables(self, jplan: dict) -> None:
         """Hip and ankle hinge indices, world-axis joint ids and Euler decompositions of their axes."""
@@ -136,23 +136,23 @@ class SimbiconController(Controller):
         self.hip = {}
         for s in SIDES:
             names = [f"{s}_hip_y", f"{s}_hip_x", f"{s}_hip_z"]
-            idx = np.array([self.h.index(x) for x in names])
+            idx = np.array([self.hinges.index(x) for x in names])
             axes = [np.asarray(jplan[x].axis) for x in names]
             order = tuple(int(np.argmax(np.abs(a))) for a in axes)
             signs = np.array([np.sign(a[k]) for a, k in zip(axes, order)])
-            self.hip[s] = (idx, self.h.jid[idx], order, signs)
+            self.hip[s] = (idx, self.hinges.jid[idx], order, signs)
         # ankles: hinge indices and Euler decomposition of their axes (1 or 2 hinges)
         self.ankle = {}
         for s in SIDES:
-            names = [x for x in (f"{s}_ankle", f"{s}_ankle_y", f"{s}_ankle_x") if x in self.h.names]
-            idx = np.array([self.h.index(x) for x in names])
+            names = [x for x in (f"{s}_ankle", f"{s}_ankle_y", f"{s}_ankle_x") if x in self.hinges.names]
+            idx = np.array([self.hinges.index(x) for x in names])
             axes = [np.asarray(jplan[x].axis) for x in names]
             self.ankle[s] = (idx, axes)
         self.shin_body = {s: model.body(f"{s}_shin").id for s in SIDES}
 
     def _model_tables(self) -> None:
         """What the controller changes in the model (damping, actuator fields), saved to restore."""
-        model, cfg, n = self.model, self.cfg, len(self.h.names)
+        model, cfg, n = self.model, self.cfg, len(self.hinges.names)
         # implicit damping: MuJoCo's joint damping carries kd
         self.implicit = cfg.pd.implicit_damping
         self.base_damping = model.dof_damping.copy()
@@ -169,7 +169,7 @@ class SimbiconController(Controller):
         model = self.model
         self.foot_body = {s: model.body(f"{s}_foot").id for s in SIDES}
         # stance-leg joints below the hip (knee, ankle, toe) per side, for weight support
-        self.leg_low = {s: np.array([i for i, n in enumerate(self.h.names)
+        self.leg_low = {s: np.array([i for i, n in enumerate(self.hinges.names)
                                      if n.startswith(f"{s}_") and n.split("_", 1)[1] in ("knee", "ankle", "ankle_y",
                                                                                          "ankle_x", "toe")])
                         for s in SIDES}
@@ -181,7 +181,7 @@ class SimbiconController(Controller):
 
     def _gait_state(self) -> None:
         """The FSM, the reference's playback and the per-run state (reset by :meth:`reset`)."""
-        model, cfg, source, n = self.model, self.cfg, self.source, len(self.h.names)
+        model, cfg, source, n = self.model, self.cfg, self.source, len(self.hinges.names)
         self.fsm = GaitFSM(state1_time=cfg.fsm.state1_time or source.state1_time(),
                            min_swing_time=cfg.fsm.min_swing_time, contact_force=cfg.fsm.contact_force)
         self.state = ControllerState()
@@ -204,9 +204,9 @@ class SimbiconController(Controller):
         """Constants of the control step in the forms it reads fastest (slices, lists, floats)."""
         model, cfg, source = self.model, self.cfg, self.source
         # hot-path constants (see __call__)
-        self._qsel, self._dsel, self._asel = (_as_slice(self.h.qadr), _as_slice(self.h.dadr),
-                                              _as_slice(self.h.actuator))
-        self._leg_dofs = {s: _as_slice(self.h.dadr[self.leg_low[s]]) for s in SIDES}
+        self._qsel, self._dsel, self._asel = (_as_slice(self.hinges.qadr), _as_slice(self.hinges.dadr),
+                                              _as_slice(self.hinges.actuator))
+        self._leg_dofs = {s: _as_slice(self.hinges.dadr[self.leg_low[s]]) for s in SIDES}
         self._leg_low = {s: _as_slice(self.leg_low[s]) for s in SIDES}
         self._neg_limit = -self.limit
         self._all_servo = bool(np.all(self.servo))
@@ -235,7 +235,7 @@ class SimbiconController(Controller):
         # per side: swing-hip hinge indices as (slice, list), their joint ids as a slice (the hinges'
         # world axes), Euler order and signs; ankle hinges with unit axes
         self._hip_fast = {s: (_as_slice(self.hip[s][0]), self.hip[s][0].tolist(), _as_slice(self.hip[s][1]),
-                              self.hip[s][2], self.hip[s][3].tolist(), self.h.dadr[self.hip[s][0]].tolist())
+                              self.hip[s][2], self.hip[s][3].tolist(), self.hinges.dadr[self.hip[s][0]].tolist())
                           for s in SIDES}
         self._ankle_fast = {s: (self.ankle[s][0].tolist(), [tuple((a / np.linalg.norm(a)).tolist())
                                                              for a in self.ankle[s][1]])
@@ -244,14 +244,14 @@ class SimbiconController(Controller):
         self._vel_on = cfg.balance.enabled and (vel.kv_sagittal > 0 or vel.kv_coronal > 0)
         #: per side: (hinge index, joint id) of the knee and ankle hinges, the stance leg's chain below
         #: the hip (which belongs to the torso law) for velocity tuning
-        self._vf_joints = {s: [(int(i), int(self.h.jid[i])) for i in self.leg_low[s]
-                               if not self.h.names[i].endswith("toe")] for s in SIDES}
+        self._vf_joints = {s: [(int(i), int(self.hinges.jid[i])) for i in self.leg_low[s]
+                               if not self.hinges.names[i].endswith("toe")] for s in SIDES}
 
     # ------------------------------------------------------------------ setup
     def _configure_actuators(self) -> None:
         """Put this controller's actuator settings into the model (on reset; ``restore_model`` undoes
         them): constructing a controller leaves the model as it was, so several may be made for one model."""
-        model, acts = self.model, self.h.actuator
+        model, acts = self.model, self.hinges.actuator
         if self.cfg.pd.servo:
             # force = gain ctrl - gain q for servo joints (ctrl is a target angle), = ctrl for motors;
             # the torque limit clamps the actuator force on every physics step
@@ -270,10 +270,10 @@ class SimbiconController(Controller):
         """Gains scaled by the fade factor: MuJoCo joint damping (implicit kd) and servo stiffness."""
         d = self.base_damping.copy()
         if self.implicit:
-            d[self.h.dadr] += scale * self.kd
+            d[self.hinges.dadr] += scale * self.kd
         self.model.dof_damping[:] = d
         if self.cfg.pd.servo:
-            acts = self.h.actuator
+            acts = self.hinges.actuator
             self.servo_gain = np.where(self.servo, max(scale, 1e-6) * self.kp, 1.0)
             self.model.actuator_gainprm[acts, 0] = self.servo_gain
             self.model.actuator_biasprm[acts, 1] = np.where(self.servo, -self.servo_gain, 0.0)
@@ -324,7 +324,7 @@ class SimbiconController(Controller):
     def actuator_torques(self) -> FloatArray:
         """Torques per actuator (``data.ctrl`` holds servo targets for servo joints, not torques)."""
         out = np.zeros(self.model.nu)
-        out[self.h.actuator] = self.torque
+        out[self.hinges.actuator] = self.torque
         return out
 
     def foot_names(self) -> tuple[str, ...]:
@@ -356,7 +356,7 @@ class SimbiconController(Controller):
 
     def tracked_joints(self) -> tuple[list[str], list[int]]:
         """Names and qpos addresses of the hinges tracked (for joint-angle plots and CSV)."""
-        return list(self.h.names), [int(a) for a in self.h.qadr]
+        return list(self.hinges.names), [int(a) for a in self.hinges.qadr]
 
     # ------------------------------------------------------------------ external force and fade
     def set_external_force(self, active: bool, t: float) -> None:

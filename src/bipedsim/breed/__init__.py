@@ -14,7 +14,9 @@ from bipedsim.breed.evolve import (
                                       mutate,
                                       survivor,
 )
+from bipedsim.breed.files import breed_files, format_breed_summary
 from bipedsim.breed.samples import horse_walk, pterosaur_flight
 
-__all__ = ["BreedError", "BreedReport", "MetaSkeleton", "breed", "crossover", "floor_constraint", "horse_walk",
-           "joint_activity", "load_joint_map", "mutate", "pterosaur_flight", "survivor"]
+__all__ = ["BreedError", "BreedReport", "MetaSkeleton", "breed", "breed_files", "crossover", "floor_constraint",
+           "format_breed_summary", "horse_walk", "joint_activity", "load_joint_map", "mutate", "pterosaur_flight",
+           "survivor"]

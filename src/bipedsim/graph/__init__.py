@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from bipedsim.graph.build import FULL, GraphConfig, MotionGraph, build_graph, load_graph_config
 from bipedsim.graph.distance import align_2d, distance_matrix
+from bipedsim.graph.play import build_graph_file, format_graph_summary, format_play_summary, play_script
 from bipedsim.graph.player import Player, PlayError
 from bipedsim.graph.script import ScriptError, parse
 
 __all__ = ["FULL", "GraphConfig", "MotionGraph", "PlayError", "Player", "ScriptError", "align_2d", "build_graph",
-           "distance_matrix", "load_graph_config", "parse"]
+           "build_graph_file", "distance_matrix", "format_graph_summary", "format_play_summary",
+           "load_graph_config", "parse", "play_script"]

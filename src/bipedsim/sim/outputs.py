@@ -1,7 +1,7 @@
 """The files of a run folder, as ``bipedsim run`` and ``bipedsim render`` write them, callable from a
 notebook: checking the output locations before a run, clearing what an earlier run left, saving the run
 files (``trajectory.npz``, ``model.xml``) and the finishing outputs (plots, joint-angle CSV, BVH of the
-simulated motion, videos).
+simulated motion, videos); and the whole of ``bipedsim run``, :func:`run_to_folder`.
 
 Output problems name the command line's flags (``--out``, ``--csv``, ``--video`` ...), as every check
 of a run does.
@@ -9,8 +9,10 @@ of a run does.
 
 from __future__ import annotations
 
+import math
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -18,7 +20,9 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.io import atomic_write_text, check_output_file, prepare_output_dir, remove_stale
+from bipedsim.errors import ConfigError
+from bipedsim.io import atomic_write_text, check_output_file, prepare_output_dir, progress_bar, remove_stale
+from bipedsim.render.gl import RenderError
 from bipedsim.render.plots import PLOT_FILES, plot_run
 from bipedsim.render.video import (
     DEFAULT_VIDEO,
@@ -29,12 +33,13 @@ from bipedsim.render.video import (
     VideoOptions,
     render_video,
 )
+from bipedsim.sim import runner
 from bipedsim.sim.export import simulated_motion, write_joint_csv, write_motion_bvh
-from bipedsim.sim.recorder import Trajectory
+from bipedsim.sim.push import Push, check_pushes
+from bipedsim.sim.recorder import Recorder, Trajectory
+from bipedsim.sim.rollout import Outcome, RolloutSpec
 
 if TYPE_CHECKING:
-    from bipedsim.sim.recorder import Recorder
-    from bipedsim.sim.rollout import Outcome
     from bipedsim.sim.runner import Scenario
 
 PathLike = str | os.PathLike[str]
@@ -43,6 +48,10 @@ FloatArray = npt.NDArray[np.float64]
 OnWrite = Callable[[PathLike, int | None], None]
 #: The feet whose positions the top-view plot marks, left then right (bodies ``<side>_foot``).
 PLOT_FEET = ("left", "right")
+#: Trajectory samples per second (1/s) when a run is not given a rate (``--record-hz``).
+DEFAULT_RECORD_HZ = 120.0
+#: Runs at least this long (simulated s) show a progress bar when asked to.
+PROGRESS_MIN_S = 5.0
 
 
 def check_run_outputs(out: PathLike, *, csv: PathLike | None = None, export_bvh: PathLike | None = None,
@@ -197,3 +206,146 @@ def finish_outputs(folder: PathLike, *, plots: bool = False, csv: PathLike | Non
         path, flag = video if isinstance(video, tuple) else (video, "video")
         wrote(path, render_video(folder, path, video_options, progress=progress, out_flag=flag))
     return written
+
+
+def render_folder(folder: PathLike, output: PathLike | None = None, video_options: VideoOptions | None = None, *,
+                  plots: bool = False, progress: bool = False, on_write: OnWrite | None = None) -> list[Path]:
+    """Render the run recorded in ``folder`` (no re-simulation) to ``output`` (.mp4 or .gif; default
+    ``folder/rollout.mp4``; errors name ``-o``) and, with ``plots``, write the PNG plots into the
+    folder. ``progress``: a bar on stderr; ``on_write`` is called as each file is written (a video
+    with its frame count). Returns the paths written, in order."""
+    folder = Path(folder)
+    out = output or str(folder / DEFAULT_VIDEO)
+    frames = render_video(folder, out, video_options or VideoOptions(), progress=progress, out_flag="-o")
+    if on_write is not None:
+        on_write(out, frames)
+    return [Path(out), *(finish_outputs(folder, plots=True, on_write=on_write) if plots else [])]
+
+
+# ---------------------------------------------------------------------- the whole run
+def check_run_options(*, profile: str = "humanoid", support: bool = False, bvh: PathLike | None = None,
+                      scale: float | str | None = None, up: str | None = None, init_noise: float = 0.0,
+                      seed: int = 0) -> None:
+    """Refuse run options that would be ignored or meaningless, before anything runs: each error names
+    the flag and what is allowed. Ranges of the run length and pushes are checked by
+    :func:`~bipedsim.sim.push.check_pushes`, the video options by :meth:`VideoOptions.validate`."""
+    if support and profile != "creature":
+        raise ConfigError("holds a creature's root; it needs --profile creature", key="--support")
+    if bvh is None:
+        for flag, value, what in (("--scale", scale, "unit"), ("--up", up, "up axis")):
+            if value is not None:
+                raise ConfigError(f"sets the {what} of a --bvh file; the built-in walk's {what} is known "
+                                  f"(give --bvh FILE or drop {flag})", key=flag)
+    if not (math.isfinite(init_noise) and init_noise >= 0):
+        raise ConfigError(f"must be a standard deviation >= 0 (rad/s, m/s), got {init_noise}", key="--init-noise")
+    if seed < 0:
+        raise ConfigError(f"must be a whole number >= 0, got {seed}", key="--seed")
+
+
+def check_run_length(seconds: float, timestep: float) -> None:
+    """Refuse a run shorter than one physics step (``timestep``, s): it would take no step and record
+    nothing (the upper bound is :func:`~bipedsim.sim.push.check_pushes`'s)."""
+    if seconds < timestep:
+        raise ConfigError(f"must be at least one physics step ({timestep:g} s), got {seconds:g}", key="--seconds")
+
+
+def outcome_line(out: Outcome, sc: Scenario) -> str:
+    """One line: the verdict and the run's figures (s, m, m/s, rad); a supported creature says how much
+    it was helped (N)."""
+    fall = f" at {out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else ""
+    body = "" if sc.profile == "humanoid" else f"{sc.profile}, {sc.built.summary()['bodies']} bodies, "
+    e = out.extra
+    sup = "" if not e.get("support_mode") else (
+        f"; ROOT SUPPORT assisted: mean {e.get('support_force_mean_n', 0):.0f} N (body weight {e['weight_n']:.0f} N), "
+        f"peak {e.get('support_force_max_n', 0):.0f} N")
+    return (f"{out.outcome}{fall}: {body}{out.sim_seconds:.2f} s simulated in {out.wall_seconds:.1f} s, "
+            f"{out.foot_strikes} foot strikes, {out.distance_m:.2f} m at {out.mean_speed_mps:.2f} m/s "
+            f"(reference {out.reference_speed_mps:.2f} m/s), tracking RMSE {out.tracking_rmse_rad:.3f} rad{sup}")
+
+
+@dataclass
+class RunResult:
+    """What :func:`run_to_folder` ran and wrote: the folder, the outcome, the scenario, the trajectory
+    and every file written, in order."""
+
+    folder: Path
+    outcome: Outcome
+    scenario: Scenario
+    trajectory: Trajectory
+    written: list[Path] = field(default_factory=list)
+
+
+def _timed_bar(seconds: float, show: bool) -> tuple[Callable[[float], None], Callable[[], None]]:
+    """A progress callback (simulated time, s) and a close for a run of ``seconds``: a bar on stderr
+    when ``show`` and the run lasts at least :data:`PROGRESS_MIN_S`, else nothing."""
+    bar = progress_bar(seconds, "bipedsim run", "sim s") if show and seconds >= PROGRESS_MIN_S else None
+
+    def progress(t: float) -> None:
+        if bar is not None:
+            bar.n = round(t, 2)
+            bar.refresh()
+
+    return progress, (bar.close if bar is not None else lambda: None)
+
+
+def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLike | None = None,
+                  seconds: float = 10.0, seed: int = 0, init_noise: float = 0.0, mass: float | None = None,
+                  scale: float | str | None = None, up: str | None = None, profile: str = "humanoid",
+                  support: bool = False, record_hz: float = DEFAULT_RECORD_HZ, pushes: Sequence[str | Push] = (),
+                  plots: bool = False, csv: PathLike | None = None, export_bvh: PathLike | None = None,
+                  video: PathLike | None = None, gif: PathLike | None = None,
+                  video_options: VideoOptions | None = None, progress: bool = False,
+                  say: Callable[[str], None] | None = None) -> RunResult:
+    """Everything ``bipedsim run`` does: track the reference (``bvh``, else the built-in walk; its
+    ``scale``, ``up``) with the controller YAML ``config`` on the ``profile`` body (``mass`` in kg;
+    ``support``: hold a creature's root) for ``seconds`` (simulated s) from ``seed`` (``init_noise``:
+    initial velocity std, rad/s and m/s) with ``pushes`` (``MAG:DIR:DUR:START`` strings or
+    :class:`Push`), recording ``record_hz`` samples/s; write ``outcome.json``, ``trajectory.npz`` and
+    ``model.xml`` into the folder ``out`` (removing what an earlier run left there that this one does
+    not rewrite), then the optional plots, ``csv``, ``export_bvh``, ``video`` and ``gif``.
+
+    Every option and output location is checked before the simulation (errors name the command
+    line's flags). ``progress``: bars on stderr (pass ``sys.stderr.isatty()``). ``say`` gets each line
+    the command prints, as it happens. A video that cannot be rendered raises :class:`RenderError`
+    saying the results are in the folder."""
+    say = say or (lambda line: None)
+    options = video_options or VideoOptions()
+    check_run_options(profile=profile, support=support, bvh=bvh, scale=scale, up=up, init_noise=init_noise,
+                      seed=seed)
+    options.validate()
+    pushes = [p if isinstance(p, Push) else Push.parse(p) for p in pushes]
+    check_pushes(pushes, seconds)  # the run length too, before anything is built
+    sc = runner.load_scenario(config, bvh, scale=scale, up=up, mass=mass, profile=profile, support=support)
+    check_run_length(seconds, sc.built.model.opt.timestep)
+    sc.check_pushes(pushes)
+    rec = Recorder(sc.built.model, record_hz=record_hz, seconds=seconds, key="--record-hz", feet=len(sc.foot_names()))
+    folder = check_run_outputs(out, csv=csv, export_bvh=export_bvh, video=video, gif=gif)
+    tick, close = _timed_bar(seconds, progress)
+    outcome, _ = runner.run_scenario(sc, RolloutSpec(seconds=seconds, seed=seed, init_noise=init_noise),
+                                     progress=tick, hooks=[rec], pushes=pushes)
+    close()
+    removed = clear_stale(folder, plots=plots, extra_files=(video, gif, csv, export_bvh))
+    if removed:
+        say(f"removed from an earlier run in {folder}: {', '.join(removed)}")
+    path = runner.write_outcome(outcome, folder)
+    tr = save_run_files(folder, sc, rec, outcome)
+    del rec  # the trajectory holds the samples
+    say(outcome_line(outcome, sc))
+    for why in outcome.extra.get("pushes_not_applied", []):
+        say(f"  push not applied: {why}")
+    say(f"wrote {path}, {folder / TRAJECTORY_FILE}, {folder / MODEL_FILE}")
+    result = RunResult(folder, outcome, sc, tr, [path, folder / TRAJECTORY_FILE, folder / MODEL_FILE])
+    videos = [(v, flag) for v, flag in ((video, "--video"), (gif, "--gif")) if v]
+    try:
+        result.written += finish_outputs(folder, plots=plots, csv=csv, export_bvh=export_bvh, videos=videos,
+                                         video_options=options, scenario=sc, trajectory=tr, progress=progress,
+                                         on_write=lambda p, n: say(written_line(p, n)))
+    except RenderError as exc:
+        raise RenderError(f"{exc} The simulation results were written to {folder}; render them later "
+                          f"with `bipedsim render {folder}`.") from None
+    return result
+
+
+def written_line(path: PathLike, frames: int | None = None) -> str:
+    """``wrote PATH``, with a video's frame count when given."""
+    return f"wrote {path}" + ("" if frames is None else f" ({frames} frames)")

@@ -317,6 +317,32 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
     return summary
 
 
+def format_summary(summary: dict[str, Any], out_dir: str | os.PathLike[str]) -> str:
+    """The lines ``bipedsim sweep`` prints for a :func:`run_sweep` summary: the outcome counts, per
+    push direction (degrees; +- half the sector for random pushes) the rollouts survived and the
+    largest magnitude (N) survived in every push or phase, and the files written into ``out_dir``."""
+    lines = [f"{summary['rollouts']} rollouts: "
+             + ", ".join(f"{k} {v}" for k, v in sorted(summary["outcomes"].items()))]
+    counts = summary.get("survived_per_direction", {})
+    sector = summary.get("direction_sector_deg")
+    width = f" +-{sector / 2:g}" if sector else ""
+    what = "push" if sector else "phase"
+    for d, v in summary["largest_survived_per_direction_n"].items():
+        c = counts.get(d, {"survived": 0, "rollouts": 0})
+        every = f"every {what} survived up to {v:g} N" if v is not None else f"no magnitude survived in every {what}"
+        lines.append(f"  direction {d:>5}{width} deg: {c['survived']}/{c['rollouts']} survived; {every}")
+    lines.append(f"wrote {out_dir}/results.csv, summary.json, push_polar.png")
+    return "\n".join(lines)
+
+
+def interrupted_message(exp: Experiment, out_dir: str | os.PathLike[str]) -> str:
+    """What an interrupted sweep of ``exp`` into ``out_dir`` has kept and how to finish it (resuming
+    runs only the rollouts not yet in ``results.csv``)."""
+    n = len(read_results(Path(out_dir) / "results.csv"))
+    return (f"interrupted; {out_dir}/results.csv holds {n} of {len(exp.rows())} rollouts; "
+            "run the same command again to finish the rest")
+
+
 def _check_not_foreign(results: Path, exp: Experiment, rows: list[Row]) -> None:
     """Refuse to drop a results file none of whose rows is a rollout of ``exp``: another experiment's
     results, which resuming would delete."""

@@ -1,0 +1,49 @@
+"""Breeding two BVH files into a child BVH file, as ``bipedsim breed`` does it, callable from a notebook."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+from bipedsim.breed.evolve import BreedReport, breed, load_joint_map
+from bipedsim.io import atomic_write_json, check_output_file
+from bipedsim.motion.bvh import load_bvh, write_bvh
+
+PathLike = str | os.PathLike[str]
+#: Metres -> centimetres: the child is written as most BVH files are, Y up, in centimetres.
+CHILD_UNITS_PER_M = 100.0
+
+
+def breed_files(a: PathLike, b: PathLike, output: PathLike, *, x: float = 0.5, mutations: int = 5,
+                weights: Mapping[str, float] | None = None, map: PathLike | None = None,
+                report: PathLike | None = None) -> BreedReport:
+    """Breed the motions of the BVH files ``a`` and ``b`` and write the child to ``output`` (BVH, Y up,
+    centimetres). ``x``: the spacetime parameter in [0, 1] (0: A's motion, 1: B's); ``mutations``:
+    joints removed with their subtrees; ``weights``: shifts of joints' activity scores (negative: more
+    likely to go); ``map``: a YAML mapping joints of A to joints of B; ``report``: also write the
+    report as JSON there. Output locations are checked (errors name ``-o`` and ``--report``) before
+    the breeding. Returns the report."""
+    ma, mb = load_bvh(a), load_bvh(b)
+    check_output_file(output, "-o")
+    if report:
+        check_output_file(report, "--report")
+    mapping = load_joint_map(map, ma.skeleton, mb.skeleton) if map else None
+    child, rep = breed(ma, mb, x=x, mutations=mutations, weights=dict(weights or {}), mapping=mapping,
+                       names=(str(a), str(b)))
+    write_bvh(child.with_up("y").scaled(CHILD_UNITS_PER_M), output, precision=6)
+    if report:
+        atomic_write_json(Path(report), rep.to_dict())
+    return rep
+
+
+def format_breed_summary(rep: BreedReport, output: PathLike, report: PathLike | None = None) -> str:
+    """The lines ``bipedsim breed`` prints: the child written to ``output`` (joints, frames, where they
+    came from, what was removed, the time taken in ms) and the ``report`` file when one was written."""
+    lines = [f"wrote {output}: {rep.child_joints} joints, {rep.child_frames} frames; common "
+             f"{len(rep.kept_common)}, from A only {len(rep.only_a)}, from B only {len(rep.only_b)}; "
+             f"removed {', '.join(rep.removed) or 'none'}; x={rep.x}; "
+             f"{sum(rep.timings_s.values()) * 1000:.0f} ms"]
+    if report:
+        lines.append(f"wrote {report}")
+    return "\n".join(lines)

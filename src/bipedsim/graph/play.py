@@ -1,0 +1,73 @@
+"""File to file: building a motion graph from its YAML and playing a Motion Script on a graph file into
+a BVH file, as ``bipedsim graph build`` and ``bipedsim graph play`` do it, callable from a notebook."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from bipedsim.graph.build import MotionGraph, build_graph, load_graph_config
+from bipedsim.graph.player import Player
+from bipedsim.graph.script import parse
+from bipedsim.io import atomic_write_json, check_output_file, read_text_file
+from bipedsim.motion.bvh import write_bvh
+
+PathLike = str | os.PathLike[str]
+#: Metres -> centimetres: the played motion is written as most BVH files are, Y up, in centimetres.
+BVH_UNITS_PER_M = 100.0
+
+
+def build_graph_file(config: PathLike, output: PathLike) -> MotionGraph:
+    """Build the motion graph the YAML ``config`` describes (its clip files relative to its folder) and
+    save it to ``output`` (``.npz``; checked, naming ``-o``, before the build). Returns the graph."""
+    path = Path(config)
+    cfg = load_graph_config(path)
+    check_output_file(output, "-o")
+    g = build_graph(cfg, path.resolve().parent)
+    g.save(output)
+    return g
+
+
+def format_graph_summary(g: MotionGraph, output: PathLike) -> str:
+    """The lines ``bipedsim graph build`` prints: the file written (clips, frames, build time in s) and
+    one line per layer (its parent, transitions, nodes in the strongly connected graph, motions kept)."""
+    lines = [f"wrote {output}: {len(g.clips)} clips, {g.timings['frames']} frames, built in "
+             f"{g.timings['total_s']:.2f} s"]
+    for name, ly in g.layers.items():
+        lines.append(f"  {name:12s} parent {ly.parent or '-':10s} {len(ly.transitions):4d} transitions, "
+                     f"{ly.scc_nodes} nodes in the strongly connected graph, "
+                     f"motions {len(ly.kept_clips)}/{len(g.clips)}")
+    return "\n".join(lines)
+
+
+def play_script(graph: PathLike, script: PathLike, output: PathLike, *, start: str | None = None,
+                report: PathLike | None = None) -> dict[str, Any]:
+    """Play the Motion Script file ``script`` on the graph file ``graph`` (from :func:`build_graph_file`)
+    and write the motion to ``output`` (BVH, Y up, centimetres). ``start``: the motion (name or tag)
+    to start from; ``report``: also write the report as JSON there. Output locations are checked
+    (errors name ``-o`` and ``--report``) before playing. Returns the report: ``frames``, ``seconds``
+    (s) and the ``events`` of the path taken (time in s, layer, kind, detail, transition cost), with
+    the graph's ``fps`` (frames/s) added (not in the JSON file)."""
+    g = MotionGraph.load(graph)
+    cmds = parse(read_text_file(script), source=str(script), layers=tuple(g.layers))
+    check_output_file(output, "-o")
+    if report:
+        check_output_file(report, "--report")
+    player = Player(g, start=start)
+    motion = player.run(cmds)
+    write_bvh(motion.with_up("y").scaled(BVH_UNITS_PER_M), output, precision=6)
+    rep = player.report()
+    if report:
+        atomic_write_json(report, rep)
+    return {**rep, "fps": g.config.fps}
+
+
+def format_play_summary(rep: dict[str, Any], output: PathLike) -> str:
+    """The lines ``bipedsim graph play`` prints for a :func:`play_script` report: the file written
+    (frames, seconds, fps) and one line per event."""
+    lines = [f"wrote {output}: {rep['frames']} frames ({rep['seconds']:.1f} s) at {rep['fps']:g} fps"]
+    for e in rep["events"]:
+        cost = "" if e["cost"] is None else f" (cost {e['cost']:.3f})"
+        lines.append(f"  {e['time_s']:6.2f} s  {e['layer']:12s} {e['kind']:12s} {e['detail']}{cost}")
+    return "\n".join(lines)

@@ -1,0 +1,62 @@
+"""A BVH file to an MJCF body file (and optionally its retargeted reference clip), as ``bipedsim
+convert`` does it, callable from a notebook."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from bipedsim.io import check_output_file
+from bipedsim.model.build import build_model
+from bipedsim.model.naming import load_map
+from bipedsim.model.retarget import retarget
+from bipedsim.motion.bvh import read_bvh
+
+PathLike = str | os.PathLike[str]
+
+
+def convert_bvh(input: PathLike, output: PathLike, *, profile: str = "humanoid", profile_file: PathLike | None = None,
+                mass: float | None = None, map: PathLike | None = None, clip: PathLike | None = None,
+                scale: float | str | None = None, up: str | None = None) -> dict[str, Any]:
+    """Build an MJCF body from the skeleton of the BVH file ``input`` and write it to ``output``.
+
+    ``profile``: ``"humanoid"`` or ``"creature"``, or ``profile_file`` (a profile YAML, which wins);
+    ``mass``: total body mass (kg; scales every segment); ``map``: a mapping YAML naming the humanoid
+    roles' joints; ``clip``: also retarget the motion and write this ``.npz`` reference clip;
+    ``scale``: metres per file unit or a unit name, ``up``: the file's up axis (``"y"``/``"z"``), both
+    guessed when None. Output locations are checked (errors name ``-o`` and ``--clip``) before
+    anything is built. Returns the body's summary (bodies, DOFs, mass in kg, height in m, timestep in
+    s, ...) with ``source``, ``output``, ``unit``, ``up`` and, with ``clip``, the clip's frames,
+    trimmed frames and foot strikes."""
+    motion, info = read_bvh(input, scale=scale, up=up)
+    motion = motion.to_project_frame()
+    check_output_file(output, "-o")
+    if clip:
+        check_output_file(clip, "--clip")
+    mapping = load_map(map, motion.skeleton) if map else None
+    built = build_model(motion, profile_file or profile, total_mass=mass, mapping=mapping, name=Path(output).stem)
+    built.write(output)
+    summary = built.summary()
+    summary.update({"source": str(input), "output": str(output),
+                    "unit": f"{info.unit_name} ({info.unit_source})", "up": f"{info.up} ({info.up_source})"})
+    if clip:
+        ref = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=str(input))
+        ref.save(clip)
+        summary["clip"] = {"path": str(clip), "frames": ref.num_frames, "trimmed_frames": ref.trimmed_frames,
+                           "strikes": {f: len(e["strike"]) for f, e in ref.events.items()}}
+    return summary
+
+
+def format_convert_summary(summary: dict[str, Any]) -> str:
+    """The lines ``bipedsim convert`` prints for a :func:`convert_bvh` summary: the body written and,
+    when a clip was written, the clip."""
+    s = summary
+    lines = [f"wrote {s['output']}: {s['bodies']} bodies, {s['dofs']} DOFs ({s['actuated_dofs']} actuated), "
+             f"{s['total_mass_kg']:.1f} kg, {s['height_m']:.2f} m tall, profile {s['profile']}, "
+             f"timestep {s['timestep_s']} s"]
+    if "clip" in s:
+        c = s["clip"]
+        lines.append(f"wrote {c['path']}: {c['frames']} frames, foot strikes {c['strikes']}"
+                     + (f", dropped {c['trimmed_frames']} leading glitch frame(s)" if c["trimmed_frames"] else ""))
+    return "\n".join(lines)

@@ -122,3 +122,21 @@ def test_humanoid_controller_is_the_simbicon_one(walk) -> None:
 def test_scenario_errors(kwargs: dict, words: str) -> None:
     with pytest.raises(ConfigError, match=words):
         load_scenario(**kwargs)
+
+
+def test_creature_sweep_and_suite(tmp_path: Path) -> None:
+    """Sweeps and regression suites run any body kind (``profile``, ``support``) through the same loop."""
+    from bipedsim.sim.experiment import load_experiment
+    from bipedsim.sim.regress import run_suite
+    from bipedsim.sim.sweep import run_sweep
+
+    exp = tmp_path / "horse.yaml"
+    exp.write_text(f"name: horse\nreference: {HORSE_WALK}\nprofile: creature\nseconds: 1.5\n"
+                   "runs:\n  - {magnitude: 50, direction: 90, duration: 0.2, start: 0.5}\n"
+                   "  - {magnitude: 3000, direction: 0, duration: 0.3, start: 0.5}\n")
+    summary = run_sweep(load_experiment(exp), tmp_path / "out", progress=False)
+    assert summary["rollouts"] == 2 and sum(summary["outcomes"].values()) == 2
+    suite = tmp_path / "suite.yaml"
+    suite.write_text(f"scenarios:\n  - {{name: flyer, reference: {PTEROSAUR_FLIGHT}, profile: creature, support: true,"
+                     " seconds: 1.0, expect: no_fall}\n")
+    assert run_suite(suite) == 0

@@ -20,8 +20,9 @@ from typing import Any
 
 from bipedsim import config
 from bipedsim.errors import ConfigError
-from bipedsim.sim.push import DEFAULT_AFTER_S, Push, check_pushes, random_pushes
+from bipedsim.sim.push import DEFAULT_AFTER_S, DEFAULT_PUSH_BODY, Push, check_pushes, random_pushes
 from bipedsim.sim.rollout import MAX_ROLLOUT_S, FallCriteria
+from bipedsim.sim.runner import PROFILES
 
 #: Most rollouts one experiment may expand to: 100 000 rollouts of a few seconds are days of CPU time
 #: and a results.csv of ~30 MB; a larger count is a typo (and would not fit in memory: 1e12 pushes).
@@ -141,7 +142,11 @@ class ExperimentSpec:
     name: str = "experiment"
     seconds: float = field(default=6.0, metadata={"gt": 0.0, "max": MAX_ROLLOUT_S})
     reference: str | None = None  #: BVH (relative to the file); null: the built-in walk
-    body: str = "torso"
+    #: the body kind built from the reference and its controller (``bipedsim run --profile``)
+    profile: str = field(default="humanoid", metadata={"choices": PROFILES})
+    #: a creature's root support (``bipedsim run --support``)
+    support: bool = False
+    body: str = DEFAULT_PUSH_BODY
     after: float = field(default=DEFAULT_AFTER_S, metadata={"min": 0.0})
     repeats: int = field(default=1, metadata={"min": 1})
     seed: int = field(default=0, metadata={"min": 0})  # numpy's generators take no negative seed
@@ -277,18 +282,18 @@ def load_experiment(path: str | os.PathLike[str]) -> Experiment:
             raise ConfigError(f"no such controller file {ctl}", path=p,
                               key="random.controller" if spec.random else "grid.controller")
         load_controller(ctl)
-    bodies = _body_names(ref)
-    if spec.body not in bodies:
+    bodies = _body_names(ref, spec.profile)
+    if spec.body not in bodies and spec.body != DEFAULT_PUSH_BODY:
         raise ConfigError(f"unknown body {spec.body!r}; bodies are {', '.join(sorted(bodies))}", path=p, key="body")
     return exp
 
 
-def _body_names(reference: str | None) -> set[str]:
+def _body_names(reference: str | None, profile: str = "humanoid") -> set[str]:
     from bipedsim.data import BUILTIN_WALK
     from bipedsim.model.build import build_model
     from bipedsim.motion.bvh import load_bvh
 
-    built = build_model(load_bvh(reference or BUILTIN_WALK), "humanoid")
+    built = build_model(load_bvh(reference or BUILTIN_WALK), profile)
     return {built.model.body(i).name for i in range(1, built.model.nbody)}
 
 
@@ -305,6 +310,8 @@ class SuiteScenario:
     expect: str = field(default="no_fall", metadata={"choices": EXPECTATIONS})
     reference: str | None = None
     controller: str | None = None
+    profile: str = field(default="humanoid", metadata={"choices": PROFILES})
+    support: bool = False
     seconds: float = field(default=8.0, metadata={"gt": 0.0, "max": MAX_ROLLOUT_S})
     seed: int = field(default=0, metadata={"min": 0})  # numpy's generators take no negative seed
     pushes: tuple[PushItem, ...] = ()

@@ -35,7 +35,8 @@ def run_scenarios(suite: Suite, base: Path) -> list[ScenarioResult]:
 
     out = []
     for sc_spec in suite.scenarios:
-        sc = load_scenario(resolve_relative(base, sc_spec.controller), resolve_relative(base, sc_spec.reference))
+        sc = load_scenario(resolve_relative(base, sc_spec.controller), resolve_relative(base, sc_spec.reference),
+                           profile=sc_spec.profile, support=sc_spec.support)
         spec = RolloutSpec(seconds=sc_spec.seconds, seed=sc_spec.seed, fall=suite.fall)
         o, _ = run_scenario(sc, spec, pushes=sc_spec.push_list())
         note = "; ".join(o.extra.get("pushes_not_applied", []))

@@ -33,22 +33,28 @@ TIMING_COLUMNS = ("wall_seconds",)
 _CACHE: dict[Any, Any] = {}
 
 
-def _scenario(reference: str | None, controller: str | None) -> Any:
+#: one rollout for a worker: (row, (reference, profile, support), seconds, init_noise, fall criteria)
+Task = tuple[Row, tuple[str | None, str, bool], float, float, dict[str, Any] | None]
+
+
+def _scenario(body: tuple[str | None, str, bool], controller: str | None) -> Any:
+    """The scenario of a (reference, profile, support) body and a controller, built once per process."""
     from bipedsim.sim.runner import load_scenario
 
-    key = (reference, controller)
+    reference, profile, support = body
+    key = (reference, profile, support, controller)
     if key not in _CACHE:
-        _CACHE[key] = load_scenario(controller, reference)
+        _CACHE[key] = load_scenario(controller, reference, profile=profile, support=support)
     return _CACHE[key]
 
 
-def run_row(task: tuple[Row, str | None, float, float, dict[str, Any] | None]) -> dict[str, Any]:
+def run_row(task: Task) -> dict[str, Any]:
     """Run one rollout of an experiment (in whichever process); returns its result row."""
     from bipedsim.sim.rollout import FallCriteria, RolloutSpec
     from bipedsim.sim.runner import run_scenario
 
-    row, reference, seconds, init_noise, fall = task
-    sc = _scenario(reference, row.controller)
+    row, body, seconds, init_noise, fall = task
+    sc = _scenario(body, row.controller)
     crit = None if fall is None else FallCriteria(**fall)
     spec = RolloutSpec(seconds=seconds, seed=row.seed, init_noise=init_noise, fall=crit)
     out, _ = run_scenario(sc, spec, pushes=[row.push])
@@ -187,12 +193,13 @@ def _append(path: Path, row: dict[str, Any]) -> None:
                           "(run the same command again to resume)") from None
 
 
-def _tasks(exp: Experiment, rows: list[Row]) -> list[tuple[Row, str | None, float, float, dict[str, Any] | None]]:
+def _tasks(exp: Experiment, rows: list[Row]) -> list[Task]:
     from dataclasses import asdict
 
     s = exp.spec
     fall = None if s.fall is None else asdict(s.fall)
-    return [(r, exp.resolve(s.reference), s.seconds, s.init_noise, fall) for r in rows]
+    body = (exp.resolve(s.reference), s.profile, s.support)
+    return [(r, body, s.seconds, s.init_noise, fall) for r in rows]
 
 
 def _ignore_sigint() -> None:
@@ -358,7 +365,8 @@ def _setup(exp: Experiment) -> dict[str, Any]:
     """What every rollout of ``exp`` shares but a row's key does not hold: rows made under another
     setup are not rows of this one."""
     s = exp.spec
-    return {"seconds": s.seconds, "reference": exp.resolve(s.reference), "init_noise": s.init_noise,
+    return {"seconds": s.seconds, "reference": exp.resolve(s.reference), "profile": s.profile, "support": s.support,
+            "init_noise": s.init_noise,
             "fall": None if s.fall is None else asdict(s.fall)}
 
 

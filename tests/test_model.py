@@ -104,8 +104,21 @@ def test_builtin_walk_replays_exactly(walk_model) -> None:
 
 @pytest.mark.parametrize("path", shared_params("human"))
 def test_shared_humans_convert_simulate_and_replay(path: Path) -> None:
+    """Every shared human builds at a plausible height and replays its clip -- or, only where reading the
+    file found no plausible unit, is refused with the misread message (never a wrongly sized body)."""
+    from bipedsim.model.build import HUMANOID_BUILT_HEIGHT_M
+    from bipedsim.motion import read_bvh
+
     m = load_bvh(path)
-    b = build_model(m)
+    try:
+        b = build_model(m)
+    except ModelError as exc:
+        assert "probably misread" in str(exc) and "--scale" in str(exc)
+        _, info = read_bvh(path)
+        assert "fits no unit's plausible range" in info.unit_reason, info.unit_reason
+        return
+    lo, hi = HUMANOID_BUILT_HEIGHT_M
+    assert lo <= b.summary()["height_m"] <= hi
     clip = retarget(m, b.model, xml=b.xml)
     passive_ok(b.model, clip.qpos[0])
     mk = marker_positions(b.model, clip, b.plan)

@@ -141,3 +141,16 @@ def test_given_scale_that_makes_an_absurd_body_is_refused(capsys: pytest.Capture
 def test_impossible_mass_is_refused(tmp_path: Path, mass: str, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", "--mass", mass, "--seconds", "1", "--out", str(tmp_path)]) == 2
     assert "total mass must be a finite number > 0 kg" in capsys.readouterr().err
+
+
+def test_humanoid_of_implausible_height_is_refused_not_built(tmp_path: Path,
+                                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """A misread file must not become a body of the wrong size: the built-in walk (centimetres) read at
+    2 mm a unit would stand 0.48 m tall (the Bandai-Namco walk, misread, built a 0.30 m humanoid)."""
+    from bipedsim.data import BUILTIN_WALK
+
+    out = tmp_path / "h.xml"
+    assert main(["convert", str(BUILTIN_WALK), "-o", str(out), "--scale", "0.002"]) == 2
+    err = capsys.readouterr().err
+    assert "stands 0.48 m tall" in err and "probably misread" in err and not out.exists()
+    assert main(["convert", str(BUILTIN_WALK), "-o", str(out), "--scale", "0.002", "--profile", "creature"]) == 0

@@ -77,7 +77,27 @@ def build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfil
         model = mujoco.MjModel.from_xml_string(xml)
     except ValueError as exc:  # pragma: no cover - a builder bug, not user input
         raise ModelError(f"the generated MJCF does not compile: {exc}") from None
-    return BuiltModel(xml=xml, model=model, plan=plan)
+    built = BuiltModel(xml=xml, model=model, plan=plan)
+    if isinstance(prof, HumanoidProfile):
+        _check_standing_height(built)
+    return built
+
+
+#: Standing heights (m, top of the head) a built humanoid may have: wide of any adult or child
+#: capture. Outside them the motion was misread -- a wrong unit or up axis, a translation channel read
+#: the wrong way -- and the body would be simulated at the wrong size: refused, never built.
+HUMANOID_BUILT_HEIGHT_M = (0.6, 3.0)
+
+
+def _check_standing_height(built: BuiltModel) -> None:
+    h = built.summary()["height_m"]
+    lo, hi = HUMANOID_BUILT_HEIGHT_M
+    if not lo <= h <= hi:
+        raise ModelError(
+            f"the humanoid built from this motion stands {h:.2f} m tall, outside {lo:g}-{hi:g} m: the file was "
+            "probably misread (a wrong unit or up axis, or position channels read the wrong way); check the unit, "
+            "height and up axis `bipedsim info FILE` finds and give --scale and --up, or use --profile creature "
+            "for a body that is not human")
 
 
 #: the deepest chain of nested bodies MuJoCo's XML reader accepts: tinyxml2 refuses elements nested

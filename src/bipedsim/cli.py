@@ -20,7 +20,7 @@ from bipedsim import __version__
 from bipedsim.errors import BipedsimError
 from bipedsim.io import describe_os_error
 
-#: Trajectory samples per second when --record-hz is not given (sim.outputs.DEFAULT_RECORD_HZ, restated
+#: Trajectory samples per second when --record-hz is not given (sim.recorder.DEFAULT_RECORD_HZ, restated
 #: here so that --help does not import the simulator; a test keeps the two equal).
 DEFAULT_RECORD_HZ = 120.0
 #: The video flags: flag, type, default, help (the defaults are render.video.VideoOptions'; a test keeps

@@ -36,7 +36,7 @@ from bipedsim.render.video import (
 from bipedsim.sim import runner
 from bipedsim.sim.export import simulated_motion, write_joint_csv, write_motion_bvh
 from bipedsim.sim.push import Push, check_pushes
-from bipedsim.sim.recorder import Recorder, Trajectory
+from bipedsim.sim.recorder import DEFAULT_RECORD_HZ, Recorder, Trajectory
 from bipedsim.sim.rollout import Outcome, RolloutSpec
 
 if TYPE_CHECKING:
@@ -46,10 +46,8 @@ PathLike = str | os.PathLike[str]
 FloatArray = npt.NDArray[np.float64]
 #: Called as each output file is written: the path as it was given, and a video's frame count (else None).
 OnWrite = Callable[[PathLike, int | None], None]
-#: The feet whose positions the top-view plot marks, left then right (bodies ``<side>_foot``).
+#: The humanoid's feet as recorded (trajectory.npz contact_force columns), left then right (bodies ``<side>_foot``).
 PLOT_FEET = ("left", "right")
-#: Trajectory samples per second (1/s) when a run is not given a rate (``--record-hz``).
-DEFAULT_RECORD_HZ = 120.0
 #: Runs at least this long (simulated s) show a progress bar when asked to.
 PROGRESS_MIN_S = 5.0
 

@@ -124,6 +124,9 @@ class Trajectory:
         return out
 
 
+#: Trajectory samples per second unless a run asks for another rate.
+DEFAULT_RECORD_HZ = 120.0
+
 class Recorder:
     """A rollout hook that samples the state at ``record_hz`` (1/s) into preallocated buffers.
 
@@ -133,7 +136,7 @@ class Recorder:
     (the command line passes its flag).
     """
 
-    def __init__(self, model: mujoco.MjModel, record_hz: float = 120.0, seconds: float | None = None,
+    def __init__(self, model: mujoco.MjModel, record_hz: float = DEFAULT_RECORD_HZ, seconds: float | None = None,
                  key: str = "record_hz", feet: int = 2) -> None:
         # one sample per physics step at most: the recorder runs between steps
         max_hz = 1.0 / model.opt.timestep

@@ -186,10 +186,13 @@ def _weight(text: str) -> tuple[str, float]:
 
 
 def cmd_breed(args: argparse.Namespace) -> int:
+    if args.world:  # creature files bred for a world: bipedsim.world's block below
+        return cmd_breed_world(args)
     from bipedsim.breed import breed_files, format_breed_summary
 
-    rep = breed_files(args.parent_a, args.parent_b, args.output, x=args.x, mutations=args.mutations,
-                      weights=dict(args.weight or []), map=args.map, report=args.report)
+    kw = {} if args.mutations is None else {"mutations": args.mutations}  # None: breed_files' default
+    rep = breed_files(args.parent_a, args.parent_b, args.output, x=args.x, weights=dict(args.weight or []),
+                      map=args.map, report=args.report, **kw)
     print(format_breed_summary(rep, args.output, args.report))
     return 0
 
@@ -200,11 +203,15 @@ def _add_breed(sub: argparse._SubParsersAction) -> None:
     p.add_argument("parent_b", help="second parent BVH")
     _output(p, "child BVH to write")
     p.add_argument("--x", type=float, default=0.5, help="spacetime parameter in [0, 1] (0: A's motion, 1: B's)")
-    p.add_argument("--mutations", type=int, default=5, help="joints removed (with their subtrees), default 5")
+    p.add_argument("--mutations", type=int, default=None,
+                   help="joints removed (with their subtrees), default 5 (0 with --world: every limb may carry a mode)")
     p.add_argument("--weight", action="append", type=_weight, metavar="JOINT=W",
                    help="shift a joint's activity score (negative: more likely to go); repeatable")
     p.add_argument("--map", default=None, help="YAML mapping joints of A to corresponding joints of B")
     p.add_argument("--report", default=None, help="write a JSON report of the breeding")
+    p.add_argument("--world", default=None,
+                   help="world YAML: the parents are creature files (bipedsim world) and the child a creature "
+                        "file with the modes of both, parent weights from the world (Bray-Curtis)")
 
 
 def cmd_graph_build(args: argparse.Namespace) -> int:
@@ -273,9 +280,50 @@ def _add_regress(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--update", action="store_true", help="rewrite the expectations with the outcomes (after review)")
 
 
+# ---------------------------------------------------------------------- world (motion-tile worlds)
+def cmd_world(args: argparse.Namespace) -> int:
+    from bipedsim.render.video import VideoOptions
+    from bipedsim.world import run_world
+
+    opts = VideoOptions(width=args.width, height=args.height, fps=args.fps, speed=args.speed,
+                        distance=args.cam_distance, elevation=args.cam_elevation, azimuth=args.cam_azimuth,
+                        label=False)
+    run_world(args.world, args.creatures, args.output, report=args.report, video=args.video, plot=args.plot,
+              weights=args.blend, video_options=opts, progress=sys.stderr.isatty(), say=print)
+    return 0
+
+
+def cmd_breed_world(args: argparse.Namespace) -> int:
+    from bipedsim.world import breed_world_files, format_world_breed_summary
+
+    kw = {} if args.mutations is None else {"mutations": args.mutations}
+    rep = breed_world_files(args.parent_a, args.parent_b, args.world, args.output, report=args.report, **kw)
+    print(format_world_breed_summary(rep, args.report))
+    return 0
+
+
+def _add_world(sub: argparse._SubParsersAction) -> None:
+    p = _subparser(sub, "world", cmd_world, "creatures cross a tile map by walking, flying or swimming (BVH out)")
+    p.add_argument("world", help="world YAML (tile, rows, legend, events)")
+    p.add_argument("creatures", nargs="+", help="creature YAML files (name, clips: mode -> BVH)")
+    _output(p, "BVH to write (several creatures: OUT_<name>.bvh each)")
+    p.add_argument("--report", default=None, help="JSON report: path, modes, length, frames, events, weights, timings")
+    p.add_argument("--video", default=None, help="render the world and the creature to this .mp4 (or .gif)")
+    p.add_argument("--plot", default=None, help="PNG of the map with every creature's path")
+    p.add_argument("--blend", choices=("quadratic", "linear", "smoothstep"), default="quadratic",
+                   help="transition weights (default quadratic: P(n) = n^2/m^2)")
+    g = p.add_argument_group("video")
+    for flag, kind, default, help_text in VIDEO_FLAGS:
+        g.add_argument(flag, type=kind, default=WORLD_VIDEO_DEFAULTS.get(flag, default), help=help_text)
+
+
+#: The world's camera stands farther back and higher than a run's: the terrain is part of the picture.
+WORLD_VIDEO_DEFAULTS = {"--cam-distance": 8.0, "--cam-elevation": -25.0}
+
+
 #: Subcommand registrars, in the order ``--help`` lists them.
 COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress, _add_breed, _add_graph]
+    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress, _add_breed, _add_graph, _add_world]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -115,6 +115,7 @@ class Creature:
     feet: list[str] = field(default_factory=list)
     mass: float = 0.0
     size: float = 0.0
+    clips_source: dict[str, Motion] = field(default_factory=dict)  #: each mode's whole source motion
 
     @property
     def travel_modes(self) -> list[str]:
@@ -176,7 +177,8 @@ def creature_from_motions(name: str, motions: dict[str, Motion], sources: dict[s
             clips[m] = cut_clip(m, motions[m], feet, size, sources[m], heading_offset=_heading_offset(clips))
         except BipedsimError as exc:
             raise WorldError(str(exc), path=path, key=f"clips.{m}") from None
-    return Creature(name=name, path=path, template=template, clips=clips, feet=feet, mass=mass, size=size)
+    return Creature(name=name, path=path, template=template, clips=clips, feet=feet, mass=mass, size=size,
+                    clips_source=dict(motions))
 
 
 def _heading_offset(clips: dict[str, ModeClip]) -> float:
@@ -187,10 +189,18 @@ def _heading_offset(clips: dict[str, ModeClip]) -> float:
 
 # ---------------------------------------------------------------------- cutting a loop
 def _foot_points(motion: Motion, feet: list[str]) -> tuple[FloatArray, list[int]]:
+    """All points (joints and End Sites) per frame, and per foot the point of its subtree that is lowest
+    over the motion (median height): the sole (a merged hand's hoof, not its wrist)."""
     from bipedsim.model.source import motion_points
 
     pts = motion_points(motion)
-    idx = [pts.index[pts.tip(f)] for f in feet]
+    sk = motion.skeleton
+    med = np.median(pts.positions[..., 2], axis=0)
+    idx = []
+    for f in feet:
+        sub = sk.subtree(sk.index(f))
+        cand = list(sub) + [sk.num_joints + e for e, p in enumerate(sk.end_site_parents) if int(p) in sub]
+        idx.append(int(min(cand, key=lambda i: med[i])))
     return pts.positions, idx
 
 

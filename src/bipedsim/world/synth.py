@@ -109,6 +109,7 @@ class Synthesis:
     jumps: list[JumpPlan] = field(default_factory=list)
     lifted_frames: int = 0
     max_lift_m: float = 0.0
+    tiles: list[tuple[int, int]] = field(default_factory=list)  #: the path's tiles
 
 
 def _mode_clips(world: World, creature: Creature, path: Path, modes: list[str]) -> dict[str, ModeClip]:
@@ -249,7 +250,7 @@ def synthesize(world: World, creature: Creature, path: Path, modes: list[str], *
             trans.append(Transition(src=a, dst=b, frame=i, k_from=0, m_from=0, k_to=0, m_to=0,
                                     m=sum(1 for x in labels[i:] if x == lab)))
     return Synthesis(motion=motion, curve=curve, s=np.array(ss), mode=labels, transitions=trans, jumps=jumps,
-                     lifted_frames=lifted, max_lift_m=max_lift)
+                     lifted_frames=lifted, max_lift_m=max_lift, tiles=list(path.tiles))
 
 
 def _walk_events(world: World, path: Path, modes: list[str]) -> list[Any]:
@@ -271,7 +272,7 @@ def _triggers(world: World, curve: Curve, path: Path, modes: list[str],
         if world.allows(r, c, modes[i]):
             # wait for a key frame (up to one interval) + the transition (about one interval)
             lead = (a.n / len(a.keys) * a.frame_time * 2 + b.n / len(b.keys) * b.frame_time) * max(a.speed, b.speed)
-            s_b = max(curve.tile_s[i - 1] - world.tile / 2, s_b - lead, 0.0)
+            s_b = max(s_b - lead, 0.0)
         out.append((s_b, modes[i]))
     return out
 

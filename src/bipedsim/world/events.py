@@ -75,7 +75,8 @@ class JumpPlan:
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
-        return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in d.items()}
+        return {k: (round(float(v), 4) if isinstance(v, float) else list(v) if isinstance(v, tuple) else v)
+                for k, v in d.items()}
 
 
 def best_direction(distance: float, v0: float, mass: float, push_s: float = PUSH_TIME_S,

@@ -2,7 +2,8 @@
 
 Nodes are (tile, mode) pairs a tile allows and the creature has; a step to one of the 8 neighbours (no
 corner cut past a tile the mode cannot use) costs distance (tiles) x the tile's cost x the mode's cost;
-a mode change on a tile costs :data:`MODE_CHANGE_COST`. Shortest paths by
+a mode change, on a tile allowing both modes or at the edge between two tiles, costs
+:data:`MODE_CHANGE_COST`. Shortest paths by
 :func:`scipy.sparse.csgraph.dijkstra`. The path finder decides where to go; the motion priority then
 decides how on each path tile.
 """
@@ -60,7 +61,7 @@ def find_path(world: World, modes: list[str], creature: str = "creature") -> Pat
     def node(r: int, c: int, k: int) -> int:
         return (r * cols + c) * nm + k
 
-    src, dst, w = [], [], []
+    edges: list[tuple[int, int, float]] = []
     for r in range(rows):
         for c in range(cols):
             for k, m in enumerate(modes):
@@ -68,12 +69,17 @@ def find_path(world: World, modes: list[str], creature: str = "creature") -> Pat
                     continue
                 for k2, m2 in enumerate(modes):
                     if k2 != k and world.allows(r, c, m2):
-                        src.append(node(r, c, k)); dst.append(node(r, c, k2)); w.append(MODE_CHANGE_COST)
+                        edges.append((node(r, c, k), node(r, c, k2), MODE_CHANGE_COST))
                 for dr, dc in NEIGHBOURS:
-                    if _step_ok(world, r, c, dr, dc, m):
-                        src.append(node(r, c, k)); dst.append(node(r + dr, c + dc, k))
-                        w.append(float(np.hypot(dr, dc)) * world.kind(r + dr, c + dc).cost * MODE_COST[m])
+                    for k2, m2 in enumerate(modes):
+                        # a step keeps the mode, or changes it at the tile edge (orthogonal steps only)
+                        if (k2 == k and _step_ok(world, r, c, dr, dc, m)) or (
+                                k2 != k and not (dr and dc) and _step_ok(world, r, c, dr, dc, m2)):
+                            cost = float(np.hypot(dr, dc)) * world.kind(r + dr, c + dc).cost * MODE_COST[m2]
+                            edges.append((node(r, c, k), node(r + dr, c + dc, k2),
+                                          cost + (MODE_CHANGE_COST if k2 != k else 0.0)))
     n = rows * cols * nm
+    src, dst, w = (list(v) for v in zip(*edges)) if edges else ([], [], [])
     g = coo_matrix((w, (src, dst)), shape=(n, n)).tocsr()
     (sr, sc), (gr, gc) = world.start, world.goal
     starts = [node(sr, sc, k) for k, m in enumerate(modes) if world.allows(sr, sc, m)]

@@ -17,8 +17,7 @@ from scipy.spatial.transform import Rotation
 from bipedsim.errors import BipedsimError
 from bipedsim.motion.motion import Motion, canonical_quat
 from bipedsim.world.blend import WEIGHTS, slerp, warp_times
-from bipedsim.world.creature import Creature, ModeClip
-from bipedsim.world.creature import retarget_default
+from bipedsim.world.creature import Creature, ModeClip, retarget_default
 from bipedsim.world.events import JumpPlan, plan_jump, push_ik
 from bipedsim.world.path import Path
 from bipedsim.world.tiles import World

@@ -163,7 +163,8 @@ def _legend(raw: Any, path: str) -> dict[str, TileKind]:
             raise WorldError("cost and height must be numbers", path=path, key=key) from None
         if not cost > 0:
             raise WorldError(f"cost must be > 0, got {cost}", path=path, key=key)
-        legend[ch] = TileKind(str(spec.get("name", base.name)), modes, cost, height, bool(spec.get("water", base.water)))
+        legend[ch] = TileKind(str(spec.get("name", base.name)), modes, cost, height,
+                              bool(spec.get("water", base.water)))
     return legend
 
 

@@ -8,12 +8,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import need_shared
 
 from bipedsim.cli import main
 from bipedsim.motion import load_bvh
 from bipedsim.world import cross_world, load_creature, load_world, parent_weights
 from bipedsim.world.synth import body_points
-from conftest import need_shared
 
 REPO = Path(__file__).resolve().parents[1]
 WORLDS = REPO / "examples" / "worlds"

@@ -32,13 +32,18 @@ def output_paths(output: PathLike, names: list[str]) -> list[Path]:
 SKATE_HEIGHT_M = 0.02
 
 
-def foot_skate(tips: np.ndarray, ground: np.ndarray | float, dt: float, height: float = SKATE_HEIGHT_M) -> float:
+def foot_skate(tips: np.ndarray, ground: np.ndarray | float, dt: float, frames: np.ndarray | None = None,
+               height: float = SKATE_HEIGHT_M) -> float:
     """Mean horizontal speed (m/s) of foot tips (T, F, 3) on the frames where a tip is within ``height``
-    of its resting level (its 5th-percentile height above ``ground``, as contact labels measure it)."""
+    of its resting level (its 5th-percentile height above ``ground``, as contact labels measure it);
+    ``frames``: a (T,) mask of the frames to measure (speeds come from the whole sequence)."""
     from bipedsim.model.clip import STANCE_LEVEL_PERCENTILE
 
+    keep = np.ones(len(tips), bool) if frames is None else np.asarray(frames, bool)
+    if keep.sum() < 1 or len(tips) < 2:
+        return 0.0
     h = tips[..., 2] - ground
-    down = h < np.percentile(h, STANCE_LEVEL_PERCENTILE, axis=0) + height
+    down = (h < np.percentile(h[keep], STANCE_LEVEL_PERCENTILE, axis=0) + height) & keep[:, None]
     sp = np.linalg.norm(np.gradient(tips[..., :2], dt, axis=0), axis=-1)
     return float(sp[down].mean()) if down.any() else 0.0
 
@@ -55,8 +60,7 @@ def motion_metrics(syn: Synthesis, creature: Creature, world: World) -> dict[str
     _, idx = _foot_points(m, creature.feet)
     feet = pts[:, idx]
     on_ground = np.array([not lab.startswith("fly") and lab != "swim" for lab in syn.mode])
-    skate = foot_skate(feet[on_ground], world.terrain(feet[on_ground][..., :2]), m.frame_time) \
-        if on_ground.sum() > 2 else 0.0
+    skate = foot_skate(feet, world.terrain(feet[..., :2]), m.frame_time, on_ground)
     src = 0.0
     if "walk" in creature.clips:
         k = creature.clips["walk"]

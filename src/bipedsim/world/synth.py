@@ -109,6 +109,8 @@ class Synthesis:
     lifted_frames: int = 0
     max_lift_m: float = 0.0
     tiles: list[tuple[int, int]] = field(default_factory=list)  #: the path's tiles
+    clips: dict[str, ModeClip] = field(default_factory=dict)  #: the clips played (a flying one raised)
+    blend: str = "quadratic"  #: the transition weights used
 
 
 def _mode_clips(world: World, creature: Creature, path: Path, modes: list[str]) -> dict[str, ModeClip]:
@@ -145,6 +147,7 @@ class _Player:
         self.step = 0
         self.weight = WEIGHTS[weights]
         self.armed: tuple[str, float] | None = None  # (target clip, key frame to start at)
+        self.done: list[Transition] = []  # every transition made, in order
 
     def request(self, dst: str) -> None:
         if self.trans is None and dst != self.cur and (self.armed is None or self.armed[0] != dst):
@@ -176,6 +179,7 @@ class _Player:
         m = max(2, int(round((m_from * src.frame_time + m_to * to.frame_time) / 2 / self.dt)))
         self.trans = Transition(src=self.cur, dst=dst, frame=frame, k_from=k, m_from=m_from, k_to=k_to,
                                 m_to=m_to, m=m)
+        self.done.append(self.trans)
         self.step = 0
         self.armed = None
 
@@ -242,14 +246,9 @@ def synthesize(world: World, creature: Creature, path: Path, modes: list[str], *
         frames = np.flatnonzero((ss_arr >= j.s_push) & (ss_arr < j.s_takeoff))
         motion, j.pushing_feet = push_ik(motion, frames, creature.feet, retarget_default("contact_height"))
     motion, lifted, max_lift = keep_above_terrain(motion, world)
-    trans = []  # the transitions the player made, read back from the labels
-    for i, lab in enumerate(labels):
-        if ">" in lab and (i == 0 or labels[i - 1] != lab):
-            a, b = lab.split(">")
-            trans.append(Transition(src=a, dst=b, frame=i, k_from=0, m_from=0, k_to=0, m_to=0,
-                                    m=sum(1 for x in labels[i:] if x == lab)))
-    return Synthesis(motion=motion, curve=curve, s=np.array(ss), mode=labels, transitions=trans, jumps=jumps,
-                     lifted_frames=lifted, max_lift_m=max_lift, tiles=list(path.tiles))
+    return Synthesis(motion=motion, curve=curve, s=np.array(ss), mode=labels, transitions=player.done, jumps=jumps,
+                     lifted_frames=lifted, max_lift_m=max_lift, tiles=list(path.tiles),
+                     clips=clips, blend=weights)
 
 
 def _walk_events(world: World, path: Path, modes: list[str]) -> list[Any]:

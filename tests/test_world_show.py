@@ -122,3 +122,23 @@ def test_child_bred_for_the_world_flies_over_the_mountain(ridge, tmp_path: Path)
     assert crep["length_m"] < walker["length_m"]
     pts = body_points(syn.motion)
     assert (pts[..., 2] - ridge.terrain(pts[..., :2])).min() >= -1e-9
+
+
+@pytest.mark.slow
+def test_readme_world_commands_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every command of the README's world block (the video through the headless renderer: about a minute)."""
+    need_shared()
+    import re
+    import shlex
+
+    text = (REPO / "README.md").read_text()
+    block = re.search(r"<!-- world-commands -->\s*```bash\n(.*?)```", text, re.DOTALL)
+    assert block
+    monkeypatch.chdir(tmp_path)
+    for line in block.group(1).strip().splitlines():
+        args = [a.replace("examples/", f"{REPO}/examples/") for a in shlex.split(line)]
+        assert args[0] == "bipedsim"
+        assert main(args[1:]) == 0, line
+    assert (tmp_path / "dog.mp4").stat().st_size > 10_000
+    assert (tmp_path / "paths.png").is_file() and (tmp_path / "out_horse_pterosaur.bvh").is_file()
+    assert json.loads((tmp_path / "R.json").read_text())["modes"]

@@ -318,7 +318,7 @@ def _key_frames(contacts: npt.NDArray[np.bool_], pos: FloatArray, root_z: FloatA
         peaks, _ = find_peaks(np.concatenate([-rel[:, k], -rel[:, k]]), distance=max(1, n // 16))
         peaks = np.unique(peaks % n)
         if len(peaks):
-            return peaks.astype(np.int64), "wingbeat"
+            return peaks.astype(np.int64), "beat"
     return np.array([0], dtype=np.int64), "loop"
 
 

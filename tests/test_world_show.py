@@ -122,6 +122,10 @@ def test_child_bred_for_the_world_flies_over_the_mountain(ridge, tmp_path: Path)
     assert crep["length_m"] < walker["length_m"]
     pts = body_points(syn.motion)
     assert (pts[..., 2] - ridge.terrain(pts[..., :2])).min() >= -1e-9
+    # a flying creature's BVH reads back into the project frame too (up axis and unit guessed)
+    out = tmp_path / "child.bvh"
+    assert main(["world", str(RIDGE), str(child), "-o", str(out)]) == 0
+    np.testing.assert_allclose(load_bvh(out).root_translation, syn.motion.root_translation, atol=1e-5)
 
 
 @pytest.mark.slow

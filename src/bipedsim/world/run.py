@@ -18,6 +18,8 @@ from bipedsim.world.synth import Synthesis, body_points, synthesize
 from bipedsim.world.tiles import World, load_world
 
 PathLike = str | os.PathLike[str]
+#: Up axis of the BVH files written (metres).
+BVH_UP = "y"
 
 
 def output_paths(output: PathLike, names: list[str]) -> list[Path]:
@@ -102,7 +104,8 @@ def cross_world(world: World, creature: Creature, weights: str = "quadratic") ->
 def run_world(world: PathLike, creatures: list[PathLike], output: PathLike, *, report: PathLike | None = None,
               video: PathLike | None = None, plot: PathLike | None = None, weights: str = "quadratic",
               video_options: Any = None, progress: bool = False, say: Any = None) -> dict[str, Any]:
-    """Every creature crosses ``world``; writes the BVHs (project frame: m, Z up), and optionally the
+    """Every creature crosses ``world``; writes the BVHs (metres, Y up in the file: ``load_bvh`` reads them
+    back into the project frame, Z up, with the root over the tile centres), and optionally the
     report (JSON), the paths plot (PNG) and a video (the first creature, or each as ``<stem>_<name>``)."""
     w = load_world(world)
     cs = [load_creature(c) for c in creatures]
@@ -122,7 +125,9 @@ def run_world(world: PathLike, creatures: list[PathLike], output: PathLike, *, r
     for c, name, out in zip(cs, names, outs):
         syn, rep = cross_world(w, c, weights)
         t0 = time.perf_counter()
-        write_bvh(syn.motion, out, precision=6)
+        # Y up in the file (BVH's own convention): load_bvh reads it back into the project frame for any
+        # creature; a Z-up file of a creature whose feet trail behind its root (flying) is guessed Y up
+        write_bvh(syn.motion.with_up(BVH_UP), out, precision=6)
         rep["output"] = str(out)
         rep["timings_s"]["write"] = time.perf_counter() - t0
         entries.append(rep)

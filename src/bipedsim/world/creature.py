@@ -188,20 +188,36 @@ def _heading_offset(clips: dict[str, ModeClip]) -> float:
 
 
 # ---------------------------------------------------------------------- cutting a loop
-def _foot_points(motion: Motion, feet: list[str]) -> tuple[FloatArray, list[int]]:
-    """All points (joints and End Sites) per frame, and per foot the point of its subtree that is lowest
-    over the motion (median height): the sole (a merged hand's hoof, not its wrist)."""
+def foot_tips(motion: Motion, feet: list[str]) -> list[int]:
+    """Per foot, the point (index into :func:`~bipedsim.model.source.motion_points`: joints, then End
+    Sites) of its subtree that is lowest over the motion (median height): the sole (a merged hand's hoof,
+    not its wrist)."""
     from bipedsim.model.source import motion_points
 
-    pts = motion_points(motion)
     sk = motion.skeleton
-    med = np.median(pts.positions[..., 2], axis=0)
+    med = np.median(motion_points(motion).positions[..., 2], axis=0)
     idx = []
     for f in feet:
         sub = sk.subtree(sk.index(f))
         cand = list(sub) + [sk.num_joints + e for e, p in enumerate(sk.end_site_parents) if int(p) in sub]
         idx.append(int(min(cand, key=lambda i: med[i])))
-    return pts.positions, idx
+    return idx
+
+
+def tip_joint(motion: Motion, point: int) -> tuple[int, FloatArray]:
+    """The joint carrying point ``point`` (a joint, or an End Site) and the point's offset in its frame."""
+    sk = motion.skeleton
+    if point < sk.num_joints:
+        return point, np.zeros(3)
+    e = point - sk.num_joints
+    return int(sk.end_site_parents[e]), np.asarray(sk.end_site_offsets[e], dtype=float)
+
+
+def _foot_points(motion: Motion, feet: list[str]) -> tuple[FloatArray, list[int]]:
+    """All points (joints and End Sites) per frame, and each foot's tip (:func:`foot_tips`)."""
+    from bipedsim.model.source import motion_points
+
+    return motion_points(motion).positions, foot_tips(motion, feet)
 
 
 def _speed(motion: Motion) -> FloatArray:

@@ -130,14 +130,6 @@ def _min_rotation(a: FloatArray, b: FloatArray) -> FloatArray:
     return Rotation.from_rotvec(axis / s * np.arctan2(s, c)).as_matrix()
 
 
-def _tip(motion: Motion, foot: str) -> tuple[int, FloatArray]:
-    """The joint carrying a foot's tip and the tip's offset from that joint (its End Site, else 0)."""
-    sk = motion.skeleton
-    j = sk.index(foot)
-    ends = [e for e, p in enumerate(sk.end_site_parents) if int(p) == j]
-    return j, (sk.end_site_offsets[ends[0]] if ends else np.zeros(3))
-
-
 def ccd_frame(frame: Motion, j_tip: int, tip_off: FloatArray, target: FloatArray,
               iterations: int = IK_ITERATIONS, chain: int = IK_CHAIN) -> Motion:
     """One frame with the ``chain`` joints above the tip turned (cyclic coordinate descent) so the tip
@@ -168,13 +160,15 @@ def push_ik(motion: Motion, frames: npt.NDArray[np.int64], feet: list[str], cont
     positions there through ``frames``; returns the motion and the feet locked."""
     if len(frames) == 0:
         return motion, []
+    from bipedsim.world.creature import foot_tips, tip_joint
+
     m = motion.copy(rotations=motion.rotations.copy(), root_translation=motion.root_translation.copy())
     first = m[int(frames[0]):int(frames[0]) + 1]
     pos, g = first.fk()
     locked = []
     targets = {}
-    for f in feet:
-        j, off = _tip(m, f)
+    for f, point in zip(feet, foot_tips(m, feet)):
+        j, off = tip_joint(m, point)
         tip = pos[0, j] + g[0, j] @ off
         if tip[2] < contact_height:
             targets[f] = (j, off, np.array([tip[0], tip[1], max(tip[2], 0.0)]))

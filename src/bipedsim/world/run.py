@@ -167,5 +167,5 @@ def format_creature_line(rep: dict[str, Any]) -> str:
             f"{rep['length_m']:.1f} m (straight {rep['straight_m']:.1f} m), {rep['frames']} frames "
             f"({rep['duration_s']:.1f} s), {len(rep['events'])} jump(s), {len(rep['transitions'])} transition(s), "
             f"foot skate {met['foot_skate_m_s']:.3f} m/s (source {met['source_foot_skate_m_s']:.3f}), "
-            f"lowest clearance {met['min_clearance_m']:.3f} m, "
+            f"lowest clearance {round(met['min_clearance_m'], 3) + 0.0:.3f} m, "
             f"ends {rep['end_to_goal_m']:.2f} m from the goal")

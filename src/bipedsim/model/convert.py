@@ -18,19 +18,23 @@ PathLike = str | os.PathLike[str]
 
 def convert_bvh(input: PathLike, output: PathLike, *, profile: str = "humanoid", profile_file: PathLike | None = None,
                 mass: float | None = None, map: PathLike | None = None, clip: PathLike | None = None,
-                scale: float | str | None = None, up: str | None = None) -> dict[str, Any]:
+                scale: float | str | None = None, up: str | None = None,
+                positions: str | None = None) -> dict[str, Any]:
     """Build an MJCF body from the skeleton of the BVH file ``input`` and write it to ``output``.
 
     ``profile``: ``"humanoid"`` or ``"creature"``, or ``profile_file`` (a profile YAML, which wins);
     ``mass``: total body mass (kg; scales every segment); ``map``: a mapping YAML naming the humanoid
     roles' joints; ``clip``: also retarget the motion and write this ``.npz`` reference clip;
     ``scale``: metres per file unit or a unit name, ``up``: the file's up axis (``"y"``/``"z"``), both
-    guessed when None. Output locations are checked (errors name ``-o`` and ``--clip``) before
+    guessed when None; ``positions``: ``"absolute"``/``"offset"`` position channels (decided per
+    joint when None). Output locations are checked (errors name ``-o`` and ``--clip``) before
     anything is built. Returns the body's summary (bodies, DOFs, mass in kg, height in m, timestep in
     s, ...) with ``source``, ``output``, ``unit``, ``up`` and, with ``clip``, the clip's frames,
     trimmed frames and foot strikes."""
-    motion, info = read_bvh(input, scale=scale, up=up)
+    motion, info = read_bvh(input, scale=scale, up=up, positions=positions)
     motion = motion.to_project_frame()
+    if profile_file is None and profile == "humanoid":  # a humanoid is built from a standing rest pose
+        motion = motion.with_standing_rest()
     check_output_file(output, "-o")
     if clip:
         check_output_file(clip, "--clip")

@@ -223,14 +223,15 @@ def render_folder(folder: PathLike, output: PathLike | None = None, video_option
 # ---------------------------------------------------------------------- the whole run
 def check_run_options(*, profile: str = "humanoid", support: bool = False, bvh: PathLike | None = None,
                       scale: float | str | None = None, up: str | None = None, init_noise: float = 0.0,
-                      seed: int = 0) -> None:
+                      seed: int = 0, positions: str | None = None) -> None:
     """Refuse run options that would be ignored or meaningless, before anything runs: each error names
     the flag and what is allowed. Ranges of the run length and pushes are checked by
     :func:`~bipedsim.sim.push.check_pushes`, the video options by :meth:`VideoOptions.validate`."""
     if support and profile != "creature":
         raise ConfigError("holds a creature's root; it needs --profile creature", key="--support")
     if bvh is None:
-        for flag, value, what in (("--scale", scale, "unit"), ("--up", up, "up axis")):
+        for flag, value, what in (("--scale", scale, "unit"), ("--up", up, "up axis"),
+                                  ("--positions", positions, "position-channel mode")):
             if value is not None:
                 raise ConfigError(f"sets the {what} of a --bvh file; the built-in walk's {what} is known "
                                   f"(give --bvh FILE or drop {flag})", key=flag)
@@ -288,14 +289,16 @@ def _timed_bar(seconds: float, show: bool) -> tuple[Callable[[float], None], Cal
 
 def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLike | None = None,
                   seconds: float = 10.0, seed: int = 0, init_noise: float = 0.0, mass: float | None = None,
-                  scale: float | str | None = None, up: str | None = None, profile: str = "humanoid",
-                  support: bool = False, record_hz: float = DEFAULT_RECORD_HZ, pushes: Sequence[str | Push] = (),
+                  scale: float | str | None = None, up: str | None = None, positions: str | None = None,
+                  profile: str = "humanoid", support: bool = False, record_hz: float = DEFAULT_RECORD_HZ,
+                  pushes: Sequence[str | Push] = (),
                   plots: bool = False, csv: PathLike | None = None, export_bvh: PathLike | None = None,
                   video: PathLike | None = None, gif: PathLike | None = None,
                   video_options: VideoOptions | None = None, progress: bool = False,
                   say: Callable[[str], None] | None = None) -> RunResult:
     """Everything ``bipedsim run`` does: track the reference (``bvh``, else the built-in walk; its
-    ``scale``, ``up``) with the controller YAML ``config`` on the ``profile`` body (``mass`` in kg;
+    ``scale``, ``up``, ``positions``: see :func:`~bipedsim.motion.bvh.read_bvh`) with the controller
+    YAML ``config`` on the ``profile`` body (``mass`` in kg;
     ``support``: hold a creature's root) for ``seconds`` (simulated s) from ``seed`` (``init_noise``:
     initial velocity std, rad/s and m/s) with ``pushes`` (``MAG:DIR:DUR:START`` strings or
     :class:`Push`), recording ``record_hz`` samples/s; write ``outcome.json``, ``trajectory.npz`` and
@@ -309,11 +312,12 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     say = say or (lambda line: None)
     options = video_options or VideoOptions()
     check_run_options(profile=profile, support=support, bvh=bvh, scale=scale, up=up, init_noise=init_noise,
-                      seed=seed)
+                      seed=seed, positions=positions)
     options.validate()
     pushes = [p if isinstance(p, Push) else Push.parse(p) for p in pushes]
     check_pushes(pushes, seconds)  # the run length too, before anything is built
-    sc = runner.load_scenario(config, bvh, scale=scale, up=up, mass=mass, profile=profile, support=support)
+    sc = runner.load_scenario(config, bvh, scale=scale, up=up, mass=mass, profile=profile, support=support,
+                              positions=positions)
     check_run_length(seconds, sc.built.model.opt.timestep)
     sc.check_pushes(pushes)
     rec = Recorder(sc.built.model, record_hz=record_hz, seconds=seconds, key="--record-hz", feet=len(sc.foot_names()))

@@ -68,7 +68,7 @@ class Scenario:
 
 def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.PathLike[str] | None = None, *,
                   scale: float | str | None = None, up: str | None = None, mass: float | None = None,
-                  profile: str = "humanoid", support: bool = False) -> Scenario:
+                  profile: str = "humanoid", support: bool = False, positions: str | None = None) -> Scenario:
     """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
     retargeted onto it. A controller YAML configures the humanoid's controller; ``support`` (root
     support) is a creature's."""
@@ -93,8 +93,10 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
             built = build_model(motion, "humanoid", total_mass=mass, name="humanoid")
         src = str(BUILTIN_WALK)
     else:
-        raw, info = read_bvh(bvh, scale=scale, up=up)
+        raw, info = read_bvh(bvh, scale=scale, up=up, positions=positions)
         motion = raw.to_project_frame()
+        if profile == "humanoid":  # a humanoid is built from a standing rest pose
+            motion = motion.with_standing_rest()
         built = build_model(motion, profile, total_mass=mass, name=Path(bvh).stem)
         src = str(bvh)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src)

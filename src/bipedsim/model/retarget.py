@@ -27,6 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip, contact_labels, debounce, foot_speeds, gait_events
+from bipedsim.model.gait import side_contacts
 from bipedsim.model.plan import BodyPlanSet, FitPlan, model_hash, plan_from_model
 from bipedsim.model.source import SourcePoints, motion_points
 from bipedsim.motion.motion import Motion
@@ -222,8 +223,9 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
              source: str = "", trim_glitches: bool = True) -> ReferenceClip:
     """Retarget a motion (project frame: metres, Z up) onto a model built by bipedsim.
 
-    ``contact_height`` (m) and ``contact_speed`` (m/s): a foot is in contact on a frame when its
-    lowest point is below the height and it moves slower than the speed. With ``trim_glitches``,
+    Contacts: a humanoid's heel and toe each touch when near their own ground level and nearly still,
+    thresholds measured on the clip (:mod:`bipedsim.model.gait`); a creature's feet when the lowest
+    point is below ``contact_height`` (m) and it moves slower than ``contact_speed`` (m/s). With ``trim_glitches``,
     leading frames that jump away from the rest of the take (the T-pose frame some releases start
     with) are dropped; ``clip.trimmed_frames`` says how many.
     """
@@ -242,8 +244,13 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
     qvel = velocities(model, qpos, motion.frame_time)
     side_feet = _foot_groups(plan, feet)
     low_g = _group_min(low, feet, side_feet)
-    speed_g = _group_min(foot_speeds(fpos, motion.frame_time), feet, side_feet)
-    grouped = debounce(contact_labels(low_g, speed_g, contact_height, contact_speed), motion.frame_time)
+    if plan.profile == "humanoid":  # heel and toe separately, thresholds measured on the clip (model.gait)
+        groups = [[feet.index(f) for f in fs] for fs in side_feet.values()]
+        raw = side_contacts(low, fpos, motion.frame_time, groups)
+    else:
+        speed_g = _group_min(foot_speeds(fpos, motion.frame_time), feet, side_feet)
+        raw = contact_labels(low_g, speed_g, contact_height, contact_speed)
+    grouped = debounce(raw, motion.frame_time)
     return ReferenceClip(qpos=qpos, qvel=qvel, frame_time=motion.frame_time, contacts=grouped,
                          foot_names=list(side_feet), foot_heights=low_g,
                          events=gait_events(grouped, list(side_feet)),

@@ -1,0 +1,97 @@
+"""Gait events on real walks (issue 19): every shared human walk, strikes per foot within one of a count
+made by hand from the foot heights; the detector's rule on synthetic signals; events given by hand."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import SHARED_BVH, need_shared
+
+from bipedsim.errors import ConfigError
+from bipedsim.model import build_model, retarget
+from bipedsim.model.gait import contacts_from_strikes, load_events, point_contacts
+from bipedsim.motion import read_bvh
+
+#: Strikes per foot counted by hand from each clip's heel/toe heights and speeds (the contact that is
+#: under way when a clip starts is no strike). Start-walk-stop: the walking part's steps and the
+#: settling step at the stop.
+HAND_COUNTS = {
+    "bandai2_walk_exhausted_001": {"left": 8, "right": 9},
+    "cmu_02_01_walk__holden31_crlf": {"left": 2, "right": 3},
+    "cmu_02_02_walk__19joint_Hip_Abdomen": {"left": 2, "right": 2},
+    "cmu_02_02_walk__daz43": {"left": 2, "right": 2},
+    "cmu_12_03_walk__cgspeed_mb31": {"left": 4, "right": 3},
+    "cmu_131_01_start_walk_stop__max31_mixedEOL": {"left": 4, "right": 5},
+    "games105_walk60__metres_crlf": {"left": 2, "right": 3},
+}
+
+
+def _clip(name: str):
+    need_shared()
+    m = read_bvh(SHARED_BVH / "human" / f"{name}.bvh")[0].to_project_frame().with_standing_rest()
+    b = build_model(m)
+    return m, b, retarget(m, b.model, plan=b.plan, xml=b.xml)
+
+
+@pytest.mark.parametrize("name", sorted(HAND_COUNTS))
+def test_strikes_per_foot_match_the_hand_count(name: str) -> None:
+    _, _, clip = _clip(name)
+    for foot, n in HAND_COUNTS[name].items():
+        found = len(clip.events[foot]["strike"])
+        assert abs(found - n) <= 1, (foot, found, n)
+    if "start_walk_stop" in name:
+        return  # its first steps from standing need not alternate (a shuffle before the walk)
+    # strikes alternate: between two strikes of one foot the other foot strikes (a walk)
+    rs, ls = clip.events["right"]["strike"], clip.events["left"]["strike"]
+    for a, b in zip(rs, rs[1:]):
+        assert any(a < s < b for s in ls), (a, b, ls)
+
+
+def _synthetic(dt: float, noise: float, slide: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """One foot point walking 1 m/s: stance 0.6 s (sliding ``slide`` m/s), swing 0.4 s lifting 8 cm."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 6.0, dt)
+    phase = (t % 1.0)
+    swing = phase >= 0.6
+    h = np.where(swing, 0.08 * np.sin(np.pi * (phase - 0.6) / 0.4), 0.0) + 0.03
+    v = np.where(swing, 2.5, slide)
+    x = np.cumsum(v) * dt
+    pos = np.stack([x, np.zeros_like(x), h], axis=1)[:, None] + rng.normal(0, noise, (len(t), 1, 3))
+    low = h[:, None] + rng.normal(0, noise, (len(t), 1))
+    strikes = [int(round(k / dt)) for k in np.arange(1.0, 6.0, 1.0)]
+    return low, pos, strikes
+
+
+@pytest.mark.parametrize("fps", [30, 60, 120, 240])
+@pytest.mark.parametrize("noise,slide", [(0.0, 0.0), (0.003, 0.15)])
+def test_contact_rule_is_robust_to_frame_rate_noise_and_sliding(fps: int, noise: float, slide: float) -> None:
+    dt = 1.0 / fps
+    low, pos, strikes = _synthetic(dt, noise, slide)
+    c = point_contacts(low, pos, dt)[:, 0]
+    onsets = np.flatnonzero(np.diff(c.astype(int)) == 1) + 1
+    assert len(onsets) == len(strikes)
+    assert np.abs(onsets - strikes).max() * dt <= 0.06
+
+
+def test_contact_rule_holds_its_units_in_centimetres_scale() -> None:
+    """Thresholds scale with the clip: the same walk ten times bigger gives the same contacts."""
+    dt = 1 / 60
+    low, pos, _ = _synthetic(dt, 0.0, 0.0)
+    assert np.array_equal(point_contacts(low, pos, dt), point_contacts(10 * low, 10 * pos, dt))
+
+
+def test_events_by_hand(tmp_path: Path) -> None:
+    f = tmp_path / "events.yaml"
+    f.write_text("right: [10, '1.0s']\nleft: [40]\n")
+    ev = load_events(f, ["left", "right"], num_frames=200, frame_time=0.01)
+    assert ev == {"left": [40], "right": [10, 100]}
+    c = contacts_from_strikes(ev, ["left", "right"], 200)
+    assert c[10:40, 1].all() and c[40:100, 0].all() and not c[60:100, 1].any()
+    f.write_text("rihgt: [10]\n")
+    with pytest.raises(ConfigError, match="unknown foot 'rihgt'; feet: left, right"):
+        load_events(f, ["left", "right"], 200, 0.01)
+    f.write_text("right: [500]\n")
+    with pytest.raises(ConfigError, match="not a frame in 0..199"):
+        load_events(f, ["left", "right"], 200, 0.01)

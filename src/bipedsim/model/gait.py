@@ -4,11 +4,11 @@ Each foot point (a humanoid's heel -- the foot body -- and toe, separately) is i
 when it is near its own ground level and nearly still:
 
 - the signals are smoothed over :data:`SMOOTH_S` seconds first (noise, any frame rate);
-- ground: the lowest foot point over a moving window (:func:`ground_level`: a floor that drifts over
-  the capture); the point's resting level: its :data:`LEVEL_PERCENTILE` th-percentile height above
+- ground: the lowest point of that foot over a moving window (:func:`ground_level`: a floor that
+  drifts over the capture); the point's resting level: its :data:`LEVEL_PERCENTILE` th-percentile height above
   that ground (a heel rests higher than a toe); "near" is within
-  :data:`HEIGHT_FRACTION` of the point's lift (its 95th-percentile height above the level), at least
-  :data:`MIN_HEIGHT_M` -- a shuffling walk lifts its feet 5 cm, a march 30 cm;
+  :data:`HEIGHT_FRACTION` of the point's lift (its 95th-percentile height above the level), within
+  :data:`MIN_HEIGHT_M` .. :data:`MAX_HEIGHT_M` -- a shuffling walk lifts its feet 5 cm, a march 30 cm;
 - "still": horizontal speed below :data:`SPEED_FRACTION` of the point's fast speed (its
   95th-percentile speed: the swing), at least :data:`MIN_SPEED_MPS` -- a capture's stance foot slides.
 
@@ -41,10 +41,12 @@ GROUND_WINDOW_S = 1.5
 LEVEL_PERCENTILE = 5.0
 #: A point is near the ground within this fraction of its lift (95th percentile above the level)...
 HEIGHT_FRACTION = 0.3
-#: ...and never closer than this (m): a capture's resting foot jitters by a centimetre or two.
+#: ...and never closer than this (m): a capture's resting foot jitters by a centimetre or two...
 MIN_HEIGHT_M = 0.02
+#: ...nor farther (m): a high step (a stair, an obstacle) says nothing about how high a foot rests.
+MAX_HEIGHT_M = 0.04
 #: A point is still below this fraction of its swing speed (95th-percentile horizontal speed)...
-SPEED_FRACTION = 0.3
+SPEED_FRACTION = 0.15
 #: ...and below at least this (m/s).
 MIN_SPEED_MPS = 0.2
 #: Hysteresis: once down, a point stays down while within this factor of both thresholds (a stance
@@ -82,7 +84,7 @@ def point_contacts(low: FloatArray, pos: FloatArray, dt: float) -> BoolArray:
     low_s = low_s - ground_level(low_s, dt)[:, None]
     level = np.percentile(low_s, LEVEL_PERCENTILE, axis=0)
     lift = np.percentile(low_s, 95, axis=0) - level
-    h_thr = np.maximum(HEIGHT_FRACTION * lift, MIN_HEIGHT_M)
+    h_thr = np.clip(HEIGHT_FRACTION * lift, MIN_HEIGHT_M, MAX_HEIGHT_M)
     v_thr = np.maximum(SPEED_FRACTION * np.percentile(speed, 95, axis=0), MIN_SPEED_MPS)
     above = low_s - level
     edge = max(1, int(round(SMOOTH_S / dt)))
@@ -103,9 +105,9 @@ def point_contacts(low: FloatArray, pos: FloatArray, dt: float) -> BoolArray:
 
 def side_contacts(low: FloatArray, pos: FloatArray, dt: float, groups: list[list[int]]) -> BoolArray:
     """(T, S) contact flags per side: a side touches when any of its points (indices ``groups[s]``
-    into the columns of ``low``/``pos``) does."""
-    pc = point_contacts(low, pos, dt)
-    return np.stack([pc[:, g].any(axis=1) for g in groups], axis=1)
+    into the columns of ``low``/``pos``) does. Each side measures its own ground (a capture's two feet
+    need not agree on the floor: one toe marker may sit centimetres low)."""
+    return np.stack([point_contacts(low[:, g], pos[:, g], dt).any(axis=1) for g in groups], axis=1)
 
 
 # ---------------------------------------------------------------------- events by hand

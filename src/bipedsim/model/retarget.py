@@ -218,6 +218,11 @@ def _hinge_angles(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
     return eul[:, :len(axes)] * np.array(signs)
 
 
+#: A humanoid foot's shortest swing (s): a shorter lift is a shuffle or a pivot, not a step (a walk's
+#: swing lasts 0.3-0.5 s).
+MIN_SWING_S = 0.15
+
+
 def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None = None,
              xml: str | None = None, contact_height: float = 0.05, contact_speed: float = 0.5,
              source: str = "", trim_glitches: bool = True) -> ReferenceClip:
@@ -246,11 +251,11 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
     low_g = _group_min(low, feet, side_feet)
     if plan.profile == "humanoid":  # heel and toe separately, thresholds measured on the clip (model.gait)
         groups = [[feet.index(f) for f in fs] for fs in side_feet.values()]
-        raw = side_contacts(low, fpos, motion.frame_time, groups)
+        grouped = debounce(side_contacts(low, fpos, motion.frame_time, groups), motion.frame_time,
+                           min_gap=MIN_SWING_S)
     else:
         speed_g = _group_min(foot_speeds(fpos, motion.frame_time), feet, side_feet)
-        raw = contact_labels(low_g, speed_g, contact_height, contact_speed)
-    grouped = debounce(raw, motion.frame_time)
+        grouped = debounce(contact_labels(low_g, speed_g, contact_height, contact_speed), motion.frame_time)
     return ReferenceClip(qpos=qpos, qvel=qvel, frame_time=motion.frame_time, contacts=grouped,
                          foot_names=list(side_feet), foot_heights=low_g,
                          events=gait_events(grouped, list(side_feet)),

@@ -95,3 +95,19 @@ def test_events_by_hand(tmp_path: Path) -> None:
     f.write_text("right: [500]\n")
     with pytest.raises(ConfigError, match="not a frame in 0..199"):
         load_events(f, ["left", "right"], 200, 0.01)
+
+
+def test_events_by_hand_replace_detection_and_a_failure_says_how(tmp_path: Path, capsys) -> None:
+    from bipedsim.cli import main
+
+    m, b, _ = _clip("cmu_02_01_walk__holden31_crlf")
+    f = tmp_path / "ev.yaml"
+    f.write_text("right: [80, 210]\nleft: [141]\n")
+    clip = retarget(m, b.model, plan=b.plan, xml=b.xml, events=f)
+    assert clip.events["right"]["strike"] == [80, 210] and clip.events["left"]["strike"] == [141]
+    f.write_text("right: [80]\n")
+    bvh = SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh"
+    assert main(["run", "--bvh", str(bvh), "--events", str(f), "--seconds", "0.1", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "1 right and 0 left foot strikes (right at frames [80], left at []" in err
+    assert "--events FILE" in err

@@ -127,7 +127,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     run_to_folder(args.out, config=args.config, bvh=args.bvh, seconds=args.seconds, seed=args.seed,
                   init_noise=args.init_noise, mass=args.mass, scale=args.scale, up=args.up, positions=args.positions,
-                  profile=args.profile,
+                  events=args.events, profile=args.profile,
                   support=args.support, record_hz=DEFAULT_RECORD_HZ if args.record_hz is None else args.record_hz,
                   pushes=args.push or [], plots=args.plots, csv=args.csv, export_bvh=args.export_bvh,
                   video=args.video, gif=args.gif, video_options=video_options(args), progress=sys.stderr.isatty(),
@@ -144,6 +144,9 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--init-noise", type=float, default=0.0, help="initial velocity noise (std) drawn from the seed")
     p.add_argument("--out", default="bipedsim_run", help="output folder for outcome.json (default bipedsim_run)")
     p.add_argument("--mass", type=float, default=None, help="total body mass in kg")
+    p.add_argument("--events", default=None, metavar="YAML",
+                   help="the --bvh clip's foot strikes given by hand, replacing the detected ones: 'right: [12, 140]' "
+                        "and 'left: [76]' (frames, or times like '1.2s')")
     _scale_up(p, "BVH metres per unit or unit name", "BVH up axis")
     p.add_argument("--profile", choices=("humanoid", "creature"), default="humanoid",
                    help="humanoid (balance controller) or creature (PD tracking of every joint)")

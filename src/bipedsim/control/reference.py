@@ -307,8 +307,10 @@ class ClipSource(GaitSource):
         ls = clip.events["left"]["strike"]
         if len(rs) < 2 or not ls:
             raise ModelError(f"the reference clip ({clip.source or 'clip'}) has {len(rs)} right and {len(ls)} "
-                             f"left foot strikes: need two right strikes with a left one between to loop a "
-                             f"gait cycle")
+                             f"left foot strikes (right at frames {rs}, left at {ls}; {clip.num_frames} frames at "
+                             f"{1 / clip.frame_time:.4g} fps): need two right strikes with a left one between to "
+                             "loop a gait cycle. If the clip walks, give its strikes by hand: --events FILE, a "
+                             "YAML like 'right: [12, 140]' and 'left: [76]' (frames, or times like '1.2s')")
         self.a, self.b = float(rs[0]), float(rs[-1])
         self.period = self.b - self.a
         self.loop_start = self.a

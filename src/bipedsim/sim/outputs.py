@@ -290,14 +290,15 @@ def _timed_bar(seconds: float, show: bool) -> tuple[Callable[[float], None], Cal
 def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLike | None = None,
                   seconds: float = 10.0, seed: int = 0, init_noise: float = 0.0, mass: float | None = None,
                   scale: float | str | None = None, up: str | None = None, positions: str | None = None,
-                  profile: str = "humanoid", support: bool = False, record_hz: float = DEFAULT_RECORD_HZ,
+                  events: PathLike | None = None, profile: str = "humanoid", support: bool = False, record_hz: float = DEFAULT_RECORD_HZ,
                   pushes: Sequence[str | Push] = (),
                   plots: bool = False, csv: PathLike | None = None, export_bvh: PathLike | None = None,
                   video: PathLike | None = None, gif: PathLike | None = None,
                   video_options: VideoOptions | None = None, progress: bool = False,
                   say: Callable[[str], None] | None = None) -> RunResult:
     """Everything ``bipedsim run`` does: track the reference (``bvh``, else the built-in walk; its
-    ``scale``, ``up``, ``positions``: see :func:`~bipedsim.motion.bvh.read_bvh`) with the controller
+    ``scale``, ``up``, ``positions``: see :func:`~bipedsim.motion.bvh.read_bvh`; ``events``: a YAML of
+    foot strikes given by hand, :func:`~bipedsim.model.gait.load_events`) with the controller
     YAML ``config`` on the ``profile`` body (``mass`` in kg;
     ``support``: hold a creature's root) for ``seconds`` (simulated s) from ``seed`` (``init_noise``:
     initial velocity std, rad/s and m/s) with ``pushes`` (``MAG:DIR:DUR:START`` strings or
@@ -317,7 +318,7 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     pushes = [p if isinstance(p, Push) else Push.parse(p) for p in pushes]
     check_pushes(pushes, seconds)  # the run length too, before anything is built
     sc = runner.load_scenario(config, bvh, scale=scale, up=up, mass=mass, profile=profile, support=support,
-                              positions=positions)
+                              positions=positions, events=events)
     check_run_length(seconds, sc.built.model.opt.timestep)
     sc.check_pushes(pushes)
     rec = Recorder(sc.built.model, record_hz=record_hz, seconds=seconds, key="--record-hz", feet=len(sc.foot_names()))

@@ -68,7 +68,8 @@ class Scenario:
 
 def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.PathLike[str] | None = None, *,
                   scale: float | str | None = None, up: str | None = None, mass: float | None = None,
-                  profile: str = "humanoid", support: bool = False, positions: str | None = None) -> Scenario:
+                  profile: str = "humanoid", support: bool = False, positions: str | None = None,
+                  events: str | os.PathLike[str] | None = None) -> Scenario:
     """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
     retargeted onto it. A controller YAML configures the humanoid's controller; ``support`` (root
     support) is a creature's."""
@@ -99,7 +100,7 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
             motion = motion.with_standing_rest()
         built = build_model(motion, profile, total_mass=mass, name=Path(bvh).stem)
         src = str(bvh)
-    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src)
+    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)
     return Scenario(built=built, clip=clip, cfg=cfg, source_path=src,
                     config_path=None if config is None else str(config), motion=motion, bvh_info=info,
                     creature_cfg=CreatureControlConfig(support=support))

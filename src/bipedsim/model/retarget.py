@@ -19,7 +19,6 @@ quaternions. Velocities come from ``mj_differentiatePos`` (central differences o
 from __future__ import annotations
 
 import os
-
 from collections.abc import Callable
 
 import mujoco

@@ -11,7 +11,7 @@ from conftest import SHARED_BVH, need_shared
 
 from bipedsim.errors import ConfigError
 from bipedsim.model import build_model, retarget
-from bipedsim.model.gait import contacts_from_strikes, load_events, point_contacts
+from bipedsim.model.gait import contacts_from_strikes, humanoid_motion, in_place, load_events, point_contacts
 from bipedsim.motion import read_bvh
 
 #: Strikes per foot counted by hand from each clip's heel/toe heights and speeds (the contact that is
@@ -111,3 +111,26 @@ def test_events_by_hand_replace_detection_and_a_failure_says_how(tmp_path: Path,
     err = capsys.readouterr().err
     assert "1 right and 0 left foot strikes (right at frames [80], left at []" in err
     assert "--events FILE" in err
+
+
+@pytest.mark.parametrize("name", ["cmu_02_01_walk__holden31_crlf", "bandai2_walk_exhausted_001"])
+def test_root_rebuilt_for_a_walk_with_its_translation_removed(name: str) -> None:
+    """A shared walk made in place (its travelling joint's horizontal translation held at the first
+    frame) is recognised and its root travel rebuilt from the stance feet, close to the original."""
+    need_shared()
+    m = humanoid_motion(read_bvh(SHARED_BVH / "human" / f"{name}.bvh")[0])
+    assert not in_place(m)
+    tj = m.travel_joint()
+    flat = m.copy()
+    if tj == 0:
+        flat.root_translation[:, :2] = m.root_translation[0, :2]
+    else:
+        flat.translations[:, tj, :2] = m.translations[0, tj, :2]
+    assert in_place(flat)
+    notes: list[str] = []
+    rebuilt = humanoid_motion(flat, notes)
+    assert any("walks in place" in n for n in notes)
+    a = m.travel()[:, :2] - m.travel()[0, :2]
+    b = rebuilt.travel()[:, :2] - rebuilt.travel()[0, :2]
+    assert 0.85 < np.linalg.norm(b[-1]) / np.linalg.norm(a[-1]) < 1.1
+    assert np.linalg.norm(a - b, axis=1).max() < 0.08 * np.linalg.norm(a[-1]) + 0.05

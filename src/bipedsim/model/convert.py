@@ -9,6 +9,7 @@ from typing import Any
 
 from bipedsim.io import check_output_file
 from bipedsim.model.build import build_model
+from bipedsim.model.gait import humanoid_motion
 from bipedsim.model.naming import load_map
 from bipedsim.model.retarget import retarget
 from bipedsim.motion.bvh import read_bvh
@@ -32,9 +33,8 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = "humanoid",
     s, ...) with ``source``, ``output``, ``unit``, ``up`` and, with ``clip``, the clip's frames,
     trimmed frames and foot strikes."""
     motion, info = read_bvh(input, scale=scale, up=up, positions=positions)
-    motion = motion.to_project_frame()
-    if profile_file is None and profile == "humanoid":  # a humanoid is built from a standing rest pose
-        motion = motion.with_standing_rest()
+    humanoid = profile_file is None and profile == "humanoid"
+    motion = humanoid_motion(motion, info.notes) if humanoid else motion.to_project_frame()
     check_output_file(output, "-o")
     if clip:
         check_output_file(clip, "--clip")
@@ -43,7 +43,8 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = "humanoid",
     built.write(output)
     summary = built.summary()
     summary.update({"source": str(input), "output": str(output),
-                    "unit": f"{info.unit_name} ({info.unit_source})", "up": f"{info.up} ({info.up_source})"})
+                    "unit": f"{info.unit_name} ({info.unit_source})", "up": f"{info.up} ({info.up_source})",
+                    "notes": list(info.notes)})
     if clip:
         ref = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=str(input))
         ref.save(clip)
@@ -63,4 +64,5 @@ def format_convert_summary(summary: dict[str, Any]) -> str:
         c = s["clip"]
         lines.append(f"wrote {c['path']}: {c['frames']} frames, foot strikes {c['strikes']}"
                      + (f", dropped {c['trimmed_frames']} leading glitch frame(s)" if c["trimmed_frames"] else ""))
+    lines += [f"note: {n}" for n in s.get("notes", [])]
     return "\n".join(lines)

@@ -17,6 +17,7 @@ from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
+from bipedsim.model.gait import humanoid_motion
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout
@@ -95,9 +96,7 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
         src = str(BUILTIN_WALK)
     else:
         raw, info = read_bvh(bvh, scale=scale, up=up, positions=positions)
-        motion = raw.to_project_frame()
-        if profile == "humanoid":  # a humanoid is built from a standing rest pose
-            motion = motion.with_standing_rest()
+        motion = raw.to_project_frame() if profile != "humanoid" else humanoid_motion(raw, info.notes)
         built = build_model(motion, profile, total_mass=mass, name=Path(bvh).stem)
         src = str(bvh)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)

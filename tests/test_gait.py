@@ -134,3 +134,20 @@ def test_root_rebuilt_for_a_walk_with_its_translation_removed(name: str) -> None
     b = rebuilt.travel()[:, :2] - rebuilt.travel()[0, :2]
     assert 0.85 < np.linalg.norm(b[-1]) / np.linalg.norm(a[-1]) < 1.1
     assert np.linalg.norm(a - b, axis=1).max() < 0.08 * np.linalg.norm(a[-1]) + 0.05
+
+
+def test_run_prints_what_it_found_and_the_clip_speed(tmp_path: Path, capsys) -> None:
+    import json
+
+    from bipedsim.cli import main
+
+    need_shared()
+    bvh = SHARED_BVH / "human" / "bandai2_walk_exhausted_001.bvh"
+    assert main(["run", "--bvh", str(bvh), "--seconds", "0.2", "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert "note: rest pose: the file's identity pose is no standing body" in out
+    assert "reference: 289 frames at 30 fps, feet left (8 strikes" in out and "right (9 strikes" in out
+    assert "cycle: frames " in out and "the whole clip 0.9" in out
+    assert "whole clip 0.9" in out.splitlines()[-2]
+    o = json.loads((tmp_path / "o" / "outcome.json").read_text())
+    assert 0.9 < o["extra"]["clip_speed_mps"] < 1.1 and o["reference_speed_mps"] > 0.5

@@ -19,6 +19,7 @@ from bipedsim.control.balance import axis_rotation, heading_of, yaw_matrix
 from bipedsim.control.config import PoseGait
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip
+from bipedsim.model.gait import smooth
 from bipedsim.model.plan import BodyPlanSet
 
 FloatArray = npt.NDArray[np.float64]
@@ -347,6 +348,43 @@ def blend_seam(rows: FloatArray, a: int, b: int, frames: int) -> FloatArray:
         s = s * s * (3.0 - 2.0 * s)
         out[t] = (1.0 - s) * rows[t] + s * rows[t - period]
     return out
+
+
+def clip_cycle(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet) -> Cycle | None:
+    """The cycle :class:`ClipSource` loops for this clip on this model (None: no loop)."""
+    h = Hinges.of(model, plan)
+    rs, ls = clip.events["right"]["strike"], clip.events["left"]["strike"]
+    return best_cycle(clip.qpos[:, h.qadr], clip.qvel[:, h.dadr], clip.qpos[:, :2], list(rs), list(ls),
+                      clip.frame_time)
+
+
+#: Window (s) over which the root's path is smoothed before its length is the clip's travel.
+CLIP_SPEED_SMOOTH_S = 0.5
+
+
+def clip_speed(clip: ReferenceClip) -> float:
+    """The clip's own average horizontal speed (m/s): the length of the root's path, smoothed over
+    :data:`CLIP_SPEED_SMOOTH_S` (the capture's jitter and the walk's sway are no travel), over the whole
+    clip (start and stop included), over its duration."""
+    if clip.duration <= 0:
+        return 0.0
+    root = smooth(clip.qpos[:, :2], clip.frame_time, CLIP_SPEED_SMOOTH_S)
+    return float(np.linalg.norm(np.diff(root, axis=0), axis=1).sum()) / clip.duration
+
+
+def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet) -> list[str]:
+    """Lines saying what was found in a humanoid's reference clip: the feet and their strikes, the cycle
+    looped and its speed, the whole clip's speed."""
+    lines = [f"reference: {clip.num_frames} frames at {1 / clip.frame_time:.4g} fps, feet "
+             + ", ".join(f"{f} ({len(clip.events[f]['strike'])} strikes at frames {clip.events[f]['strike']})"
+                         for f in clip.foot_names)]
+    c = clip_cycle(clip, model, plan)
+    if c is not None:
+        root = clip.qpos[:, :2]
+        loop_v = float(np.linalg.norm(root[c.b] - root[c.a])) / ((c.b - c.a) * clip.frame_time)
+        lines.append(f"cycle: frames {c.a}-{c.b} ({(c.b - c.a) * clip.frame_time:.2f} s, seam cost {c.cost:.3f}) "
+                     f"at {loop_v:.2f} m/s; the whole clip {clip_speed(clip):.2f} m/s")
+    return lines
 
 
 class ClipSource(GaitSource):

@@ -20,6 +20,8 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from bipedsim.control.reference import clip_speed, describe_clip
+from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_text, check_output_file, prepare_output_dir, progress_bar, remove_stale
 from bipedsim.render.gl import RenderError
@@ -241,6 +243,15 @@ def check_run_options(*, profile: str = "humanoid", support: bool = False, bvh: 
         raise ConfigError(f"must be a whole number >= 0, got {seed}", key="--seed")
 
 
+def found_lines(sc: Scenario) -> list[str]:
+    """What reading a ``--bvh`` humanoid's clip found (feet, strikes, cycle, speeds, what preparing the
+    motion did); nothing for the built-in walk or a creature."""
+    if sc.profile != "humanoid" or sc.bvh_info is None or sc.source_path == str(BUILTIN_WALK):
+        return []
+    notes = [f"note: {n}" for n in [sc.bvh_info.reading_note, *sc.bvh_info.notes] if n]
+    return notes + describe_clip(sc.clip, sc.built.model, sc.built.plan)
+
+
 def check_run_length(seconds: float, timestep: float) -> None:
     """Refuse a run shorter than one physics step (``timestep``, s): it would take no step and record
     nothing (the upper bound is :func:`~bipedsim.sim.push.check_pushes`'s)."""
@@ -257,9 +268,12 @@ def outcome_line(out: Outcome, sc: Scenario) -> str:
     sup = "" if not e.get("support_mode") else (
         f"; ROOT SUPPORT assisted: mean {e.get('support_force_mean_n', 0):.0f} N (body weight {e['weight_n']:.0f} N), "
         f"peak {e.get('support_force_max_n', 0):.0f} N")
+    cv = out.extra.get("clip_speed_mps")
+    clip_v = f", whole clip {cv:.2f} m/s" if cv is not None else ""
     return (f"{out.outcome}{fall}: {body}{out.sim_seconds:.2f} s simulated in {out.wall_seconds:.1f} s, "
             f"{out.foot_strikes} foot strikes, {out.distance_m:.2f} m at {out.mean_speed_mps:.2f} m/s "
-            f"(reference {out.reference_speed_mps:.2f} m/s), tracking RMSE {out.tracking_rmse_rad:.3f} rad{sup}")
+            f"(reference loop {out.reference_speed_mps:.2f} m/s{clip_v}), "
+            f"tracking RMSE {out.tracking_rmse_rad:.3f} rad{sup}")
 
 
 @dataclass
@@ -320,6 +334,8 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     sc = runner.load_scenario(config, bvh, scale=scale, up=up, mass=mass, profile=profile, support=support,
                               positions=positions, events=events)
     check_run_length(seconds, sc.built.model.opt.timestep)
+    for line in found_lines(sc):
+        say(line)
     sc.check_pushes(pushes)
     rec = Recorder(sc.built.model, record_hz=record_hz, seconds=seconds, key="--record-hz", feet=len(sc.foot_names()))
     folder = check_run_outputs(out, csv=csv, export_bvh=export_bvh, video=video, gif=gif)
@@ -327,6 +343,8 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     outcome, _ = runner.run_scenario(sc, RolloutSpec(seconds=seconds, seed=seed, init_noise=init_noise),
                                      progress=tick, hooks=[rec], pushes=pushes)
     close()
+    if sc.profile == "humanoid":
+        outcome.extra["clip_speed_mps"] = clip_speed(sc.clip)
     removed = clear_stale(folder, plots=plots, extra_files=(video, gif, csv, export_bvh))
     if removed:
         say(f"removed from an earlier run in {folder}: {', '.join(removed)}")

@@ -41,8 +41,9 @@ SMOOTH_S = 0.05
 GROUND_WINDOW_S = 1.5
 #: Percentile of a point's heights above the ground taken as its resting level.
 LEVEL_PERCENTILE = 5.0
-#: A point is near the ground within this fraction of its lift (95th percentile above the level)...
-HEIGHT_FRACTION = 0.3
+#: A point is near the ground within this fraction of its lift (95th percentile above the level; a
+#: stance foot rolling from heel to toe changes its lowest point by a few centimetres)...
+HEIGHT_FRACTION = 0.6
 #: ...and never closer than this (m): a capture's resting foot jitters by a centimetre or two...
 MIN_HEIGHT_M = 0.02
 #: ...nor farther (m): a high step (a stair, an obstacle) says nothing about how high a foot rests.

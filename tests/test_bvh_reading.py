@@ -71,3 +71,20 @@ def test_a_head_joint_on_the_neck_does_not_stop_the_build(tmp_path: Path) -> Non
     f.write_text(text)
     motion = read_bvh(f)[0].to_project_frame().with_standing_rest()
     assert build_model(motion).summary()["bodies"] >= 10
+
+
+def test_rebased_limbs_rest_straight_so_the_walk_stays_within_the_knee_range() -> None:
+    """Each leg and arm of a rebased skeleton rests as it is straightest: the retargeted knees and
+    elbows stay within their ranges (from a bent rest knee they were 1.15 rad beyond)."""
+    from bipedsim.control.reference import Hinges
+    from bipedsim.model import retarget
+
+    m = read_bvh(shared_dir() / BANDAI)[0].to_project_frame().with_standing_rest()
+    b = build_model(m)
+    clip = retarget(m, b.model, plan=b.plan, xml=b.xml)
+    h = Hinges.of(b.model, b.plan)
+    for k, name in enumerate(h.names):
+        if name.endswith(("_knee", "_elbow")):
+            lo, hi = b.model.jnt_range[h.jid[k]]
+            q = clip.qpos[:, h.qadr[k]]
+            assert q.min() > lo - 0.05 and q.max() < hi + 0.05, (name, q.min(), q.max(), lo, hi)

@@ -28,7 +28,6 @@ from bipedsim.motion import Motion, Skeleton, load_bvh
 
 #: Replay tolerance (m): pelvis, knees, ankles, shoulders, elbows, wrists on every frame.
 REPLAY_TOL = 0.02
-REBASED_REPLAY_TOL = 0.05  # m: a skeleton rebased on a walking frame (Motion.with_standing_rest)
 
 
 def passive_ok(model: mujoco.MjModel, qpos0: np.ndarray, seconds: float = 2.0) -> mujoco.MjData:
@@ -132,10 +131,7 @@ def test_shared_humans_convert_simulate_and_replay(path: Path) -> None:
         checked |= {roles["legs"][side][r] for r in ("knee", "ankle")}
         checked |= {roles["arms"][side][r] for r in ("upper_arm", "elbow", "wrist")}
     assert len(checked) == 1 + 2 * 5 and kept
-    rebased = not np.allclose(m.skeleton.offsets, read_bvh(path)[0].to_project_frame().skeleton.offsets)
-    # a skeleton rebased on a walking frame (bone-aligned joint frames) has its joint limits measured from
-    # that frame's bent knee and elbow: the replay is looser there
-    tol = REBASED_REPLAY_TOL if rebased else REPLAY_TOL
+    tol = REPLAY_TOL
     worst = max(float(np.linalg.norm(mk[k] - src[k], axis=1).max()) for k in checked)
     assert worst < tol, worst
     # feet never sink more than 1 cm into the floor; contact labels follow foot height

@@ -35,7 +35,9 @@ def test_fk_matches_independent_implementations(path: Path) -> None:
         # bvhio reads every position channel as absolute; compare where that reading is ours too
         names, ref = bvhio_positions(str(path))
         idx = [motion.skeleton.index(n) for n in names]
-        assert np.abs(pos[:, idx] - ref).max() <= FK_TOL * height_units
+        # bvhio computes in float32 (PyGLM): its rounding grows with the coordinates (a 9 m walk in cm)
+        f32 = 8 * np.finfo(np.float32).eps * np.abs(ref).max()
+        assert np.abs(pos[:, idx] - ref).max() <= FK_TOL * height_units + f32
 
 
 @pytest.mark.parametrize("path", shared_params())

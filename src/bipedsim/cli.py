@@ -48,6 +48,9 @@ def _scale_up(p: argparse.ArgumentParser, scale_help: str, up_help: str) -> None
     """--scale (metres per unit or a unit name) and --up (y or z), both None when omitted."""
     p.add_argument("--scale", type=_scale_arg, default=None, help=scale_help)
     p.add_argument("--up", choices=("y", "z"), default=None, help=up_help)
+    p.add_argument("--positions", choices=("absolute", "offset"), default=None,
+                   help="position channels are absolute or added to the joint's OFFSET (decided per joint and "
+                        "scored with the up axis when omitted; bipedsim info says which reading was chosen)")
 
 
 def _output(p: argparse.ArgumentParser, what: str) -> None:
@@ -82,7 +85,7 @@ def cmd_info(args: argparse.Namespace) -> int:
     from bipedsim.data import builtin_walk_path
     from bipedsim.motion import describe_bvh, format_description
 
-    d = describe_bvh(args.file or str(builtin_walk_path()), scale=args.scale, up=args.up)
+    d = describe_bvh(args.file or str(builtin_walk_path()), scale=args.scale, up=args.up, positions=args.positions)
     print(json.dumps(d, indent=2) if args.json else format_description(d))
     return 0
 
@@ -99,7 +102,8 @@ def cmd_convert(args: argparse.Namespace) -> int:
     from bipedsim.model import convert_bvh, format_convert_summary
 
     summary = convert_bvh(args.input, args.output, profile=args.profile, profile_file=args.profile_file,
-                          mass=args.mass, map=args.map, clip=args.clip, scale=args.scale, up=args.up)
+                          mass=args.mass, map=args.map, clip=args.clip, scale=args.scale, up=args.up,
+                          positions=args.positions)
     print(json.dumps(summary, indent=2) if args.json else format_convert_summary(summary))
     return 0
 
@@ -122,7 +126,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     from bipedsim.sim.outputs import run_to_folder
 
     run_to_folder(args.out, config=args.config, bvh=args.bvh, seconds=args.seconds, seed=args.seed,
-                  init_noise=args.init_noise, mass=args.mass, scale=args.scale, up=args.up, profile=args.profile,
+                  init_noise=args.init_noise, mass=args.mass, scale=args.scale, up=args.up, positions=args.positions,
+                  events=args.events, profile=args.profile,
                   support=args.support, record_hz=DEFAULT_RECORD_HZ if args.record_hz is None else args.record_hz,
                   pushes=args.push or [], plots=args.plots, csv=args.csv, export_bvh=args.export_bvh,
                   video=args.video, gif=args.gif, video_options=video_options(args), progress=sys.stderr.isatty(),
@@ -139,6 +144,9 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--init-noise", type=float, default=0.0, help="initial velocity noise (std) drawn from the seed")
     p.add_argument("--out", default="bipedsim_run", help="output folder for outcome.json (default bipedsim_run)")
     p.add_argument("--mass", type=float, default=None, help="total body mass in kg")
+    p.add_argument("--events", default=None, metavar="YAML",
+                   help="the --bvh clip's foot strikes given by hand, replacing the detected ones: 'right: [12, 140]' "
+                        "and 'left: [76]' (frames, or times like '1.2s')")
     _scale_up(p, "BVH metres per unit or unit name", "BVH up axis")
     p.add_argument("--profile", choices=("humanoid", "creature"), default="humanoid",
                    help="humanoid (balance controller) or creature (PD tracking of every joint)")

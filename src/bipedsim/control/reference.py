@@ -19,6 +19,7 @@ from bipedsim.control.balance import axis_rotation, heading_of, yaw_matrix
 from bipedsim.control.config import PoseGait
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip
+from bipedsim.model.gait import smooth
 from bipedsim.model.plan import BodyPlanSet
 
 FloatArray = npt.NDArray[np.float64]
@@ -290,8 +291,105 @@ class GaitSource:
         return 0.5
 
 
+#: Seam cost: joint-velocity mismatch (rad/s) counts at this time scale (s) against pose mismatch (rad).
+CYCLE_VELOCITY_TIME_S = 0.1
+#: Loops whose cost is within this (rad) of the best are equally good; the longest of them is kept
+#: (more of the capture, fewer seams per second).
+CYCLE_COST_TOLERANCE = 0.05
+#: Seconds before the loop's end over which its last frames are blended into the frames one loop
+#: earlier, so that the seam is continuous.
+SEAM_BLEND_S = 0.2
+
+
+@dataclass(frozen=True)
+class Cycle:
+    """A loop of a clip from one right-foot strike ``a`` to a later one ``b`` (frames) with a left strike
+    between; ``cost``: its seam mismatch plus unsteadiness (rad, see :func:`best_cycle`)."""
+
+    a: int
+    b: int
+    cost: float
+
+
+def best_cycle(q: FloatArray, qd: FloatArray, root_xy: FloatArray, right: list[int], left: list[int],
+               frame_time: float) -> Cycle | None:
+    """The loop of a clip to play: over every pair of right strikes (a, b) with a left strike between,
+    the cost is the seam's mismatch -- RMS of the hinge angles ``q`` (T, H; rad) between frames a and b
+    plus RMS of the velocities ``qd`` (rad/s) times :data:`CYCLE_VELOCITY_TIME_S` -- plus how much slower
+    than the clip's fastest loop it travels (its mean root speed, ``root_xy`` (T, 2) m, as a fraction:
+    a start-walk-stop clip loops its walking part, not its start and stop). Of the loops within
+    :data:`CYCLE_COST_TOLERANCE` of the best, the longest. None when no pair has a left strike between."""
+    pairs = [(a, b) for i, a in enumerate(right) for b in right[i + 1:] if any(a < s < b for s in left)]
+    if not pairs:
+        return None
+    speed = {p: float(np.linalg.norm(root_xy[p[1]] - root_xy[p[0]])) / ((p[1] - p[0]) * frame_time) for p in pairs}
+    fastest = max(speed.values()) or 1.0
+    cost = {}
+    for a, b in pairs:
+        seam = float(np.sqrt(np.mean((q[a] - q[b]) ** 2)))
+        seam += CYCLE_VELOCITY_TIME_S * float(np.sqrt(np.mean((qd[a] - qd[b]) ** 2)))
+        cost[(a, b)] = seam + (1.0 - speed[(a, b)] / fastest)
+    best = min(cost.values())
+    a, b = max((p for p in pairs if cost[p] <= best + CYCLE_COST_TOLERANCE), key=lambda p: (p[1] - p[0], -cost[p]))
+    return Cycle(a, b, cost[(a, b)])
+
+
+def blend_seam(rows: FloatArray, a: int, b: int, frames: int) -> FloatArray:
+    """``rows`` (T, K) with the loop [a, b)'s last ``frames`` rows eased (smoothstep) into the rows one
+    loop earlier (the same phase), so that playing b - 1 then a is continuous. Rows outside are kept."""
+    out = rows.copy()
+    frames = min(frames, a, b - a - 1)
+    if frames < 1:
+        return out
+    period = b - a
+    for k in range(frames):
+        t = b - frames + k
+        s = (k + 1) / frames
+        s = s * s * (3.0 - 2.0 * s)
+        out[t] = (1.0 - s) * rows[t] + s * rows[t - period]
+    return out
+
+
+def clip_cycle(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet) -> Cycle | None:
+    """The cycle :class:`ClipSource` loops for this clip on this model (None: no loop)."""
+    h = Hinges.of(model, plan)
+    rs, ls = clip.events["right"]["strike"], clip.events["left"]["strike"]
+    return best_cycle(clip.qpos[:, h.qadr], clip.qvel[:, h.dadr], clip.qpos[:, :2], list(rs), list(ls),
+                      clip.frame_time)
+
+
+#: Window (s) over which the root's path is smoothed before its length is the clip's travel.
+CLIP_SPEED_SMOOTH_S = 0.5
+
+
+def clip_speed(clip: ReferenceClip) -> float:
+    """The clip's own average horizontal speed (m/s): the length of the root's path, smoothed over
+    :data:`CLIP_SPEED_SMOOTH_S` (the capture's jitter and the walk's sway are no travel), over the whole
+    clip (start and stop included), over its duration."""
+    if clip.duration <= 0:
+        return 0.0
+    root = smooth(clip.qpos[:, :2], clip.frame_time, CLIP_SPEED_SMOOTH_S)
+    return float(np.linalg.norm(np.diff(root, axis=0), axis=1).sum()) / clip.duration
+
+
+def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet) -> list[str]:
+    """Lines saying what was found in a humanoid's reference clip: the feet and their strikes, the cycle
+    looped and its speed, the whole clip's speed."""
+    lines = [f"reference: {clip.num_frames} frames at {1 / clip.frame_time:.4g} fps, feet "
+             + ", ".join(f"{f} ({len(clip.events[f]['strike'])} strikes at frames {clip.events[f]['strike']})"
+                         for f in clip.foot_names)]
+    c = clip_cycle(clip, model, plan)
+    if c is not None:
+        root = clip.qpos[:, :2]
+        loop_v = float(np.linalg.norm(root[c.b] - root[c.a])) / ((c.b - c.a) * clip.frame_time)
+        lines.append(f"cycle: frames {c.a}-{c.b} ({(c.b - c.a) * clip.frame_time:.2f} s, seam cost {c.cost:.3f}) "
+                     f"at {loop_v:.2f} m/s; the whole clip {clip_speed(clip):.2f} m/s")
+    return lines
+
+
 class ClipSource(GaitSource):
-    """A :class:`ReferenceClip`, looped from its first right-foot strike to its last one."""
+    """A :class:`ReferenceClip`, looped over its best gait cycle (:func:`best_cycle`; the seam blended,
+    :func:`blend_seam`)."""
 
     def __init__(self, clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet, hinges: Hinges) -> None:
         if clip.qpos.shape[1] != model.nq:
@@ -307,9 +405,18 @@ class ClipSource(GaitSource):
         ls = clip.events["left"]["strike"]
         if len(rs) < 2 or not ls:
             raise ModelError(f"the reference clip ({clip.source or 'clip'}) has {len(rs)} right and {len(ls)} "
-                             f"left foot strikes: need two right strikes with a left one between to loop a "
-                             f"gait cycle")
-        self.a, self.b = float(rs[0]), float(rs[-1])
+                             f"left foot strikes (right at frames {rs}, left at {ls}; {clip.num_frames} frames at "
+                             f"{1 / clip.frame_time:.4g} fps): need two right strikes with a left one between to "
+                             "loop a gait cycle. If the clip walks, give its strikes by hand: --events FILE, a "
+                             "YAML like 'right: [12, 140]' and 'left: [76]' (frames, or times like '1.2s')")
+        hq, hqd = clip.qpos[:, hinges.qadr], clip.qvel[:, hinges.dadr]
+        cycle = best_cycle(hq, hqd, clip.qpos[:, :2], list(rs), list(ls), clip.frame_time)
+        if cycle is None:
+            raise ModelError(f"the reference clip ({clip.source or 'clip'}) has no left foot strike between two "
+                             f"right ones (right at frames {rs}, left at {ls}): give its strikes by hand with "
+                             "--events FILE")
+        self.cycle = cycle
+        self.a, self.b = float(cycle.a), float(cycle.b)
         self.period = self.b - self.a
         self.loop_start = self.a
         self.strikes = {"right": np.array([s for s in rs if self.a <= s < self.b], dtype=float),
@@ -318,8 +425,9 @@ class ClipSource(GaitSource):
             raise ModelError("no left foot strike inside the looped cycle")
         del ri, li
         self.hinge_qadr = hinges.qadr
-        self.q = clip.qpos[:, hinges.qadr]
-        self.qd = clip.qvel[:, hinges.dadr]
+        blend = int(round(SEAM_BLEND_S / clip.frame_time))
+        self.q = blend_seam(hq, cycle.a, cycle.b, blend)
+        self.qd = blend_seam(hqd, cycle.a, cycle.b, blend)
         self.nh = self.q.shape[1]
         self.q_qd = np.ascontiguousarray(np.hstack([self.q, self.qd]))  # one interpolation per step
         n = self.n = clip.num_frames

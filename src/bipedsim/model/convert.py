@@ -9,6 +9,7 @@ from typing import Any
 
 from bipedsim.io import check_output_file
 from bipedsim.model.build import build_model
+from bipedsim.model.gait import humanoid_motion
 from bipedsim.model.naming import load_map
 from bipedsim.model.retarget import retarget
 from bipedsim.motion.bvh import read_bvh
@@ -18,19 +19,22 @@ PathLike = str | os.PathLike[str]
 
 def convert_bvh(input: PathLike, output: PathLike, *, profile: str = "humanoid", profile_file: PathLike | None = None,
                 mass: float | None = None, map: PathLike | None = None, clip: PathLike | None = None,
-                scale: float | str | None = None, up: str | None = None) -> dict[str, Any]:
+                scale: float | str | None = None, up: str | None = None,
+                positions: str | None = None) -> dict[str, Any]:
     """Build an MJCF body from the skeleton of the BVH file ``input`` and write it to ``output``.
 
     ``profile``: ``"humanoid"`` or ``"creature"``, or ``profile_file`` (a profile YAML, which wins);
     ``mass``: total body mass (kg; scales every segment); ``map``: a mapping YAML naming the humanoid
     roles' joints; ``clip``: also retarget the motion and write this ``.npz`` reference clip;
     ``scale``: metres per file unit or a unit name, ``up``: the file's up axis (``"y"``/``"z"``), both
-    guessed when None. Output locations are checked (errors name ``-o`` and ``--clip``) before
+    guessed when None; ``positions``: ``"absolute"``/``"offset"`` position channels (decided per
+    joint when None). Output locations are checked (errors name ``-o`` and ``--clip``) before
     anything is built. Returns the body's summary (bodies, DOFs, mass in kg, height in m, timestep in
     s, ...) with ``source``, ``output``, ``unit``, ``up`` and, with ``clip``, the clip's frames,
     trimmed frames and foot strikes."""
-    motion, info = read_bvh(input, scale=scale, up=up)
-    motion = motion.to_project_frame()
+    motion, info = read_bvh(input, scale=scale, up=up, positions=positions)
+    humanoid = profile_file is None and profile == "humanoid"
+    motion = humanoid_motion(motion, info.notes) if humanoid else motion.to_project_frame()
     check_output_file(output, "-o")
     if clip:
         check_output_file(clip, "--clip")
@@ -39,7 +43,8 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = "humanoid",
     built.write(output)
     summary = built.summary()
     summary.update({"source": str(input), "output": str(output),
-                    "unit": f"{info.unit_name} ({info.unit_source})", "up": f"{info.up} ({info.up_source})"})
+                    "unit": f"{info.unit_name} ({info.unit_source})", "up": f"{info.up} ({info.up_source})",
+                    "notes": list(info.notes)})
     if clip:
         ref = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=str(input))
         ref.save(clip)
@@ -59,4 +64,5 @@ def format_convert_summary(summary: dict[str, Any]) -> str:
         c = s["clip"]
         lines.append(f"wrote {c['path']}: {c['frames']} frames, foot strikes {c['strikes']}"
                      + (f", dropped {c['trimmed_frames']} leading glitch frame(s)" if c["trimmed_frames"] else ""))
+    lines += [f"note: {n}" for n in s.get("notes", [])]
     return "\n".join(lines)

@@ -377,6 +377,7 @@ class _HumanoidBuilder:
 
     def __init__(self, motion: Motion, profile: HumanoidProfile, mapping: MapFile | None) -> None:
         self.source_names = list(motion.skeleton.names)
+        self.skel = motion.skeleton
         self.profile = profile
         self.geometry = profile.geometry
         self.hm = recognise_humanoid(motion.skeleton, mapping)
@@ -446,8 +447,21 @@ class _HumanoidBuilder:
             vecs = calibrate_rigid(moving, split, pts, split, self._rest_vecs(split, pts), w)
             self._place(split, pts, vecs)
         self.torso_pts, self.torso_vecs, self.torso_w, self.split = pts, vecs, w, split
-        self.head_top = self.rest.tip(hm.head)
+        self.head_top = self._head_top()
         self._chain(hm.neck, self.head_top)
+
+    def _head_top(self) -> str:
+        """The point that ends the head: the head's tip, or -- when that is degenerate (a zero-length
+        End Site on the head joint, a head joint on the neck) -- the point of the head's subtree
+        farthest from the neck, the head joint included."""
+        hm, rest = self.hm, self.rest
+        top = rest.tip(hm.head)
+        if np.linalg.norm(rest[top] - rest[hm.neck]) >= MIN_BONE_M:
+            return top
+        sk = self.source_names
+        sub = {sk[i] for i in self.skel.subtree(self.skel.index(hm.head))}
+        cands = [n for n in rest.names if n in sub or n.split("/end")[0] in sub]
+        return max(cands, key=lambda n: float(np.linalg.norm(rest[n] - rest[hm.neck])))
 
     # ----------------------------------------------------------------- trunk bodies
     def add_pelvis(self) -> None:

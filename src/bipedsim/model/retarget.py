@@ -18,6 +18,7 @@ quaternions. Velocities come from ``mj_differentiatePos`` (central differences o
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 
 import mujoco
@@ -27,6 +28,7 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip, contact_labels, debounce, foot_speeds, gait_events
+from bipedsim.model.gait import contacts_from_strikes, load_events, side_contacts
 from bipedsim.model.plan import BodyPlanSet, FitPlan, model_hash, plan_from_model
 from bipedsim.model.source import SourcePoints, motion_points
 from bipedsim.motion.motion import Motion
@@ -217,15 +219,23 @@ def _hinge_angles(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
     return eul[:, :len(axes)] * np.array(signs)
 
 
+#: A humanoid foot's shortest swing (s): a shorter lift is a shuffle or a pivot, not a step (a walk's
+#: swing lasts 0.3-0.5 s).
+MIN_SWING_S = 0.15
+
+
 def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None = None,
              xml: str | None = None, contact_height: float = 0.05, contact_speed: float = 0.5,
-             source: str = "", trim_glitches: bool = True) -> ReferenceClip:
+             source: str = "", trim_glitches: bool = True,
+             events: str | os.PathLike[str] | None = None) -> ReferenceClip:
     """Retarget a motion (project frame: metres, Z up) onto a model built by bipedsim.
 
-    ``contact_height`` (m) and ``contact_speed`` (m/s): a foot is in contact on a frame when its
-    lowest point is below the height and it moves slower than the speed. With ``trim_glitches``,
+    Contacts: a humanoid's heel and toe each touch when near their own ground level and nearly still,
+    thresholds measured on the clip (:mod:`bipedsim.model.gait`); a creature's feet when the lowest
+    point is below ``contact_height`` (m) and it moves slower than ``contact_speed`` (m/s). With ``trim_glitches``,
     leading frames that jump away from the rest of the take (the T-pose frame some releases start
-    with) are dropped; ``clip.trimmed_frames`` says how many.
+    with) are dropped; ``clip.trimmed_frames`` says how many. ``events``: a YAML of foot strikes given
+    by hand (:func:`bipedsim.model.gait.load_events`; frames of the file) that replaces the detected ones.
     """
     plan = plan or plan_from_model(model)
     trimmed = leading_glitch_frames(motion) if trim_glitches else 0
@@ -242,8 +252,17 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
     qvel = velocities(model, qpos, motion.frame_time)
     side_feet = _foot_groups(plan, feet)
     low_g = _group_min(low, feet, side_feet)
-    speed_g = _group_min(foot_speeds(fpos, motion.frame_time), feet, side_feet)
-    grouped = debounce(contact_labels(low_g, speed_g, contact_height, contact_speed), motion.frame_time)
+    if plan.profile == "humanoid":  # heel and toe separately, thresholds measured on the clip (model.gait)
+        groups = [[feet.index(f) for f in fs] for fs in side_feet.values()]
+        grouped = debounce(side_contacts(low, fpos, motion.frame_time, groups), motion.frame_time,
+                           min_gap=MIN_SWING_S)
+    else:
+        speed_g = _group_min(foot_speeds(fpos, motion.frame_time), feet, side_feet)
+        grouped = debounce(contact_labels(low_g, speed_g, contact_height, contact_speed), motion.frame_time)
+    if events is not None:
+        given = load_events(events, list(side_feet), motion.num_frames + trimmed, motion.frame_time)
+        given = {f: [s - trimmed for s in v if s >= trimmed] for f, v in given.items()}
+        grouped = contacts_from_strikes(given, list(side_feet), motion.num_frames)
     return ReferenceClip(qpos=qpos, qvel=qvel, frame_time=motion.frame_time, contacts=grouped,
                          foot_names=list(side_feet), foot_heights=low_g,
                          events=gait_events(grouped, list(side_feet)),

@@ -24,7 +24,15 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import BVHError
-from bipedsim.motion.conventions import UNIT_SCALES, guess_unit, guess_up_axis
+from bipedsim.motion.conventions import (
+    AMBIGUOUS_SCORE_MARGIN,
+    UNIT_SCALES,
+    ReadingScore,
+    guess_unit,
+    guess_up_axis,
+    leg_stature,
+    score_reading,
+)
 from bipedsim.motion.motion import Motion, canonical_quat
 from bipedsim.motion.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Skeleton
 
@@ -64,6 +72,9 @@ class BVHInfo:
     position_channels: dict[str, str] = field(default_factory=dict)  # joint -> "replace" | "add"
     position_mode_reasons: dict[str, str] = field(default_factory=dict)
     end_sites: int = 0
+    standing_height_m: float = 0.0  # from the hip's height (conventions.leg_stature); 0: no named feet
+    reading_note: str = ""  # when another reading (up axis, position modes) was nearly as plausible
+    notes: list[str] = field(default_factory=list)  # what preparing the motion did (model.gait.humanoid_motion)
 
     @property
     def fps(self) -> float:
@@ -308,37 +319,51 @@ def _parse(path: str, raw: bytes) -> tuple[Skeleton, float, FloatArray, BVHInfo,
     return sk0, frame_time, data, info, []
 
 
-def _position_modes(sk: Skeleton, data: FloatArray, col: list[int]) -> tuple[tuple[str, ...], dict[str, str]]:
+def _position_modes(sk: Skeleton, data: FloatArray, col: list[int]) -> tuple[tuple[str, ...], dict[str, str],
+                                                                           list[int]]:
     """Decide per joint whether its position channels replace or add to the OFFSET.
 
-    Absolute channels sit near the OFFSET, additive ones near zero: compare the median distance of
-    the channel values to the OFFSET with their median distance to the origin.
+    Absolute channels sit near the OFFSET, additive ones near zero. Per axis, the distance of the
+    channel values' median from the OFFSET and from zero is measured in units of that axis's own spread
+    (10-90 %): an axis the joint travels along (a walk's forward axis) says little, the axis it holds
+    (the hips' height) decides. Returns the modes, a reason per joint, and the joints whose choice is
+    weak (the distances within a factor of 3), whose alternative reading is scored as well.
     """
     modes: list[str] = []
     reasons: dict[str, str] = {}
+    weak: list[int] = []
+    scale = float(np.median(np.linalg.norm(sk.offsets[1:], axis=1))) if sk.num_joints > 1 else 1.0
+    floor = 1e-3 * (scale if scale > 0 else 1.0)
     for j, name in enumerate(sk.names):
         if not sk.has_positions(j):
             modes.append("")
             continue
-        vals = np.zeros((data.shape[0], 3))
-        for k, c in enumerate(sk.channels[j]):
-            if c in POSITION_CHANNELS:
-                vals[:, POSITION_CHANNELS.index(c)] = data[:, col[j] + k]
         off = sk.offsets[j]
-        d_rep = float(np.median(np.linalg.norm(vals - off, axis=1)))
-        d_add = float(np.median(np.linalg.norm(vals, axis=1)))
         if not np.any(off):
             modes.append("replace")
             reasons[name] = "OFFSET is zero: replace and add agree"
-        elif d_rep <= d_add:
+            continue
+        d_rep = d_add = 0.0
+        for k, c in enumerate(sk.channels[j]):
+            if c not in POSITION_CHANNELS:
+                continue
+            v = data[:, col[j] + k]
+            a = POSITION_CHANNELS.index(c)
+            spread = float(np.percentile(v, 90) - np.percentile(v, 10)) + floor
+            med = float(np.median(v))
+            d_rep += abs(med - off[a]) / spread
+            d_add += abs(med) / spread
+        if d_rep <= d_add:
             modes.append("replace")
-            reasons[name] = (f"channel values sit near the OFFSET (median distance {d_rep:.3g} vs "
-                             f"{d_add:.3g} from zero): absolute")
+            reasons[name] = (f"channel values sit near the OFFSET ({d_rep:.3g} vs {d_add:.3g} spreads from "
+                             "zero): absolute")
         else:
             modes.append("add")
-            reasons[name] = (f"channel values sit near zero (median {d_add:.3g} vs {d_rep:.3g} from the "
-                             f"OFFSET): added to OFFSET")
-    return tuple(modes), reasons
+            reasons[name] = (f"channel values sit near zero ({d_add:.3g} vs {d_rep:.3g} spreads from the "
+                             "OFFSET): added to OFFSET")
+        if max(d_rep, d_add) < 3.0 * min(d_rep, d_add) + 1.0:
+            weak.append(j)
+    return tuple(modes), reasons, weak
 
 
 def _quat_mul(a: FloatArray, b: FloatArray) -> FloatArray:
@@ -413,15 +438,100 @@ def _channels_to_motion(sk: Skeleton, frame_time: float, data: FloatArray) -> Mo
                   rotations=quats, translations=trans if moving else None, unit=1.0, up="y")
 
 
+#: Position-channel modes a caller may force (``--positions``): every joint's channels are absolute
+#: (``replace`` the OFFSET) or added to the OFFSET.
+POSITION_MODE_NAMES = {"absolute": "replace", "offset": "add"}
+
+
+def _forced_modes(sk: Skeleton, positions: str, path: str) -> tuple[str, ...]:
+    if positions not in POSITION_MODE_NAMES:
+        raise BVHError(f"position mode must be one of {', '.join(POSITION_MODE_NAMES)}, got {positions!r}", path)
+    m = POSITION_MODE_NAMES[positions]
+    return tuple(m if sk.has_positions(j) else "" for j in range(sk.num_joints))
+
+
+def _candidate_modes(sk: Skeleton, modes: tuple[str, ...], weak: list[int]) -> list[tuple[str, ...]]:
+    """The position-mode readings worth scoring: the per-joint choice, and with its weak choices flipped."""
+    out = [modes]
+    weak = [j for j in weak if j != 0]  # the root's mode only moves the whole body: nothing to score
+    if weak:
+        flip = {"replace": "add", "add": "replace"}
+        out.append(tuple(flip[m] if j in weak else m for j, m in enumerate(modes)))
+    return out
+
+
+def _sample_points(motion: Motion) -> tuple[FloatArray, FloatArray]:
+    """Joint positions and joints + End Sites of a few frames spread over the clip (frame 0 alone may
+    be a T-pose, a sitting dog...)."""
+    sample = motion[::max(1, motion.num_frames // SIZE_SAMPLE_FRAMES)]
+    pos_s = sample.fk()[0]
+    pts = np.concatenate([pos_s, sample.end_site_positions()], axis=1)
+    tj = motion.travel_joint()
+    if tj:  # a static root (at the floor, or anywhere) is no part of the body's extent
+        sk = motion.skeleton
+        above = [j for j in range(sk.num_joints) if tj in sk.subtree(j) and j != tj]
+        keep = np.ones(pts.shape[1], dtype=bool)
+        keep[above] = False
+        pts = pts[:, keep]
+    return pos_s, pts
+
+
+def _choose_reading(sk: Skeleton, frame_time: float, data: FloatArray, mode_options: list[tuple[str, ...]],
+                    ups: tuple[str, ...]) -> tuple[Motion, str, str, str]:
+    """Score every (position modes, up axis) reading of the file (:func:`score_reading`) and keep the
+    most plausible body. Returns the motion, the up axis, why, and a note on the alternatives ("" when
+    the choice is clear)."""
+    scored = []
+    for modes in mode_options:
+        motion = _channels_to_motion(sk.replace(position_modes=modes), frame_time, data)
+        pos_s, pts = _sample_points(motion)
+        for up in ups:
+            sc = score_reading(sk.names, sk.parents, pos_s, up)
+            if sc is not None and not guess_unit(pts, up).fits:
+                sc = ReadingScore(sc.score + 1.0, sc.hip_ratio, sc.floor_spread, sc.vertical_travel, sc.floor_offset)
+            scored.append((sc, modes, up, motion, pos_s))
+    if any(s[0] is None for s in scored):
+        # no feet to measure: one reading by the root-above-feet rule
+        motion, pos_s = scored[0][3], scored[0][4]
+        if len(ups) == 1:
+            return motion, ups[0], "given by the caller", ""
+        g = guess_up_axis(sk.names, pos_s, sk.parents)
+        return motion, g.axis, g.reason, ""
+    scored.sort(key=lambda s: s[0].score)
+    best = scored[0]
+
+    differ = [j for j in range(sk.num_joints) if len({m[j] for m in mode_options}) > 1]
+
+    def label(s: tuple) -> str:
+        modes = "".join(f", {sk.names[j]} {'absolute' if s[1][j] == 'replace' else 'added to OFFSET'}"
+                        for j in differ)
+        return f"{s[2].upper()} up{modes}"
+
+    reason = f"most plausible reading ({label(best)}): {best[0].text()}"
+    note = ""
+    if len(scored) > 1 and scored[1][0].score - best[0].score < AMBIGUOUS_SCORE_MARGIN:
+        note = (f"ambiguous: {label(scored[1])} scores {scored[1][0].score:.2f} against {best[0].score:.2f}; "
+                "force a reading with --up y|z" + (" and --positions absolute|offset" if len(mode_options) > 1 else ""))
+    return best[3], best[2], reason, note
+
+
 def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
-             up: str | None = None) -> tuple[Motion, BVHInfo]:
+             up: str | None = None, positions: str | None = None) -> tuple[Motion, BVHInfo]:
     """Read a BVH file in its own units and axes.
 
     Args:
         path: the file.
         scale: metres per file unit, or a unit name from :data:`UNIT_SCALES` (``"cm"``, ``"inch"``,
             ``"cmu"``...); guessed from the body's size when omitted (see :class:`BVHInfo`).
-        up: the file's up axis, ``"y"`` or ``"z"``; guessed from where the feet are when omitted.
+        up: the file's up axis, ``"y"`` or ``"z"``; guessed when omitted.
+        positions: ``"absolute"`` (position channels replace the OFFSET) or ``"offset"`` (added to it)
+            for every joint with position channels; decided per joint when omitted.
+
+    The up axis and the position-channel modes are chosen together: every combination is read and
+    scored for a plausible body (:func:`~bipedsim.motion.conventions.score_reading`: the hip at about a
+    leg length above the feet, the feet meeting one floor, the travel horizontal); the unit is then
+    guessed from the chosen body's size. ``info.up_reason`` says what was chosen and, when another
+    reading scored nearly as well, how to force one.
 
     Returns:
         The motion (``unit`` and ``up`` set to the guess or the given values) and what was found.
@@ -435,23 +545,24 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
     except OSError as exc:
         raise BVHError(f"cannot read: {exc.strerror or exc}", p) from None
     sk, frame_time, data, info, _ = _parse(p, raw)
-    modes, reasons = _position_modes(sk, data, _column_starts(sk))
-    sk = sk.replace(position_modes=modes)
+    if up is not None and up.lower() not in ("y", "z"):
+        raise BVHError(f"up axis must be 'y' or 'z', got {up!r}", p)
+    if positions is None:
+        modes, reasons, weak = _position_modes(sk, data, _column_starts(sk))
+        mode_options = _candidate_modes(sk, modes, weak)
+    else:
+        mode_options = [_forced_modes(sk, positions, p)]
+        reasons = {sk.names[j]: "given by the caller" for j in range(sk.num_joints) if sk.has_positions(j)}
+    ups = (up.lower(),) if up is not None else ("y", "z")
+    motion, info.up, up_reason, note = _choose_reading(sk, frame_time, data, mode_options, ups)
+    sk = motion.skeleton
+    modes = sk.position_modes
     info.position_channels = {sk.names[j]: modes[j] for j in range(sk.num_joints) if modes[j]}
     info.position_mode_reasons = reasons
-    motion = _channels_to_motion(sk, frame_time, data)
-
-    # a few frames spread over the clip: frame 0 alone may be a T-pose, a sitting dog...
-    sample = motion[::max(1, motion.num_frames // SIZE_SAMPLE_FRAMES)]
-    pos_s = sample.fk()[0]
-    pts = np.concatenate([pos_s, sample.end_site_positions()], axis=1)
-    if up is None:
-        g = guess_up_axis(sk.names, pos_s)
-        info.up, info.up_source, info.up_reason = g.axis, "guessed", g.reason
-    else:
-        if up.lower() not in ("y", "z"):
-            raise BVHError(f"up axis must be 'y' or 'z', got {up!r}", p)
-        info.up, info.up_source, info.up_reason = up.lower(), "given", "given by the caller"
+    info.up_source = "given" if up is not None else "guessed"
+    info.up_reason = up_reason if up is None else "given by the caller"
+    info.reading_note = note
+    pos_s, pts = _sample_points(motion)
     ug = guess_unit(pts, info.up)
     info.upright = ug.upright
     if scale is None:
@@ -476,15 +587,17 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
             raise BVHError(f"with scale {scale} ({s:g} m per unit) the body's {what} is {info.height_m:.4g} m, outside "
                            f"{lo:g}-{hi:g} m; the body's size suggests {ug.name} ({ug.scale:g} m per unit): "
                            "give that scale or omit it to use the guess", p)
+    if ug.upright:
+        info.standing_height_m = leg_stature(sk.names, sk.parents, pos_s, info.up) * info.unit_scale
     motion.unit = info.unit_scale
     motion.up = info.up
     return motion, info
 
 
 def load_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
-             up: str | None = None) -> Motion:
+             up: str | None = None, positions: str | None = None) -> Motion:
     """Read a BVH file and convert it to the project frame: metres, Z up."""
-    motion, _ = read_bvh(path, scale=scale, up=up)
+    motion, _ = read_bvh(path, scale=scale, up=up, positions=positions)
     return motion.to_project_frame()
 
 

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+FloatArray = npt.NDArray[np.float64]
+
 #: Metres per file unit for the length units BVH files occur in.
 UNIT_SCALES: dict[str, float] = {
     "m": 1.0,
@@ -84,18 +86,22 @@ class UnitGuess:
     height_m: float  # body height (upright) or size (otherwise) in metres under this unit
     upright: bool
     reason: str
+    fits: bool = True  # False: no unit put the body in the plausible range
 
 
-def guess_up_axis(names: tuple[str, ...], positions: npt.NDArray[np.float64]) -> UpGuess:
-    """Guess the up axis: the axis along which the root sits above the feet, on average.
+def guess_up_axis(names: tuple[str, ...], positions: npt.NDArray[np.float64],
+                  parents: npt.NDArray[np.int64] | None = None) -> UpGuess:
+    """Guess the up axis: the axis along which the legs' root (the feet's deepest common ancestor when
+    ``parents`` is given, else the root joint) sits above the feet, on average.
 
     ``positions``: (F, J, 3) joint positions of a few frames in file axes.
     """
     positions = np.asarray(positions).reshape(-1, len(names), 3)
-    feet = [i for i, n in enumerate(names) if any(t in n.lower() for t in FOOT_TOKENS)]
+    feet = foot_joints(names)
     if not feet:
         return UpGuess("y", "no foot/toe/ankle joints to find 'down'; assumed the BVH default Y up")
-    v = (positions[:, 0] - positions[:, feet].mean(axis=1)).mean(axis=0)
+    hip = legs_root(np.asarray(parents), feet) if parents is not None else 0
+    v = (positions[:, hip] - positions[:, feet].mean(axis=1)).mean(axis=0)
     k = int(np.argmax(np.abs(v)))
     if k == 0 or v[k] <= 0:
         return UpGuess("y", "root is not above the feet along Y or Z; assumed the BVH default Y up")
@@ -138,4 +144,109 @@ def guess_unit(positions: npt.NDArray[np.float64], up: str) -> UnitGuess:
     s = UNIT_SCALES[name]
     return UnitGuess(name, s, size * s, upright,
                      f"{what} {size:.4g} units fits no unit's plausible range; closest is {name} "
-                     f"({size * s:.3g} m) -- pass an explicit scale if this is wrong")
+                     f"({size * s:.3g} m) -- pass an explicit scale if this is wrong", fits=False)
+
+
+# ---------------------------------------------------------------------- scoring whole readings
+#: A standing or walking body's hip (the legs' branching joint) sits at about this fraction of its leg
+#: length (the chain from the hip joint to the lowest foot joint) above the floor.
+HIP_HEIGHT_PER_LEG = 0.9
+#: Two readings whose plausibility scores differ by less than this are reported as ambiguous.
+AMBIGUOUS_SCORE_MARGIN = 0.25
+
+
+@dataclass(frozen=True)
+class ReadingScore:
+    """How plausible one reading (up axis, position-channel mode) makes the body: lower is better.
+
+    ``hip_ratio``: the hip's median height above the lowest foot over the leg length (about
+    :data:`HIP_HEIGHT_PER_LEG` for a body on its feet); ``floor_spread``: the spread (10-90 %) of the
+    lowest foot's height over the clip, in leg lengths (small: the feet meet one floor);
+    ``vertical_travel``: the hip's vertical range over its horizontal range plus a leg (small: the
+    body travels along the floor); ``floor_offset``: the floor's distance from a static root joint, in
+    leg lengths (0 when the root moves: a static root of a root-on-a-child layout marks the floor).
+    """
+
+    score: float
+    hip_ratio: float
+    floor_spread: float
+    vertical_travel: float
+    floor_offset: float
+
+    def text(self) -> str:
+        return (f"score {self.score:.2f}: hip {self.hip_ratio:.2f} leg lengths above the lowest foot, "
+                f"floor spread {self.floor_spread:.2f}, vertical/horizontal travel {self.vertical_travel:.2f}"
+                + (f", floor {self.floor_offset:.2f} legs from the static root" if self.floor_offset else ""))
+
+
+def foot_joints(names: tuple[str, ...]) -> list[int]:
+    """Indices of joints named like feet (:data:`FOOT_TOKENS`)."""
+    return [i for i, n in enumerate(names) if any(t in n.lower() for t in FOOT_TOKENS)]
+
+
+def _ancestors(parents: npt.NDArray[np.int64], j: int) -> list[int]:
+    out = [j]
+    while parents[out[-1]] >= 0:
+        out.append(int(parents[out[-1]]))
+    return out
+
+
+def legs_root(parents: npt.NDArray[np.int64], feet: list[int]) -> int:
+    """The joint where the legs meet: the deepest common ancestor of the feet."""
+    common = set(_ancestors(parents, feet[0]))
+    for f in feet[1:]:
+        common &= set(_ancestors(parents, f))
+    return max(common, key=lambda j: len(_ancestors(parents, j)))
+
+
+def score_reading(names: tuple[str, ...], parents: npt.NDArray[np.int64], positions: npt.NDArray[np.float64],
+                  up: str) -> ReadingScore | None:
+    """Plausibility of a reading with ``up`` as the up axis (see :class:`ReadingScore`); None when the
+    skeleton has no named feet (nothing to measure). ``positions``: (F, J, 3) joints in file units."""
+    feet = foot_joints(names)
+    if len(feet) < 2:
+        return None
+    pos = np.asarray(positions).reshape(-1, len(names), 3)
+    u = axis_index(up)
+    hz = [i for i in range(3) if i != u]
+    hip = legs_root(parents, feet)
+    bone = np.median(np.linalg.norm(pos[:, 1:] - pos[:, parents[1:]], axis=2), axis=0)
+    bone = np.concatenate([[0.0], bone])
+    leg = max(sum(bone[a] for a in _ancestors(parents, f) if a != hip and hip in _ancestors(parents, a))
+              for f in feet)
+    if leg <= 0:
+        return None
+    low = pos[:, feet, u].min(axis=1)  # (F,) the lowest foot joint per frame
+    hip_u = pos[:, hip, u]
+    ratio = float(np.median(hip_u - low)) / leg
+    p_hip = abs(np.log(ratio / HIP_HEIGHT_PER_LEG)) if ratio > 0.05 else 5.0
+    spread = float(np.percentile(low, 90) - np.percentile(low, 10)) / leg
+    hip_h = pos[:, hip][:, hz]
+    horiz = float(np.linalg.norm(hip_h.max(axis=0) - hip_h.min(axis=0)))
+    vert = float(np.percentile(hip_u, 95) - np.percentile(hip_u, 5))
+    travel = vert / (horiz + leg)
+    root_moves = float(np.ptp(pos[:, 0], axis=0).max()) > 1e-6 * leg
+    floor_off = 0.0 if root_moves or hip == 0 else abs(float(np.median(low)) - float(np.median(pos[:, 0, u]))) / leg
+    score = p_hip + spread + travel + 0.5 * min(floor_off, 2.0)
+    return ReadingScore(float(score), ratio, spread, travel, floor_off)
+
+
+#: Hip-joint height as a fraction of standing height (anthropometric tables, Drillis & Contini 1966:
+#: greater trochanter 0.530 H).
+HIP_PER_STATURE = 0.53
+
+
+def leg_stature(names: tuple[str, ...], parents: npt.NDArray[np.int64], positions: npt.NDArray[np.float64],
+                up: str) -> float:
+    """Standing height (file units) estimated from the legs: the legs' root's height above the lowest
+    foot joint, at its 95th percentile over the frames (legs straight at mid-stance), over
+    :data:`HIP_PER_STATURE`. Unaffected by a stoop or a missing head top; 0 when the skeleton has no
+    named feet."""
+    feet = foot_joints(names)
+    if len(feet) < 2:
+        return 0.0
+    pos = np.asarray(positions).reshape(-1, len(names), 3)
+    u = axis_index(up)
+    hip = legs_root(parents, feet)
+    h = pos[:, hip, u] - pos[:, feet, u].min(axis=1)
+    return max(0.0, float(np.percentile(h, 95))) / HIP_PER_STATURE

@@ -13,16 +13,16 @@ from bipedsim.motion.conventions import horizontal_axes
 
 
 def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
-                 up: str | None = None) -> dict[str, Any]:
+                 up: str | None = None, positions: str | None = None) -> dict[str, Any]:
     """Facts about the BVH file at ``path``: what reading it found (:meth:`BVHInfo.to_dict`: joints,
     frames, fps, rotation orders, position channels, unit, height, up axis, line endings) plus
     ``duration_s`` (s), ``joint_names``, and the root's horizontal travel in the project frame:
     ``root_path_m`` (m, along the path), ``root_displacement_m`` (m, first frame to last) and
     ``root_speed_mps`` (m/s, path over duration). ``scale`` (metres per file unit or a unit name) and
     ``up`` (``"y"`` or ``"z"``) override the guesses."""
-    motion, info = read_bvh(path, scale=scale, up=up)
+    motion, info = read_bvh(path, scale=scale, up=up, positions=positions)
     m = motion.to_project_frame()
-    root = m.root_translation[:, list(horizontal_axes(m.up))]
+    root = m.travel()[:, list(horizontal_axes(m.up))]
     path_len = float(np.linalg.norm(np.diff(root, axis=0), axis=1).sum()) if m.num_frames > 1 else 0.0
     d = info.to_dict()
     d.update({
@@ -51,8 +51,12 @@ def format_description(d: dict[str, Any]) -> str:
         lines.append(f"positions   {len(six)} joint(s) with position channels -- {modes}")
     lines += [
         f"unit        {d['unit_name']} = {d['unit_scale']:.6g} m/unit ({d['unit_source']}: {d['unit_reason']})",
-        f"height      {d['height_m']:.3f} m ({'upright' if d['upright'] else 'not upright: largest extent'})",
+        (f"height      {max(d['height_m'], d['standing_height_m']):.3f} m standing (upright; this clip's "
+         f"floor-to-top extent {d['height_m']:.3f} m, the hip's height says {d['standing_height_m']:.3f} m)"
+         if d.get("standing_height_m") else
+         f"height      {d['height_m']:.3f} m ({'upright' if d['upright'] else 'not upright: largest extent'})"),
         f"up axis     {str(d['up']).upper()} ({d['up_source']}: {d['up_reason']})",
+        *([f"reading     {d['reading_note']}"] if d.get("reading_note") else []),
         f"root        path {d['root_path_m']:.3f} m, net {d['root_displacement_m']:.3f} m, "
         f"speed {d['root_speed_mps']:.3f} m/s",
         f"text        line endings {d['line_endings']}, final newline {'yes' if d['final_newline'] else 'no'}",

@@ -17,7 +17,14 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation, Slerp
 
 from bipedsim.errors import ModelError
-from bipedsim.motion.conventions import PROJECT_UP, axis_index, horizontal_axes, up_basis
+from bipedsim.motion.conventions import (
+    PROJECT_UP,
+    axis_index,
+    foot_joints,
+    horizontal_axes,
+    legs_root,
+    up_basis,
+)
 from bipedsim.motion.skeleton import Skeleton
 
 FloatArray = npt.NDArray[np.float64]
@@ -91,6 +98,95 @@ class Motion:
             out = np.broadcast_to(self.skeleton.offsets, (self.num_frames, self.num_joints, 3)).copy()
         out[:, 0] = self.root_translation
         return out
+
+    def travel_joint(self) -> int:
+        """The joint that carries the body's travel: the root, unless the root stands still and a
+        joint below it translates (root-on-a-child layouts: a static root at the floor, the translation
+        on the hips), then the first joint that does."""
+        if self.translations is None or self.num_frames < 2:
+            return 0
+        span = np.ptp(self.root_translation, axis=0).max()
+        size = float(np.abs(self.skeleton.offsets).max()) or 1.0
+        if span > 1e-6 * size:
+            return 0
+        moving = np.ptp(self.translations, axis=0).max(axis=1) > 1e-6 * size
+        moving[0] = False
+        return int(np.argmax(moving)) if moving.any() else 0
+
+    def travel(self) -> FloatArray:
+        """(T, 3) global position of :meth:`travel_joint` (the root's translation when it moves)."""
+        j = self.travel_joint()
+        return self.root_translation.copy() if j == 0 else self.fk()[0][:, j]
+
+    def rebased(self, frame: int, limb_frames: dict[int, int] | None = None) -> Motion:
+        """The same motion on a skeleton whose rest pose (every rotation identity) is the pose of
+        ``frame`` (root at the origin): each joint's frame is turned to be world-parallel there.
+        Offsets, End Sites and position channels turn with their parent's frame; forward
+        kinematics is unchanged on every frame (tested). For skeletons whose identity pose is no body
+        (bone-aligned joint frames: every bone along +X), so that rest-pose geometry means something."""
+        sk = self.skeleton
+        g = forward_kinematics(self)[1]  # (T, J, 3, 3)
+        # G'_j(t) = G_j(t) B_j with B_j = G_j(frame)^T: every global rotation is identity at the frame
+        base = g[frame].transpose(0, 2, 1).copy()
+        if limb_frames:
+            # a limb's joints take their frame from the limb's own frame, turned about up by the
+            # heading change of the limb's first joint's parent between the two frames
+            u = axis_index(self.up)
+            for top, f in limb_frames.items():
+                p = int(sk.parents[top])
+                turn = _yaw_between(g[frame, p], g[f, p], u)
+                for j in sk.subtree(top):
+                    base[j] = (turn @ g[f, j]).T
+        new_g = np.einsum("tjab,jbc->tjac", g, base)
+        par = sk.parents
+        loc = new_g.copy()
+        loc[:, 1:] = np.einsum("tjba,tjbc->tjac", new_g[:, par[1:]], new_g[:, 1:])
+        # bone_j = G_p o_j = G'_p B_p^T o_j, so o'_j = B_p^T o_j (End Sites and position channels alike)
+        off = sk.offsets.copy()
+        off[1:] = np.einsum("jba,jb->ja", base[par[1:]], sk.offsets[1:])
+        es_par = sk.end_site_parents
+        es = np.einsum("jba,jb->ja", base[es_par], sk.end_site_offsets) if len(es_par) else sk.end_site_offsets
+        trans = None
+        if self.translations is not None:
+            trans = self.translations.copy()
+            trans[:, 1:] = np.einsum("jba,tjb->tja", base[par[1:]], self.translations[:, 1:])
+        quats = canonical_quat(Rotation.from_matrix(loc.reshape(-1, 3, 3)).as_quat().reshape(loc.shape[:2] + (4,)))
+        return self.copy(skeleton=sk.replace(offsets=off, end_site_offsets=es), rotations=quats, translations=trans)
+
+    def with_standing_rest(self) -> Motion:
+        """This motion, or -- when its rest pose (every rotation identity) is no standing body: a foot
+        not below the legs' root by :data:`REST_FOOT_DROP` of its leg's length along ``up`` -- the same motion
+        :meth:`rebased` on the frame whose feet are closest together, each leg and arm on the frame
+        where it is straightest (:func:`_straightest_limb_frames`, turned to the main frame's heading).
+        Bodies are built from the rest pose; files whose joint frames are bone-aligned (every bone
+        along +X, the pose made by the rotations) would otherwise build a body lying down."""
+        sk = self.skeleton
+        feet = foot_joints(sk.names)
+        if len(feet) < 2:
+            return self
+        offsets = sk.offsets if self.translations is None else np.median(self.translations, axis=0)
+        offsets = offsets.copy()
+        offsets[0] = 0.0
+        rest = Motion(skeleton=sk.replace(offsets=offsets), frame_time=1.0, root_translation=np.zeros((1, 3)),
+                      rotations=np.tile([0.0, 0.0, 0.0, 1.0], (1, sk.num_joints, 1)), up=self.up).fk()[0][0]
+        hip = legs_root(sk.parents, feet)
+        u = axis_index(self.up)
+        bone = np.linalg.norm(offsets, axis=1)
+        standing = True
+        for f in feet:
+            chain = [a for a in range(sk.num_joints) if a in _chain_between(sk.parents, hip, f)]
+            if rest[hip, u] - rest[f, u] < REST_FOOT_DROP * bone[chain].sum():
+                standing = False
+        if standing:
+            return self
+        # the trunk from the frame whose feet are closest together, each limb from the frame where it
+        # is straightest: joint limits are measured from this pose (tried: one frame for the whole body,
+        # the feet closest together -- the Bandai walk's rest knee bent, its references 1.15 rad beyond
+        # the knee's range, replays 4 cm off; the frame with the straightest legs -- bent elbows, 9 cm)
+        allpos = self.fk()[0]
+        pos = allpos[:, feet][..., list(horizontal_axes(self.up))]  # (T, F, 2)
+        spread = np.linalg.norm(pos - pos.mean(axis=1, keepdims=True), axis=2).sum(axis=1)
+        return self.rebased(int(np.argmin(spread)), _straightest_limb_frames(sk, allpos, hip, feet))
 
     def copy(self, **changes: object) -> Motion:
         fields = {"skeleton": self.skeleton, "frame_time": self.frame_time,
@@ -247,6 +343,56 @@ class Motion:
 
 
 # ---------------------------------------------------------------------- module functions
+#: Name fragments of the joints that end an arm.
+HAND_TOKENS = ("hand", "wrist")
+
+#: A rest pose stands when every foot is below the legs' root by at least this fraction of its leg's
+#: length (a bird's folded leg drops less than a human's straight one, a bone-aligned rest pose not at all).
+REST_FOOT_DROP = 0.1
+
+
+def _straightest_limb_frames(sk: Skeleton, pos: FloatArray, hip: int, feet: list[int]) -> dict[int, int]:
+    """Per limb (its first joint: a leg below the legs' root, an arm two joints above a hand), the frame
+    where it is straightest (its end farthest from its first joint for the bones between): joint
+    limits are measured from the rest pose, so a rest knee or elbow must not be bent."""
+    out: dict[int, int] = {}
+    bone = np.linalg.norm(sk.offsets, axis=1)
+    ends = [f for f in feet if not any(a in feet for a in _chain_between(sk.parents, hip, f)[1:])]
+    ends_tops = [(f, _chain_between(sk.parents, hip, f)[-1]) for f in ends]
+    hands = [i for i, n in enumerate(sk.names) if any(t in n.lower() for t in HAND_TOKENS)]
+    for h in hands:
+        a = int(sk.parents[h])
+        top = int(sk.parents[a]) if a > 0 else -1
+        if top > 0 and not any(t in sk.subtree(h) for t in hands if t != h):
+            ends_tops.append((h, top))
+    for end, top in ends_tops:
+        chain = _chain_between(sk.parents, int(sk.parents[top]), end)
+        length = float(bone[chain[:-1]].sum()) if len(chain) > 1 else 0.0
+        if length <= 0 or top in out:
+            continue
+        reach = np.linalg.norm(pos[:, end] - pos[:, top], axis=1) / length
+        out[top] = int(np.argmax(reach))
+    return out
+
+
+def _yaw_between(a: FloatArray, b: FloatArray, u: int) -> FloatArray:
+    """The rotation about axis ``u`` that turns the heading of rotation ``b`` onto that of ``a``
+    (headings: each rotation's most horizontal axis projected on the horizontal plane)."""
+    k = int(np.argmin(np.abs(a[u])))
+    h = [i for i in range(3) if i != u]
+    ang = np.arctan2(a[h[1], k], a[h[0], k]) - np.arctan2(b[h[1], k], b[h[0], k])
+    return Rotation.from_rotvec(ang * np.eye(3)[u]).as_matrix()
+
+
+def _chain_between(parents: npt.NDArray[np.int64], top: int, j: int) -> list[int]:
+    """Joints from ``j`` up to (not including) its ancestor ``top``."""
+    out = []
+    while j >= 0 and j != top:
+        out.append(j)
+        j = int(parents[j])
+    return out
+
+
 def forward_kinematics(motion: Motion) -> tuple[FloatArray, FloatArray]:
     """Global joint positions (T, J, 3) and rotation matrices (T, J, 3, 3), vectorised over frames."""
     sk = motion.skeleton

@@ -20,6 +20,8 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
+from bipedsim.control.reference import clip_speed, describe_clip
+from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_text, check_output_file, prepare_output_dir, progress_bar, remove_stale
 from bipedsim.render.gl import RenderError
@@ -223,14 +225,15 @@ def render_folder(folder: PathLike, output: PathLike | None = None, video_option
 # ---------------------------------------------------------------------- the whole run
 def check_run_options(*, profile: str = "humanoid", support: bool = False, bvh: PathLike | None = None,
                       scale: float | str | None = None, up: str | None = None, init_noise: float = 0.0,
-                      seed: int = 0) -> None:
+                      seed: int = 0, positions: str | None = None) -> None:
     """Refuse run options that would be ignored or meaningless, before anything runs: each error names
     the flag and what is allowed. Ranges of the run length and pushes are checked by
     :func:`~bipedsim.sim.push.check_pushes`, the video options by :meth:`VideoOptions.validate`."""
     if support and profile != "creature":
         raise ConfigError("holds a creature's root; it needs --profile creature", key="--support")
     if bvh is None:
-        for flag, value, what in (("--scale", scale, "unit"), ("--up", up, "up axis")):
+        for flag, value, what in (("--scale", scale, "unit"), ("--up", up, "up axis"),
+                                  ("--positions", positions, "position-channel mode")):
             if value is not None:
                 raise ConfigError(f"sets the {what} of a --bvh file; the built-in walk's {what} is known "
                                   f"(give --bvh FILE or drop {flag})", key=flag)
@@ -238,6 +241,15 @@ def check_run_options(*, profile: str = "humanoid", support: bool = False, bvh: 
         raise ConfigError(f"must be a standard deviation >= 0 (rad/s, m/s), got {init_noise}", key="--init-noise")
     if seed < 0:
         raise ConfigError(f"must be a whole number >= 0, got {seed}", key="--seed")
+
+
+def found_lines(sc: Scenario) -> list[str]:
+    """What reading a ``--bvh`` humanoid's clip found (feet, strikes, cycle, speeds, what preparing the
+    motion did); nothing for the built-in walk or a creature."""
+    if sc.profile != "humanoid" or sc.bvh_info is None or sc.source_path == str(BUILTIN_WALK):
+        return []
+    notes = [f"note: {n}" for n in [sc.bvh_info.reading_note, *sc.bvh_info.notes] if n]
+    return notes + describe_clip(sc.clip, sc.built.model, sc.built.plan)
 
 
 def check_run_length(seconds: float, timestep: float) -> None:
@@ -256,9 +268,12 @@ def outcome_line(out: Outcome, sc: Scenario) -> str:
     sup = "" if not e.get("support_mode") else (
         f"; ROOT SUPPORT assisted: mean {e.get('support_force_mean_n', 0):.0f} N (body weight {e['weight_n']:.0f} N), "
         f"peak {e.get('support_force_max_n', 0):.0f} N")
+    cv = out.extra.get("clip_speed_mps")
+    clip_v = f", whole clip {cv:.2f} m/s" if cv is not None else ""
     return (f"{out.outcome}{fall}: {body}{out.sim_seconds:.2f} s simulated in {out.wall_seconds:.1f} s, "
             f"{out.foot_strikes} foot strikes, {out.distance_m:.2f} m at {out.mean_speed_mps:.2f} m/s "
-            f"(reference {out.reference_speed_mps:.2f} m/s), tracking RMSE {out.tracking_rmse_rad:.3f} rad{sup}")
+            f"(reference loop {out.reference_speed_mps:.2f} m/s{clip_v}), "
+            f"tracking RMSE {out.tracking_rmse_rad:.3f} rad{sup}")
 
 
 @dataclass
@@ -288,14 +303,17 @@ def _timed_bar(seconds: float, show: bool) -> tuple[Callable[[float], None], Cal
 
 def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLike | None = None,
                   seconds: float = 10.0, seed: int = 0, init_noise: float = 0.0, mass: float | None = None,
-                  scale: float | str | None = None, up: str | None = None, profile: str = "humanoid",
-                  support: bool = False, record_hz: float = DEFAULT_RECORD_HZ, pushes: Sequence[str | Push] = (),
+                  scale: float | str | None = None, up: str | None = None, positions: str | None = None,
+                  events: PathLike | None = None, profile: str = "humanoid", support: bool = False,
+                  record_hz: float = DEFAULT_RECORD_HZ, pushes: Sequence[str | Push] = (),
                   plots: bool = False, csv: PathLike | None = None, export_bvh: PathLike | None = None,
                   video: PathLike | None = None, gif: PathLike | None = None,
                   video_options: VideoOptions | None = None, progress: bool = False,
                   say: Callable[[str], None] | None = None) -> RunResult:
     """Everything ``bipedsim run`` does: track the reference (``bvh``, else the built-in walk; its
-    ``scale``, ``up``) with the controller YAML ``config`` on the ``profile`` body (``mass`` in kg;
+    ``scale``, ``up``, ``positions``: see :func:`~bipedsim.motion.bvh.read_bvh`; ``events``: a YAML of
+    foot strikes given by hand, :func:`~bipedsim.model.gait.load_events`) with the controller
+    YAML ``config`` on the ``profile`` body (``mass`` in kg;
     ``support``: hold a creature's root) for ``seconds`` (simulated s) from ``seed`` (``init_noise``:
     initial velocity std, rad/s and m/s) with ``pushes`` (``MAG:DIR:DUR:START`` strings or
     :class:`Push`), recording ``record_hz`` samples/s; write ``outcome.json``, ``trajectory.npz`` and
@@ -309,12 +327,15 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     say = say or (lambda line: None)
     options = video_options or VideoOptions()
     check_run_options(profile=profile, support=support, bvh=bvh, scale=scale, up=up, init_noise=init_noise,
-                      seed=seed)
+                      seed=seed, positions=positions)
     options.validate()
     pushes = [p if isinstance(p, Push) else Push.parse(p) for p in pushes]
     check_pushes(pushes, seconds)  # the run length too, before anything is built
-    sc = runner.load_scenario(config, bvh, scale=scale, up=up, mass=mass, profile=profile, support=support)
+    sc = runner.load_scenario(config, bvh, scale=scale, up=up, mass=mass, profile=profile, support=support,
+                              positions=positions, events=events)
     check_run_length(seconds, sc.built.model.opt.timestep)
+    for line in found_lines(sc):
+        say(line)
     sc.check_pushes(pushes)
     rec = Recorder(sc.built.model, record_hz=record_hz, seconds=seconds, key="--record-hz", feet=len(sc.foot_names()))
     folder = check_run_outputs(out, csv=csv, export_bvh=export_bvh, video=video, gif=gif)
@@ -322,6 +343,8 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     outcome, _ = runner.run_scenario(sc, RolloutSpec(seconds=seconds, seed=seed, init_noise=init_noise),
                                      progress=tick, hooks=[rec], pushes=pushes)
     close()
+    if sc.profile == "humanoid":
+        outcome.extra["clip_speed_mps"] = clip_speed(sc.clip)
     removed = clear_stale(folder, plots=plots, extra_files=(video, gif, csv, export_bvh))
     if removed:
         say(f"removed from an earlier run in {folder}: {', '.join(removed)}")

@@ -17,6 +17,7 @@ from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
+from bipedsim.model.gait import humanoid_motion
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout
@@ -68,7 +69,8 @@ class Scenario:
 
 def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.PathLike[str] | None = None, *,
                   scale: float | str | None = None, up: str | None = None, mass: float | None = None,
-                  profile: str = "humanoid", support: bool = False) -> Scenario:
+                  profile: str = "humanoid", support: bool = False, positions: str | None = None,
+                  events: str | os.PathLike[str] | None = None) -> Scenario:
     """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
     retargeted onto it. A controller YAML configures the humanoid's controller; ``support`` (root
     support) is a creature's."""
@@ -93,11 +95,11 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
             built = build_model(motion, "humanoid", total_mass=mass, name="humanoid")
         src = str(BUILTIN_WALK)
     else:
-        raw, info = read_bvh(bvh, scale=scale, up=up)
-        motion = raw.to_project_frame()
+        raw, info = read_bvh(bvh, scale=scale, up=up, positions=positions)
+        motion = raw.to_project_frame() if profile != "humanoid" else humanoid_motion(raw, info.notes)
         built = build_model(motion, profile, total_mass=mass, name=Path(bvh).stem)
         src = str(bvh)
-    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src)
+    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)
     return Scenario(built=built, clip=clip, cfg=cfg, source_path=src,
                     config_path=None if config is None else str(config), motion=motion, bvh_info=info,
                     creature_cfg=CreatureControlConfig(support=support))

@@ -1,0 +1,94 @@
+"""Real motion-capture walks tracked by the humanoid controller (issue 19): every human file in
+``../shared/data/bvh/human/`` converted, retargeted and tracked for ``--seconds`` (default 20) with the
+default controller (or ``--config``). Per file: outcome, fall time, achieved mean speed against the
+clip's own average horizontal speed (the baseline: the ratio is the acceptance measure, >= 0.7), the
+reference loop's speed, tracking RMSE and foot strikes; a file that cannot be tracked (no gait cycle:
+not a walk) is listed as refused with the reason. A table on stdout and, with ``--csv``, a CSV written
+row by row (``--resume`` keeps the rows already there).
+
+    python benchmarks/real_walks.py                 # ~1-3 min on one core
+    python benchmarks/real_walks.py --seconds 60 --csv /tmp/walks.csv
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+import time
+from pathlib import Path
+
+from bipedsim.control.reference import clip_speed
+from bipedsim.errors import BipedsimError
+from bipedsim.sim import runner
+from bipedsim.sim.rollout import RolloutSpec
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh"
+FIELDS = ["file", "outcome", "fall_time_s", "speed_mps", "clip_speed_mps", "speed_ratio", "loop_speed_mps",
+          "rmse_rad", "strikes", "wall_s", "reason"]
+
+
+def run_one(path: Path, seconds: float, config: str | None) -> dict[str, object]:
+    t0 = time.perf_counter()
+    try:
+        sc = runner.load_scenario(config, path)
+        out, _ = runner.run_scenario(sc, RolloutSpec(seconds=seconds))
+    except BipedsimError as exc:
+        return {"file": path.name, "outcome": "refused", "reason": str(exc)[:200],
+                "wall_s": round(time.perf_counter() - t0, 1)}
+    cv = clip_speed(sc.clip)
+    return {"file": path.name, "outcome": out.outcome,
+            "fall_time_s": "" if out.fall_time_s is None else round(out.fall_time_s, 2),
+            "speed_mps": round(out.mean_speed_mps, 3), "clip_speed_mps": round(cv, 3),
+            "speed_ratio": round(out.mean_speed_mps / cv, 2) if cv > 0 else "",
+            "loop_speed_mps": round(out.reference_speed_mps, 3), "rmse_rad": round(out.tracking_rmse_rad, 3),
+            "strikes": out.foot_strikes, "wall_s": round(time.perf_counter() - t0, 1),
+            "reason": out.fall_reason or ""}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per walk (default 20)")
+    ap.add_argument("--config", default=None, help="controller YAML (default: the default controller)")
+    ap.add_argument("--csv", default=None, help="also write the rows to this CSV, one at a time")
+    ap.add_argument("--resume", action="store_true", help="keep the CSV's rows and run only the files missing")
+    ap.add_argument("--files", nargs="*", default=None, help="only these BVH files (default: every shared human)")
+    args = ap.parse_args(argv)
+    files = [Path(f) for f in args.files] if args.files else sorted(SHARED.glob("human/*.bvh"))
+    if not files:
+        print(f"no BVH files (shared data not found at {SHARED})")
+        return 1
+    done: dict[str, dict[str, str]] = {}
+    if args.csv and args.resume and Path(args.csv).exists():
+        with open(args.csv, newline="") as fh:
+            done = {r["file"]: r for r in csv.DictReader(fh)}
+    writer = None
+    if args.csv:
+        fh = open(args.csv, "a" if done else "w", newline="")  # noqa: SIM115 - closed below
+        writer = csv.DictWriter(fh, fieldnames=FIELDS)
+        if not done:
+            writer.writeheader()
+    print(f"{'file':46s} {'outcome':8s} {'fall s':>6s} {'m/s':>5s} {'clip':>5s} {'ratio':>5s} {'loop':>5s} "
+          f"{'RMSE':>6s} {'strk':>4s} {'wall s':>6s}")
+    ok = 0
+    for p in files:
+        row: dict[str, object] = dict(done[p.name]) if p.name in done else run_one(p, args.seconds, args.config)
+        if writer is not None and p.name not in done:
+            writer.writerow(row)
+            fh.flush()
+        ratio = row.get("speed_ratio")
+        if row["outcome"] == "no_fall" and ratio not in ("", None) and float(ratio) >= 0.7:  # type: ignore[arg-type]
+            ok += 1
+        print(f"{p.name[:46]:46s} {row['outcome']!s:8s} {row.get('fall_time_s', '')!s:>6s} "
+              f"{row.get('speed_mps', '')!s:>5s} {row.get('clip_speed_mps', '')!s:>5s} "
+              f"{row.get('speed_ratio', '')!s:>5s} {row.get('loop_speed_mps', '')!s:>5s} "
+              f"{row.get('rmse_rad', '')!s:>6s} {row.get('strikes', '')!s:>4s} {row.get('wall_s', '')!s:>6s}"
+              + (f"  {row['reason']}" if row.get("reason") and row["outcome"] == "refused" else ""))
+    if writer is not None:
+        fh.close()
+    print(f"{ok} of {len(files)} files walked {args.seconds:g} s without a fall at >= 70 % of the clip's speed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

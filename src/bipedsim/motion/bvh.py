@@ -675,13 +675,30 @@ def _depth_first(motion: Motion) -> Motion:
                        translations=None if motion.translations is None else motion.translations[:, order])
 
 
+def _unambiguous_root(motion: Motion) -> Motion:
+    """The motion with a translating root's OFFSET written as zero and its channels absolute.
+
+    Readers disagree on whether position channels replace the OFFSET or add to it (``load_bvh``
+    guesses per file). With a zero root OFFSET both readings give the same root path, so a file this
+    project writes never depends on the guess (a world output whose root OFFSET was the source clip's
+    4.7 m read back 4.7 m off). The root's OFFSET has no bone behind it, so nothing else changes."""
+    sk = motion.skeleton
+    if not sk.has_positions(0) or not np.any(sk.offsets[0]):
+        return motion
+    root = motion.root_translation.copy()
+    offsets = sk.offsets.copy()
+    offsets[0] = 0.0
+    modes = ("replace", *sk.position_modes[1:]) if sk.position_modes else ()
+    return motion.copy(skeleton=sk.replace(offsets=offsets, position_modes=modes), root_translation=root)
+
+
 def bvh_text(motion: Motion, *, precision: int | None = None) -> str:
     """The BVH text of a motion (LF line endings, tab indentation).
 
     ``precision``: decimals per value; ``None`` writes the shortest exact representation so the file
     reads back to the same numbers.
     """
-    motion = _depth_first(motion)
+    motion = _unambiguous_root(_depth_first(motion))
     sk = motion.skeleton
     out: list[str] = ["HIERARCHY"]
     children: dict[int, list[int]] = {j: [] for j in range(sk.num_joints)}

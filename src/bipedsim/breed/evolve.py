@@ -2,8 +2,12 @@
 
 The four steps are separate functions:
 
+0. Correspondence -- a static root at the floor with the body's translation on its child is folded
+   away (:mod:`bipedsim.motion.reroot`); without a user mapping the joints are paired by role
+   (:func:`bipedsim.motion.roles.correspondence`: names in the usual conventions, else structure and
+   geometry). The pairs and why each was made go to the report and can be saved as a ``--map`` file.
 1. :func:`crossover` -- a meta-skeleton holding every joint of both parents: joints that correspond
-   (same name, a user mapping, or -- for the roots -- the structural rule that both roots are the
+   (the pairs above, same names, or -- for the roots -- the structural rule that both roots are the
    bodies' roots) are kept once; the others are appended under the joint their parent maps to.
 2. :func:`mutate` -- each joint's activity is the standard deviation over time of the angle its bone
    turns between consecutive frames (cos theta = X(t).X(t-1) / |X(t)||X(t-1)|). The parents' activity
@@ -36,6 +40,8 @@ from scipy.spatial.transform import Rotation
 from bipedsim import config
 from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.motion.motion import Motion, canonical_quat
+from bipedsim.motion.reroot import fold_static_root
+from bipedsim.motion.roles import correspondence
 from bipedsim.motion.skeleton import Skeleton
 
 FloatArray = npt.NDArray[np.float64]
@@ -378,6 +384,15 @@ class BreedReport:
     timings_s: dict[str, float] = field(default_factory=dict)
     child_joints: int = 0
     child_frames: int = 0
+    #: joint of A -> joint of B, as a ``--map`` file holds it (the pairs the breeding used)
+    correspondence: dict[str, str] = field(default_factory=dict)
+    #: joint of A -> why it was paired ("left leg knee", "trunk below chest", "same name", "--map")
+    correspondence_reasons: dict[str, str] = field(default_factory=dict)
+    map_source: str = "roles"  #: "roles" (found automatically) or the --map file
+    #: per parent ("A"/"B"): the static root folded away and the joint that became the root
+    folded_roots: dict[str, dict[str, str]] = field(default_factory=dict)
+    #: per parent: what decided its roles (names or geometry, and how the facing direction was found)
+    role_evidence: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         from dataclasses import asdict
@@ -403,14 +418,31 @@ def prune(meta: MetaSkeleton, rotations: FloatArray, motion_a: Motion, removed: 
 
 def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: dict[str, float] | None = None,
           mapping: dict[str, str] | None = None, names: tuple[str, str] = ("A", "B")) -> tuple[Motion, BreedReport]:
-    """Breed two motions (project frame) into a child motion on the pruned meta-skeleton."""
+    """Breed two motions (project frame) into a child motion on the pruned meta-skeleton.
+
+    ``mapping``: joint of A -> joint of B, the whole correspondence (joints it leaves out are paired
+    only when their names are equal); None: found by role. A static root at the floor is folded into
+    the joint that carries the translation first (a mapping may name either)."""
     if not X_RANGE[0] <= x <= X_RANGE[1]:
         raise BreedError(f"x must be in [{X_RANGE[0]}, {X_RANGE[1]}] (0: parent A's motion, 1: B's), got {x}")
-    a = a.to_project_frame()
-    b = b.to_project_frame()
+    tm: dict[str, float] = {}
+    t0 = time.perf_counter()
+    a, fold_a = fold_static_root(a.to_project_frame())
+    b, fold_b = fold_static_root(b.to_project_frame())
+    folded = {p: {"root": f.root, "into": f.into} for p, f in (("A", fold_a), ("B", fold_b)) if f is not None}
+    evidence: dict[str, dict[str, str]] = {}
+    if mapping is None:
+        corr = correspondence(a, b)
+        mapping, reasons, source = corr.pairs, corr.reasons, "roles"
+        evidence = {"A": corr.roles_a.evidence, "B": corr.roles_b.evidence}
+    else:
+        alias_a = {fold_a.root: fold_a.into} if fold_a else {}
+        alias_b = {fold_b.root: fold_b.into} if fold_b else {}
+        mapping = {alias_a.get(k, k): alias_b.get(v, v) for k, v in mapping.items()}
+        reasons, source = {k: "--map" for k in mapping}, "--map"
+    tm["correspondence"] = time.perf_counter() - t0
     if not np.isclose(a.frame_time, b.frame_time):
         b = b.resample(a.fps)
-    tm: dict[str, float] = {}
     t0 = time.perf_counter()
     meta = crossover(a.skeleton, b.skeleton, mapping)
     tm["crossover"] = time.perf_counter() - t0
@@ -433,5 +465,15 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
                       only_b=[sk.names[i] for i in range(sk.num_joints) if meta.from_a[i] is None],
                       removed=mut.removed, removed_with_subtrees=mut.removed_all, activity=mut.scores,
                       pca_weights=mut.pca_weights, floor_fixes=fixes, timings_s=tm,
-                      child_joints=child_sk.num_joints, child_frames=child.num_frames)
+                      child_joints=child_sk.num_joints, child_frames=child.num_frames,
+                      correspondence=_pairs_used(meta, b.skeleton), correspondence_reasons=_reasons_used(meta, reasons),
+                      map_source=source, folded_roots=folded, role_evidence=evidence)
     return child, rep
+
+
+def _pairs_used(meta: MetaSkeleton, b: Skeleton) -> dict[str, str]:
+    return {meta.skeleton.names[i]: b.names[meta.from_b[i]] for i in meta.common}  # type: ignore[index]
+
+
+def _reasons_used(meta: MetaSkeleton, reasons: dict[str, str]) -> dict[str, str]:
+    return {meta.skeleton.names[i]: reasons.get(meta.skeleton.names[i], "same name") for i in meta.common}

@@ -189,8 +189,8 @@ def cmd_breed(args: argparse.Namespace) -> int:
     from bipedsim.breed import breed_files, format_breed_summary
 
     rep = breed_files(args.parent_a, args.parent_b, args.output, x=args.x, mutations=args.mutations,
-                      weights=dict(args.weight or []), map=args.map, report=args.report)
-    print(format_breed_summary(rep, args.output, args.report))
+                      weights=dict(args.weight or []), map=args.map, report=args.report, save_map=args.save_map)
+    print(format_breed_summary(rep, args.output, args.report, args.save_map))
     return 0
 
 
@@ -203,8 +203,10 @@ def _add_breed(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mutations", type=int, default=5, help="joints removed (with their subtrees), default 5")
     p.add_argument("--weight", action="append", type=_weight, metavar="JOINT=W",
                    help="shift a joint's activity score (negative: more likely to go); repeatable")
-    p.add_argument("--map", default=None, help="YAML mapping joints of A to corresponding joints of B")
-    p.add_argument("--report", default=None, help="write a JSON report of the breeding")
+    p.add_argument("--map", default=None, help="YAML mapping joints of A to corresponding joints of B (default: "
+                   "paired by role from names, else structure and geometry)")
+    p.add_argument("--report", default=None, help="write a JSON report of the breeding (the correspondence included)")
+    p.add_argument("--save-map", default=None, help="write the correspondence used as a --map YAML to edit")
 
 
 def cmd_graph_build(args: argparse.Namespace) -> int:

@@ -56,6 +56,11 @@ PAIR_LENGTH_RATIO = 0.7
 LIMB_MIN_FRACTION = 0.12
 #: ... and when the smaller subtree has at least this fraction of the larger one's joints.
 PAIR_COUNT_RATIO = 0.5
+#: A clip travels when its root ends this many body sizes from where it started.
+TRAVEL_FRACTION = 0.3
+#: Sibling limbs pair up better the closer their ends' mean heights: the score falls by e per this
+#: fraction of the body size (legs end at the floor, wings and arms higher).
+PAIR_HEIGHT_SCALE = 0.1
 #: Pairs whose mean end height is within this fraction of the body size of the lowest pair's are
 #: also low (a quadruped's forelegs next to its hind legs).
 LOW_FRACTION = 0.12
@@ -190,9 +195,9 @@ def _forward(motion: Motion, pos: FloatArray, size: float, legs: list[Limb]) -> 
     feet point (ankle to toe), else the root's heading."""
     root = motion.root_translation[:, :2]
     vel = np.gradient(root, axis=0) if motion.num_frames > 1 else np.zeros_like(root)
-    if np.linalg.norm(vel, axis=1).sum() >= 0.3 * size:
+    if np.linalg.norm(root[-1] - root[0]) >= TRAVEL_FRACTION * size:
         return vel, "the direction of travel"
-    feet = np.zeros_like(root)
+    feet = np.zeros_like(root)  # a clip in place (sway is no direction): the feet point forward
     for leg in legs:
         a, t = leg.roles.get("ankle"), leg.roles.get("toe")
         if a is not None and t is not None:
@@ -204,7 +209,10 @@ def _forward(motion: Motion, pos: FloatArray, size: float, legs: list[Limb]) -> 
 
 
 # ---------------------------------------------------------------------- limbs
-def _pairs_under(sk: Skeleton, j: int, reach: FloatArray, size: float) -> list[tuple[int, int]]:
+def _pairs_under(sk: Skeleton, j: int, reach: FloatArray, size: float, tip_height: FloatArray) -> list[
+        tuple[int, int]]:
+    """Pairs of ``j``'s children that look like a left and a right limb: similar reach, joint count and
+    end height, sides (when named) opposite; best-matching pairs first."""
     kids = [c for c in sk.children(j) if reach[c] >= LIMB_MIN_FRACTION * size]
     cands = []
     for a in range(len(kids)):
@@ -217,7 +225,8 @@ def _pairs_under(sk: Skeleton, j: int, reach: FloatArray, size: float) -> list[t
             if ratio < PAIR_LENGTH_RATIO or count < PAIR_COUNT_RATIO or (sa and sb and sa == sb) or (
                     bool(sa) != bool(sb)):
                 continue
-            cands.append((ratio * count, ca, cb))
+            dh = abs(tip_height[ca] - tip_height[cb]) / (PAIR_HEIGHT_SCALE * size)
+            cands.append((ratio * count * float(np.exp(-dh)), ca, cb))
     used: set[int] = set()
     out = []
     for _, ca, cb in sorted(cands, reverse=True):
@@ -261,28 +270,41 @@ def _anchor_by_names(sk: Skeleton, chain: list[int], kind: str) -> dict[str, int
     return out
 
 
-def _anchor_by_geometry(sk: Skeleton, chain: list[int], kind: str, rest: FloatArray, ends: FloatArray) -> dict[
-        str, int]:
+def rotation_activity(motion: Motion) -> FloatArray:
+    """(J,) how much each joint turns over the clip: the RMS angle (rad) of its local rotation away
+    from its mean rotation."""
+    q = motion.rotations
+    mean = q.mean(axis=0)
+    mean /= np.maximum(np.linalg.norm(mean, axis=-1, keepdims=True), 1e-12)
+    dots = np.clip(np.abs(np.sum(q * mean[None], axis=-1)), 0.0, 1.0)
+    return np.sqrt(np.mean((2.0 * np.arccos(dots)) ** 2, axis=0))
+
+
+def _anchor_by_geometry(sk: Skeleton, chain: list[int], kind: str, rest: FloatArray, ends: FloatArray,
+                        activity: FloatArray) -> dict[str, int]:
+    """The limb's two long bones: the consecutive pair whose summed length, weighted by how much the
+    joints at their tops turn (a thigh and knee swing, a hip socket or clavicle hardly), is largest."""
     top, mid, end, after = LIMB_ANCHORS[kind]
     pts = [rest[j] for j in chain] + [_tip(sk, chain[-1], rest, ends)]
     bones = [float(np.linalg.norm(b - a)) for a, b in zip(pts, pts[1:])]
     if len(chain) < 3:
         return {role: j for role, j in zip((top, mid, end), chain)}
-    t = max(range(len(chain) - 2), key=lambda i: (bones[i] + bones[i + 1], -i))
+    t = max(range(len(chain) - 2), key=lambda i: (bones[i] * activity[chain[i]] + bones[i + 1] * activity[
+        chain[i + 1]], -i))
     out = {top: chain[t], mid: chain[t + 1], end: chain[t + 2]}
     if t + 3 < len(chain):
         out[after] = chain[t + 3]
     return out
 
 
-def _limb_roles(sk: Skeleton, limb: Limb, rest: FloatArray, ends: FloatArray) -> None:
+def _limb_roles(sk: Skeleton, limb: Limb, rest: FloatArray, ends: FloatArray, activity: FloatArray) -> None:
     chain = limb.chain
     if limb.kind == "wing":
         limb.roles = {f"segment{i + 1}": j for i, j in enumerate(chain)}
         return
     anchors = _anchor_by_names(sk, chain, limb.kind)
     if anchors is None:
-        anchors = _anchor_by_geometry(sk, chain, limb.kind, rest, ends)
+        anchors = _anchor_by_geometry(sk, chain, limb.kind, rest, ends, activity)
         limb.evidence = "geometry"
     first = min(chain.index(j) for j in anchors.values())
     last = max(chain.index(j) for j in anchors.values())
@@ -320,6 +342,9 @@ def find_roles(motion: Motion) -> Roles:
         es = [e for e, p in enumerate(sk.end_site_parents) if p == j]
         return float(end_height_of[es[0]]) if es else float(height[j])
 
+    # per joint, the mean height of the lowest end of its main chain
+    chain_tip = np.array([tip_height(_main_chain(sk, j, reach)[-1]) for j in range(sk.num_joints)])
+
     evidence: dict[str, str] = {}
     # limb pairs: sibling subtrees of similar reach, searched from the root down, not inside limbs
     depth = sk.depth()
@@ -330,7 +355,7 @@ def find_roles(motion: Motion) -> Roles:
     for j in range(sk.num_joints):
         if j in inside:
             continue
-        for ca, cb in _pairs_under(sk, j, reach, size):
+        for ca, cb in _pairs_under(sk, j, reach, size, chain_tip):
             pairs.append((ca, cb))
             inside |= set(sk.subtree(ca)) | set(sk.subtree(cb))
     chains = [(_main_chain(sk, a, reach), _main_chain(sk, b, reach)) for a, b in pairs]
@@ -357,8 +382,9 @@ def find_roles(motion: Motion) -> Roles:
         kinds[i] = kinds[i] or "arm"
     limb_ids.sort(key=lambda i: -reach[pairs[i][0]])  # the main pair of each kind first
     limbs = [Limb(kind=str(kinds[i]), side="", chain=c) for i in limb_ids for c in chains[i]]
+    activity = rotation_activity(motion)
     for limb in limbs:
-        _limb_roles(sk, limb, rest, ends)
+        _limb_roles(sk, limb, rest, ends, activity)
     legs = [limb for limb in limbs if limb.kind == "leg"]
     forward, how = _forward(motion, pos, size, legs)
     evidence["forward"] = how
@@ -376,6 +402,9 @@ def find_roles(motion: Motion) -> Roles:
     else:
         leaves = [j for j in free if not [c for c in sk.children(j) if c in free]]
         head = max(leaves, key=lambda j: (tip_height(j), -j))
+        par = int(sk.parents[head])
+        if par > 0 and len(sk.children(par)) > 1 and all(not sk.children(c) for c in sk.children(par)):
+            head = par  # the highest end is one of a few small ends (eyes): the head carries them
         evidence["head"] = "geometry: the highest end outside the limbs"
     trunk = _path(sk, 0, head)
     anchors: dict[str, int] = {"head": head} if head != 0 else {}

@@ -80,8 +80,9 @@ def test_roles_from_geometry_alone_agree_with_the_names(path: Path) -> None:
 
 
 @pytest.mark.parametrize("a,b,expect", [
-    (HOLDEN, HIP19, {"LeftUpLeg": "LeftHip", "LeftLeg": "LeftKnee", "LeftFoot": "LeftAnkle", "RightArm": "RightShoulder",
-                     "RightForeArm": "RightElbow", "RightHand": "RightWrist", "LeftShoulder": "LeftCollar",
+    (HOLDEN, HIP19, {"LeftUpLeg": "LeftHip", "LeftLeg": "LeftKnee", "LeftFoot": "LeftAnkle",
+                     "RightArm": "RightShoulder", "RightForeArm": "RightElbow", "RightHand": "RightWrist",
+                     "LeftShoulder": "LeftCollar",
                      "Spine1": "Chest", "Head": "Head", "Hips": "Hip"}),
     (HOLDEN, DAZ, {"LeftUpLeg": "lThigh", "LeftLeg": "lShin", "LeftFoot": "lFoot", "LHipJoint": "lButtock",
                    "RightArm": "rShldr", "RightForeArm": "rForeArm", "RightHand": "rHand", "Spine1": "chest",

@@ -388,7 +388,7 @@ def find_roles(motion: Motion) -> Roles:
     legs = [limb for limb in limbs if limb.kind == "leg"]
     forward, how = _forward(motion, pos, size, legs)
     evidence["forward"] = how
-    for i, k in enumerate(limb_ids):
+    for i in range(len(limb_ids)):
         a, b = limbs[2 * i], limbs[2 * i + 1]
         a.side, b.side = _side_of(sk, a.chain, b.chain, pos, forward)
         evidence[f"sides of {sk.names[a.chain[0]]}/{sk.names[b.chain[0]]}"] = (

@@ -212,7 +212,7 @@ def _add_breed(sub: argparse._SubParsersAction) -> None:
 def cmd_graph_build(args: argparse.Namespace) -> int:
     from bipedsim.graph import build_graph_file, format_graph_summary
 
-    print(format_graph_summary(build_graph_file(args.config, args.output), args.output))
+    print(format_graph_summary(build_graph_file(args.config, args.output, args.report), args.output, args.report))
     return 0
 
 
@@ -230,6 +230,8 @@ def _add_graph(sub: argparse._SubParsersAction) -> None:
     b = _subparser(gs, "build", cmd_graph_build, "build a motion graph from a YAML description")
     b.add_argument("config", help="graph YAML (clips, tags, parts, k, threshold, sigma, segment)")
     _output(b, "graph file (.npz)")
+    b.add_argument("--report", default=None, help="JSON build report: per layer, clip and tag the frames kept and "
+                   "dropped and why")
     pl = _subparser(gs, "play", cmd_graph_play, "play a Motion Script on a graph and write the result as BVH")
     pl.add_argument("graph", help="graph file from `bipedsim graph build`")
     pl.add_argument("script", help="Motion Script text file")

@@ -12,8 +12,8 @@ from scipy.optimize import minimize
 from bipedsim.cli import main
 from bipedsim.graph import FULL, MotionGraph, Player, ScriptError, build_graph, load_graph_config, parse
 from bipedsim.graph.build import summed_part_distance
-from bipedsim.graph.prune import prune
 from bipedsim.graph.distance import align_2d, apply_2d, distance_matrix, windows
+from bipedsim.graph.prune import prune
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / "examples" / "graphs" / "walk_wave.yaml"

@@ -9,14 +9,14 @@ skeleton. For every layer:
   blend over k frames (at playback, not stored);
 - pruning: the graph whose nodes are each clip's departure frames (where a blend starts) and arrival
   frames (where a blend has ended: the target frame + k, where playing goes on) -- edges forward in the
-  clip and the transitions -- keeps only its largest strongly connected component
-  (``scipy.sparse.csgraph``): every arrival then has a departure ahead in its clip, so play never
-  reaches a dead end;
+  clip and the transitions -- keeps one strongly connected component (``scipy.sparse.csgraph``; the
+  one covering most tags): every arrival then has a departure ahead in its clip, so play never
+  reaches a dead end (:mod:`bipedsim.graph.prune`);
 - the threshold: ``threshold`` if given, else the ``threshold_quantile`` of the candidates' distances;
-  with neither given the builder starts at :data:`bipedsim.graph.prune.DEFAULT_QUANTILE` and raises the
-  quantile (steps of :data:`bipedsim.graph.prune.QUANTILE_STEP`) until every tag keeps frames in the layer, with a warning -- never silently
-  dropping what the user tagged. The build report (:attr:`Layer.report`) lists per clip and tag the
-  frames kept and dropped and why;
+  with neither given the builder starts at :data:`bipedsim.graph.prune.DEFAULT_QUANTILE` and raises
+  the quantile until every tag keeps frames in the layer, with a warning -- never silently dropping
+  what the user tagged. The build report (:attr:`Layer.report`) lists per clip and tag the frames
+  kept and dropped and why;
 - the overall motion similarity of every clip pair, (sum_i sum_j min D over segment pair (i, j)) /
   ((m/s)(n/s)) with segments of s frames;
 - shortest paths between motions (Floyd-Warshall over the motion-level graph: edge weight = the

@@ -87,7 +87,8 @@ def main() -> int:
         parts = {"Upper-Body": PartSpec(root="Spine1")}
         for label, q in (("fixed default quantile (baseline)", DEFAULT_QUANTILE), ("builder's choice", None)):
             g = build_graph(GraphConfig(name="keep", clips=clips, parts=parts, threshold_quantile=q), Path(d))
-            kept = {name: sum(e["kept_frames"] > 0 for e in ly.report["tags"].values()) for name, ly in g.layers.items()}
+            kept = {name: sum(e["kept_frames"] > 0 for e in ly.report["tags"].values())
+                    for name, ly in g.layers.items()}
             print(f"tags keeping frames, {label}: " + ", ".join(f"{n} {v}/3" for n, v in kept.items()))
     return 0
 

@@ -241,3 +241,21 @@ def test_bred_child_runs_in_bipedsim_run(tmp_path: Path) -> None:
     breed_files(HOLDEN, HIP19, out, mutations=0)
     assert convert_and_simulate(out, 0.5) == "humanoid"
     assert main(["run", "--bvh", str(out), "--seconds", "1", "--out", str(tmp_path / "run")]) == 0
+
+
+def test_readme_breed_and_graph_commands_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every command of the README's breeding and graph block, run as written (from a scratch folder,
+    the shared data and the examples where the README has them)."""
+    import re
+
+    need_shared()
+    repo = Path(__file__).resolve().parent.parent
+    block = re.search(r"<!-- breed-graph-commands -->\s*```bash\n(.*?)```", (repo / "README.md").read_text(),
+                      re.DOTALL)
+    assert block
+    monkeypatch.chdir(tmp_path)
+    for line in block.group(1).strip().splitlines():
+        argv = line.replace("../shared/data/bvh", str(SHARED_BVH)).replace(
+            "examples/", f"{repo / 'examples'}/").split()
+        assert argv[0] == "bipedsim" and main(argv[1:]) == 0, line
+    assert (tmp_path / "map.yaml").is_file() and (tmp_path / "build.json").is_file()

@@ -245,9 +245,10 @@ class Player:
         lost = describe_loss(rep, label) if label in rep.get("tags", {}) else names
         q = rep.get("keeps_every_tag_from_quantile")
         fix = f" or set threshold_quantile: {q:g}" if q is not None else ""
+        how = rep.get("chosen", "given threshold")
         return PlayError(f"line {line}: {tag!r} ({names}) was dropped from the {layer.name} graph when it was built "
-                         f"({rep.get('chosen', 'given threshold')}, threshold {layer.threshold:.4g}): {lost}. To keep it, rebuild "
-                         f"without threshold/threshold_quantile (the builder then keeps every tag){fix}")
+                         f"({how}, threshold {layer.threshold:.4g}): {lost}. To keep it, rebuild without "
+                         f"threshold/threshold_quantile (the builder then keeps every tag){fix}")
 
     def _child_layer_for(self, target: Target) -> Layer | None:
         g = self.graph

@@ -160,6 +160,7 @@ def test_dog_and_static_root_human_breed_without_a_map(tmp_path: Path, capsys: p
     pairs = rep["correspondence"]
     assert pairs["Hips"] == "Hips" and pairs["LeftUpLeg"] == "UpperLeg_L" and pairs["RightFoot"] == "Foot_R"
     assert rep["correspondence_reasons"]["LeftLeg"] == "left leg knee"
+    assert rep["roles"]["B"]["LowerLeg_L"] == "left leg knee" and rep["roles"]["A"]["Tail"] == "tail 1"
     # the saved map, passed back, gives the same child; an edited map is honoured
     again = tmp_path / "c2.bvh"
     assert main(["breed", str(DOG), str(human), "-o", str(again), "--map", str(map_path)]) == 0

@@ -393,6 +393,8 @@ class BreedReport:
     folded_roots: dict[str, dict[str, str]] = field(default_factory=dict)
     #: per parent: what decided its roles (names or geometry, and how the facing direction was found)
     role_evidence: dict[str, dict[str, str]] = field(default_factory=dict)
+    #: per parent: joint -> the role found for it ("left leg knee", "chest", "trunk"...), paired or not
+    roles: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         from dataclasses import asdict
@@ -431,10 +433,12 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     b, fold_b = fold_static_root(b.to_project_frame())
     folded = {p: {"root": f.root, "into": f.into} for p, f in (("A", fold_a), ("B", fold_b)) if f is not None}
     evidence: dict[str, dict[str, str]] = {}
+    roles: dict[str, dict[str, str]] = {}
     if mapping is None:
         corr = correspondence(a, b)
         mapping, reasons, source = corr.pairs, corr.reasons, "roles"
         evidence = {"A": corr.roles_a.evidence, "B": corr.roles_b.evidence}
+        roles = {"A": corr.roles_a.joint_roles(), "B": corr.roles_b.joint_roles()}
     else:
         alias_a = {fold_a.root: fold_a.into} if fold_a else {}
         alias_b = {fold_b.root: fold_b.into} if fold_b else {}
@@ -467,7 +471,7 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
                       pca_weights=mut.pca_weights, floor_fixes=fixes, timings_s=tm,
                       child_joints=child_sk.num_joints, child_frames=child.num_frames,
                       correspondence=_pairs_used(meta, b.skeleton), correspondence_reasons=_reasons_used(meta, reasons),
-                      map_source=source, folded_roots=folded, role_evidence=evidence)
+                      map_source=source, folded_roots=folded, role_evidence=evidence, roles=roles)
     return child, rep
 
 

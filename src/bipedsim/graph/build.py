@@ -219,9 +219,7 @@ def load_clips(cfg: GraphConfig, base: Path, folded: dict[str, dict[str, str]] |
         p = p if p.is_absolute() else (base / p)
         if not p.is_file():
             raise ConfigError(f"no such BVH file {p}", key=f"clips.{c.name}.file")
-        m, fold = fold_static_root(load_bvh(p))
-        if fold is not None and folded is not None:
-            folded[c.name] = {"root": fold.root, "into": fold.into}
+        m = _folded(c.name, load_bvh(p), folded)
         if c.mirror:
             m = m.mirrored()
         if c.speed != 1.0:
@@ -241,6 +239,14 @@ def load_clips(cfg: GraphConfig, base: Path, folded: dict[str, dict[str, str]] |
         if not m.skeleton.same_structure(ref):
             raise ConfigError("all clips must share one skeleton (same joints, same tree)", key=f"clips.{c.name}")
     return clips
+
+
+def _folded(name: str, m: Motion, folded: dict[str, dict[str, str]] | None) -> Motion:
+    """``m`` with a static root folded away, recorded under the clip's ``name`` in ``folded``."""
+    m, fold = fold_static_root(m)
+    if fold is not None and folded is not None:
+        folded[name] = {"root": fold.root, "into": fold.into}
+    return m
 
 
 def part_positions(m: Motion, joints: list[int], relative: bool) -> FloatArray:
@@ -349,6 +355,8 @@ def build_graph(cfg: GraphConfig, base: Path, clips: list[Motion] | None = None)
     folded: dict[str, dict[str, str]] = {}
     if clips is None:
         clips = load_clips(cfg, base, folded)
+    else:
+        clips = [_folded(spec.name, m, folded) for spec, m in zip(cfg.clips, clips)]
     t_load = time.perf_counter() - t0
     sk = clips[0].skeleton
     layers: dict[str, Layer] = {FULL: build_layer(FULL, list(range(sk.num_joints)), None, clips, cfg, relative=False)}

@@ -308,52 +308,112 @@ def survivor(meta: MetaSkeleton, a: Motion, b: Motion, x: float = 0.5, sample_ev
 
 
 # ---------------------------------------------------------------------- 4. floor constraint
+#: Passes of the one-bone IK per frame before the rest of a frame's penetration is taken out by
+#: lifting the whole body (turning one bone can push a sibling under the floor).
+FLOOR_PASSES = 3
+
+
 def floor_constraint(motion: Motion, floor: float = 0.0) -> tuple[Motion, int]:
-    """Lift joints below ``floor`` by turning the bone above each one (parents first); returns the
-    corrected motion and how many (frame, joint) corrections were made. The root is lifted by moving
-    it up; joints already above the floor stay where they were unless an ancestor had to move."""
+    """Lift joints and End Sites below ``floor`` by turning the bone above each one (parents first,
+    up to :data:`FLOOR_PASSES` passes); what is still below afterwards is lifted with the whole body.
+    Returns the corrected motion and how many (frame, point) corrections were made. Frames already
+    above the floor are unchanged."""
     m = motion.copy()
     sk = m.skeleton
     fixes = 0
-    pos, _ = m.fk()
-    bad_frames = np.flatnonzero((pos[..., 2] < floor - 1e-9).any(axis=1))
-    for t in bad_frames:
+    low = _lowest(m)
+    for t in np.flatnonzero(low < floor - 1e-9):
         frame = m[t:t + 1]
-        for j in range(sk.num_joints):
-            p, g = frame.fk()
-            z = p[0, j, 2]
-            if z >= floor - 1e-9:
-                continue
+        for _ in range(FLOOR_PASSES):
+            moved = 0
+            for j in range(sk.num_joints):
+                moved += _lift_joint(frame, j, floor)
+            for e in range(len(sk.end_site_parents)):
+                moved += _lift_end(frame, e, floor)
+            fixes += moved
+            if not moved:
+                break
+        rest = floor - float(_lowest(frame)[0])
+        if rest > 1e-9:
+            frame.root_translation[0, 2] += rest
             fixes += 1
-            if j == 0:
-                frame.root_translation[0, 2] += floor - z
-                continue
-            par = int(sk.parents[j])
-            v = p[0, j] - p[0, par]
-            length = float(np.linalg.norm(v))
-            hz = p[0, par, 2]
-            if hz - length >= floor:  # cannot happen: the joint would be above
-                continue
-            need = floor - hz  # target vertical component of the bone
-            horiz = np.hypot(v[0], v[1])
-            if length < 1e-12:
-                continue
-            if abs(need) > length:  # parent itself too low to reach: lift the whole frame
-                frame.root_translation[0, 2] += floor - z
-                continue
-            new_h = np.sqrt(max(length ** 2 - need ** 2, 0.0))
-            d = np.array([v[0], v[1]]) / horiz if horiz > 1e-12 else np.array([1.0, 0.0])
-            v_new = np.array([d[0] * new_h, d[1] * new_h, need])
-            r = _min_rot(v, v_new)
-            gp = g[0, par]
-            gpp = np.eye(3) if sk.parents[par] < 0 else g[0, int(sk.parents[par])]
-            new_local = gpp.T @ r @ gp
-            if sk.parents[par] < 0:
-                new_local = r @ gp
-            frame.rotations[0, par] = canonical_quat(Rotation.from_matrix(new_local).as_quat())
         m.rotations[t] = frame.rotations[0]
         m.root_translation[t] = frame.root_translation[0]
     return m, fixes
+
+
+def _lowest(m: Motion) -> FloatArray:
+    """(T,) height of the lowest joint or End Site per frame."""
+    z = m.fk()[0][..., 2].min(axis=1)
+    if len(m.skeleton.end_site_parents):
+        z = np.minimum(z, m.end_site_positions()[..., 2].min(axis=1))
+    return z
+
+
+def _lift_joint(frame: Motion, j: int, floor: float) -> int:
+    p, g = frame.fk()
+    z = p[0, j, 2]
+    if z >= floor - 1e-9:
+        return 0
+    if j == 0:
+        frame.root_translation[0, 2] += floor - z
+        return 1
+    return _turn_bone(frame, int(frame.skeleton.parents[j]), p[0, j], p, g, floor)
+
+
+def _lift_end(frame: Motion, e: int, floor: float) -> int:
+    end = frame.end_site_positions()[0, e]
+    if end[2] >= floor - 1e-9:
+        return 0
+    p, g = frame.fk()
+    return _turn_bone(frame, int(frame.skeleton.end_site_parents[e]), end, p, g, floor)
+
+
+def _turn_bone(frame: Motion, par: int, point: FloatArray, p: FloatArray, g: FloatArray, floor: float) -> int:
+    """Turn joint ``par`` by the smallest rotation that brings ``point`` (below the floor, carried by
+    ``par``) up to the floor; when the bone is too short to reach, lift the whole frame instead."""
+    sk = frame.skeleton
+    v = point - p[0, par]
+    length = float(np.linalg.norm(v))
+    if length < 1e-12:
+        return 0
+    need = floor - p[0, par, 2]  # target vertical component of the bone
+    if abs(need) > length:  # the joint itself is too low to reach: lift the whole frame
+        frame.root_translation[0, 2] += floor - point[2]
+        return 1
+    horiz = np.hypot(v[0], v[1])
+    new_h = np.sqrt(max(length ** 2 - need ** 2, 0.0))
+    d = np.array([v[0], v[1]]) / horiz if horiz > 1e-12 else np.array([1.0, 0.0])
+    r = _min_rot(v, np.array([d[0] * new_h, d[1] * new_h, need]))
+    gp = g[0, par]
+    new_local = r @ gp if sk.parents[par] < 0 else g[0, int(sk.parents[par])].T @ r @ gp
+    frame.rotations[0, par] = canonical_quat(Rotation.from_matrix(new_local).as_quat())
+    return 1
+
+
+def depth_first(motion: Motion) -> Motion:
+    """The motion with its joints in depth-first order (each joint's subtree right after it), the
+    order a BVH file lists them in: the crossover appends B's joints after all of A's, and a skeleton
+    not in file order would be written with its channel columns out of step with its hierarchy."""
+    sk = motion.skeleton
+    order: list[int] = []
+    stack = [0]
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(sk.children(j)))
+    if order == list(range(sk.num_joints)):
+        return motion
+    new = {j: i for i, j in enumerate(order)}
+    es = sorted(range(len(sk.end_site_parents)), key=lambda e: new[int(sk.end_site_parents[e])])
+    out = Skeleton(names=tuple(sk.names[j] for j in order),
+                   parents=np.array([-1 if sk.parents[j] < 0 else new[int(sk.parents[j])] for j in order]),
+                   offsets=sk.offsets[order], channels=tuple(sk.channels[j] for j in order),
+                   position_modes=tuple(sk.position_modes[j] for j in order),
+                   end_site_parents=np.array([new[int(sk.end_site_parents[e])] for e in es], dtype=np.int64),
+                   end_site_offsets=sk.end_site_offsets[es].reshape(-1, 3))
+    return motion.copy(skeleton=out, rotations=motion.rotations[:, order],
+                       translations=None if motion.translations is None else motion.translations[:, order])
 
 
 def _min_rot(a: FloatArray, b: FloatArray) -> FloatArray:
@@ -460,7 +520,7 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     child_sk, keep = prune(meta, surv.rotations, a, set(mut.removed_all))
     child = Motion(skeleton=child_sk, frame_time=a.frame_time, root_translation=a.root_translation.copy(),
                    rotations=surv.rotations[:, keep], unit=1.0, up="z")
-    child, fixes = floor_constraint(child)
+    child, fixes = floor_constraint(depth_first(child))
     tm["constraint"] = time.perf_counter() - t0
     sk = meta.skeleton
     rep = BreedReport(parents=list(names), x=x, mutations=mutations,

@@ -377,7 +377,7 @@ def find_roles(motion: Motion) -> Roles:
                 kinds[i] = "leg" if i == hind else "arm"
         evidence["legs"] = "geometry: the limb pair whose ends stay lowest"
     else:
-        evidence["legs"] = "names"
+        evidence["legs"] = "names" if "leg" in kinds else "none found"
     for i in limb_ids:
         kinds[i] = kinds[i] or "arm"
     limb_ids.sort(key=lambda i: -reach[pairs[i][0]])  # the main pair of each kind first

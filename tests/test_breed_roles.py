@@ -260,3 +260,32 @@ def test_readme_breed_and_graph_commands_run(tmp_path: Path, monkeypatch: pytest
             "examples/", f"{repo / 'examples'}/").split()
         assert argv[0] == "bipedsim" and main(argv[1:]) == 0, line
     assert (tmp_path / "map.yaml").is_file() and (tmp_path / "build.json").is_file()
+
+
+def test_child_bvh_reads_back_as_bred(tmp_path: Path) -> None:
+    """B's joints hang under A's in the child (the pterosaur's wings on the horse's chest): the child is
+    kept in file (depth-first) order, so its BVH reads back to the same pose, joint by joint."""
+    child, _ = breed(load_bvh(HORSE_WALK), load_bvh(PTEROSAUR_FLIGHT), weights={"LeftWing1": 5.0,
+                                                                                 "RightWing1": 5.0})
+    assert "LeftWing1" in child.skeleton.names
+    write_bvh(child.with_up("y").scaled(100.0), tmp_path / "c.bvh", precision=6)
+    back = load_bvh(tmp_path / "c.bvh")
+    assert back.skeleton.names == child.skeleton.names
+    assert np.abs(back.fk()[0] - child.fk()[0]).max() < 1e-5
+
+
+def test_floor_constraint_lifts_end_sites_too() -> None:
+    from bipedsim.breed import floor_constraint
+    from bipedsim.motion import Skeleton
+
+    sk = Skeleton(names=("Hips", "Thigh", "Shin"), parents=np.array([-1, 0, 1]),
+                  offsets=np.array([[0, 0, 0], [0, 0, -0.4], [0, 0, -0.4]], dtype=float),
+                  channels=(("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),
+                            ("Zrotation", "Yrotation", "Xrotation"), ("Zrotation", "Yrotation", "Xrotation")),
+                  end_site_parents=np.array([2]), end_site_offsets=np.array([[0.3, 0.0, -0.3]]))
+    m = Motion(skeleton=sk, frame_time=1 / 30, root_translation=np.tile([0.0, 0.0, 1.0], (5, 1)),
+               rotations=np.tile([0.0, 0.0, 0.0, 1.0], (5, 3, 1)))
+    assert m.end_site_positions()[..., 2].min() < -0.05  # the foot's tip is under the floor
+    fixed, n = floor_constraint(m)
+    assert n > 0 and fixed.end_site_positions()[..., 2].min() >= -1e-9 and fixed.fk()[0][..., 2].min() >= -1e-9
+    assert np.allclose(fixed.fk()[0][:, :2], m.fk()[0][:, :2])  # hips and thigh stay: the shin turned

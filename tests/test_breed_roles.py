@@ -239,7 +239,7 @@ def test_bred_child_runs_in_bipedsim_run(tmp_path: Path) -> None:
     toes' bones) is a humanoid: `bipedsim run` takes it as it is."""
     need_shared()
     out = tmp_path / "c.bvh"
-    breed_files(HOLDEN, HIP19, out, mutations=0)
+    assert breed_files(HOLDEN, HIP19, out, mutations=0).body == "humanoid"
     assert convert_and_simulate(out, 0.5) == "humanoid"
     assert main(["run", "--bvh", str(out), "--seconds", "1", "--out", str(tmp_path / "run")]) == 0
 

@@ -58,7 +58,8 @@ def test_breed_files_writes_child_and_report(tmp_path: Path) -> None:
     lines = format_breed_summary(rep, child, report).splitlines()
     assert lines[0].startswith(f"wrote {child}: {rep.child_joints} joints") and lines[-1] == f"wrote {report}"
     assert lines[1].startswith("  correspondence by role") and "LeftUpLeg=LeftUpLeg" in lines[1]
-    assert len(format_breed_summary(rep, child).splitlines()) == 2
+    assert lines[2] == f"  a creature: bipedsim run --bvh {child} --profile creature" and rep.body == "creature"
+    assert len(format_breed_summary(rep, child).splitlines()) == 3
 
 
 def test_graph_build_and_play_files(tmp_path: Path) -> None:

@@ -455,6 +455,8 @@ class BreedReport:
     role_evidence: dict[str, dict[str, str]] = field(default_factory=dict)
     #: per parent: joint -> the role found for it ("left leg knee", "chest", "trunk"...), paired or not
     roles: dict[str, dict[str, str]] = field(default_factory=dict)
+    #: the body kind ``bipedsim run`` builds for the child ("humanoid"/"creature"; "" when not checked)
+    body: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         from dataclasses import asdict

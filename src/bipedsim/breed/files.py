@@ -8,8 +8,10 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from bipedsim.breed.evolve import BreedReport, breed, load_joint_map
+from bipedsim.errors import ModelError
 from bipedsim.io import atomic_write_json, atomic_write_text, check_output_file
 from bipedsim.motion.bvh import load_bvh, write_bvh
+from bipedsim.motion.motion import Motion
 
 PathLike = str | os.PathLike[str]
 #: Metres -> centimetres: the child is written as most BVH files are, Y up, in centimetres.
@@ -37,11 +39,24 @@ def breed_files(a: PathLike, b: PathLike, output: PathLike, *, x: float = 0.5, m
     child, rep = breed(ma, mb, x=x, mutations=mutations, weights=dict(weights or {}), mapping=mapping,
                        names=(str(a), str(b)))
     write_bvh(child.with_up("y").scaled(CHILD_UNITS_PER_M), output, precision=6)
+    rep.body = body_kind(child)
     if report:
         atomic_write_json(Path(report), rep.to_dict())
     if save_map:
         atomic_write_text(save_map, map_text(rep))
     return rep
+
+
+def body_kind(child: Motion) -> str:
+    """``"humanoid"`` when the humanoid body builds from the child (two legs recognised, bones long
+    enough), else ``"creature"``: the ``--profile`` that ``bipedsim run`` needs for it."""
+    from bipedsim.model.build import build_model
+
+    try:
+        build_model(child, "humanoid")
+    except ModelError:
+        return "creature"
+    return "humanoid"
 
 
 def map_text(rep: BreedReport) -> str:
@@ -69,6 +84,9 @@ def format_breed_summary(rep: BreedReport, output: PathLike, report: PathLike | 
     how = "by role" if rep.map_source == "roles" else f"from {rep.map_source}"
     pairs = ", ".join(f"{a}={b}" for a, b in rep.correspondence.items())
     lines.append(f"  correspondence {how}, {len(rep.correspondence)} pairs (A=B): {pairs}")
+    if rep.body:
+        flag = "" if rep.body == "humanoid" else " --profile creature"
+        lines.append(f"  a {rep.body}: bipedsim run --bvh {output}{flag}")
     for path in (report, save_map):
         if path:
             lines.append(f"wrote {path}")

@@ -407,26 +407,27 @@ def find_roles(motion: Motion) -> Roles:
             head = par  # the highest end is one of a few small ends (eyes): the head carries them
         evidence["head"] = "geometry: the highest end outside the limbs"
     trunk = _path(sk, 0, head)
-    anchors: dict[str, int] = {"head": head} if head != 0 else {}
-    arm_bases = [limb.chain[0] for limb in limbs if limb.kind in ("arm", "wing")]
-    leg_bases = [limb.chain[0] for limb in legs]
-    if len(leg_bases) >= 2:
-        anchors["pelvis"] = _lca(sk, leg_bases[0], leg_bases[1])
-    arms = [limb for limb in limbs if limb.kind == "arm"]
-    if len(arms) >= 2:
-        chest = _lca(sk, arms[0].chain[0], arms[1].chain[0])
-        if chest in trunk:
-            anchors["chest"] = chest
-    elif arm_bases:
-        chest = int(sk.parents[arm_bases[0]])
-        if chest in trunk:
-            anchors["chest"] = chest
+    anchors = _trunk_anchors(sk, limbs, trunk, head)
     # a tail: the shallowest joint named so outside the limbs and the trunk
     named_tail = [j for j in range(sk.num_joints) if j not in limb_joints and j not in trunk
                   and has_word(sk.names[j], TRUNK_WORDS["tail"])]
     tail = _main_chain(sk, min(named_tail, key=lambda j: (depth[j], j)), reach) if named_tail else []
     return Roles(skeleton=sk, root=0, trunk=trunk, anchors=anchors, limbs=limbs, tail=tail, forward=how,
                  evidence=evidence)
+
+
+def _trunk_anchors(sk: Skeleton, limbs: list[Limb], trunk: list[int], head: int) -> dict[str, int]:
+    """head; pelvis: where the legs meet; chest: where the arms (else the wings) meet, on the trunk."""
+    anchors: dict[str, int] = {"head": head} if head != 0 else {}
+    legs = [limb.chain[0] for limb in limbs if limb.kind == "leg"]
+    if len(legs) >= 2:
+        anchors["pelvis"] = _lca(sk, legs[0], legs[1])
+    arms = [limb.chain[0] for limb in limbs if limb.kind == "arm"]
+    wings = [limb.chain[0] for limb in limbs if limb.kind == "wing"]
+    chest = _lca(sk, arms[0], arms[1]) if len(arms) >= 2 else (int(sk.parents[wings[0]]) if wings else None)
+    if chest is not None and chest in trunk:
+        anchors["chest"] = chest
+    return anchors
 
 
 def _path(sk: Skeleton, a: int, b: int) -> list[int]:

@@ -319,17 +319,12 @@ def floor_constraint(motion: Motion, floor: float = 0.0) -> tuple[Motion, int]:
     Returns the corrected motion and how many (frame, point) corrections were made. Frames already
     above the floor are unchanged."""
     m = motion.copy()
-    sk = m.skeleton
     fixes = 0
     low = _lowest(m)
     for t in np.flatnonzero(low < floor - 1e-9):
         frame = m[t:t + 1]
         for _ in range(FLOOR_PASSES):
-            moved = 0
-            for j in range(sk.num_joints):
-                moved += _lift_joint(frame, j, floor)
-            for e in range(len(sk.end_site_parents)):
-                moved += _lift_end(frame, e, floor)
+            moved = _lift_pass(frame, floor)
             fixes += moved
             if not moved:
                 break
@@ -350,23 +345,24 @@ def _lowest(m: Motion) -> FloatArray:
     return z
 
 
-def _lift_joint(frame: Motion, j: int, floor: float) -> int:
+def _lift_pass(frame: Motion, floor: float) -> int:
+    """One pass over a one-frame motion's joints, then End Sites: each one below the floor is lifted
+    (the root by moving it, others by turning the bone above them). Returns how many were lifted."""
+    sk = frame.skeleton
+    moved = 0
+    points = [(j, -1) for j in range(sk.num_joints)] + [(int(p), e) for e, p in enumerate(sk.end_site_parents)]
     p, g = frame.fk()
-    z = p[0, j, 2]
-    if z >= floor - 1e-9:
-        return 0
-    if j == 0:
-        frame.root_translation[0, 2] += floor - z
-        return 1
-    return _turn_bone(frame, int(frame.skeleton.parents[j]), p[0, j], p, g, floor)
-
-
-def _lift_end(frame: Motion, e: int, floor: float) -> int:
-    end = frame.end_site_positions()[0, e]
-    if end[2] >= floor - 1e-9:
-        return 0
-    p, g = frame.fk()
-    return _turn_bone(frame, int(frame.skeleton.end_site_parents[e]), end, p, g, floor)
+    for j, e in points:
+        point = p[0, j] if e < 0 else p[0, j] + g[0, j] @ sk.end_site_offsets[e]
+        if point[2] >= floor - 1e-9:
+            continue
+        if e < 0 and j == 0:
+            frame.root_translation[0, 2] += floor - point[2]
+            moved += 1
+        else:
+            moved += _turn_bone(frame, int(sk.parents[j]) if e < 0 else j, point, p, g, floor)
+        p, g = frame.fk()  # only after a change: the checks use the current pose
+    return moved
 
 
 def _turn_bone(frame: Motion, par: int, point: FloatArray, p: FloatArray, g: FloatArray, floor: float) -> int:

@@ -11,8 +11,9 @@ from scipy.optimize import minimize
 
 from bipedsim.cli import main
 from bipedsim.graph import FULL, MotionGraph, Player, ScriptError, build_graph, load_graph_config, parse
-from bipedsim.graph.build import prune, summed_part_distance
+from bipedsim.graph.build import summed_part_distance
 from bipedsim.graph.distance import align_2d, apply_2d, distance_matrix, windows
+from bipedsim.graph.prune import prune
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / "examples" / "graphs" / "walk_wave.yaml"
@@ -75,18 +76,19 @@ def graph() -> MotionGraph:
     return build_graph(load_graph_config(CONFIG), CONFIG.parent)
 
 
-def _strongly_connected(ly, lengths) -> bool:
-    keep, _, n = prune(ly.transitions, lengths)
+def _strongly_connected(ly, lengths, k) -> bool:
+    keep, _, n = prune(ly.transitions, lengths, k)
     return len(keep) == len(ly.transitions) and n > 0
 
 
 def test_pruned_graphs_are_strongly_connected(graph: MotionGraph) -> None:
     lengths = [c.num_frames for c in graph.clips]
+    k = graph.config.k
     for ly in graph.layers.values():
-        assert ly.transitions and _strongly_connected(ly, lengths)
-        # every entry into a clip has an exit ahead of it (no dead end)
+        assert ly.transitions and _strongly_connected(ly, lengths, k)
+        # every arrival (a blend into frame f ends at f + k) has an exit ahead of it (no dead end)
         for t in ly.transitions:
-            assert any(u.src == t.dst and u.src_frame >= t.dst_frame for u in ly.transitions)
+            assert any(u.src == t.dst and u.src_frame >= t.dst_frame + k for u in ly.transitions)
 
 
 def test_random_walk_of_ten_minutes_never_dead_ends(graph: MotionGraph) -> None:

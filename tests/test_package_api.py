@@ -56,15 +56,19 @@ def test_breed_files_writes_child_and_report(tmp_path: Path) -> None:
     assert child.read_text().startswith("HIERARCHY") and json.loads(report.read_text())["mutations"] == 3
     assert len(rep.removed) == 3 and rep.child_frames > 0
     lines = format_breed_summary(rep, child, report).splitlines()
-    assert lines[0].startswith(f"wrote {child}: {rep.child_joints} joints") and lines[1] == f"wrote {report}"
-    assert len(format_breed_summary(rep, child).splitlines()) == 1
+    assert lines[0].startswith(f"wrote {child}: {rep.child_joints} joints") and lines[-1] == f"wrote {report}"
+    assert lines[1].startswith("  correspondence by role") and "LeftUpLeg=LeftUpLeg" in lines[1]
+    assert lines[2] == f"  a creature: bipedsim run --bvh {child} --profile creature" and rep.body == "creature"
+    assert len(format_breed_summary(rep, child).splitlines()) == 3
 
 
 def test_graph_build_and_play_files(tmp_path: Path) -> None:
     need_shared()
     g = build_graph_file(REPO / "examples" / "graphs" / "walk_wave.yaml", tmp_path / "g.npz")
     lines = format_graph_summary(g, tmp_path / "g.npz").splitlines()
-    assert lines[0].startswith(f"wrote {tmp_path / 'g.npz'}: 5 clips") and len(lines) == 1 + len(g.layers)
+    warnings = sum(len(ly.report["warnings"]) for ly in g.layers.values())
+    assert lines[0].startswith(f"wrote {tmp_path / 'g.npz'}: 5 clips")
+    assert len(lines) == 1 + 2 * len(g.layers) + warnings  # a layer's line and its tags' frames
     script = tmp_path / "s.txt"
     script.write_text("WALK for 2 sec\n")
     rep = play_script(tmp_path / "g.npz", script, tmp_path / "o.bvh", report=tmp_path / "r.json")

@@ -200,8 +200,8 @@ def cmd_breed(args: argparse.Namespace) -> int:
 
     kw = {} if args.mutations is None else {"mutations": args.mutations}  # None: breed_files' default
     rep = breed_files(args.parent_a, args.parent_b, args.output, x=args.x, weights=dict(args.weight or []),
-                      map=args.map, report=args.report, **kw)
-    print(format_breed_summary(rep, args.output, args.report))
+                      map=args.map, report=args.report, save_map=args.save_map, **kw)
+    print(format_breed_summary(rep, args.output, args.report, args.save_map))
     return 0
 
 
@@ -215,8 +215,10 @@ def _add_breed(sub: argparse._SubParsersAction) -> None:
                    help="joints removed (with their subtrees), default 5 (0 with --world: every limb may carry a mode)")
     p.add_argument("--weight", action="append", type=_weight, metavar="JOINT=W",
                    help="shift a joint's activity score (negative: more likely to go); repeatable")
-    p.add_argument("--map", default=None, help="YAML mapping joints of A to corresponding joints of B")
-    p.add_argument("--report", default=None, help="write a JSON report of the breeding")
+    p.add_argument("--map", default=None, help="YAML mapping joints of A to corresponding joints of B (default: "
+                   "paired by role from names, else structure and geometry)")
+    p.add_argument("--report", default=None, help="write a JSON report of the breeding (the correspondence included)")
+    p.add_argument("--save-map", default=None, help="write the correspondence used as a --map YAML to edit")
     p.add_argument("--world", default=None,
                    help="world YAML: the parents are creature files (bipedsim world) and the child a creature "
                         "file with the modes of both, parent weights from the world (Bray-Curtis)")
@@ -225,7 +227,7 @@ def _add_breed(sub: argparse._SubParsersAction) -> None:
 def cmd_graph_build(args: argparse.Namespace) -> int:
     from bipedsim.graph import build_graph_file, format_graph_summary
 
-    print(format_graph_summary(build_graph_file(args.config, args.output), args.output))
+    print(format_graph_summary(build_graph_file(args.config, args.output, args.report), args.output, args.report))
     return 0
 
 
@@ -243,6 +245,8 @@ def _add_graph(sub: argparse._SubParsersAction) -> None:
     b = _subparser(gs, "build", cmd_graph_build, "build a motion graph from a YAML description")
     b.add_argument("config", help="graph YAML (clips, tags, parts, k, threshold, sigma, segment)")
     _output(b, "graph file (.npz)")
+    b.add_argument("--report", default=None, help="JSON build report: per layer, clip and tag the frames kept and "
+                   "dropped and why")
     pl = _subparser(gs, "play", cmd_graph_play, "play a Motion Script on a graph and write the result as BVH")
     pl.add_argument("graph", help="graph file from `bipedsim graph build`")
     pl.add_argument("script", help="Motion Script text file")

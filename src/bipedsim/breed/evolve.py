@@ -2,8 +2,12 @@
 
 The four steps are separate functions:
 
+0. Correspondence -- a static root at the floor with the body's translation on its child is folded
+   away (:mod:`bipedsim.motion.reroot`); without a user mapping the joints are paired by role
+   (:func:`bipedsim.motion.roles.correspondence`: names in the usual conventions, else structure and
+   geometry). The pairs and why each was made go to the report and can be saved as a ``--map`` file.
 1. :func:`crossover` -- a meta-skeleton holding every joint of both parents: joints that correspond
-   (same name, a user mapping, or -- for the roots -- the structural rule that both roots are the
+   (the pairs above, same names, or -- for the roots -- the structural rule that both roots are the
    bodies' roots) are kept once; the others are appended under the joint their parent maps to.
 2. :func:`mutate` -- each joint's activity is the standard deviation over time of the angle its bone
    turns between consecutive frames (cos theta = X(t).X(t-1) / |X(t)||X(t-1)|). The parents' activity
@@ -36,6 +40,8 @@ from scipy.spatial.transform import Rotation
 from bipedsim import config
 from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.motion.motion import Motion, canonical_quat
+from bipedsim.motion.reroot import fold_static_root
+from bipedsim.motion.roles import correspondence
 from bipedsim.motion.skeleton import Skeleton
 
 FloatArray = npt.NDArray[np.float64]
@@ -302,52 +308,108 @@ def survivor(meta: MetaSkeleton, a: Motion, b: Motion, x: float = 0.5, sample_ev
 
 
 # ---------------------------------------------------------------------- 4. floor constraint
+#: Passes of the one-bone IK per frame before the rest of a frame's penetration is taken out by
+#: lifting the whole body (turning one bone can push a sibling under the floor).
+FLOOR_PASSES = 3
+
+
 def floor_constraint(motion: Motion, floor: float = 0.0) -> tuple[Motion, int]:
-    """Lift joints below ``floor`` by turning the bone above each one (parents first); returns the
-    corrected motion and how many (frame, joint) corrections were made. The root is lifted by moving
-    it up; joints already above the floor stay where they were unless an ancestor had to move."""
+    """Lift joints and End Sites below ``floor`` by turning the bone above each one (parents first,
+    up to :data:`FLOOR_PASSES` passes); what is still below afterwards is lifted with the whole body.
+    Returns the corrected motion and how many (frame, point) corrections were made. Frames already
+    above the floor are unchanged."""
     m = motion.copy()
-    sk = m.skeleton
     fixes = 0
-    pos, _ = m.fk()
-    bad_frames = np.flatnonzero((pos[..., 2] < floor - 1e-9).any(axis=1))
-    for t in bad_frames:
+    low = _lowest(m)
+    for t in np.flatnonzero(low < floor - 1e-9):
         frame = m[t:t + 1]
-        for j in range(sk.num_joints):
-            p, g = frame.fk()
-            z = p[0, j, 2]
-            if z >= floor - 1e-9:
-                continue
+        for _ in range(FLOOR_PASSES):
+            moved = _lift_pass(frame, floor)
+            fixes += moved
+            if not moved:
+                break
+        rest = floor - float(_lowest(frame)[0])
+        if rest > 1e-9:
+            frame.root_translation[0, 2] += rest
             fixes += 1
-            if j == 0:
-                frame.root_translation[0, 2] += floor - z
-                continue
-            par = int(sk.parents[j])
-            v = p[0, j] - p[0, par]
-            length = float(np.linalg.norm(v))
-            hz = p[0, par, 2]
-            if hz - length >= floor:  # cannot happen: the joint would be above
-                continue
-            need = floor - hz  # target vertical component of the bone
-            horiz = np.hypot(v[0], v[1])
-            if length < 1e-12:
-                continue
-            if abs(need) > length:  # parent itself too low to reach: lift the whole frame
-                frame.root_translation[0, 2] += floor - z
-                continue
-            new_h = np.sqrt(max(length ** 2 - need ** 2, 0.0))
-            d = np.array([v[0], v[1]]) / horiz if horiz > 1e-12 else np.array([1.0, 0.0])
-            v_new = np.array([d[0] * new_h, d[1] * new_h, need])
-            r = _min_rot(v, v_new)
-            gp = g[0, par]
-            gpp = np.eye(3) if sk.parents[par] < 0 else g[0, int(sk.parents[par])]
-            new_local = gpp.T @ r @ gp
-            if sk.parents[par] < 0:
-                new_local = r @ gp
-            frame.rotations[0, par] = canonical_quat(Rotation.from_matrix(new_local).as_quat())
         m.rotations[t] = frame.rotations[0]
         m.root_translation[t] = frame.root_translation[0]
     return m, fixes
+
+
+def _lowest(m: Motion) -> FloatArray:
+    """(T,) height of the lowest joint or End Site per frame."""
+    z = m.fk()[0][..., 2].min(axis=1)
+    if len(m.skeleton.end_site_parents):
+        z = np.minimum(z, m.end_site_positions()[..., 2].min(axis=1))
+    return z
+
+
+def _lift_pass(frame: Motion, floor: float) -> int:
+    """One pass over a one-frame motion's joints, then End Sites: each one below the floor is lifted
+    (the root by moving it, others by turning the bone above them). Returns how many were lifted."""
+    sk = frame.skeleton
+    moved = 0
+    points = [(j, -1) for j in range(sk.num_joints)] + [(int(p), e) for e, p in enumerate(sk.end_site_parents)]
+    p, g = frame.fk()
+    for j, e in points:
+        point = p[0, j] if e < 0 else p[0, j] + g[0, j] @ sk.end_site_offsets[e]
+        if point[2] >= floor - 1e-9:
+            continue
+        if e < 0 and j == 0:
+            frame.root_translation[0, 2] += floor - point[2]
+            moved += 1
+        else:
+            moved += _turn_bone(frame, int(sk.parents[j]) if e < 0 else j, point, p, g, floor)
+        p, g = frame.fk()  # only after a change: the checks use the current pose
+    return moved
+
+
+def _turn_bone(frame: Motion, par: int, point: FloatArray, p: FloatArray, g: FloatArray, floor: float) -> int:
+    """Turn joint ``par`` by the smallest rotation that brings ``point`` (below the floor, carried by
+    ``par``) up to the floor; when the bone is too short to reach, lift the whole frame instead."""
+    sk = frame.skeleton
+    v = point - p[0, par]
+    length = float(np.linalg.norm(v))
+    if length < 1e-12:
+        return 0
+    need = floor - p[0, par, 2]  # target vertical component of the bone
+    if abs(need) > length:  # the joint itself is too low to reach: lift the whole frame
+        frame.root_translation[0, 2] += floor - point[2]
+        return 1
+    horiz = np.hypot(v[0], v[1])
+    new_h = np.sqrt(max(length ** 2 - need ** 2, 0.0))
+    d = np.array([v[0], v[1]]) / horiz if horiz > 1e-12 else np.array([1.0, 0.0])
+    r = _min_rot(v, np.array([d[0] * new_h, d[1] * new_h, need]))
+    gp = g[0, par]
+    new_local = r @ gp if sk.parents[par] < 0 else g[0, int(sk.parents[par])].T @ r @ gp
+    frame.rotations[0, par] = canonical_quat(Rotation.from_matrix(new_local).as_quat())
+    return 1
+
+
+def depth_first(motion: Motion) -> Motion:
+    """The motion with its joints in depth-first order (each joint's subtree right after it), the
+    order a BVH file lists them in: the crossover appends B's joints after all of A's, and a skeleton
+    not in file order would be written with its channel columns out of step with its hierarchy."""
+    sk = motion.skeleton
+    order: list[int] = []
+    stack = [0]
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(sk.children(j)))
+    if order == list(range(sk.num_joints)):
+        return motion
+    new = {j: i for i, j in enumerate(order)}
+    es = sorted(range(len(sk.end_site_parents)), key=lambda e: new[int(sk.end_site_parents[e])])
+    out = Skeleton(names=tuple(sk.names[j] for j in order),
+                   parents=np.array([-1 if sk.parents[j] < 0 else new[int(sk.parents[j])] for j in order]),
+                   offsets=sk.offsets[order], channels=tuple(sk.channels[j] for j in order),
+                   position_modes=tuple(sk.position_modes[j] for j in order),
+                   end_site_parents=np.array([new[int(sk.end_site_parents[e])] for e in es], dtype=np.int64),
+                   end_site_offsets=sk.end_site_offsets[es].reshape(-1, 3))
+    return motion.copy(skeleton=out, rotations=motion.rotations[:, order],
+                       translations=None if motion.translations is None else motion.translations[:, order])
 
 
 def _min_rot(a: FloatArray, b: FloatArray) -> FloatArray:
@@ -378,6 +440,19 @@ class BreedReport:
     timings_s: dict[str, float] = field(default_factory=dict)
     child_joints: int = 0
     child_frames: int = 0
+    #: joint of A -> joint of B, as a ``--map`` file holds it (the pairs the breeding used)
+    correspondence: dict[str, str] = field(default_factory=dict)
+    #: joint of A -> why it was paired ("left leg knee", "trunk below chest", "same name", "--map")
+    correspondence_reasons: dict[str, str] = field(default_factory=dict)
+    map_source: str = "roles"  #: "roles" (found automatically) or the --map file
+    #: per parent ("A"/"B"): the static root folded away and the joint that became the root
+    folded_roots: dict[str, dict[str, str]] = field(default_factory=dict)
+    #: per parent: what decided its roles (names or geometry, and how the facing direction was found)
+    role_evidence: dict[str, dict[str, str]] = field(default_factory=dict)
+    #: per parent: joint -> the role found for it ("left leg knee", "chest", "trunk"...), paired or not
+    roles: dict[str, dict[str, str]] = field(default_factory=dict)
+    #: the body kind ``bipedsim run`` builds for the child ("humanoid"/"creature"; "" when not checked)
+    body: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         from dataclasses import asdict
@@ -403,14 +478,33 @@ def prune(meta: MetaSkeleton, rotations: FloatArray, motion_a: Motion, removed: 
 
 def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: dict[str, float] | None = None,
           mapping: dict[str, str] | None = None, names: tuple[str, str] = ("A", "B")) -> tuple[Motion, BreedReport]:
-    """Breed two motions (project frame) into a child motion on the pruned meta-skeleton."""
+    """Breed two motions (project frame) into a child motion on the pruned meta-skeleton.
+
+    ``mapping``: joint of A -> joint of B, the whole correspondence (joints it leaves out are paired
+    only when their names are equal); None: found by role. A static root at the floor is folded into
+    the joint that carries the translation first (a mapping may name either)."""
     if not X_RANGE[0] <= x <= X_RANGE[1]:
         raise BreedError(f"x must be in [{X_RANGE[0]}, {X_RANGE[1]}] (0: parent A's motion, 1: B's), got {x}")
-    a = a.to_project_frame()
-    b = b.to_project_frame()
+    tm: dict[str, float] = {}
+    t0 = time.perf_counter()
+    a, fold_a = fold_static_root(a.to_project_frame())
+    b, fold_b = fold_static_root(b.to_project_frame())
+    folded = {p: {"root": f.root, "into": f.into} for p, f in (("A", fold_a), ("B", fold_b)) if f is not None}
+    evidence: dict[str, dict[str, str]] = {}
+    roles: dict[str, dict[str, str]] = {}
+    if mapping is None:
+        corr = correspondence(a, b)
+        mapping, reasons, source = corr.pairs, corr.reasons, "roles"
+        evidence = {"A": corr.roles_a.evidence, "B": corr.roles_b.evidence}
+        roles = {"A": corr.roles_a.joint_roles(), "B": corr.roles_b.joint_roles()}
+    else:
+        alias_a = {fold_a.root: fold_a.into} if fold_a else {}
+        alias_b = {fold_b.root: fold_b.into} if fold_b else {}
+        mapping = {alias_a.get(k, k): alias_b.get(v, v) for k, v in mapping.items()}
+        reasons, source = {k: "--map" for k in mapping}, "--map"
+    tm["correspondence"] = time.perf_counter() - t0
     if not np.isclose(a.frame_time, b.frame_time):
         b = b.resample(a.fps)
-    tm: dict[str, float] = {}
     t0 = time.perf_counter()
     meta = crossover(a.skeleton, b.skeleton, mapping)
     tm["crossover"] = time.perf_counter() - t0
@@ -424,7 +518,7 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     child_sk, keep = prune(meta, surv.rotations, a, set(mut.removed_all))
     child = Motion(skeleton=child_sk, frame_time=a.frame_time, root_translation=a.root_translation.copy(),
                    rotations=surv.rotations[:, keep], unit=1.0, up="z")
-    child, fixes = floor_constraint(child)
+    child, fixes = floor_constraint(depth_first(child))
     tm["constraint"] = time.perf_counter() - t0
     sk = meta.skeleton
     rep = BreedReport(parents=list(names), x=x, mutations=mutations,
@@ -433,5 +527,15 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
                       only_b=[sk.names[i] for i in range(sk.num_joints) if meta.from_a[i] is None],
                       removed=mut.removed, removed_with_subtrees=mut.removed_all, activity=mut.scores,
                       pca_weights=mut.pca_weights, floor_fixes=fixes, timings_s=tm,
-                      child_joints=child_sk.num_joints, child_frames=child.num_frames)
+                      child_joints=child_sk.num_joints, child_frames=child.num_frames,
+                      correspondence=_pairs_used(meta, b.skeleton), correspondence_reasons=_reasons_used(meta, reasons),
+                      map_source=source, folded_roots=folded, role_evidence=evidence, roles=roles)
     return child, rep
+
+
+def _pairs_used(meta: MetaSkeleton, b: Skeleton) -> dict[str, str]:
+    return {meta.skeleton.names[i]: b.names[meta.from_b[i]] for i in meta.common}  # type: ignore[index]
+
+
+def _reasons_used(meta: MetaSkeleton, reasons: dict[str, str]) -> dict[str, str]:
+    return {meta.skeleton.names[i]: reasons.get(meta.skeleton.names[i], "same name") for i in meta.common}

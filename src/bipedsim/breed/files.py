@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Mapping
 from pathlib import Path
 
 from bipedsim.breed.evolve import BreedReport, breed, load_joint_map
-from bipedsim.io import atomic_write_json, check_output_file
+from bipedsim.errors import ModelError
+from bipedsim.io import atomic_write_json, atomic_write_text, check_output_file
 from bipedsim.motion.bvh import load_bvh, write_bvh
+from bipedsim.motion.motion import Motion
 
 PathLike = str | os.PathLike[str]
 #: Metres -> centimetres: the child is written as most BVH files are, Y up, in centimetres.
@@ -17,33 +20,74 @@ CHILD_UNITS_PER_M = 100.0
 
 def breed_files(a: PathLike, b: PathLike, output: PathLike, *, x: float = 0.5, mutations: int = 5,
                 weights: Mapping[str, float] | None = None, map: PathLike | None = None,
-                report: PathLike | None = None) -> BreedReport:
+                report: PathLike | None = None, save_map: PathLike | None = None) -> BreedReport:
     """Breed the motions of the BVH files ``a`` and ``b`` and write the child to ``output`` (BVH, Y up,
     centimetres). ``x``: the spacetime parameter in [0, 1] (0: A's motion, 1: B's); ``mutations``:
     joints removed with their subtrees; ``weights``: shifts of joints' activity scores (negative: more
-    likely to go); ``map``: a YAML mapping joints of A to joints of B; ``report``: also write the
-    report as JSON there. Output locations are checked (errors name ``-o`` and ``--report``) before
-    the breeding. Returns the report."""
+    likely to go); ``map``: a YAML mapping joints of A to joints of B (the whole correspondence;
+    without it the joints are paired by role); ``report``: also write the report as JSON there;
+    ``save_map``: write the correspondence used as a mapping YAML that ``map`` accepts back (edit it
+    and breed again). Output locations are checked (errors name ``-o``, ``--report`` and
+    ``--save-map``) before the breeding. Returns the report."""
     ma, mb = load_bvh(a), load_bvh(b)
     check_output_file(output, "-o")
     if report:
         check_output_file(report, "--report")
+    if save_map:
+        check_output_file(save_map, "--save-map")
     mapping = load_joint_map(map, ma.skeleton, mb.skeleton) if map else None
     child, rep = breed(ma, mb, x=x, mutations=mutations, weights=dict(weights or {}), mapping=mapping,
                        names=(str(a), str(b)))
     write_bvh(child.with_up("y").scaled(CHILD_UNITS_PER_M), output, precision=6)
+    rep.body = body_kind(child)
     if report:
         atomic_write_json(Path(report), rep.to_dict())
+    if save_map:
+        atomic_write_text(save_map, map_text(rep))
     return rep
 
 
-def format_breed_summary(rep: BreedReport, output: PathLike, report: PathLike | None = None) -> str:
+def body_kind(child: Motion) -> str:
+    """``"humanoid"`` when the humanoid body builds from the child (two legs recognised, bones long
+    enough), else ``"creature"``: the ``--profile`` that ``bipedsim run`` needs for it."""
+    from bipedsim.model.build import build_model
+
+    try:
+        build_model(child, "humanoid")
+    except ModelError:
+        return "creature"
+    return "humanoid"
+
+
+def map_text(rep: BreedReport) -> str:
+    """The correspondence of a breeding as a mapping YAML (``joint of A: joint of B``, the reason as a
+    comment) that ``--map`` reads back."""
+    lines = [f"# joints of {rep.parents[0]} (left) paired with joints of {rep.parents[1]} (right);",
+             "# found by " + ("role" if rep.map_source == "roles" else rep.map_source)
+             + ". Edit and pass back with --map: pairs left out stay unpaired unless their names are equal."]
+    for ja, jb in rep.correspondence.items():
+        lines.append(f"{json.dumps(ja)}: {json.dumps(jb)}  # {rep.correspondence_reasons.get(ja, '')}")
+    return "\n".join(lines) + "\n"
+
+
+def format_breed_summary(rep: BreedReport, output: PathLike, report: PathLike | None = None,
+                         save_map: PathLike | None = None) -> str:
     """The lines ``bipedsim breed`` prints: the child written to ``output`` (joints, frames, where they
-    came from, what was removed, the time taken in ms) and the ``report`` file when one was written."""
+    came from, what was removed, the time taken in ms), the correspondence used (static roots folded,
+    the pairs ``A=B``), and the ``report`` and ``save_map`` files when written."""
     lines = [f"wrote {output}: {rep.child_joints} joints, {rep.child_frames} frames; common "
              f"{len(rep.kept_common)}, from A only {len(rep.only_a)}, from B only {len(rep.only_b)}; "
              f"removed {', '.join(rep.removed) or 'none'}; x={rep.x}; "
              f"{sum(rep.timings_s.values()) * 1000:.0f} ms"]
-    if report:
-        lines.append(f"wrote {report}")
+    for parent, f in rep.folded_roots.items():
+        lines.append(f"  parent {parent}: static root {f['root']!r} folded into {f['into']!r} (it carries the motion)")
+    how = "by role" if rep.map_source == "roles" else f"from {rep.map_source}"
+    pairs = ", ".join(f"{a}={b}" for a, b in rep.correspondence.items())
+    lines.append(f"  correspondence {how}, {len(rep.correspondence)} pairs (A=B): {pairs}")
+    if rep.body:
+        flag = "" if rep.body == "humanoid" else " --profile creature"
+        lines.append(f"  a {rep.body}: bipedsim run --bvh {output}{flag}")
+    for path in (report, save_map):
+        if path:
+            lines.append(f"wrote {path}")
     return "\n".join(lines)

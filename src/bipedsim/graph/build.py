@@ -7,9 +7,16 @@ skeleton. For every layer:
 - distance matrices between all clip pairs (windows of k frames, :mod:`bipedsim.graph.distance`);
 - transitions: local minima below the threshold, cost t = 1 - exp(-D / sigma), played as a linear
   blend over k frames (at playback, not stored);
-- pruning: the graph whose nodes are each clip's entry and exit frames (edges: forward in the clip,
-  and transitions) keeps only its largest strongly connected component (``scipy.sparse.csgraph``),
-  so a walk never reaches a dead end;
+- pruning: the graph whose nodes are each clip's departure frames (where a blend starts) and arrival
+  frames (where a blend has ended: the target frame + k, where playing goes on) -- edges forward in the
+  clip and the transitions -- keeps one strongly connected component (``scipy.sparse.csgraph``; the
+  one covering most tags): every arrival then has a departure ahead in its clip, so play never
+  reaches a dead end (:mod:`bipedsim.graph.prune`);
+- the threshold: ``threshold`` if given, else the ``threshold_quantile`` of the candidates' distances;
+  with neither given the builder starts at :data:`bipedsim.graph.prune.DEFAULT_QUANTILE` and raises
+  the quantile until every tag keeps frames in the layer, with a warning -- never silently dropping
+  what the user tagged. The build report (:attr:`Layer.report`) lists per clip and tag the frames
+  kept and dropped and why;
 - the overall motion similarity of every clip pair, (sum_i sum_j min D over segment pair (i, j)) /
   ((m/s)(n/s)) with segments of s frames;
 - shortest paths between motions (Floyd-Warshall over the motion-level graph: edge weight = the
@@ -32,12 +39,14 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components, floyd_warshall
+from scipy.sparse.csgraph import floyd_warshall
 
 from bipedsim import config
 from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.graph.distance import distance_matrix
+from bipedsim.graph.prune import Transition, choose_threshold, labels_of
 from bipedsim.motion.motion import Motion
+from bipedsim.motion.reroot import fold_static_root
 from bipedsim.motion.skeleton import Skeleton
 
 FloatArray = npt.NDArray[np.float64]
@@ -66,7 +75,8 @@ class GraphConfig:
     name: str = "graph"
     fps: float = field(default=30.0, metadata={"gt": 0.0})
     k: int = field(default=20, metadata={"min": 2})
-    threshold_quantile: float = field(default=0.25, metadata={"gt": 0.0, "max": 1.0})
+    #: None: start at DEFAULT_QUANTILE and raise it until every tag keeps frames (with a warning)
+    threshold_quantile: float | None = field(default=None, metadata={"gt": 0.0, "max": 1.0})
     threshold: float | None = field(default=None, metadata={"gt": 0.0})
     sigma: float | None = field(default=None, metadata={"gt": 0.0})
     segment: int = field(default=10, metadata={"min": 1})
@@ -84,16 +94,6 @@ class GraphConfig:
 
 
 @dataclass
-class Transition:
-    src: int  #: clip index
-    src_frame: int  #: first frame of the blend window in the source
-    dst: int
-    dst_frame: int
-    distance: float
-    cost: float
-
-
-@dataclass
 class Layer:
     name: str
     joints: list[int]
@@ -107,6 +107,8 @@ class Layer:
     kept_clips: list[int]  #: clips with frames in the strongly connected component
     scc_nodes: int
     build_seconds: float = 0.0
+    #: how the threshold was chosen, warnings, per clip and per tag the frames kept and dropped (why)
+    report: dict[str, Any] = field(default_factory=dict)
 
     def exits(self, clip: int) -> list[Transition]:
         return sorted((t for t in self.transitions if t.src == clip), key=lambda t: t.src_frame)
@@ -131,6 +133,8 @@ class MotionGraph:
     tags: list[list[str]]
     layers: dict[str, Layer]
     timings: dict[str, float] = field(default_factory=dict)
+    #: per clip name: the static root folded away and the joint that became the root
+    folded_roots: dict[str, dict[str, str]] = field(default_factory=dict)
 
     @property
     def clip_names(self) -> list[str]:
@@ -158,10 +162,10 @@ class MotionGraph:
             arrays[f"{name}_predecessors"] = ly.predecessors
             layers[name] = {"joints": ly.joints, "parent": ly.parent, "threshold": ly.threshold, "sigma": ly.sigma,
                             "kept_clips": ly.kept_clips, "scc_nodes": ly.scc_nodes, "build_seconds": ly.build_seconds,
-                            "transitions": [asdict(t) for t in ly.transitions]}
+                            "transitions": [asdict(t) for t in ly.transitions], "report": ly.report}
         sk = self.skeleton
         meta = {"format": "bipedsim.MotionGraph/1", "config": config.to_dict(self.config), "tags": self.tags,
-                "layers": layers, "timings": self.timings,
+                "layers": layers, "timings": self.timings, "folded_roots": self.folded_roots,
                 "skeleton": {"names": list(sk.names), "parents": sk.parents.tolist(), "offsets": sk.offsets.tolist(),
                              "channels": [list(c) for c in sk.channels],
                              "end_site_parents": sk.end_site_parents.tolist(),
@@ -192,11 +196,11 @@ class MotionGraph:
                                          similarity=z[f"{name}_similarity"], path_cost=z[f"{name}_path_cost"],
                                          predecessors=z[f"{name}_predecessors"], threshold=d["threshold"],
                                          sigma=d["sigma"], kept_clips=d["kept_clips"], scc_nodes=d["scc_nodes"],
-                                         build_seconds=d.get("build_seconds", 0.0))
+                                         build_seconds=d.get("build_seconds", 0.0), report=d.get("report", {}))
         except (OSError, KeyError, ValueError) as exc:
             raise BipedsimError(f"{path}: not a bipedsim motion graph ({exc})") from None
         return MotionGraph(config=cfg, skeleton=sk, clips=clips, tags=meta["tags"], layers=layers,
-                           timings=meta.get("timings", {}))
+                           timings=meta.get("timings", {}), folded_roots=meta.get("folded_roots", {}))
 
 
 # ---------------------------------------------------------------------- building
@@ -204,7 +208,9 @@ def load_graph_config(path: str | os.PathLike[str]) -> GraphConfig:
     return config.load(GraphConfig, path)
 
 
-def load_clips(cfg: GraphConfig, base: Path) -> list[Motion]:
+def load_clips(cfg: GraphConfig, base: Path, folded: dict[str, dict[str, str]] | None = None) -> list[Motion]:
+    """The clips of ``cfg`` (files relative to ``base``) in the project frame at the graph's fps, a
+    static root at the floor folded into the joint carrying the motion (recorded in ``folded``)."""
     from bipedsim.motion.bvh import load_bvh
 
     clips = []
@@ -213,7 +219,7 @@ def load_clips(cfg: GraphConfig, base: Path) -> list[Motion]:
         p = p if p.is_absolute() else (base / p)
         if not p.is_file():
             raise ConfigError(f"no such BVH file {p}", key=f"clips.{c.name}.file")
-        m = load_bvh(p)
+        m = _folded(c.name, load_bvh(p), folded)
         if c.mirror:
             m = m.mirrored()
         if c.speed != 1.0:
@@ -233,6 +239,14 @@ def load_clips(cfg: GraphConfig, base: Path) -> list[Motion]:
         if not m.skeleton.same_structure(ref):
             raise ConfigError("all clips must share one skeleton (same joints, same tree)", key=f"clips.{c.name}")
     return clips
+
+
+def _folded(name: str, m: Motion, folded: dict[str, dict[str, str]] | None) -> Motion:
+    """``m`` with a static root folded away, recorded under the clip's ``name`` in ``folded``."""
+    m, fold = fold_static_root(m)
+    if fold is not None and folded is not None:
+        folded[name] = {"root": fold.root, "into": fold.into}
+    return m
 
 
 def part_positions(m: Motion, joints: list[int], relative: bool) -> FloatArray:
@@ -288,6 +302,8 @@ def _segment_min(d: FloatArray, s: int) -> FloatArray:
 
 def build_layer(name: str, joints: list[int], parent: str | None, clips: list[Motion], cfg: GraphConfig,
                 relative: bool) -> Layer:
+    """One layer over ``joints`` (see the module docstring); its :attr:`Layer.report` says how the
+    threshold was chosen and, per clip and tag, which frames were kept and dropped and why."""
     t0 = time.perf_counter()
     k = cfg.k
     pos = [part_positions(m, joints, relative) for m in clips]
@@ -306,11 +322,12 @@ def build_layer(name: str, joints: list[int], parent: str | None, clips: list[Mo
     if not cands:
         raise BipedsimError(f"layer {name}: no candidate transitions between the clips")
     vals = np.array([c[4] for c in cands])
-    thr = cfg.threshold if cfg.threshold is not None else float(np.quantile(vals, cfg.threshold_quantile))
     sigma = cfg.sigma if cfg.sigma is not None else max(float(np.median(vals)), 1e-9)
-    trans = [Transition(a, i, b, j, dist, 1.0 - float(np.exp(-dist / sigma)))
-             for a, i, b, j, dist in cands if dist <= thr]
-    trans, kept, n_nodes = prune(trans, [m.num_frames for m in clips])
+    every = [Transition(a, i, b, j, dist, 1.0 - float(np.exp(-dist / sigma))) for a, i, b, j, dist in cands]
+    names = [c.name for c in cfg.clips]
+    choice = choose_threshold(name, every, names, labels_of(names, [list(c.tags) for c in cfg.clips]),
+                              [m.num_frames for m in clips], k, cfg.threshold, cfg.threshold_quantile)
+    trans, kept, n_nodes, thr = choice.kept, choice.kept_clips, choice.nodes, choice.threshold
     sim = np.zeros((n, n))
     for (a, b), d in dmats.items():
         sm = _segment_min(d, cfg.segment)
@@ -323,45 +340,23 @@ def build_layer(name: str, joints: list[int], parent: str | None, clips: list[Mo
     np.fill_diagonal(w, 0.0)
     graph = csr_matrix(np.where(np.isfinite(w), w + 1e-12, 0.0))
     cost, pred = floyd_warshall(graph, directed=True, return_predecessors=True)
+    report = {"threshold": thr, "quantile": choice.quantile, "chosen": choice.how, "warnings": choice.warnings,
+              "keeps_every_tag_from_quantile": choice.keeps_every_label_from, "candidates": len(every),
+              **choice.report}
     return Layer(name=name, joints=joints, parent=parent, transitions=trans, similarity=sim, path_cost=cost,
                  predecessors=pred.astype(np.int64), threshold=thr, sigma=sigma, kept_clips=kept, scc_nodes=n_nodes,
-                 build_seconds=time.perf_counter() - t0)
-
-
-def prune(trans: list[Transition], lengths: list[int]) -> tuple[list[Transition], list[int], int]:
-    """Keep the transitions inside the largest strongly connected component of the frame graph."""
-    nodes: dict[int, set[int]] = {c: set() for c in range(len(lengths))}
-    for t in trans:
-        nodes[t.src].add(t.src_frame)
-        nodes[t.dst].add(t.dst_frame)
-    index: dict[tuple[int, int], int] = {}
-    for c in sorted(nodes):
-        for f in sorted(nodes[c]):
-            index[(c, f)] = len(index)
-    rows, cols = [], []
-    for c in nodes:
-        fs = sorted(nodes[c])
-        for a, b in zip(fs, fs[1:]):  # playing forward within a clip
-            rows.append(index[(c, a)])
-            cols.append(index[(c, b)])
-    for t in trans:
-        rows.append(index[(t.src, t.src_frame)])
-        cols.append(index[(t.dst, t.dst_frame)])
-    n = len(index)
-    if n == 0:
-        return [], [], 0
-    g = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    _, labels = connected_components(g, directed=True, connection="strong")
-    big = np.bincount(labels).argmax()
-    keep = [t for t in trans
-            if labels[index[(t.src, t.src_frame)]] == big and labels[index[(t.dst, t.dst_frame)]] == big]
-    clips = sorted({t.src for t in keep} | {t.dst for t in keep})
-    return keep, clips, int(np.sum(labels == big))
+                 build_seconds=time.perf_counter() - t0, report=report)
 
 
 def build_graph(cfg: GraphConfig, base: Path, clips: list[Motion] | None = None) -> MotionGraph:
+    """Every layer of the graph ``cfg`` describes, over its clips (loaded from files relative to
+    ``base`` unless ``clips`` are given: project frame, the graph's fps, one skeleton)."""
     t0 = time.perf_counter()
-    clips = clips if clips is not None else load_clips(cfg, base)
+    folded: dict[str, dict[str, str]] = {}
+    if clips is None:
+        clips = load_clips(cfg, base, folded)
+    else:
+        clips = [_folded(spec.name, m, folded) for spec, m in zip(cfg.clips, clips)]
     t_load = time.perf_counter() - t0
     sk = clips[0].skeleton
     layers: dict[str, Layer] = {FULL: build_layer(FULL, list(range(sk.num_joints)), None, clips, cfg, relative=False)}
@@ -385,4 +380,5 @@ def build_graph(cfg: GraphConfig, base: Path, clips: list[Motion] | None = None)
     tags = [[t.upper() for t in c.tags] for c in cfg.clips]
     timings = {"load_s": t_load, "total_s": time.perf_counter() - t0,
                "frames": int(sum(m.num_frames for m in clips))}
-    return MotionGraph(config=cfg, skeleton=sk, clips=clips, tags=tags, layers=layers, timings=timings)
+    return MotionGraph(config=cfg, skeleton=sk, clips=clips, tags=tags, layers=layers, timings=timings,
+                       folded_roots=folded)

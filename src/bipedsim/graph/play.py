@@ -18,26 +18,55 @@ PathLike = str | os.PathLike[str]
 BVH_UNITS_PER_M = 100.0
 
 
-def build_graph_file(config: PathLike, output: PathLike) -> MotionGraph:
+def build_graph_file(config: PathLike, output: PathLike, report: PathLike | None = None) -> MotionGraph:
     """Build the motion graph the YAML ``config`` describes (its clip files relative to its folder) and
-    save it to ``output`` (``.npz``; checked, naming ``-o``, before the build). Returns the graph."""
+    save it to ``output`` (``.npz``; checked, naming ``-o``, before the build). ``report``: also write
+    the build report as JSON there (:func:`build_report`). Returns the graph."""
     path = Path(config)
     cfg = load_graph_config(path)
     check_output_file(output, "-o")
+    if report:
+        check_output_file(report, "--report")
     g = build_graph(cfg, path.resolve().parent)
     g.save(output)
+    if report:
+        atomic_write_json(report, build_report(g))
     return g
 
 
-def format_graph_summary(g: MotionGraph, output: PathLike) -> str:
-    """The lines ``bipedsim graph build`` prints: the file written (clips, frames, build time in s) and
-    one line per layer (its parent, transitions, nodes in the strongly connected graph, motions kept)."""
+def build_report(g: MotionGraph) -> dict[str, Any]:
+    """What a build kept: static roots folded per clip and, per layer, the threshold and how it was
+    chosen, warnings, and per clip and tag the frames kept and dropped (with why)."""
+    return {"folded_roots": g.folded_roots, "timings": g.timings,
+            "layers": {name: {"parent": ly.parent, "transitions": len(ly.transitions), "nodes": ly.scc_nodes,
+                              **ly.report} for name, ly in g.layers.items()}}
+
+
+def format_graph_summary(g: MotionGraph, output: PathLike, report: PathLike | None = None) -> str:
+    """The lines ``bipedsim graph build`` prints: the file written (clips, frames, build time in s),
+    static roots folded, one line per layer (its parent, transitions, nodes in the strongly connected
+    graph, motions kept, the threshold and how it was chosen), the frames each tag kept of its total,
+    the build's warnings, and the ``report`` file when written."""
     lines = [f"wrote {output}: {len(g.clips)} clips, {g.timings['frames']} frames, built in "
              f"{g.timings['total_s']:.2f} s"]
+    for clip, f in g.folded_roots.items():
+        lines.append(f"  clip {clip}: static root {f['root']!r} folded into {f['into']!r} (it carries the motion)")
+    warnings = []
     for name, ly in g.layers.items():
+        rep = ly.report
+        q = "" if rep.get("quantile") is None else f" {rep['quantile']:g}"
         lines.append(f"  {name:12s} parent {ly.parent or '-':10s} {len(ly.transitions):4d} transitions, "
                      f"{ly.scc_nodes} nodes in the strongly connected graph, "
-                     f"motions {len(ly.kept_clips)}/{len(g.clips)}")
+                     f"motions {len(ly.kept_clips)}/{len(g.clips)}, threshold {ly.threshold:.4g} "
+                     f"({rep.get('chosen', '')}{q})")
+        tags = rep.get("tags", {})
+        if tags:
+            lines.append("    frames kept per tag: " + ", ".join(
+                f"{t} {e['kept_frames']}/{e['kept_frames'] + e['dropped_frames']}" for t, e in sorted(tags.items())))
+        warnings += rep.get("warnings", [])
+    lines += [f"warning: {w}" for w in warnings]
+    if report:
+        lines.append(f"wrote {report}")
     return "\n".join(lines)
 
 

@@ -25,6 +25,7 @@ from scipy.spatial.transform import Rotation, Slerp
 from bipedsim.errors import BipedsimError
 from bipedsim.graph.build import FULL, Layer, MotionGraph, Transition
 from bipedsim.graph.distance import align_2d, apply_2d
+from bipedsim.graph.prune import describe_loss, kept_span
 from bipedsim.graph.script import Command, Target
 from bipedsim.motion.motion import Motion, canonical_quat
 
@@ -57,6 +58,7 @@ class PartState:
     exit: Transition | None = None  #: the part graph's transition this part will take next
     blend_from: tuple[int, int] | None = None  #: (clip, frame) being blended out of
     blend_step: int = 0
+    fade_frames: int = 0  #: frames a fade takes (0: the graph's k)
 
 
 @dataclass
@@ -86,10 +88,10 @@ class Player:
             self.clip = cands[0]
         else:
             self.clip = full.kept_clips[0]
-        entries = sorted(t.dst_frame for t in full.transitions if t.dst == self.clip)
-        self.frame = entries[0] if entries else 0
         self.k = g.config.k
         self.fps = g.config.fps
+        span = kept_span(full.transitions, self.clip, g.clips[self.clip].num_frames, self.k)
+        self.frame = 0 if span is None else span[0]  # a frame with a way on
 
     # ------------------------------------------------------------------ frames
     @property
@@ -107,7 +109,7 @@ class Player:
     def _emit(self, root: FloatArray, rot: FloatArray) -> None:
         for name, ps in list(self.parts.items()):
             if ps.fading:
-                ps.weight = float(np.clip(ps.weight + ps.fading / (self.k + 1), 0.0, 1.0))
+                ps.weight = float(np.clip(ps.weight + ps.fading / ((ps.fade_frames or self.k) + 1), 0.0, 1.0))
             w = ps.weight
             if w > 0:
                 pm = self.graph.clips[ps.clip]
@@ -199,8 +201,9 @@ class Player:
             self.events.append(Event(self.time, name, "skipped", f"the body's motion "
                                      f"{self.graph.clip_names[self.clip]} is not in the {name} graph"))
             return
+        last = self._last_exit_frame()  # the body must still have a way on after the wait
         ahead = [t for t in layer.transitions if t.src == self.clip and t.dst in wanted and
-                 0 <= t.src_frame - self.frame <= SYNC_SEARCH_S * self.fps]
+                 0 <= t.src_frame - self.frame <= SYNC_SEARCH_S * self.fps and t.src_frame <= last]
         if ahead:
             t = min(ahead, key=lambda t: (t.src_frame, t.cost))
             self._play_frames(t.src_frame - self.frame)
@@ -210,18 +213,42 @@ class Player:
         self.parts[name] = PartState(layer=layer, tags=set(wanted), clip=clip, frame=frame, weight=0.0, fading=+1)
         self.events.append(Event(self.time, name, kind, f"{name} plays {self.graph.clip_names[clip]}[{frame}]"))
 
+    def _last_exit_frame(self) -> int:
+        """The last frame of the current clip the full-body graph leaves from (play must not pass it)."""
+        ends = [t.src_frame for t in self.graph.layers[FULL].transitions if t.src == self.clip]
+        return max(ends) if ends else self.frame
+
     def _end_parts(self) -> None:
+        # let them blend out on the body's motion before it moves on (rule 2) -- in the frames left
+        # before the body's last way out of its clip, so the body never runs into a dead end
+        room = max(self._last_exit_frame() - self.frame, 0)
         for ps in self.parts.values():
             if ps.fading >= 0:
                 ps.fading = -1
-        # let them blend out on the body's motion before it moves on (rule 2)
-        while self.parts and self.frame + 1 < self.graph.clips[self.clip].num_frames:
+            ps.fade_frames = max(1, min(self.k, int(np.ceil(ps.weight * room)) - 1))
+        while self.parts and self.frame < self._last_exit_frame():
             self._play_frames(1)
         self.parts.clear()
 
     # ------------------------------------------------------------------ commands
     def _targets(self, layer: Layer, tag: str) -> list[int]:
         return [c for c in self.graph.clips_with(tag) if c in layer.kept_clips]
+
+    def _lost(self, layer: Layer, tag: str, line: int) -> PlayError | None:
+        """The error for a tag the graph has clips for but whose frames ``layer`` dropped when it was
+        built (None when the graph has no such clip)."""
+        if not self.graph.clips_with(tag):
+            return None
+        rep = layer.report
+        label = tag.upper()
+        names = ", ".join(self.graph.clip_names[c] for c in self.graph.clips_with(tag))
+        lost = describe_loss(rep, label) if label in rep.get("tags", {}) else names
+        q = rep.get("keeps_every_tag_from_quantile")
+        fix = f" or set threshold_quantile: {q:g}" if q is not None else ""
+        how = rep.get("chosen", "given threshold")
+        return PlayError(f"line {line}: {tag!r} ({names}) was dropped from the {layer.name} graph when it was built "
+                         f"({how}, threshold {layer.threshold:.4g}): {lost}. To keep it, rebuild without "
+                         f"threshold/threshold_quantile (the builder then keeps every tag){fix}")
 
     def _child_layer_for(self, target: Target) -> Layer | None:
         g = self.graph
@@ -258,13 +285,16 @@ class Player:
             self._play_layer_only(layer, main.tag, cmd.seconds)
             return
         if not targets:
-            raise PlayError(f"line {cmd.line}: no motion named or tagged {main.tag!r} in the full-body graph; "
-                            f"tags: {sorted({t for ts in g.tags for t in ts})}")
+            raise self._lost(full, main.tag, cmd.line) or PlayError(
+                f"line {cmd.line}: no motion named or tagged {main.tag!r} in the full-body graph; "
+                f"tags: {sorted({t for ts in g.tags for t in ts})}")
         if extra is not None:
             layer = self._child_layer_for(extra)
             wanted = [] if layer is None else self._targets(layer, extra.tag)
             if not wanted:
-                raise PlayError(f"line {cmd.line}: no child layer has a motion tagged {extra.tag!r}")
+                parts = [ly for ly in g.layers.values() if ly.parent is not None]
+                lost = next((e for ly in parts if (e := self._lost(ly, extra.tag, cmd.line))), None)
+                raise lost or PlayError(f"line {cmd.line}: no child layer has a motion tagged {extra.tag!r}")
             self._reach(full, targets)
             self._start_part(layer, wanted)  # type: ignore[arg-type]
             self._play_target(full, targets, cmd.seconds, keep_parts=True)

@@ -140,8 +140,9 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default="bipedsim_run", help="output folder for outcome.json (default bipedsim_run)")
     p.add_argument("--mass", type=float, default=None, help="total body mass in kg")
     _scale_up(p, "BVH metres per unit or unit name", "BVH up axis")
-    p.add_argument("--profile", choices=("humanoid", "creature"), default="humanoid",
-                   help="humanoid (balance controller) or creature (PD tracking of every joint)")
+    p.add_argument("--profile", choices=("auto", "humanoid", "creature"), default=None,
+                   help="body kind: humanoid (SIMBICON balance) or creature (legged balance for any skeleton); "
+                        "default auto: measured from the skeleton")
     p.add_argument("--support", action="store_true",
                    help="creature only: hold the root toward the clip with an external, reported wrench "
                         "(root-support mode, e.g. for flying clips)")

@@ -13,16 +13,37 @@ import numpy as np
 from bipedsim.config import to_dict
 from bipedsim.control import CONTROLLERS, Controller, CreatureControlConfig
 from bipedsim.control.config import ControllerConfig, load_controller
-from bipedsim.errors import ConfigError
+from bipedsim.errors import ConfigError, ModelError
 from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
+from bipedsim.model.creature_kind import detect_body_kind
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout
 
-#: body kinds a scenario can be built as (``--profile``)
-PROFILES = ("humanoid", "creature")
+#: body kinds a scenario can be built as (``--profile``); ``auto``: measured from the skeleton
+#: (:func:`~bipedsim.model.creature_kind.detect_body_kind`)
+AUTO = "auto"
+PROFILES = (AUTO, "humanoid", "creature")
+
+
+def resolve_profile(motion: Any, profile: str | None = AUTO, *, support: bool = False,
+                    source: str = "the motion") -> str:
+    """The body kind to build ``motion`` (project frame) as: ``profile`` when it names one; for
+    ``auto`` (or None) a creature when root ``support`` is asked for, else the kind measured from the
+    skeleton. A skeleton in which fewer than two legs are found (feet: end effectors that stay low) is
+    refused: it is probably misread, or needs ``--profile`` to say what it is."""
+    if profile not in (None, AUTO):
+        return str(profile)
+    if support:
+        return "creature"
+    kind = detect_body_kind(motion)
+    if len(kind.legs) < 2:
+        raise ModelError(f"{source}: cannot tell the body kind: {len(kind.legs)} leg(s) found (a leg ends in "
+                         "end effectors that stay near the ground); the file may be misread (check `bipedsim "
+                         "info`, give --scale/--up) or give --profile humanoid|creature")
+    return kind.kind
 
 
 @dataclass
@@ -68,15 +89,23 @@ class Scenario:
 
 def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.PathLike[str] | None = None, *,
                   scale: float | str | None = None, up: str | None = None, mass: float | None = None,
-                  profile: str = "humanoid", support: bool = False) -> Scenario:
+                  profile: str | None = AUTO, support: bool = False) -> Scenario:
     """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
-    retargeted onto it. A controller YAML configures the humanoid's controller; ``support`` (root
-    support) is a creature's."""
+    retargeted onto it (``auto``: the kind measured from the skeleton, :func:`resolve_profile`). A
+    controller YAML configures the humanoid's controller; ``support`` (root support) is a creature's."""
     from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
     from bipedsim.motion.bvh import read_bvh
 
+    profile = AUTO if profile is None else profile
     if profile not in PROFILES:
         raise ConfigError(f"unknown body profile {profile!r}; profiles: {', '.join(PROFILES)}", key="profile")
+    if bvh is None and profile == AUTO:
+        profile = "humanoid"  # the built-in walk
+    motion = info = None
+    if bvh is not None:
+        raw, info = read_bvh(bvh, scale=scale, up=up)
+        motion = raw.to_project_frame()
+        profile = resolve_profile(motion, profile, support=support, source=str(bvh))
     if profile == "creature" and config is not None:
         raise ConfigError("a controller YAML configures the humanoid's balance controller; a creature is "
                           "tracked by its own (give --support for root support)", key="config")
@@ -93,8 +122,6 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
             built = build_model(motion, "humanoid", total_mass=mass, name="humanoid")
         src = str(BUILTIN_WALK)
     else:
-        raw, info = read_bvh(bvh, scale=scale, up=up)
-        motion = raw.to_project_frame()
         built = build_model(motion, profile, total_mass=mass, name=Path(bvh).stem)
         src = str(bvh)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src)
@@ -150,4 +177,4 @@ def write_outcome(out: Outcome, folder: str | os.PathLike[str]) -> Path:
     return path
 
 
-__all__ = ["PROFILES", "Scenario", "load_scenario", "run_scenario", "write_outcome"]
+__all__ = ["AUTO", "PROFILES", "resolve_profile", "Scenario", "load_scenario", "run_scenario", "write_outcome"]

@@ -277,3 +277,60 @@ def _stand_on_floor(bodies: list[BodyPlan]) -> float:
     for b in bodies:
         b.pos[2] += lift
     return lift
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One leg of a creature body: the body it hangs from the trunk by (``root``), its chain of
+    bodies from there down (``bodies``, the root first) and the foot bodies it ends in (``feet``: one,
+    or several toes)."""
+
+    root: str
+    bodies: tuple[str, ...]
+    feet: tuple[str, ...]
+
+
+def creature_legs(plan: BodyPlanSet) -> list[Leg]:
+    """The legs of a creature body plan: each foot body's chain walked up while the body's subtree
+    ends only in feet (never up to the root body); feet sharing that leg root are one leg. In the
+    order of the first foot of each leg in ``plan.foot_bodies``."""
+    feet = set(plan.foot_bodies)
+    parent = {b.name: b.parent for b in plan.bodies}
+    children: dict[str, list[str]] = {b.name: [] for b in plan.bodies}
+    for b in plan.bodies:
+        if b.parent is not None:
+            children[b.parent].append(b.name)
+
+    def leaves(name: str) -> set[str]:
+        kids = children[name]
+        return {name} if not kids else set().union(*(leaves(k) for k in kids))
+
+    roots: dict[str, list[str]] = {}
+    for f in plan.foot_bodies:
+        r = f
+        while parent[r] is not None and parent[parent[r]] is not None and leaves(parent[r]) <= feet:
+            r = parent[r]  # type: ignore[assignment]
+        if parent[r] is None:
+            continue
+        roots.setdefault(r, []).append(f)
+    legs = []
+    for r, fs in roots.items():
+        chain, stack = [], [r]
+        while stack:
+            b = stack.pop(0)
+            chain.append(b)
+            stack.extend(children[b])
+        legs.append(Leg(root=r, bodies=tuple(chain), feet=tuple(fs)))
+    return legs
+
+
+def trunk_bodies(plan: BodyPlanSet) -> set[str]:
+    """The creature's trunk: its root body and every body between it and a leg's root."""
+    parent = {b.name: b.parent for b in plan.bodies}
+    out = {b.name for b in plan.bodies if b.parent is None}
+    for leg in creature_legs(plan):
+        p = parent[leg.root]
+        while p is not None:
+            out.add(p)
+            p = parent[p]
+    return out

@@ -36,7 +36,7 @@ from bipedsim.control.base import FloatArray, register
 from bipedsim.control.creature import CreatureControlConfig, CreatureController
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature import creature_legs
-from bipedsim.model.plan import BodyPlanSet
+from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
 
 
 @dataclass(frozen=True)
@@ -54,8 +54,6 @@ class CreatureBalanceConfig:
     #: swing-foot placement per (m/s) of velocity error, in units of sqrt(L/g) s
     placement: float = field(default=0.5, metadata={"min": 0.0})
     friction: float = field(default=0.8, metadata={"gt": 0.0})
-    #: a foot's vertical contact force above this share of the body weight makes it a stance foot
-    contact_share: float = field(default=0.02, metadata={"gt": 0.0})
     #: longest wait (s) of the clip's clock for a foot that should have landed
     max_wait_s: float = field(default=0.1, metadata={"min": 0.0})
     #: window (s) over which the clip's root velocity is averaged for the speed target
@@ -152,6 +150,15 @@ class CreatureBalanceController(CreatureController):
             self.leg_sites.append([model.site(f"{f}_touch").id for f in leg.feet])
             self.leg_root_ball.append(ball_of[model.body(leg.root).id])
             self.leg_clip_cols.append([self.clip.foot_names.index(f) for f in leg.feet if f in self.clip.foot_names])
+        #: floor-contact geoms of each leg: its feet and the bodies they hang from (a foot's own
+        #: geom may be a tiny sphere while the bone to it, on the parent body, meets the ground)
+        self.geom_leg: dict[int, int] = {}
+        for i, feet in enumerate(self.leg_feet):
+            lower = set(feet) | {int(model.body_parentid[f]) for f in feet}
+            for g in range(model.ngeom):
+                if model.geom_bodyid[g] in lower:
+                    self.geom_leg[g] = i
+        self.floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, FLOOR_NAME)
         self.root_ball_parent = [model.body_parentid[model.body(leg.root).id] for leg in self.legs]
         self.jacp = np.zeros((3, model.nv))
 
@@ -214,11 +221,21 @@ class CreatureBalanceController(CreatureController):
         return quat_error_rotvecs(data.qpos[self._quat_idx], target[self._quat_idx])
 
     def _feet_down(self, data: mujoco.MjData) -> list[bool]:
-        """Per leg: does any of its feet carry more than ``contact_share`` of the body weight now?"""
-        forces = self.foot_forces(data)
-        by_body = dict(zip([self.model.body(n).id for n in self._foot_names], forces))
-        thr = self.bal.contact_share * self.weight
-        return [max(by_body.get(b, 0.0) for b in feet) > thr for feet in self.leg_feet]
+        """Per leg: does its lower end (feet and the bones to them) touch the floor now? Also keeps
+        each touching leg's mean contact point (m, world) in ``contact_points``."""
+        n = len(self.legs)
+        pts = [np.zeros(3) for _ in range(n)]
+        counts = [0] * n
+        floor, gl = self.floor, self.geom_leg
+        for c in range(data.ncon):
+            g1, g2 = data.contact.geom[c]
+            other = g2 if g1 == floor else g1 if g2 == floor else -1
+            leg = gl.get(int(other), -1)
+            if leg >= 0:
+                pts[leg] += data.contact.pos[c]
+                counts[leg] += 1
+        self.contact_points = [p / k if k else p for p, k in zip(pts, counts)]
+        return [k > 0 for k in counts]
 
     def _ref_down(self, f: int, leg: int) -> bool:
         cols = self.leg_clip_cols[leg]
@@ -284,7 +301,7 @@ class CreatureBalanceController(CreatureController):
         torque = inertia * (wa * wa * err - 2 * b.damping_ratio * wa * omega)
         torque[2] = 0.0
         self.virtual.append((float(np.linalg.norm(force)), float(np.linalg.norm(torque))))
-        pts = np.array([np.mean([data.site_xpos[s] for s in self.leg_sites[i]], axis=0) for i in stance])
+        pts = np.array([self.contact_points[i] for i in stance])
         fs = distribute_wrench(force, torque, pts, com)
         out = np.zeros(self.model.nu)
         for k, i in enumerate(stance):

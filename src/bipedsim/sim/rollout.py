@@ -63,8 +63,8 @@ class FallCriteria:
     def for_body(profile: str, support: bool = False) -> FallCriteria:
         """The default criteria of a body kind: the humanoid's above; a creature falls when its root
         drops below 0.4 of its starting height (body-height loss), tilts 1.4 rad from the reference's root
-        at that moment, or its trunk touches the ground (knees, head or tail may); a supported creature (held by an external
-        wrench) is never judged fallen."""
+        at that moment, or its trunk touches the ground (knees, head or tail may); a supported creature
+        (held by an external wrench) is never judged fallen."""
         if profile != "creature":
             return FallCriteria()
         if support:

@@ -16,7 +16,6 @@ from bipedsim.control.fsm import GaitFSM
 from bipedsim.control.reference import ClipSource, GaitSource, Hinges, PoseSource
 from bipedsim.control.simbicon import SimbiconController
 
-__all__ = ["CONTROLLERS", "ClipSource", "Controller", "ControllerConfig", "CreatureBalanceConfig", "CreatureBalanceController",
-           "CreatureControlConfig",
-           "CreatureController", "GaitFSM", "GaitSource", "Hinges", "PoseSource", "SimbiconController",
-           "load_controller"]
+__all__ = ["CONTROLLERS", "ClipSource", "Controller", "ControllerConfig", "CreatureBalanceConfig",
+           "CreatureBalanceController", "CreatureControlConfig", "CreatureController", "GaitFSM", "GaitSource",
+           "Hinges", "PoseSource", "SimbiconController", "load_controller"]

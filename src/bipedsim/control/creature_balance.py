@@ -44,18 +44,22 @@ class CreatureBalanceConfig:
     """Dimensionless gains of the creature balance (scaled by mass, size and gravity)."""
 
     #: height and attitude PD: natural frequency as a multiple of sqrt(g/L); damping ratio
-    height_freq: float = field(default=1.5, metadata={"gt": 0.0})
+    height_freq: float = field(default=1.0, metadata={"gt": 0.0})
     attitude_freq: float = field(default=2.0, metadata={"gt": 0.0})
     damping_ratio: float = field(default=1.0, metadata={"min": 0.0})
     #: share of the body weight carried by the virtual force (the rest by PD tracking)
-    gravity_comp: float = field(default=1.0, metadata={"min": 0.0, "max": 1.5})
+    gravity_comp: float = field(default=0.5, metadata={"min": 0.0, "max": 1.5})
     #: speed control: horizontal force m x speed_gain x sqrt(g/L) x (v_d - v)
-    speed_gain: float = field(default=1.0, metadata={"min": 0.0})
+    speed_gain: float = field(default=0.5, metadata={"min": 0.0})
     #: swing-foot placement per (m/s) of velocity error, in units of sqrt(L/g) s
-    placement: float = field(default=0.5, metadata={"min": 0.0})
+    placement: float = field(default=4.0, metadata={"min": 0.0})
+    #: largest placement shift, as a fraction of the standing root height
+    max_placement: float = field(default=1.0, metadata={"min": 0.0})
     friction: float = field(default=0.8, metadata={"gt": 0.0})
     #: longest wait (s) of the clip's clock for a foot that should have landed
     max_wait_s: float = field(default=0.1, metadata={"min": 0.0})
+    #: PD on the velocity error kd (qdot_ref - qdot) instead of damping kd qdot alone
+    velocity_feedforward: bool = True
     #: window (s) over which the clip's root velocity is averaged for the speed target
     velocity_window_s: float = field(default=0.5, metadata={"gt": 0.0})
 
@@ -131,6 +135,7 @@ class CreatureBalanceController(CreatureController):
         self._leg_tables(model, plan)
         self._ref_velocity(clip)
         self.loop = loop_segment(clip, self._quat_idx)
+        self._vel_idx = self.dadr[:, None] + np.arange(3)
         self.resyncs = 0
         self._strikes: list[tuple[float, str]] = []
         self.virtual: list[tuple[float, float]] = []
@@ -201,10 +206,14 @@ class CreatureBalanceController(CreatureController):
         r_ref = Rotation.from_quat(target[3:7], scalar_first=True).as_matrix()
         yaw = yaw_between(r, r_ref)
         v_d = (_rz(yaw) @ np.array([*self.v_ref[f], 0.0]))
-        self._place_swing_feet(data, target, f, v_d)
+        self._place_swing_feet(data, target, f, v_d, down)
         e = self._quat_error(data, target)
         self.tracking_error = np.linalg.norm(e, axis=1)
+        # kd (qdot_ref - qdot): the -kd qdot half is MuJoCo's implicit joint damping, the reference
+        # velocity half is fed forward here so fast swings are not damped away
         tau = self.kp[:, None] * e
+        if self.bal.velocity_feedforward:
+            tau = tau + self.kd[:, None] * self.clip.qvel[f][self._vel_idx]
         tau_all = np.zeros(model.nu)
         tau_all[self.acts.ravel()] = tau.ravel()
         stance = [i for i, d in enumerate(down) if d]
@@ -234,7 +243,8 @@ class CreatureBalanceController(CreatureController):
             if leg >= 0:
                 pts[leg] += data.contact.pos[c]
                 counts[leg] += 1
-        self.contact_points = [p / k if k else p for p, k in zip(pts, counts)]
+        self.contact_points = [p / k if k else data.site_xpos[self.leg_sites[i][0]].copy()
+                               for i, (p, k) in enumerate(zip(pts, counts))]
         return [k > 0 for k in counts]
 
     def _ref_down(self, f: int, leg: int) -> bool:
@@ -258,16 +268,21 @@ class CreatureBalanceController(CreatureController):
             self._wait += dt
             self._t0 += dt
 
-    def _place_swing_feet(self, data: mujoco.MjData, target: FloatArray, f: int, v_d: FloatArray) -> None:
-        """Turn each swinging leg's root-joint target so its foot lands ``placement`` sqrt(L/g) (v - v_d)
+    def _place_swing_feet(self, data: mujoco.MjData, target: FloatArray, f: int, v_d: FloatArray,
+                          down: list[bool]) -> None:
+        """Turn the root-joint target of each leg in swing (in the clip, and off the ground) so its foot lands ``placement`` sqrt(L/g) (v - v_d)
         further along the velocity error (the inverted-pendulum step)."""
         dv = data.qvel[0:3].copy() - v_d
         dv[2] = 0.0
         if self.bal.placement <= 0 or not np.any(dv):
             return
         shift = self.bal.placement / self.omega0 * dv  # m
+        cap = self.bal.max_placement * self.leg_height
+        size = float(np.linalg.norm(shift))
+        if size > cap:
+            shift *= cap / size
         for i in range(len(self.legs)):
-            if self._ref_down(f, i):
+            if self._ref_down(f, i) or down[i]:
                 continue
             k = self.leg_root_ball[i]
             rp = data.xmat[self.root_ball_parent[i]].reshape(3, 3)

@@ -270,8 +270,9 @@ class CreatureBalanceController(CreatureController):
 
     def _place_swing_feet(self, data: mujoco.MjData, target: FloatArray, f: int, v_d: FloatArray,
                           down: list[bool]) -> None:
-        """Turn the root-joint target of each leg in swing (in the clip, and off the ground) so its foot lands ``placement`` sqrt(L/g) (v - v_d)
-        further along the velocity error (the inverted-pendulum step)."""
+        """Turn the root-joint target of each leg in swing (in the clip, and off the ground) so its foot
+        lands ``placement`` sqrt(L/g) (v - v_d) further along the velocity error (the inverted-pendulum
+        step), at most ``max_placement`` L."""
         dv = data.qvel[0:3].copy() - v_d
         dv[2] = 0.0
         if self.bal.placement <= 0 or not np.any(dv):

@@ -178,3 +178,26 @@ def test_loop_segment_skips_lying_frames() -> None:
     a, b = loop_segment(sc.clip, ctrl._quat_idx)
     z = sc.clip.qpos[:, 2]
     assert z[a] > 0.75 * np.median(z) and b - a >= 0.4 * sc.clip.num_frames
+
+
+def test_run_a_dog_without_flags_and_sweep_it(tmp_path: Path) -> None:
+    """README's creature command: no --profile; a sweep with a creature reference (no profile key)
+    pushes the creature's root and draws its results."""
+    import json
+
+    from bipedsim.cli import main
+    from bipedsim.sim.experiment import load_experiment
+    from bipedsim.sim.sweep import run_sweep
+
+    need_shared()
+    assert main(["run", "--bvh", str(DOG), "--seconds", "0.5", "--out", str(tmp_path / "r")]) == 0
+    out = json.loads((tmp_path / "r" / "outcome.json").read_text())
+    assert out["config"]["profile"] == "creature" and out["extra"]["controller"] == "creature_balance"
+    assert len(out["extra"]["legs"]) == 4
+    exp = tmp_path / "dog.yaml"
+    exp.write_text(f"name: dog\nreference: {DOG}\nseconds: 0.6\n"
+                   "runs:\n  - {magnitude: 34, direction: 90, duration: 0.2, start: 0.2}\n"
+                   "  - {magnitude: 5000, direction: 90, duration: 0.2, start: 0.2}\n")
+    summary = run_sweep(load_experiment(exp), tmp_path / "sweep", progress=False)
+    assert summary["rollouts"] == 2 and summary["outcomes"].get("fall", 0) >= 1  # 5 kN knocks it over
+    assert (tmp_path / "sweep" / "push_polar.png").stat().st_size > 0

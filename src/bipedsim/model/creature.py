@@ -329,14 +329,15 @@ def creature_legs(plan: BodyPlanSet) -> list[Leg]:
         if b.parent is not None:
             children[b.parent].append(b.name)
 
-    def leaves(name: str) -> set[str]:
-        kids = children[name]
-        return {name} if not kids else set().union(*(leaves(k) for k in kids))
+    leaves: dict[str, set[str]] = {}
+    for b in reversed(plan.bodies):  # parents come first: children are done before their parent
+        kids = children[b.name]
+        leaves[b.name] = {b.name} if not kids else set().union(*(leaves[k] for k in kids))
 
     roots: dict[str, list[str]] = {}
     for f in plan.foot_bodies:
         r = f
-        while parent[r] is not None and parent[parent[r]] is not None and leaves(parent[r]) <= feet:
+        while parent[r] is not None and parent[parent[r]] is not None and leaves[parent[r]] <= feet:
             r = parent[r]  # type: ignore[assignment]
         if parent[r] is None:
             continue

@@ -108,7 +108,8 @@ def _add_convert(sub: argparse._SubParsersAction) -> None:
     p = _subparser(sub, "convert", cmd_convert, "build an MJCF body from a BVH skeleton (and its reference clip)")
     p.add_argument("input", help="BVH file")
     _output(p, "MJCF file to write")
-    p.add_argument("--profile", choices=("humanoid", "creature"), default="humanoid")
+    p.add_argument("--profile", choices=("auto", "humanoid", "creature"), default="auto",
+                   help="body kind (default auto: measured from the skeleton)")
     p.add_argument("--profile-file", default=None, help="a profile YAML (overrides --profile)")
     p.add_argument("--mass", type=float, default=None, help="total body mass in kg (scales every segment)")
     p.add_argument("--map", default=None, help="mapping YAML naming the humanoid roles' joints")

@@ -9,6 +9,7 @@ from typing import Any
 
 from bipedsim.io import check_output_file
 from bipedsim.model.build import build_model
+from bipedsim.model.creature_kind import AUTO, resolve_profile
 from bipedsim.model.naming import load_map
 from bipedsim.model.retarget import retarget
 from bipedsim.motion.bvh import read_bvh
@@ -16,12 +17,13 @@ from bipedsim.motion.bvh import read_bvh
 PathLike = str | os.PathLike[str]
 
 
-def convert_bvh(input: PathLike, output: PathLike, *, profile: str = "humanoid", profile_file: PathLike | None = None,
+def convert_bvh(input: PathLike, output: PathLike, *, profile: str = AUTO, profile_file: PathLike | None = None,
                 mass: float | None = None, map: PathLike | None = None, clip: PathLike | None = None,
                 scale: float | str | None = None, up: str | None = None) -> dict[str, Any]:
     """Build an MJCF body from the skeleton of the BVH file ``input`` and write it to ``output``.
 
-    ``profile``: ``"humanoid"`` or ``"creature"``, or ``profile_file`` (a profile YAML, which wins);
+    ``profile``: ``"humanoid"``, ``"creature"`` or ``"auto"`` (measured from the skeleton; a ``map`` means
+    a humanoid), or ``profile_file`` (a profile YAML, which wins);
     ``mass``: total body mass (kg; scales every segment); ``map``: a mapping YAML naming the humanoid
     roles' joints; ``clip``: also retarget the motion and write this ``.npz`` reference clip;
     ``scale``: metres per file unit or a unit name, ``up``: the file's up axis (``"y"``/``"z"``), both
@@ -35,6 +37,8 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = "humanoid",
     if clip:
         check_output_file(clip, "--clip")
     mapping = load_map(map, motion.skeleton) if map else None
+    if profile == AUTO and not profile_file:
+        profile = "humanoid" if map else resolve_profile(motion, source=str(input))
     built = build_model(motion, profile_file or profile, total_mass=mass, mapping=mapping, name=Path(output).stem)
     built.write(output)
     summary = built.summary()

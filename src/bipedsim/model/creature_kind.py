@@ -23,9 +23,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bipedsim.errors import ModelError
 from bipedsim.model.source import motion_points
 from bipedsim.motion.motion import Motion
 
+#: the ``--profile`` value that measures the body kind from the skeleton
+AUTO = "auto"
 #: an end effector is a foot when its median tip height is within this fraction of the body's height
 FOOT_HEIGHT_FRACTION = 0.25
 #: largest angle (rad) from vertical of the hips -> upper-body-centroid line of an upright trunk
@@ -131,4 +134,22 @@ def _decide(legs: int, tilt: float, hip_frac: float, arms: int) -> tuple[str, st
     return "humanoid", "two legs, upright trunk above the hips, arms"
 
 
-__all__ = ["BodyKind", "detect_body_kind"]
+def resolve_profile(motion: Motion, profile: str | None = AUTO, *, support: bool = False,
+                    source: str = "the motion") -> str:
+    """The body kind to build ``motion`` (project frame) as: ``profile`` when it names one; for
+    ``auto`` (or None) a creature when root ``support`` is asked for, else the kind measured from the
+    skeleton. A skeleton in which fewer than two legs are found (feet: end effectors that stay low) is
+    refused: it is probably misread, or needs ``--profile`` to say what it is."""
+    if profile not in (None, AUTO):
+        return str(profile)
+    if support:
+        return "creature"
+    kind = detect_body_kind(motion)
+    if len(kind.legs) < 2:
+        raise ModelError(f"{source}: cannot tell the body kind: {len(kind.legs)} leg(s) found (a leg ends in "
+                         "end effectors that stay near the ground); the file may be misread (check `bipedsim "
+                         "info`, give --scale/--up) or give --profile humanoid|creature")
+    return kind.kind
+
+
+__all__ = ["AUTO", "BodyKind", "detect_body_kind", "resolve_profile"]

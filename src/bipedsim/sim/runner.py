@@ -13,37 +13,18 @@ import numpy as np
 from bipedsim.config import to_dict
 from bipedsim.control import CONTROLLERS, Controller, CreatureControlConfig
 from bipedsim.control.config import ControllerConfig, load_controller
-from bipedsim.errors import ConfigError, ModelError
+from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
-from bipedsim.model.creature_kind import detect_body_kind
+from bipedsim.model.creature_kind import AUTO, resolve_profile
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout
 
 #: body kinds a scenario can be built as (``--profile``); ``auto``: measured from the skeleton
 #: (:func:`~bipedsim.model.creature_kind.detect_body_kind`)
-AUTO = "auto"
 PROFILES = (AUTO, "humanoid", "creature")
-
-
-def resolve_profile(motion: Any, profile: str | None = AUTO, *, support: bool = False,
-                    source: str = "the motion") -> str:
-    """The body kind to build ``motion`` (project frame) as: ``profile`` when it names one; for
-    ``auto`` (or None) a creature when root ``support`` is asked for, else the kind measured from the
-    skeleton. A skeleton in which fewer than two legs are found (feet: end effectors that stay low) is
-    refused: it is probably misread, or needs ``--profile`` to say what it is."""
-    if profile not in (None, AUTO):
-        return str(profile)
-    if support:
-        return "creature"
-    kind = detect_body_kind(motion)
-    if len(kind.legs) < 2:
-        raise ModelError(f"{source}: cannot tell the body kind: {len(kind.legs)} leg(s) found (a leg ends in "
-                         "end effectors that stay near the ground); the file may be misread (check `bipedsim "
-                         "info`, give --scale/--up) or give --profile humanoid|creature")
-    return kind.kind
 
 
 @dataclass

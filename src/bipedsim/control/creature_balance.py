@@ -33,7 +33,7 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray, register
-from bipedsim.control.creature import CreatureControlConfig, CreatureController
+from bipedsim.control.creature import CreatureControlConfig, CreatureController, quat_error_rotvecs
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature import creature_legs
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
@@ -225,8 +225,6 @@ class CreatureBalanceController(CreatureController):
         return self.torque
 
     def _quat_error(self, data: mujoco.MjData, target: FloatArray) -> FloatArray:
-        from bipedsim.control.creature import quat_error_rotvecs
-
         return quat_error_rotvecs(data.qpos[self._quat_idx], target[self._quat_idx])
 
     def _feet_down(self, data: mujoco.MjData) -> list[bool]:

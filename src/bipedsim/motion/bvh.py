@@ -536,12 +536,39 @@ def _fmt(values: FloatArray, precision: int | None) -> list[str]:
     return [f"{(v if abs(v) >= zero else 0.0) + 0.0:.{precision}f}" for v in values]
 
 
+def _depth_first(motion: Motion) -> Motion:
+    """The motion with its joints in depth-first order, the order a BVH hierarchy lists them (and its
+    channel columns follow): a skeleton built otherwise (joints appended under earlier parents, as a
+    bred meta-skeleton is) would otherwise be written with its columns under the wrong joints."""
+    sk = motion.skeleton
+    kids: dict[int, list[int]] = {j: [] for j in range(sk.num_joints)}
+    for j in range(1, sk.num_joints):
+        kids[int(sk.parents[j])].append(j)
+    order: list[int] = []
+    stack = [0]
+    while stack:
+        j = stack.pop()
+        order.append(j)
+        stack.extend(reversed(kids[j]))
+    if order == list(range(sk.num_joints)):
+        return motion
+    new = {j: k for k, j in enumerate(order)}
+    skel = sk.replace(names=tuple(sk.names[j] for j in order),
+                      parents=np.array([-1 if sk.parents[j] < 0 else new[int(sk.parents[j])] for j in order]),
+                      offsets=sk.offsets[order], channels=tuple(sk.channels[j] for j in order),
+                      position_modes=tuple(sk.position_modes[j] for j in order) if sk.position_modes else (),
+                      end_site_parents=np.array([new[int(p)] for p in sk.end_site_parents], dtype=np.int64))
+    return motion.copy(skeleton=skel, rotations=motion.rotations[:, order],
+                       translations=None if motion.translations is None else motion.translations[:, order])
+
+
 def bvh_text(motion: Motion, *, precision: int | None = None) -> str:
     """The BVH text of a motion (LF line endings, tab indentation).
 
     ``precision``: decimals per value; ``None`` writes the shortest exact representation so the file
     reads back to the same numbers.
     """
+    motion = _depth_first(motion)
     sk = motion.skeleton
     out: list[str] = ["HIERARCHY"]
     children: dict[int, list[int]] = {j: [] for j in range(sk.num_joints)}

@@ -53,9 +53,9 @@ def baseline(sc, seconds: float):
 def row(name: str, path: Path, seconds: float) -> str:
     try:
         sc = load_scenario(bvh=path)
+        out, ctrl = run_scenario(sc, RolloutSpec(seconds=seconds))
     except Exception as exc:  # noqa: BLE001 - a benchmark reports and goes on
-        return f"| {name} | refused: {exc} | | | | |"
-    out, ctrl = run_scenario(sc, RolloutSpec(seconds=seconds))
+        return f"| {name} | refused: {exc} | | | | | |"
     base = baseline(sc, seconds)
     v_clip = clip_speed(sc, ctrl)
     speed = "in place" if v_clip < IN_PLACE_MPS else f"{100 * out.mean_speed_mps / v_clip:.0f} %"

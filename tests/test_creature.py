@@ -116,6 +116,45 @@ def test_stance_leg_torques_are_the_jacobian_transpose() -> None:
             m.dof_jntid[d] for d in ctrl.leg_dofs[leg]]
 
 
+def test_reference_is_levelled_on_the_legs() -> None:
+    """The controller's reference puts its lowest leg on the floor in every frame (measured on this
+    body's geoms, checked here against the capsules' end points posed by the levelled clip), and the
+    rollout starts from the levelled pose."""
+    sc = load_scenario(bvh=HORSE_WALK)
+    m = sc.built.model
+    ctrl = sc.controller()
+    assert isinstance(ctrl, CreatureBalanceController)
+    assert np.all(np.abs(ctrl.level_shift) < 0.1 * ctrl.leg_height)
+    assert np.any(np.abs(ctrl.level_shift) > 1e-3)  # the horse's hooves float in the capture
+    data = mujoco.MjData(m)
+    leg_geoms = sorted(ctrl.geom_leg)
+    for f in range(0, sc.clip.num_frames, 7):
+        data.qpos[:] = ctrl.clip.qpos[f]
+        mujoco.mj_kinematics(m, data)
+        lows = []
+        for g in leg_geoms:
+            if m.geom_type[g] != mujoco.mjtGeom.mjGEOM_CAPSULE:
+                continue
+            axis = data.geom_xmat[g].reshape(3, 3)[:, 2] * m.geom_size[g][1]
+            lows.append(min(data.geom_xpos[g][2] + axis[2], data.geom_xpos[g][2] - axis[2]) - m.geom_size[g][0])
+        assert min(lows) == pytest.approx(0.0, abs=1e-9)
+    data = mujoco.MjData(m)
+    f0 = ctrl.start_frame()
+    data.qpos[:] = sc.clip.qpos[f0]
+    mujoco.mj_forward(m, data)
+    ctrl.reset(data, f0)
+    assert data.qpos[2] == pytest.approx(ctrl.clip.qpos[f0, 2])
+    assert ctrl.clip.qpos[f0, 2] != pytest.approx(sc.clip.qpos[f0, 2])
+
+
+def test_a_single_low_bone_is_no_leg() -> None:
+    """The pterosaur's short tail hangs as low as its feet but cannot step: two legs, in the skeleton
+    and in the body built from it."""
+    sc = load_scenario(bvh=PTEROSAUR_FLIGHT, support=True)
+    assert len(creature_legs(sc.built.plan)) == 2
+    assert all("Tail" not in leg.root for leg in creature_legs(sc.built.plan))
+
+
 class _Ref:
     """A stand-in controller whose reference root orientation is a given quaternion."""
 

@@ -25,7 +25,7 @@ standing root height L, torques by m L^2. One default, no per-clip settings.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -111,6 +111,23 @@ def loop_segment(clip: ReferenceClip, quat_idx: npt.NDArray[np.int64]) -> tuple[
     return pair
 
 
+#: frames whose lowest leg stands higher than this fraction of the standing root height are in flight
+#: (a gallop's or a jump's): they keep the clip's own height, shifted by the median of the others
+FLIGHT_FRACTION = 0.1
+
+
+def geom_bottom(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> float:
+    """The lowest point (m, world z) of geom ``g`` as posed in ``data`` (spheres and capsules exactly,
+    other shapes by their bounding sphere)."""
+    z = float(data.geom_xpos[g][2])
+    kind = model.geom_type[g]
+    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return z - float(model.geom_size[g][0])
+    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:  # axis along the geom's local z, half-length size[1]
+        return z - float(model.geom_size[g][0]) - abs(float(data.geom_xmat[g][8])) * float(model.geom_size[g][1])
+    return z - float(model.geom_rbound[g])
+
+
 def yaw_between(r: FloatArray, r_ref: FloatArray) -> float:
     """The heading turn (rad, about world Z) that best carries orientation ``r_ref`` onto ``r``."""
     e = r @ r_ref.T
@@ -133,7 +150,8 @@ class CreatureBalanceController(CreatureController):
         self.leg_height = float(np.median(clip.qpos[:, 2]))
         self.omega0 = math.sqrt(-float(model.opt.gravity[2]) / max(self.leg_height, 1e-3))
         self._leg_tables(model, plan)
-        self._ref_velocity(clip)
+        self._level_reference(model)
+        self._ref_velocity(self.clip)
         self.loop = loop_segment(clip, self._quat_idx)
         self._vel_idx = self.dadr[:, None] + np.arange(3)
         self.resyncs = 0
@@ -167,6 +185,34 @@ class CreatureBalanceController(CreatureController):
         self.root_ball_parent = [model.body_parentid[model.body(leg.root).id] for leg in self.legs]
         self.jacp = np.zeros((3, model.nv))
 
+    def _level_reference(self, model: mujoco.MjModel) -> None:
+        """Re-level the reference on this body's legs: pose the clip frame by frame, measure each leg's
+        lowest point (``ref_low``, m: its lower end's geoms, as the contacts see them) and shift the
+        root height (``level_shift``, m per frame) so the lowest leg touches the floor in every frame
+        where one is near it (below FLIGHT_FRACTION of the standing height; frames in flight take the
+        median shift). A body built from bone lengths stands its feet centimetres above or into the
+        floor where the capture's joints touched it (the dog's front paws and the horse's hooves
+        float 2-3 cm, the flamingo's stance foot sinks 2.5 cm): the height target, the start pose
+        and the stance legs' reach then disagree with the ground."""
+        clip, n_leg = self.clip, len(self.legs)
+        data = mujoco.MjData(model)
+        geoms = [[g for g, leg in self.geom_leg.items() if leg == i] for i in range(n_leg)]
+        low = np.full((clip.num_frames, n_leg), np.inf)
+        for f in range(clip.num_frames):
+            data.qpos[:] = clip.qpos[f]
+            mujoco.mj_kinematics(model, data)
+            for i, gs in enumerate(geoms):
+                if gs:
+                    low[f, i] = min(geom_bottom(model, data, g) for g in gs)
+        ground = low.min(axis=1) if n_leg else np.zeros(clip.num_frames)
+        near = ground < FLIGHT_FRACTION * self.leg_height
+        fallback = -float(np.median(ground[near])) if near.any() else 0.0
+        self.level_shift = np.where(near, -ground, fallback)
+        self.ref_low = low + self.level_shift[:, None]
+        qpos = clip.qpos.copy()
+        qpos[:, 2] += self.level_shift
+        self.clip = replace(clip, qpos=qpos)
+
     def _ref_velocity(self, clip: ReferenceClip) -> None:
         """The clip's horizontal root velocity (m/s, world), averaged over a window, per frame."""
         n = clip.num_frames
@@ -187,6 +233,9 @@ class CreatureBalanceController(CreatureController):
 
     def reset(self, data: mujoco.MjData, frame: float | None = None, t: float = 0.0) -> None:
         super().reset(data, self.loop[0] if frame is None else frame, t)
+        if not self.cfg.support:  # the caller posed the clip's start; start from the re-levelled one
+            data.qpos[2] += self.level_shift[min(int(self.frame), self.clip.num_frames - 1)]
+            mujoco.mj_forward(self.model, data)
         self.resyncs = 0
         self._strikes = []
         self.virtual = []
@@ -360,5 +409,5 @@ def make_creature_balance(model: mujoco.MjModel, plan: BodyPlanSet, clip: Refere
     return CreatureBalanceController(model, plan, clip, cfg)
 
 
-__all__ = ["CreatureBalanceConfig", "CreatureBalanceController", "distribute_wrench", "make_creature_balance",
-           "yaw_between"]
+__all__ = ["CreatureBalanceConfig", "CreatureBalanceController", "distribute_wrench", "geom_bottom",
+           "make_creature_balance", "yaw_between"]

@@ -25,6 +25,7 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
+from bipedsim.model.creature_kind import MIN_LEG_JOINTS
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
 from bipedsim.model.profile import CreatureProfile
 from bipedsim.model.source import SourcePoints, motion_points, rest_points
@@ -320,8 +321,9 @@ class Leg:
 
 def creature_legs(plan: BodyPlanSet) -> list[Leg]:
     """The legs of a creature body plan: each foot body's chain walked up while the body's subtree
-    ends only in feet (never up to the root body); feet sharing that leg root are one leg. In the
-    order of the first foot of each leg in ``plan.foot_bodies``."""
+    ends only in feet (never up to the root body); feet sharing that leg root are one leg; a chain of
+    fewer than MIN_LEG_JOINTS bodies (one bone hanging from the trunk) is no leg. In the order of the
+    first foot of each leg in ``plan.foot_bodies``."""
     feet = set(plan.foot_bodies)
     parent = {b.name: b.parent for b in plan.bodies}
     children: dict[str, list[str]] = {b.name: [] for b in plan.bodies}
@@ -336,10 +338,11 @@ def creature_legs(plan: BodyPlanSet) -> list[Leg]:
 
     roots: dict[str, list[str]] = {}
     for f in plan.foot_bodies:
-        r = f
+        r, joints = f, 1
         while parent[r] is not None and parent[parent[r]] is not None and leaves[parent[r]] <= feet:
             r = parent[r]  # type: ignore[assignment]
-        if parent[r] is None:
+            joints += 1
+        if parent[r] is None or joints < MIN_LEG_JOINTS:
             continue
         roots.setdefault(r, []).append(f)
     legs = []

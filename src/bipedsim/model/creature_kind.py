@@ -7,7 +7,8 @@ Nothing here reads joint names. From the motion's joint and End Site positions (
   point within :data:`FOOT_HEIGHT_FRACTION` of the body's median height);
 - **legs**: each foot's chain walked up from the tip while the joint's whole subtree ends only in
   feet; feet sharing that leg root are one leg (a bird's three toes), and the leg root is never the
-  skeleton's root;
+  skeleton's root; a leg bends (at least :data:`MIN_LEG_JOINTS` joints from its root to the foot): a
+  single bone hanging low from the trunk (a flying reptile's short tail) cannot step;
 - **trunk**: the direction from the legs' roots (hips) to the centroid of every joint that is in no
   leg; upright when it is within :data:`UPRIGHT_MAX_RAD` of vertical;
 - **arms**: non-leg chains that leave the trunk sideways (their tips farther from the trunk's line
@@ -31,6 +32,8 @@ from bipedsim.motion.motion import Motion
 AUTO = "auto"
 #: an end effector is a foot when its median tip height is within this fraction of the body's height
 FOOT_HEIGHT_FRACTION = 0.25
+#: a leg has at least this many joints from its root down to its foot (a hip and a knee)
+MIN_LEG_JOINTS = 2
 #: largest angle (rad) from vertical of the hips -> upper-body-centroid line of an upright trunk
 UPRIGHT_MAX_RAD = np.radians(50.0)
 #: hip height as a fraction of the standing height (top of the body) for human proportions
@@ -70,6 +73,15 @@ def _subtree_tips(parents: np.ndarray, end_parents: list[int], n: int) -> list[s
     return tips
 
 
+def _chain_joints(parents: np.ndarray, j: int, root: int) -> int:
+    """How many joints the chain from ``root`` down to its descendant ``j`` holds (both counted)."""
+    k = 1
+    while j != root:
+        j = int(parents[j])
+        k += 1
+    return k
+
+
 def detect_body_kind(motion: Motion) -> BodyKind:
     """The body kind of ``motion``'s skeleton (see the module text); ``motion`` in any frame."""
     if motion.up != "z" or motion.unit != 1.0:
@@ -89,7 +101,7 @@ def detect_body_kind(motion: Motion) -> BodyKind:
         j = t if t < n else int(sk.end_site_parents[t - n])
         while j > 0 and parents[j] > 0 and tips[int(parents[j])] <= low:
             j = int(parents[j])
-        if j == 0:
+        if j == 0 or _chain_joints(parents, t if t < n else int(sk.end_site_parents[t - n]), j) < MIN_LEG_JOINTS:
             continue
         legs.setdefault(j, []).append(t)
     in_leg = np.zeros(n, dtype=bool)

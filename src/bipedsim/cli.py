@@ -112,7 +112,8 @@ def _add_convert(sub: argparse._SubParsersAction) -> None:
     p = _subparser(sub, "convert", cmd_convert, "build an MJCF body from a BVH skeleton (and its reference clip)")
     p.add_argument("input", help="BVH file")
     _output(p, "MJCF file to write")
-    p.add_argument("--profile", choices=("humanoid", "creature"), default="humanoid")
+    p.add_argument("--profile", choices=("auto", "humanoid", "creature"), default="auto",
+                   help="body kind (default auto: measured from the skeleton)")
     p.add_argument("--profile-file", default=None, help="a profile YAML (overrides --profile)")
     p.add_argument("--mass", type=float, default=None, help="total body mass in kg (scales every segment)")
     p.add_argument("--map", default=None, help="mapping YAML naming the humanoid roles' joints")
@@ -148,8 +149,9 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
                    help="the --bvh clip's foot strikes given by hand, replacing the detected ones: 'right: [12, 140]' "
                         "and 'left: [76]' (frames, or times like '1.2s')")
     _scale_up(p, "BVH metres per unit or unit name", "BVH up axis")
-    p.add_argument("--profile", choices=("humanoid", "creature"), default="humanoid",
-                   help="humanoid (balance controller) or creature (PD tracking of every joint)")
+    p.add_argument("--profile", choices=("auto", "humanoid", "creature"), default=None,
+                   help="body kind: humanoid (SIMBICON balance) or creature (legged balance for any skeleton); "
+                        "default auto: measured from the skeleton")
     p.add_argument("--support", action="store_true",
                    help="creature only: hold the root toward the clip with an external, reported wrench "
                         "(root-support mode, e.g. for flying clips)")

@@ -11,10 +11,11 @@ from __future__ import annotations
 from bipedsim.control.base import CONTROLLERS, Controller
 from bipedsim.control.config import ControllerConfig, load_controller
 from bipedsim.control.creature import CreatureControlConfig, CreatureController
+from bipedsim.control.creature_balance import CreatureBalanceConfig, CreatureBalanceController
 from bipedsim.control.fsm import GaitFSM
 from bipedsim.control.reference import ClipSource, GaitSource, Hinges, PoseSource
 from bipedsim.control.simbicon import SimbiconController
 
-__all__ = ["CONTROLLERS", "ClipSource", "Controller", "ControllerConfig", "CreatureControlConfig",
-           "CreatureController", "GaitFSM", "GaitSource", "Hinges", "PoseSource", "SimbiconController",
-           "load_controller"]
+__all__ = ["CONTROLLERS", "ClipSource", "Controller", "ControllerConfig", "CreatureBalanceConfig",
+           "CreatureBalanceController", "CreatureControlConfig", "CreatureController", "GaitFSM", "GaitSource",
+           "Hinges", "PoseSource", "SimbiconController", "load_controller"]

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from bipedsim.control.base import Controller, FloatArray, register
+from bipedsim.control.base import Controller, FloatArray
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
@@ -174,7 +174,6 @@ class CreatureController(Controller):
         return out
 
 
-@register("creature")
 def make_creature(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
                   cfg: CreatureControlConfig | None = None) -> CreatureController:
     return CreatureController(model, plan, clip, cfg)

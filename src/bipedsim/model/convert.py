@@ -10,6 +10,7 @@ from typing import Any
 from bipedsim.io import check_output_file
 from bipedsim.model.build import build_model
 from bipedsim.model.gait import humanoid_motion
+from bipedsim.model.creature_kind import AUTO, resolve_profile
 from bipedsim.model.naming import load_map
 from bipedsim.model.retarget import retarget
 from bipedsim.motion.bvh import read_bvh
@@ -17,13 +18,14 @@ from bipedsim.motion.bvh import read_bvh
 PathLike = str | os.PathLike[str]
 
 
-def convert_bvh(input: PathLike, output: PathLike, *, profile: str = "humanoid", profile_file: PathLike | None = None,
+def convert_bvh(input: PathLike, output: PathLike, *, profile: str = AUTO, profile_file: PathLike | None = None,
                 mass: float | None = None, map: PathLike | None = None, clip: PathLike | None = None,
                 scale: float | str | None = None, up: str | None = None,
                 positions: str | None = None) -> dict[str, Any]:
     """Build an MJCF body from the skeleton of the BVH file ``input`` and write it to ``output``.
 
-    ``profile``: ``"humanoid"`` or ``"creature"``, or ``profile_file`` (a profile YAML, which wins);
+    ``profile``: ``"humanoid"``, ``"creature"`` or ``"auto"`` (measured from the skeleton; a ``map`` means
+    a humanoid), or ``profile_file`` (a profile YAML, which wins);
     ``mass``: total body mass (kg; scales every segment); ``map``: a mapping YAML naming the humanoid
     roles' joints; ``clip``: also retarget the motion and write this ``.npz`` reference clip;
     ``scale``: metres per file unit or a unit name, ``up``: the file's up axis (``"y"``/``"z"``), both
@@ -32,9 +34,12 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = "humanoid",
     anything is built. Returns the body's summary (bodies, DOFs, mass in kg, height in m, timestep in
     s, ...) with ``source``, ``output``, ``unit``, ``up`` and, with ``clip``, the clip's frames,
     trimmed frames and foot strikes."""
-    motion, info = read_bvh(input, scale=scale, up=up, positions=positions)
-    humanoid = profile_file is None and profile == "humanoid"
-    motion = humanoid_motion(motion, info.notes) if humanoid else motion.to_project_frame()
+    raw, info = read_bvh(input, scale=scale, up=up, positions=positions)
+    motion = raw.to_project_frame()
+    if profile == AUTO and not profile_file:
+        profile = "humanoid" if map else resolve_profile(motion, source=str(input))
+    if profile_file is None and profile == "humanoid":  # a rest pose that is no standing body re-posed
+        motion = humanoid_motion(raw, info.notes)
     check_output_file(output, "-o")
     if clip:
         check_output_file(clip, "--clip")

@@ -25,6 +25,7 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
+from bipedsim.model.creature_kind import MIN_LEG_JOINTS
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
 from bipedsim.model.profile import CreatureProfile
 from bipedsim.model.source import SourcePoints, motion_points, rest_points
@@ -60,7 +61,10 @@ def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float
     mass_of = {j: sum(g.mass for g in b.geoms) for j, b in zip(tree.kept, bodies)}
     target = total_mass if total_mass is not None else profile.total_mass
     scale = _scale_masses(bodies, mass_of, target)
-    _set_motors(bodies, tree, {j: m * scale for j, m in mass_of.items()}, profile, size)
+    masses = {j: m * scale for j, m in mass_of.items()}
+    legs = creature_legs(BodyPlanSet(name=name, profile="creature", bodies=bodies, heading_yaw=0.0, source_names=[],
+                                     sim={}))
+    _set_motors(bodies, tree, masses, profile, size, _leg_loads(bodies, tree, legs, sum(masses.values())))
     lift = _stand_on_floor(bodies)
     markers = {sk.names[j]: ["body", tree.names[j]] for j in tree.kept}
     return BodyPlanSet(name=name, profile="creature", bodies=bodies, heading_yaw=0.0,
@@ -254,20 +258,45 @@ def _subtrees(tree: _Tree, mass: dict[int, float]) -> tuple[dict[int, float], di
     return sub_mass, reach
 
 
+def _leg_loads(bodies: list[BodyPlan], tree: _Tree, legs: list[Leg], total: float) -> dict[int, float]:
+    """The mass (kg) each leg joint holds up when its leg stands: the body's ``total`` mass times
+    min(1, 2 / legs) (a biped stands on one leg, a quadruped trots on two), for every joint of a leg
+    above its feet (a foot's own joint carries only the foot)."""
+    if not legs:
+        return {}
+    share = total * min(1.0, 2.0 / len(legs))
+    by_name = {tree.names[j]: j for j in tree.kept}
+    return {by_name[b]: share for leg in legs for b in leg.bodies if b not in leg.feet}
+
+
+#: Largest stiffness of a joint's PD as (natural frequency x timestep)^2 of the subtree it turns, with
+#: the subtree's inertia taken as mass x reach^2: PD torques are explicit, so a stiff light body
+#: (a foot, a toe) must stay far inside the explicit integrator's limit of 4.
+MAX_STIFFNESS_STEP = 0.25
+
+
 def _set_motors(bodies: list[BodyPlan], tree: _Tree, mass: dict[int, float], profile: CreatureProfile,
-                size: float) -> None:
-    """Motor strength from the subtree each ball joint carries: torque limit (N m) ``torque_scale`` x
-    subtree mass x reach (at least 5 % of ``size``) x g, gains the profile's unit gains x mass x reach.
-    ``mass``: each body's own mass (kg), after scaling."""
+                size: float, loads: dict[int, float] | None = None) -> None:
+    """Motor strength from the load each ball joint carries: torque limit (N m) ``torque_scale`` x load x
+    reach (at least 5 % of ``size``) x g, gains the profile's unit gains x load x reach, the stiffness
+    capped at MAX_STIFFNESS_STEP. The load is the subtree's mass, or for a leg joint the body weight
+    share it holds up (``loads``, kg); the damping at most critical for the subtree (inertia taken as
+    its mass x reach^2). ``mass``: each body's own mass (kg), after scaling."""
     sub_mass, reach = _subtrees(tree, mass)
     kp_unit, kd_unit = profile.gains
+    dt = profile.sim.timestep
     for b, j in zip(bodies, tree.kept):
         if j == 0:
             continue
-        scale_j = sub_mass[j] * max(reach[j], 0.05 * size)
-        b.joints[0].torque = float(profile.torque_scale * scale_j * GRAVITY)
-        b.joints[0].kp = float(kp_unit * scale_j)
-        b.joints[0].kd = float(kd_unit * scale_j)
+        r = max(reach[j], 0.05 * size)
+        load = max(sub_mass[j], (loads or {}).get(j, 0.0))
+        b.joints[0].torque = float(profile.torque_scale * load * r * GRAVITY)
+        inertia = sub_mass[j] * r * r
+        kp = min(kp_unit * load * r, MAX_STIFFNESS_STEP * inertia / (dt * dt))
+        b.joints[0].kp = float(kp)
+        # no more than critical damping of the subtree it swings: a leg sized for the body's weight
+        # would otherwise swing through syrup
+        b.joints[0].kd = float(min(kd_unit * load * r, 2.0 * np.sqrt(kp * inertia)))
 
 
 def _stand_on_floor(bodies: list[BodyPlan]) -> float:
@@ -277,3 +306,63 @@ def _stand_on_floor(bodies: list[BodyPlan]) -> float:
     for b in bodies:
         b.pos[2] += lift
     return lift
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One leg of a creature body: the body it hangs from the trunk by (``root``), its chain of
+    bodies from there down (``bodies``, the root first) and the foot bodies it ends in (``feet``: one,
+    or several toes)."""
+
+    root: str
+    bodies: tuple[str, ...]
+    feet: tuple[str, ...]
+
+
+def creature_legs(plan: BodyPlanSet) -> list[Leg]:
+    """The legs of a creature body plan: each foot body's chain walked up while the body's subtree
+    ends only in feet (never up to the root body); feet sharing that leg root are one leg; a chain of
+    fewer than MIN_LEG_JOINTS bodies (one bone hanging from the trunk) is no leg. In the order of the
+    first foot of each leg in ``plan.foot_bodies``."""
+    feet = set(plan.foot_bodies)
+    parent = {b.name: b.parent for b in plan.bodies}
+    children: dict[str, list[str]] = {b.name: [] for b in plan.bodies}
+    for b in plan.bodies:
+        if b.parent is not None:
+            children[b.parent].append(b.name)
+
+    leaves: dict[str, set[str]] = {}
+    for b in reversed(plan.bodies):  # parents come first: children are done before their parent
+        kids = children[b.name]
+        leaves[b.name] = {b.name} if not kids else set().union(*(leaves[k] for k in kids))
+
+    roots: dict[str, list[str]] = {}
+    for f in plan.foot_bodies:
+        r, joints = f, 1
+        while parent[r] is not None and parent[parent[r]] is not None and leaves[parent[r]] <= feet:
+            r = parent[r]  # type: ignore[assignment]
+            joints += 1
+        if parent[r] is None or joints < MIN_LEG_JOINTS:
+            continue
+        roots.setdefault(r, []).append(f)
+    legs = []
+    for r, fs in roots.items():
+        chain, stack = [], [r]
+        while stack:
+            b = stack.pop(0)
+            chain.append(b)
+            stack.extend(children[b])
+        legs.append(Leg(root=r, bodies=tuple(chain), feet=tuple(fs)))
+    return legs
+
+
+def trunk_bodies(plan: BodyPlanSet) -> set[str]:
+    """The creature's trunk: its root body and every body between it and a leg's root."""
+    parent = {b.name: b.parent for b in plan.bodies}
+    out = {b.name for b in plan.bodies if b.parent is None}
+    for leg in creature_legs(plan):
+        p = parent[leg.root]
+        while p is not None:
+            out.add(p)
+            p = parent[p]
+    return out

@@ -143,7 +143,7 @@ class ExperimentSpec:
     seconds: float = field(default=6.0, metadata={"gt": 0.0, "max": MAX_ROLLOUT_S})
     reference: str | None = None  #: BVH (relative to the file); null: the built-in walk
     #: the body kind built from the reference and its controller (``bipedsim run --profile``)
-    profile: str = field(default="humanoid", metadata={"choices": PROFILES})
+    profile: str = field(default="auto", metadata={"choices": PROFILES})
     #: a creature's root support (``bipedsim run --support``)
     support: bool = False
     body: str = DEFAULT_PUSH_BODY
@@ -288,12 +288,14 @@ def load_experiment(path: str | os.PathLike[str]) -> Experiment:
     return exp
 
 
-def _body_names(reference: str | None, profile: str = "humanoid") -> set[str]:
+def _body_names(reference: str | None, profile: str = "auto") -> set[str]:
     from bipedsim.data import BUILTIN_WALK
     from bipedsim.model.build import build_model
     from bipedsim.motion.bvh import load_bvh
+    from bipedsim.sim.runner import resolve_profile
 
-    built = build_model(load_bvh(reference or BUILTIN_WALK), profile)
+    motion = load_bvh(reference or BUILTIN_WALK)
+    built = build_model(motion, resolve_profile(motion.to_project_frame(), profile, source=str(reference)))
     return {built.model.body(i).name for i in range(1, built.model.nbody)}
 
 
@@ -310,7 +312,7 @@ class SuiteScenario:
     expect: str = field(default="no_fall", metadata={"choices": EXPECTATIONS})
     reference: str | None = None
     controller: str | None = None
-    profile: str = field(default="humanoid", metadata={"choices": PROFILES})
+    profile: str = field(default="auto", metadata={"choices": PROFILES})
     support: bool = False
     seconds: float = field(default=8.0, metadata={"gt": 0.0, "max": MAX_ROLLOUT_S})
     seed: int = field(default=0, metadata={"min": 0})  # numpy's generators take no negative seed

@@ -223,13 +223,13 @@ def render_folder(folder: PathLike, output: PathLike | None = None, video_option
 
 
 # ---------------------------------------------------------------------- the whole run
-def check_run_options(*, profile: str = "humanoid", support: bool = False, bvh: PathLike | None = None,
+def check_run_options(*, profile: str | None = None, support: bool = False, bvh: PathLike | None = None,
                       scale: float | str | None = None, up: str | None = None, init_noise: float = 0.0,
                       seed: int = 0, positions: str | None = None) -> None:
     """Refuse run options that would be ignored or meaningless, before anything runs: each error names
     the flag and what is allowed. Ranges of the run length and pushes are checked by
     :func:`~bipedsim.sim.push.check_pushes`, the video options by :meth:`VideoOptions.validate`."""
-    if support and profile != "creature":
+    if support and (profile == "humanoid" or bvh is None):  # a creature's, given or detected (issue 20)
         raise ConfigError("holds a creature's root; it needs --profile creature", key="--support")
     if bvh is None:
         for flag, value, what in (("--scale", scale, "unit"), ("--up", up, "up axis"),
@@ -304,7 +304,7 @@ def _timed_bar(seconds: float, show: bool) -> tuple[Callable[[float], None], Cal
 def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLike | None = None,
                   seconds: float = 10.0, seed: int = 0, init_noise: float = 0.0, mass: float | None = None,
                   scale: float | str | None = None, up: str | None = None, positions: str | None = None,
-                  events: PathLike | None = None, profile: str = "humanoid", support: bool = False,
+                  events: PathLike | None = None, profile: str | None = None, support: bool = False,
                   record_hz: float = DEFAULT_RECORD_HZ, pushes: Sequence[str | Push] = (),
                   plots: bool = False, csv: PathLike | None = None, export_bvh: PathLike | None = None,
                   video: PathLike | None = None, gif: PathLike | None = None,

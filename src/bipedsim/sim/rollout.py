@@ -19,6 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.control.base import Controller
+from bipedsim.model.creature import trunk_bodies
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
 
 FloatArray = npt.NDArray[np.float64]
@@ -54,19 +55,22 @@ class FallCriteria:
     torso_tilt: float = field(default=1.0, metadata={"gt": 0.0, "max": math.pi})
     check_every: float = field(default=0.01, metadata={"gt": 0.0, "max": MAX_CHECK_EVERY_S})
     tilt_from: str = field(default="world", metadata={"choices": ("world", "reference")})
+    #: a creature's trunk (its root body and the bodies between it and the legs' roots) touching the
+    #: floor is a fall, whatever ``non_foot_contact`` says (knees, a head or a tail may touch)
+    trunk_contact: bool = False
 
     @staticmethod
     def for_body(profile: str, support: bool = False) -> FallCriteria:
         """The default criteria of a body kind: the humanoid's above; a creature falls when its root
-        drops below 0.4 of its height or tilts 1.4 rad from the reference's root (its belly or knees may
-        touch the ground: a lying dog has not fallen); a supported creature (held by an external
-        wrench) is never judged fallen."""
+        drops below 0.4 of its starting height (body-height loss), tilts 1.4 rad from the reference's root
+        at that moment, or its trunk touches the ground (knees, head or tail may); a supported creature
+        (held by an external wrench) is never judged fallen."""
         if profile != "creature":
             return FallCriteria()
         if support:
             return FallCriteria(non_foot_contact=False, pelvis_height_fraction=0.0, torso_tilt=math.pi)
         return FallCriteria(non_foot_contact=False, pelvis_height_fraction=0.4, torso_tilt=1.4,
-                            tilt_from="reference")
+                            tilt_from="reference", trunk_contact=True)
 
 
 @dataclass
@@ -106,7 +110,11 @@ class FallDetector:
         #: a contact between the floor and one of these geoms is a fall (a plain set: the per-check loop
         #: over a walking body's few contacts beats numpy's per-call cost)
         self._bad_geoms = {g for g in range(model.ngeom)
-                           if model.geom_bodyid[g] not in ok_bodies and model.geom_bodyid[g] != 0}
+                           if model.geom_bodyid[g] not in ok_bodies and model.geom_bodyid[g] != 0} \
+            if crit.non_foot_contact else set()
+        if crit.trunk_contact and plan.profile == "creature":
+            trunk = {model.body(b).id for b in trunk_bodies(plan)}
+            self._bad_geoms |= {g for g in range(model.ngeom) if model.geom_bodyid[g] in trunk}
         self.pelvis = root
         torso = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso")
         self.torso = torso if torso >= 0 else root
@@ -119,7 +127,7 @@ class FallDetector:
         """The reason the character has fallen, or None (this runs every few ms: a walking body has a
         handful of contacts, so a plain loop over them beats numpy's per-call cost)."""
         c = self.crit
-        if c.non_foot_contact and data.ncon:
+        if self._bad_geoms and data.ncon:
             floor, bad = self.floor, self._bad_geoms
             for g1, g2 in data.contact.geom.tolist():
                 if (g1 == floor and g2 in bad) or (g2 == floor and g1 in bad):

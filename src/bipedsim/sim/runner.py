@@ -18,12 +18,14 @@ from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.gait import humanoid_motion
+from bipedsim.model.creature_kind import AUTO, resolve_profile
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout
 
-#: body kinds a scenario can be built as (``--profile``)
-PROFILES = ("humanoid", "creature")
+#: body kinds a scenario can be built as (``--profile``); ``auto``: measured from the skeleton
+#: (:func:`~bipedsim.model.creature_kind.detect_body_kind`)
+PROFILES = (AUTO, "humanoid", "creature")
 
 
 @dataclass
@@ -69,16 +71,26 @@ class Scenario:
 
 def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.PathLike[str] | None = None, *,
                   scale: float | str | None = None, up: str | None = None, mass: float | None = None,
-                  profile: str = "humanoid", support: bool = False, positions: str | None = None,
+                  profile: str | None = AUTO, support: bool = False, positions: str | None = None,
                   events: str | os.PathLike[str] | None = None) -> Scenario:
     """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
-    retargeted onto it. A controller YAML configures the humanoid's controller; ``support`` (root
-    support) is a creature's."""
+    retargeted onto it (``auto``: the kind measured from the skeleton, :func:`resolve_profile`). A
+    controller YAML configures the humanoid's controller; ``support`` (root support) is a creature's."""
     from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
     from bipedsim.motion.bvh import read_bvh
 
+    profile = AUTO if profile is None else profile
     if profile not in PROFILES:
         raise ConfigError(f"unknown body profile {profile!r}; profiles: {', '.join(PROFILES)}", key="profile")
+    if bvh is None and profile == AUTO:
+        profile = "humanoid"  # the built-in walk
+    motion = info = None
+    if bvh is not None:
+        raw, info = read_bvh(bvh, scale=scale, up=up, positions=positions)
+        motion = raw.to_project_frame()
+        profile = resolve_profile(motion, profile, support=support, source=str(bvh))
+        if profile == "humanoid":  # a rest pose that is no standing body re-posed (model.gait)
+            motion = humanoid_motion(raw, info.notes)
     if profile == "creature" and config is not None:
         raise ConfigError("a controller YAML configures the humanoid's balance controller; a creature is "
                           "tracked by its own (give --support for root support)", key="config")
@@ -95,8 +107,6 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
             built = build_model(motion, "humanoid", total_mass=mass, name="humanoid")
         src = str(BUILTIN_WALK)
     else:
-        raw, info = read_bvh(bvh, scale=scale, up=up, positions=positions)
-        motion = raw.to_project_frame() if profile != "humanoid" else humanoid_motion(raw, info.notes)
         built = build_model(motion, profile, total_mass=mass, name=Path(bvh).stem)
         src = str(bvh)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)
@@ -152,4 +162,4 @@ def write_outcome(out: Outcome, folder: str | os.PathLike[str]) -> Path:
     return path
 
 
-__all__ = ["PROFILES", "Scenario", "load_scenario", "run_scenario", "write_outcome"]
+__all__ = ["AUTO", "PROFILES", "resolve_profile", "Scenario", "load_scenario", "run_scenario", "write_outcome"]

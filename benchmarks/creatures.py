@@ -1,0 +1,91 @@
+"""Every creature clip walked in physics without support: outcome, fall time and speed against the
+clip's own, for the creature balance controller and, as the baseline, PD tracking alone.
+
+    python benchmarks/creatures.py [--seconds 20] [--animals ../shared/data/bvh/animal]
+
+Clips: every ``*.bvh`` in the shared animal folder, the shipped horse walk, and a child bred from the
+shared dog and the horse (``bipedsim breed``'s package function, no mutations). Each row is one
+rollout from the controller's start frame through the one rollout loop; the body kind is measured from
+the skeleton (no --profile). ``speed %`` is the simulated mean speed (straight-line distance / time)
+against the clip's own mean root speed over its looped part; an in-place clip (clip speed under
+IN_PLACE_MPS) has no speed requirement and shows ``in place``. The last column is the balance
+controller's survival time over the baseline's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from bipedsim.breed.files import breed_files
+from bipedsim.control.creature import CreatureController
+from bipedsim.data import HORSE_WALK
+from bipedsim.sim.rollout import RolloutSpec, rollout
+from bipedsim.sim.runner import load_scenario, run_scenario
+
+REPO = Path(__file__).resolve().parent.parent
+ANIMALS = REPO.parent / "shared" / "data" / "bvh" / "animal"
+#: a clip whose root moves slower than this (m/s) walks in place
+IN_PLACE_MPS = 0.1
+
+
+def clip_speed(sc, ctrl) -> float:
+    """The clip's mean horizontal root speed (m/s) over the part the controller loops."""
+    a, b = getattr(ctrl, "loop", (0, sc.clip.num_frames))
+    q = sc.clip.qpos
+    path = np.linalg.norm(np.diff(q[a:b, :2], axis=0), axis=1).sum()
+    return float(path / max((b - a - 1) * sc.clip.frame_time, 1e-9))
+
+
+def baseline(sc, seconds: float):
+    """PD tracking alone (no balance) from the same start."""
+    ctrl = CreatureController(sc.built.model, sc.built.plan, sc.clip, sc.creature_cfg)
+    f = sc.controller().start_frame()
+    out, _ = rollout(sc.built.model, sc.built.plan, ctrl, RolloutSpec(seconds=seconds, start_frame=float(f),
+                     fall=sc.fall_criteria()), initial_qpos=sc.clip.qpos[f], initial_qvel=sc.clip.qvel[f])
+    return out
+
+
+def row(name: str, path: Path, seconds: float) -> str:
+    try:
+        sc = load_scenario(bvh=path)
+        out, ctrl = run_scenario(sc, RolloutSpec(seconds=seconds))
+    except Exception as exc:  # noqa: BLE001 - a benchmark reports and goes on
+        return f"| {name} | refused: {exc} | | | | | |"
+    base = baseline(sc, seconds)
+    v_clip = clip_speed(sc, ctrl)
+    speed = "in place" if v_clip < IN_PLACE_MPS else f"{100 * out.mean_speed_mps / v_clip:.0f} %"
+    t_bal = out.fall_time_s or out.sim_seconds
+    t_base = base.fall_time_s or base.sim_seconds
+    fall = f"{out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else "-"
+    return (f"| {name} | {sc.profile}, {len(getattr(ctrl, 'legs', []))} legs | {out.outcome} | {fall} | "
+            f"{out.mean_speed_mps:.2f} / {v_clip:.2f} m/s ({speed}) | {base.outcome} at {t_base:.2f} s | "
+            f"{t_bal / max(t_base, 1e-9):.2f} |")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--seconds", type=float, default=20.0)
+    ap.add_argument("--animals", type=Path, default=ANIMALS)
+    args = ap.parse_args()
+    clips = [(p.stem, p) for p in sorted(args.animals.glob("*.bvh"))] + [("horse_walk (shipped)", HORSE_WALK)]
+    dog = args.animals / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
+    tmp = Path(tempfile.mkdtemp(prefix="bipedsim-creatures-"))
+    if dog.is_file():
+        child = tmp / "dog_x_horse.bvh"
+        breed_files(dog, HORSE_WALK, child, mutations=0)
+        clips.append(("child of dog x horse (bred)", child))
+    print(f"{args.seconds:g} s per rollout, no support, no flags\n")
+    print("| clip | body | outcome | fall | speed sim / clip | baseline (PD only) | survival ratio |")
+    print("|---|---|---|---|---|---|---|")
+    for name, path in clips:
+        print(row(name, path, args.seconds), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,167 @@
+"""Which body kind a skeleton is, measured from its motion: a human-like upright biped gets the
+humanoid body and balance controller, anything else (quadrupeds, birds, bred chimeras) the creature's.
+
+Nothing here reads joint names. From the motion's joint and End Site positions (project frame: m, Z up):
+
+- **feet**: end effectors whose tip spends the motion low (median height above the frame's lowest
+  point within :data:`FOOT_HEIGHT_FRACTION` of the body's median height);
+- **legs**: each foot's chain walked up from the tip while the joint's whole subtree ends only in
+  feet; feet sharing that leg root are one leg (a bird's three toes), and the leg root is never the
+  skeleton's root; a leg bends (at least :data:`MIN_LEG_JOINTS` joints from its root to the foot): a
+  single bone hanging low from the trunk (a flying reptile's short tail) cannot step;
+- **trunk**: the direction from the legs' roots (hips) to the centroid of every joint that is in no
+  leg; upright when it is within :data:`UPRIGHT_MAX_RAD` of vertical;
+- **arms**: non-leg chains that leave the trunk sideways (their tips farther from the trunk's line
+  than :data:`ARM_REACH_FRACTION` of the height);
+- **proportions**: the hips at :data:`HIP_HEIGHT_RANGE` of the standing height.
+
+Humanoid = two legs, an upright trunk above the hips, arms, human proportions; else creature.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from bipedsim.errors import ModelError
+from bipedsim.model.source import motion_points
+from bipedsim.motion.motion import Motion
+
+#: the ``--profile`` value that measures the body kind from the skeleton
+AUTO = "auto"
+#: an end effector is a foot when its median tip height is within this fraction of the body's height
+FOOT_HEIGHT_FRACTION = 0.25
+#: a leg has at least this many joints from its root down to its foot (a hip and a knee)
+MIN_LEG_JOINTS = 2
+#: largest angle (rad) from vertical of the hips -> upper-body-centroid line of an upright trunk
+UPRIGHT_MAX_RAD = np.radians(50.0)
+#: hip height as a fraction of the standing height (top of the body) for human proportions
+HIP_HEIGHT_RANGE = (0.35, 0.7)
+#: an arm's tip lies at least this fraction of the height from the trunk's line (any frame's median)
+ARM_REACH_FRACTION = 0.12
+
+
+@dataclass(frozen=True)
+class BodyKind:
+    """What :func:`detect_body_kind` measured and decided."""
+
+    kind: str  #: "humanoid" or "creature"
+    legs: tuple[tuple[str, tuple[str, ...]], ...]  #: (leg root joint, its feet' joints) per leg
+    trunk_tilt_rad: float  #: hips -> upper-body centroid, angle from vertical (median over frames)
+    hip_height_fraction: float  #: hip height / standing height (median over frames)
+    arms: int  #: non-leg chains reaching sideways from the trunk
+    reason: str  #: one line: why this kind
+
+    def describe(self) -> str:
+        return (f"{self.kind}: {len(self.legs)} legs, trunk {np.degrees(self.trunk_tilt_rad):.0f} deg from "
+                f"vertical, hips at {self.hip_height_fraction:.2f} of the height, {self.arms} arms ({self.reason})")
+
+
+def _subtree_tips(parents: np.ndarray, end_parents: list[int], n: int) -> list[set[int]]:
+    """Per joint, the tips (End Site indices offset by ``n``, or leaf joints) of its subtree."""
+    tips: list[set[int]] = [set() for _ in range(n)]
+    has_child = np.zeros(n, dtype=bool)
+    has_child[[p for p in parents[1:]]] = True
+    for e, p in enumerate(end_parents):
+        tips[p].add(n + e)
+    for j in range(n):
+        if not has_child[j] and not tips[j]:
+            tips[j].add(j)
+    for j in range(n - 1, 0, -1):  # parents come first in a skeleton
+        tips[int(parents[j])] |= tips[j]
+    return tips
+
+
+def _chain_joints(parents: np.ndarray, j: int, root: int) -> int:
+    """How many joints the chain from ``root`` down to its descendant ``j`` holds (both counted)."""
+    k = 1
+    while j != root:
+        j = int(parents[j])
+        k += 1
+    return k
+
+
+def detect_body_kind(motion: Motion) -> BodyKind:
+    """The body kind of ``motion``'s skeleton (see the module text); ``motion`` in any frame."""
+    if motion.up != "z" or motion.unit != 1.0:
+        motion = motion.to_project_frame()
+    sk = motion.skeleton
+    n = sk.num_joints
+    pts = motion_points(motion).positions  # (T, n + ends, 3)
+    z = pts[:, :, 2]
+    rel = z - z.min(axis=1, keepdims=True)
+    height = float(np.median(rel.max(axis=1))) or 1e-9
+    parents = np.asarray(sk.parents)
+    tips = _subtree_tips(parents, list(sk.end_site_parents), n)
+    all_tips = sorted(set().union(*tips)) if n else []
+    low = {t for t in all_tips if np.median(rel[:, t]) <= FOOT_HEIGHT_FRACTION * height}
+    legs: dict[int, list[int]] = {}
+    for t in sorted(low):
+        j = t if t < n else int(sk.end_site_parents[t - n])
+        while j > 0 and parents[j] > 0 and tips[int(parents[j])] <= low:
+            j = int(parents[j])
+        if j == 0 or _chain_joints(parents, t if t < n else int(sk.end_site_parents[t - n]), j) < MIN_LEG_JOINTS:
+            continue
+        legs.setdefault(j, []).append(t)
+    in_leg = np.zeros(n, dtype=bool)
+    for root in legs:
+        stack = [root]
+        while stack:
+            j = stack.pop()
+            in_leg[j] = True
+            stack.extend(int(c) for c in np.flatnonzero(parents == j) if c != j)
+    hips = pts[:, list(legs), :].mean(axis=1) if legs else pts[:, 0, :]
+    upper = pts[:, :n][:, ~in_leg] if (~in_leg).any() else pts[:, :1]
+    d = upper.mean(axis=1) - hips
+    tilt = float(np.median(np.arctan2(np.linalg.norm(d[:, :2], axis=1), d[:, 2])))
+    hip_frac = float(np.median((hips[:, 2] - z.min(axis=1)) / np.maximum(rel.max(axis=1), 1e-9)))
+    axis = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
+    arms = 0
+    for t in all_tips:
+        j = t if t < n else int(sk.end_site_parents[t - n])
+        if in_leg[j] or t in low:
+            continue
+        v = pts[:, t] - hips
+        off = np.linalg.norm(v - np.sum(v * axis, axis=1, keepdims=True) * axis, axis=1)
+        if np.median(off) >= ARM_REACH_FRACTION * height:
+            arms += 1
+    named = tuple((sk.names[r], tuple(sk.names[t] if t < n else f"{sk.names[sk.end_site_parents[t - n]]}/End Site"
+                                      for t in ts)) for r, ts in legs.items())
+    kind, reason = _decide(len(legs), tilt, hip_frac, arms)
+    return BodyKind(kind=kind, legs=named, trunk_tilt_rad=tilt, hip_height_fraction=hip_frac, arms=arms,
+                    reason=reason)
+
+
+def _decide(legs: int, tilt: float, hip_frac: float, arms: int) -> tuple[str, str]:
+    if legs != 2:
+        return "creature", f"{legs} legs, not 2"
+    if tilt > UPRIGHT_MAX_RAD:
+        return "creature", f"trunk not upright (more than {np.degrees(UPRIGHT_MAX_RAD):.0f} deg from vertical)"
+    lo, hi = HIP_HEIGHT_RANGE
+    if not lo <= hip_frac <= hi:
+        return "creature", f"hips at {hip_frac:.2f} of the height, outside {lo:g}-{hi:g}"
+    if arms < 2:
+        return "creature", "fewer than two arms"
+    return "humanoid", "two legs, upright trunk above the hips, arms"
+
+
+def resolve_profile(motion: Motion, profile: str | None = AUTO, *, support: bool = False,
+                    source: str = "the motion") -> str:
+    """The body kind to build ``motion`` (project frame) as: ``profile`` when it names one; for
+    ``auto`` (or None) a creature when root ``support`` is asked for, else the kind measured from the
+    skeleton. A skeleton in which fewer than two legs are found (feet: end effectors that stay low) is
+    refused: it is probably misread, or needs ``--profile`` to say what it is."""
+    if profile not in (None, AUTO):
+        return str(profile)
+    if support:
+        return "creature"
+    kind = detect_body_kind(motion)
+    if len(kind.legs) < 2:
+        raise ModelError(f"{source}: cannot tell the body kind: {len(kind.legs)} leg(s) found (a leg ends in "
+                         "end effectors that stay near the ground); the file may be misread (check `bipedsim "
+                         "info`, give --scale/--up) or give --profile humanoid|creature")
+    return kind.kind
+
+
+__all__ = ["AUTO", "BodyKind", "detect_body_kind", "resolve_profile"]

@@ -1,0 +1,242 @@
+"""The legged creature (issue 20): body kind measured from the skeleton, legs, the virtual-wrench
+distribution and its Jacobian-transpose torques, the tilt rule against the clip's own root, the
+trunk-contact rule."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+from conftest import SHARED_BVH, need_shared, shared_params
+
+from bipedsim.control.creature_balance import CreatureBalanceController, distribute_wrench, loop_segment
+from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT
+from bipedsim.errors import ModelError
+from bipedsim.model.creature import creature_legs, trunk_bodies
+from bipedsim.model.creature_kind import detect_body_kind
+from bipedsim.motion.bvh import load_bvh, read_bvh
+from bipedsim.sim.rollout import FallCriteria, FallDetector
+from bipedsim.sim.runner import load_scenario, resolve_profile
+
+DOG = SHARED_BVH / "animal" / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
+FLAMINGO = SHARED_BVH / "animal" / "truebones_flamingo_walk_inplace.bvh"
+
+
+@pytest.mark.parametrize("path", shared_params("human"))
+def test_shared_humans_are_humanoids(path: Path) -> None:
+    """Every shared human walk is measured humanoid -- or, only where reading found no plausible unit
+    (a misread file), refused with a message asking for --profile, never built as a creature."""
+    motion = load_bvh(path).to_project_frame()
+    try:
+        kind = resolve_profile(motion, source=str(path))
+    except ModelError as exc:
+        assert "--profile" in str(exc) and "leg(s) found" in str(exc)
+        _, info = read_bvh(path)
+        assert "fits no unit's plausible range" in info.unit_reason, info.unit_reason
+        return
+    assert kind == "humanoid", detect_body_kind(motion).describe()
+
+
+@pytest.mark.parametrize("path, legs", [(HORSE_WALK, 4), (PTEROSAUR_FLIGHT, 2), (BUILTIN_WALK, 2)])
+def test_shipped_clips_body_kind(path: Path, legs: int) -> None:
+    kind = detect_body_kind(load_bvh(path))
+    assert len(kind.legs) == legs
+    assert kind.kind == ("humanoid" if path == BUILTIN_WALK else "creature"), kind.describe()
+
+
+def test_shared_animals_are_creatures_with_their_legs() -> None:
+    need_shared()
+    dog = detect_body_kind(load_bvh(DOG))
+    assert dog.kind == "creature" and len(dog.legs) == 4
+    bird = detect_body_kind(load_bvh(FLAMINGO))
+    # two legs (the left foot's three toes are one leg) but a horizontal trunk: not human-like
+    assert bird.kind == "creature" and len(bird.legs) == 2 and bird.trunk_tilt_rad > np.radians(60)
+    assert max(len(feet) for _, feet in bird.legs) == 3
+
+
+def test_profile_flag_overrides_and_birds_need_no_flag() -> None:
+    need_shared()
+    assert load_scenario(bvh=FLAMINGO).profile == "creature"  # was "no left leg" without --profile
+    assert resolve_profile(load_bvh(FLAMINGO).to_project_frame(), "humanoid") == "humanoid"
+    assert load_scenario(bvh=PTEROSAUR_FLIGHT, support=True).profile == "creature"
+
+
+def test_legs_of_the_dog_and_the_horse() -> None:
+    need_shared()
+    for path in (DOG, HORSE_WALK):
+        plan = load_scenario(bvh=path).built.plan
+        legs = creature_legs(plan)
+        assert len(legs) == 4 and all(len(leg.feet) == 1 for leg in legs)
+        assert {f for leg in legs for f in leg.feet} == set(plan.foot_bodies)
+        # the trunk holds the root and none of a leg's bodies
+        trunk = trunk_bodies(plan)
+        assert plan.bodies[0].name in trunk and not trunk & {b for leg in legs for b in leg.bodies}
+
+
+def test_wrench_distribution_reproduces_the_wrench() -> None:
+    rng = np.random.default_rng(1)
+    pts = np.array([[0.3, 0.1, 0.0], [0.3, -0.1, 0.0], [-0.3, 0.1, 0.0], [-0.3, -0.1, 0.0]])
+    com = np.array([0.02, 0.0, 0.45])
+    for _ in range(5):
+        force, torque = rng.normal(size=3) * 50, rng.normal(size=3) * 10
+        f = distribute_wrench(force, torque, pts, com)
+        assert np.allclose(f.sum(axis=0), force, rtol=1e-3, atol=1e-2)
+        assert np.allclose(np.cross(pts - com, f).sum(axis=0), torque, rtol=1e-3, atol=1e-2)
+
+
+def test_stance_leg_torques_are_the_jacobian_transpose() -> None:
+    """tau = -J^T f: by virtual work, tau . dq = -f . dp for a small leg motion dq moving the foot
+    point by dp (measured by forward kinematics, not from the Jacobian)."""
+    sc = load_scenario(bvh=HORSE_WALK)
+    m = sc.built.model
+    ctrl = sc.controller()
+    assert isinstance(ctrl, CreatureBalanceController)
+    data = mujoco.MjData(m)
+    data.qpos[:] = sc.clip.qpos[ctrl.start_frame()]
+    mujoco.mj_forward(m, data)
+    rng = np.random.default_rng(0)
+    for leg in range(len(ctrl.legs)):
+        site = ctrl.leg_sites[leg][0]
+        p0 = data.site_xpos[site].copy()
+        f = rng.normal(size=3) * 100
+        tau = ctrl.leg_torques(data, leg, p0, f)
+        dq = rng.normal(size=len(ctrl.leg_dofs[leg])) * 1e-6
+        dv = np.zeros(m.nv)
+        dv[ctrl.leg_dofs[leg]] = dq
+        d2 = mujoco.MjData(m)
+        d2.qpos[:] = data.qpos
+        mujoco.mj_integratePos(m, d2.qpos, dv, 1.0)
+        mujoco.mj_kinematics(m, d2)
+        dp = d2.site_xpos[site] - p0
+        assert tau @ dq == pytest.approx(-f @ dp, rel=1e-3, abs=1e-9)
+        # and the actuators the torques go to drive exactly those degrees of freedom
+        assert list(m.actuator_trnid[ctrl.leg_acts[leg], 0]) == [
+            m.dof_jntid[d] for d in ctrl.leg_dofs[leg]]
+
+
+def test_reference_is_levelled_on_the_legs() -> None:
+    """The controller's reference puts its lowest leg on the floor in every frame (measured on this
+    body's geoms, checked here against the capsules' end points posed by the levelled clip), and the
+    rollout starts from the levelled pose."""
+    sc = load_scenario(bvh=HORSE_WALK)
+    m = sc.built.model
+    ctrl = sc.controller()
+    assert isinstance(ctrl, CreatureBalanceController)
+    assert np.all(np.abs(ctrl.level_shift) < 0.1 * ctrl.leg_height)
+    assert np.any(np.abs(ctrl.level_shift) > 1e-3)  # the horse's hooves float in the capture
+    data = mujoco.MjData(m)
+    leg_geoms = sorted(ctrl.geom_leg)
+    for f in range(0, sc.clip.num_frames, 7):
+        data.qpos[:] = ctrl.clip.qpos[f]
+        mujoco.mj_kinematics(m, data)
+        lows = []
+        for g in leg_geoms:
+            if m.geom_type[g] != mujoco.mjtGeom.mjGEOM_CAPSULE:
+                continue
+            axis = data.geom_xmat[g].reshape(3, 3)[:, 2] * m.geom_size[g][1]
+            lows.append(min(data.geom_xpos[g][2] + axis[2], data.geom_xpos[g][2] - axis[2]) - m.geom_size[g][0])
+        assert min(lows) == pytest.approx(0.0, abs=1e-9)
+    data = mujoco.MjData(m)
+    f0 = ctrl.start_frame()
+    data.qpos[:] = sc.clip.qpos[f0]
+    mujoco.mj_forward(m, data)
+    ctrl.reset(data, f0)
+    assert data.qpos[2] == pytest.approx(ctrl.clip.qpos[f0, 2])
+    assert ctrl.clip.qpos[f0, 2] != pytest.approx(sc.clip.qpos[f0, 2])
+
+
+def test_a_single_low_bone_is_no_leg() -> None:
+    """The pterosaur's short tail hangs as low as its feet but cannot step: two legs, in the skeleton
+    and in the body built from it."""
+    sc = load_scenario(bvh=PTEROSAUR_FLIGHT, support=True)
+    assert len(creature_legs(sc.built.plan)) == 2
+    assert all("Tail" not in leg.root for leg in creature_legs(sc.built.plan))
+
+
+class _Ref:
+    """A stand-in controller whose reference root orientation is a given quaternion."""
+
+    def __init__(self, nq: int, quat: np.ndarray) -> None:
+        self.q = np.zeros(nq)
+        self.q[3:7] = quat
+
+    def reference_qpos(self) -> np.ndarray:
+        return self.q
+
+
+def test_tilt_is_measured_against_the_clips_own_root() -> None:
+    """A root frame lying on its side in the clip (90 deg about x) is upright for the creature; the same
+    body turned upright in world terms, or tipped 90 deg further, has fallen; yaw never counts."""
+    sc = load_scenario(bvh=HORSE_WALK)
+    m = sc.built.model
+    data = mujoco.MjData(m)
+    data.qpos[:] = sc.clip.qpos[0]
+    lying = np.array([np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0, 0.0])  # 90 deg about x
+    crit = FallCriteria(non_foot_contact=False, pelvis_height_fraction=0.0, torso_tilt=1.0, tilt_from="reference")
+
+    def verdict(root_quat: np.ndarray, ref_quat: np.ndarray) -> str | None:
+        data.qpos[3:7] = root_quat
+        data.qpos[2] = 5.0  # in the air: no contact, only the tilt is judged
+        mujoco.mj_forward(m, data)
+        det = FallDetector(m, sc.built.plan, crit, data, root=1)
+        return det.check(data, _Ref(m.nq, ref_quat))
+
+    yaw = np.array([np.cos(0.6), 0.0, 0.0, np.sin(0.6)])
+    yawed_lying = np.zeros(4)
+    mujoco.mju_mulQuat(yawed_lying, yaw, lying)
+    assert verdict(lying, lying) is None
+    assert verdict(yawed_lying, lying) is None  # a turned heading is no tilt
+    assert "from the reference's root" in verdict(np.array([1.0, 0, 0, 0]), lying)
+    tipped = np.zeros(4)
+    mujoco.mju_mulQuat(tipped, lying, lying)
+    assert verdict(tipped, lying) is not None
+
+
+def test_trunk_contact_is_a_fall_for_creatures() -> None:
+    sc = load_scenario(bvh=HORSE_WALK)
+    crit = sc.fall_criteria()
+    assert crit.trunk_contact and crit.tilt_from == "reference"
+    m = sc.built.model
+    data = mujoco.MjData(m)
+    data.qpos[:] = sc.clip.qpos[0]
+    data.qpos[2] = 0.0  # the body dropped to the floor: its trunk touches it
+    mujoco.mj_forward(m, data)
+    det = FallDetector(m, sc.built.plan, FallCriteria(non_foot_contact=False, pelvis_height_fraction=0.0,
+                                                      torso_tilt=np.pi, trunk_contact=True), data)
+    mujoco.mj_forward(m, data)
+    assert "touched the ground" in (det.check(data) or "")
+
+
+def test_loop_segment_skips_lying_frames() -> None:
+    """The dog lies for its first second: the looped walk starts where it stands."""
+    need_shared()
+    sc = load_scenario(bvh=DOG)
+    ctrl = sc.controller()
+    a, b = loop_segment(sc.clip, ctrl._quat_idx)
+    z = sc.clip.qpos[:, 2]
+    assert z[a] > 0.75 * np.median(z) and b - a >= 0.4 * sc.clip.num_frames
+
+
+def test_run_a_dog_without_flags_and_sweep_it(tmp_path: Path) -> None:
+    """README's creature command: no --profile; a sweep with a creature reference (no profile key)
+    pushes the creature's root and draws its results."""
+    import json
+
+    from bipedsim.cli import main
+    from bipedsim.sim.experiment import load_experiment
+    from bipedsim.sim.sweep import run_sweep
+
+    need_shared()
+    assert main(["run", "--bvh", str(DOG), "--seconds", "0.5", "--out", str(tmp_path / "r")]) == 0
+    out = json.loads((tmp_path / "r" / "outcome.json").read_text())
+    assert out["config"]["profile"] == "creature" and out["extra"]["controller"] == "creature_balance"
+    assert len(out["extra"]["legs"]) == 4
+    exp = tmp_path / "dog.yaml"
+    exp.write_text(f"name: dog\nreference: {DOG}\nseconds: 0.6\n"
+                   "runs:\n  - {magnitude: 34, direction: 90, duration: 0.2, start: 0.2}\n"
+                   "  - {magnitude: 5000, direction: 90, duration: 0.2, start: 0.2}\n")
+    summary = run_sweep(load_experiment(exp), tmp_path / "sweep", progress=False)
+    assert summary["rollouts"] == 2 and summary["outcomes"].get("fall", 0) >= 1  # 5 kN knocks it over
+    assert (tmp_path / "sweep" / "push_polar.png").stat().st_size > 0

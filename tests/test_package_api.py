@@ -58,7 +58,12 @@ def test_breed_files_writes_child_and_report(tmp_path: Path) -> None:
     lines = format_breed_summary(rep, child, report).splitlines()
     assert lines[0].startswith(f"wrote {child}: {rep.child_joints} joints") and lines[-1] == f"wrote {report}"
     assert lines[1].startswith("  correspondence by role") and "LeftUpLeg=LeftUpLeg" in lines[1]
-    assert lines[2] == f"  a creature: bipedsim run --bvh {child} --profile creature" and rep.body == "creature"
+    # the kind bipedsim run detects for the child file, so the printed command needs no --profile
+    from bipedsim.model.creature_kind import resolve_profile
+    from bipedsim.motion import load_bvh
+
+    assert resolve_profile(load_bvh(child)) == rep.body == "creature" and rep.body_detected
+    assert lines[2] == f"  a creature: bipedsim run --bvh {child}"
     assert len(format_breed_summary(rep, child).splitlines()) == 3
 
 

@@ -453,6 +453,8 @@ class BreedReport:
     roles: dict[str, dict[str, str]] = field(default_factory=dict)
     #: the body kind ``bipedsim run`` builds for the child ("humanoid"/"creature"; "" when not checked)
     body: str = ""
+    #: whether ``bipedsim run`` detects that kind by itself (False: give it with --profile)
+    body_detected: bool = True
 
     def to_dict(self) -> dict[str, Any]:
         from dataclasses import asdict

@@ -39,7 +39,7 @@ def breed_files(a: PathLike, b: PathLike, output: PathLike, *, x: float = 0.5, m
     child, rep = breed(ma, mb, x=x, mutations=mutations, weights=dict(weights or {}), mapping=mapping,
                        names=(str(a), str(b)))
     write_bvh(child.with_up("y").scaled(CHILD_UNITS_PER_M), output, precision=6)
-    rep.body = body_kind(child)
+    rep.body, rep.body_detected = body_kind(child)
     if report:
         atomic_write_json(Path(report), rep.to_dict())
     if save_map:
@@ -47,16 +47,26 @@ def breed_files(a: PathLike, b: PathLike, output: PathLike, *, x: float = 0.5, m
     return rep
 
 
-def body_kind(child: Motion) -> str:
-    """``"humanoid"`` when the humanoid body builds from the child (two legs recognised, bones long
-    enough), else ``"creature"``: the ``--profile`` that ``bipedsim run`` needs for it."""
-    from bipedsim.model.build import build_model
+def body_kind(child: Motion) -> tuple[str, bool]:
+    """The body kind ``bipedsim run --bvh CHILD`` builds (``"humanoid"``/``"creature"``) and whether
+    ``bipedsim run`` detects it by itself (False: it must be given with ``--profile``).
 
+    The kind is the one ``bipedsim run`` measures (:func:`~bipedsim.model.creature_kind.detect_body_kind`);
+    a child measured as a humanoid whose humanoid body does not build (a mutation took a foot), or in
+    which fewer than two legs are found, runs as a creature, given with ``--profile creature``."""
+    from bipedsim.model.build import build_model
+    from bipedsim.model.creature_kind import detect_body_kind
+
+    kind = detect_body_kind(child)
+    if len(kind.legs) < 2:
+        return "creature", False
+    if kind.kind == "creature":
+        return "creature", True
     try:
         build_model(child, "humanoid")
     except ModelError:
-        return "creature"
-    return "humanoid"
+        return "creature", False
+    return "humanoid", True
 
 
 def map_text(rep: BreedReport) -> str:
@@ -85,7 +95,7 @@ def format_breed_summary(rep: BreedReport, output: PathLike, report: PathLike | 
     pairs = ", ".join(f"{a}={b}" for a, b in rep.correspondence.items())
     lines.append(f"  correspondence {how}, {len(rep.correspondence)} pairs (A=B): {pairs}")
     if rep.body:
-        flag = "" if rep.body == "humanoid" else " --profile creature"
+        flag = "" if rep.body_detected else f" --profile {rep.body}"
         lines.append(f"  a {rep.body}: bipedsim run --bvh {output}{flag}")
     for path in (report, save_map):
         if path:

@@ -36,8 +36,10 @@ FOOT_HEIGHT_FRACTION = 0.25
 MIN_LEG_JOINTS = 2
 #: largest angle (rad) from vertical of the hips -> upper-body-centroid line of an upright trunk
 UPRIGHT_MAX_RAD = np.radians(50.0)
-#: hip height as a fraction of the standing height (top of the body) for human proportions
-HIP_HEIGHT_RANGE = (0.35, 0.7)
+#: hip height as a fraction of the standing height (top of the body) for human proportions: 0.53 of
+#: the stature with a head (Drillis & Contini), up to about 0.65 of the shoulder height when the head is
+#: missing (a bred child whose head a mutation removed), more in a crouch; 0.8 leaves that margin
+HIP_HEIGHT_RANGE = (0.35, 0.8)
 #: an arm's tip lies at least this fraction of the height from the trunk's line (any frame's median)
 ARM_REACH_FRACTION = 0.12
 

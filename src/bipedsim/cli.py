@@ -273,9 +273,32 @@ def _add_regress(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--update", action="store_true", help="rewrite the expectations with the outcomes (after review)")
 
 
+# ---------------------------------------------------------------------- tune
+def cmd_tune(args: argparse.Namespace) -> int:
+    from bipedsim.tune import format_tune_summary, interrupted_message, load_tune, run_tune
+
+    tune = load_tune(args.tune)  # every check before any rollout
+    try:
+        summary = run_tune(tune, args.out, workers=args.workers, backend=args.backend, progress=sys.stderr.isatty())
+    except KeyboardInterrupt:
+        print(f"bipedsim tune: {interrupted_message(tune, args.out)}", file=sys.stderr)
+        return 130
+    print(format_tune_summary(summary, args.out))
+    return 0
+
+
+def _add_tune(sub: argparse._SubParsersAction) -> None:
+    p = _subparser(sub, "tune", cmd_tune, "tune controller values with CMA-ES over rollouts; parallel, resumable")
+    p.add_argument("tune", help="tune YAML (experiments/tune_*.yaml; see docs/tuning.md)")
+    p.add_argument("--out", required=True,
+                   help="output folder (best.yaml, history.csv, convergence.png, summary.json, state.pkl)")
+    p.add_argument("--workers", type=int, default=1, help="candidates scored in parallel (default 1)")
+    p.add_argument("--backend", choices=("local", "ray"), default="local", help="local processes or Ray")
+
+
 #: Subcommand registrars, in the order ``--help`` lists them.
 COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress, _add_breed, _add_graph]
+    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress, _add_tune, _add_breed, _add_graph]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -91,7 +91,7 @@ def _new_state(tune: Tune) -> dict[str, Any]:
         opts["popsize"] = s.popsize
     es = cma.CMAEvolutionStrategy(x0.tolist(), s.sigma, opts)
     return {"version": STATE_VERSION, "fingerprint": _fingerprint(tune), "es": es, "generation": 0,
-            "asked": None, "evaluated": 0}
+            "asked": None, "evaluated": 0, "told": []}
 
 
 def _bounds(tune: Tune) -> tuple[np.ndarray, np.ndarray]:
@@ -255,8 +255,9 @@ def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, back
         raise ConfigError(f"must be at least 1, got {workers}", key="--workers")
     out = prepare_output_dir(out_dir, "--out")
     columns = history_columns(tune)
+    has_history = (out / HISTORY_FILE).is_file() and (out / HISTORY_FILE).stat().st_size > 0
+    state = _load_state(out / STATE_FILE, tune, has_history) or _new_state(tune)
     history = _load_history(out / HISTORY_FILE, columns)
-    state = _load_state(out / STATE_FILE, tune, bool(history)) or _new_state(tune)
     _save_state(out / STATE_FILE, state)
     if history:
         _write_history(out / HISTORY_FILE, columns, [history[n] for n in sorted(history)], append=False)
@@ -271,6 +272,7 @@ def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, back
     try:
         with ray_session(workers) if backend == "ray" else contextlib.nullcontext():
             scorer.score(0, [(0, tune.start_values())])
+            _rescore_lost(tune, state, scorer)
             while state["evaluated"] < budget and not state["es"].stop():
                 _generation(tune, state, scorer, out, budget)
                 write_outputs(tune, out, scorer.history, state)
@@ -289,13 +291,22 @@ def _generation(tune: Tune, state: dict[str, Any], scorer: _Scorer, out: Path, b
         state["asked"] = [np.asarray(x, dtype=float).tolist() for x in es.ask()]
         state["generation"] += 1
         _save_state(out / STATE_FILE, state)
-    asked, gen, first = state["asked"], state["generation"], state["evaluated"] + 1
+    asked, gen = state["asked"], state["generation"]
     n = min(len(asked), budget - state["evaluated"])
-    scores = scorer.score(gen, [(first + i, _values(tune, asked[i])) for i in range(n)])
+    scores = scorer.score(gen, [(state["evaluated"] + 1 + i, _values(tune, asked[i])) for i in range(n)])
     if n == len(asked):
         es.tell([np.asarray(x) for x in asked], scores)
+    state["told"] += [(gen, x) for x in asked[:n]]
     state.update(asked=None, evaluated=state["evaluated"] + n)
     _save_state(out / STATE_FILE, state)
+
+
+def _rescore_lost(tune: Tune, state: dict[str, Any], scorer: _Scorer) -> None:
+    """Score again the told candidates missing from history.csv (a row torn by a crash mid-write):
+    CMA-ES has their scores already; the history gets back the same rows."""
+    for number, (gen, x) in enumerate(state["told"], start=1):
+        if number not in scorer.history:
+            scorer.score(gen, [(number, _values(tune, x))])
 
 
 # ---------------------------------------------------------------------- outputs

@@ -67,7 +67,7 @@ def evaluate_reference(sc: Scenario, setup: Setup) -> dict[str, float]:
         out, _ = run_scenario(sc, spec, pushes=[row.push])
         start = out.extra.get("push_start_s")
         pushed.append((out, float(start if start is not None else row.push.start or 0.0)))
-    terms.update(push_terms(pushed, setup.seconds))
+    terms.update(push_terms(pushed, setup.seconds, height=float(sc.clip.qpos[0, 2])))
     terms["survived"] = float(sum(o.outcome == "no_fall" for o, _ in pushed))
     terms["walk_s"] = float(walk.sim_seconds)
     return terms

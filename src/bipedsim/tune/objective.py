@@ -12,6 +12,10 @@ pushes      the fraction of the experiment's rollouts not survived (a push that 
             ``push_not_applied``, counts as not survived)
 fall_time   the mean fraction of each pushed rollout's time after its push lost to a fall: tells a
             fall at once from a fall at the end, where ``pushes`` sees both alike
+deviation   the pushed rollouts' mean peak centre-of-mass deviation from the unpushed walk's (in the 2 s
+            after the push), per metre of the root's starting height, capped at DEVIATION_CAP; a
+            rollout that fell counts as the cap. The margin: among controllers that survive every
+            push, the one the pushes move least
 speed       the walk's speed error against the reference, |v - v_ref| / max(v_ref, SPEED_FLOOR_MPS)
 tracking    the walk's tracking RMSE (rad)
 effort      the walk's mean absolute mechanical power of the actuators per kg of body (W/kg):
@@ -36,9 +40,11 @@ import mujoco
 import numpy as np
 
 #: Terms of the objective, in the order history.csv lists them.
-TERMS = ("walk_fall", "pushes", "fall_time", "speed", "tracking", "effort", "steps")
+TERMS = ("walk_fall", "pushes", "fall_time", "deviation", "speed", "tracking", "effort", "steps")
 #: The speed error is relative to the reference's speed, or to this (m/s) for a clip that barely moves.
 SPEED_FLOOR_MPS = 0.2
+#: The deviation term's cap (root heights): a fall, or a push that carried the body this far.
+DEVIATION_CAP = 2.0
 #: A foot is on the ground when its vertical contact force exceeds this fraction of the body's weight.
 TOUCH_WEIGHT_FRACTION = 0.05
 
@@ -52,6 +58,7 @@ class Objective:
     walk_fall: float = field(default=10.0, metadata={"min": 0.0})
     pushes: float = field(default=4.0, metadata={"min": 0.0})
     fall_time: float = field(default=2.0, metadata={"min": 0.0})
+    deviation: float = field(default=1.0, metadata={"min": 0.0})
     speed: float = field(default=1.0, metadata={"min": 0.0})
     tracking: float = field(default=2.0, metadata={"min": 0.0})
     effort: float = field(default=0.01, metadata={"min": 0.0})
@@ -131,19 +138,24 @@ def walk_terms(out: Any, meter: GaitMeter, cadence: Cadence, seconds: float, wei
             "steps": max(0.0, 1.0 - meter.real_steps / expected) if expected > 0 else 0.0}
 
 
-def push_terms(outcomes: list[tuple[Any, float]], seconds: float) -> dict[str, float]:
-    """The terms of the pushed rollouts: (outcome, push start s) each."""
-    lost = []
+def push_terms(outcomes: list[tuple[Any, float]], seconds: float, height: float) -> dict[str, float]:
+    """The terms of the pushed rollouts: (outcome, push start s) each; ``height``: the root's starting
+    height (m), the body's size for the deviation."""
+    lost, moved = [], []
     for out, start in outcomes:
+        peak = out.extra.get("peak_com_deviation_m")
         if out.outcome in ("fall", "diverged"):
             span = max(seconds - start, 1e-9)
             lost.append(min(1.0, max(0.0, (seconds - out.sim_seconds) / span)))
+            moved.append(DEVIATION_CAP)
         else:
             lost.append(0.0)
+            moved.append(DEVIATION_CAP if peak is None else min(DEVIATION_CAP, peak / height))
     failed = [out.outcome != "no_fall" for out, _ in outcomes]
     return {"pushes": float(np.mean(failed)) if failed else 0.0,
-            "fall_time": float(np.mean(lost)) if lost else 0.0}
+            "fall_time": float(np.mean(lost)) if lost else 0.0,
+            "deviation": float(np.mean(moved)) if moved else 0.0}
 
 
-__all__ = ["SPEED_FLOOR_MPS", "TERMS", "TOUCH_WEIGHT_FRACTION", "Cadence", "GaitMeter", "Objective", "push_terms",
+__all__ = ["DEVIATION_CAP", "SPEED_FLOOR_MPS", "TERMS", "TOUCH_WEIGHT_FRACTION", "Cadence", "GaitMeter", "Objective", "push_terms",
            "walk_terms"]

@@ -74,6 +74,8 @@ def _fingerprint(tune: Tune) -> str:
     spec = config.to_dict(tune.spec)
     spec.pop("evaluations")
     spec.pop("name")
+    spec["controller"] = tune.controller_path  # resolved: the same file named from another folder is the same
+    spec.pop("reference")  # resolved below
     ident = json.dumps({"spec": spec, "references": tune.references, "start": tune.start}, sort_keys=True,
                        default=str)
     return hashlib.sha1(ident.encode()).hexdigest()
@@ -374,6 +376,8 @@ def convergence_plot(history: dict[int, dict[str, str]], path: Path, title: str)
     ax.plot(nums, np.minimum.accumulate(scores), c="tab:blue", label="best so far")
     ax.axhline(scores[0], c="tab:red", ls="--", lw=1, label="start controller")
     ax.set_xlabel("candidate (0: the start controller)")
+    if np.all(scores > 0):
+        ax.set_yscale("log")  # a broken start scores tens, a good controller about one
     ax.set_ylabel("score (lower is better)")
     ax.set_title(title)
     ax.legend(fontsize=8)

@@ -157,5 +157,5 @@ def push_terms(outcomes: list[tuple[Any, float]], seconds: float, height: float)
             "deviation": float(np.mean(moved)) if moved else 0.0}
 
 
-__all__ = ["DEVIATION_CAP", "SPEED_FLOOR_MPS", "TERMS", "TOUCH_WEIGHT_FRACTION", "Cadence", "GaitMeter", "Objective", "push_terms",
-           "walk_terms"]
+__all__ = ["DEVIATION_CAP", "SPEED_FLOOR_MPS", "TERMS", "TOUCH_WEIGHT_FRACTION", "Cadence", "GaitMeter", "Objective",
+           "push_terms", "walk_terms"]

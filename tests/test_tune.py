@@ -381,3 +381,14 @@ def test_the_shipped_tune_files_load_from_any_folder(monkeypatch, tmp_path: Path
     cmu = load_tune(REPO / "experiments" / "tune_cmu_walk.yaml")
     assert Path(cmu.references[0]).name == "cmu_02_01_walk__holden31_crlf.bvh"
     assert cmu.start_values()["balance.sagittal.cd"] == 0.5  # controllers/cmu_walk.yaml's own value
+
+
+def test_the_docs_table_states_the_default_weights() -> None:
+    import dataclasses
+    import re
+
+    text = (REPO / "docs" / "tuning.md").read_text()
+    rows = dict(re.findall(r"^\| `(\w+)` \| ([0-9.]+) \|", text, re.MULTILINE))
+    assert set(rows) == set(TERMS)
+    defaults = {f.name: f.default for f in dataclasses.fields(Objective)}
+    assert {k: float(v) for k, v in rows.items()} == {k: defaults[k] for k in TERMS}

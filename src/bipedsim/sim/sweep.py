@@ -253,6 +253,24 @@ def _ray(tasks: list, workers: int, fn: Callable[[Any], dict[str, Any]] = run_ro
             yield ray.get(done[0])
 
 
+@contextlib.contextmanager
+def backend_session(backend: str, workers: int) -> Iterator[Callable[[list, Callable[[Any], Any]], Iterator[Any]]]:
+    """``run(tasks, fn)`` -> ``fn``'s result of each task as it finishes, for a job that sends work in
+    several rounds (a tune's generations): the workers start once and keep what they have built (each
+    process's cached bodies and clips) from one round to the next -- one pool of ``workers`` spawned
+    processes (local; in this process for 1), or one Ray session."""
+    if backend == "ray":
+        with ray_session(workers):
+            yield lambda tasks, fn: _ray(tasks, workers, fn)
+    elif workers <= 1:
+        yield lambda tasks, fn: (fn(t) for t in tasks)
+    else:
+        import multiprocessing as mp
+
+        with mp.get_context("spawn").Pool(workers, initializer=_ignore_sigint) as pool:
+            yield lambda tasks, fn: pool.imap_unordered(fn, tasks)
+
+
 #: backend name -> (tasks, workers, fn) -> fn's result of each task, in the order they finish
 BACKENDS: dict[str, Callable[..., Iterator[dict[str, Any]]]] = {"local": _local, "ray": _ray}
 

@@ -13,7 +13,6 @@ are rewritten after every generation.
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import hashlib
 import io
@@ -40,7 +39,7 @@ from bipedsim.io import (
     progress_bar,
     versions,
 )
-from bipedsim.sim.sweep import BACKENDS, ray_session, worker_count
+from bipedsim.sim.sweep import BACKENDS, backend_session, worker_count
 from bipedsim.tune.evaluate import Setup, evaluate
 from bipedsim.tune.objective import TERMS
 from bipedsim.tune.spec import CONFIG_CLASSES, Tune
@@ -212,9 +211,9 @@ def _say(message: str) -> None:
 class _Scorer:
     """Scores candidates not yet in the history, appending each row as it finishes."""
 
-    def __init__(self, tune: Tune, out: Path, history: dict[int, dict[str, str]], workers: int, backend: str,
+    def __init__(self, tune: Tune, out: Path, history: dict[int, dict[str, str]], run: Callable[..., Any],
                  bar: Any) -> None:
-        self.tune, self.history, self.workers, self.backend, self.bar = tune, history, workers, backend, bar
+        self.tune, self.history, self.run, self.bar = tune, history, run, bar
         self.path, self.columns, self.setup = out / HISTORY_FILE, history_columns(tune), _setup(tune)
 
     def score(self, generation: int, candidates: list[tuple[int, dict[str, float]]]) -> list[float]:
@@ -222,10 +221,9 @@ class _Scorer:
         for n, v in candidates:
             if n in self.history:
                 self._check_same(n, v)
-        n_workers, _ = worker_count(self.workers, len(todo))
         values = dict(todo)
         tasks = [(n, config.to_dict(self.tune.settings(v)), self.setup) for n, v in todo]
-        for res in BACKENDS[self.backend](tasks, n_workers, fn=evaluate):
+        for res in self.run(tasks, evaluate):
             row = _record(res, generation, values[res["candidate"]])
             _write_history(self.path, self.columns, [row], append=True)
             self.history[res["candidate"]] = {k: str(v) for k, v in row.items()}
@@ -267,12 +265,13 @@ def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, back
     bar = progress_bar(budget + 1, tune.spec.name, "candidate", force=True, leave=True) if progress else None
     if bar is not None:
         bar.update(min(len(history), budget + 1))
-    _, note = worker_count(workers, int(state["es"].popsize))  # capped by the CPUs or a generation's size
+    n_workers, note = worker_count(workers, int(state["es"].popsize))  # capped by the CPUs or a generation
     if note:
         say(note.replace("rollout(s) left", "candidates per generation"))
-    scorer = _Scorer(tune, out, history, workers, backend, bar)
     try:
-        with ray_session(workers) if backend == "ray" else contextlib.nullcontext():
+        # one pool (or Ray session) for every generation: the workers build each reference's body once
+        with backend_session(backend, n_workers) as run:
+            scorer = _Scorer(tune, out, history, run, bar)
             scorer.score(0, [(0, tune.start_values())])
             _rescore_lost(tune, state, scorer)
             while state["evaluated"] < budget and not state["es"].stop():
@@ -283,7 +282,7 @@ def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, back
             bar.close()
     # in candidate order: the same tune gives the same file whatever order the workers finished in
     _write_history(out / HISTORY_FILE, columns, [history[n] for n in sorted(history)], append=False)
-    return write_outputs(tune, out, scorer.history, state)
+    return write_outputs(tune, out, history, state)
 
 
 def _generation(tune: Tune, state: dict[str, Any], scorer: _Scorer, out: Path, budget: int) -> None:

@@ -209,8 +209,10 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _local(tasks: list, workers: int, fn: Callable[[Any], dict[str, Any]] = run_row) -> Iterator[dict[str, Any]]:
-    """``fn`` of every task, as each finishes: in this process (1 worker) or a pool of ``workers``."""
+def _local(tasks: list, workers: int, fn: Callable[[Any], Any] | None = None) -> Iterator[Any]:
+    """``fn`` (default :func:`run_row`) of every task, as each finishes: in this process (1 worker) or a
+    pool of ``workers``."""
+    fn = fn or run_row  # looked up at call time (tests replace run_row)
     if workers <= 1:
         for t in tasks:
             yield fn(t)
@@ -244,9 +246,9 @@ def ray_session(workers: int) -> Iterator[Any]:
             ray.shutdown()
 
 
-def _ray(tasks: list, workers: int, fn: Callable[[Any], dict[str, Any]] = run_row) -> Iterator[dict[str, Any]]:
+def _ray(tasks: list, workers: int, fn: Callable[[Any], Any] | None = None) -> Iterator[Any]:
     with ray_session(workers) as ray:
-        remote = ray.remote(fn)
+        remote = ray.remote(fn or run_row)
         pending = [remote.remote(t) for t in tasks]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)

@@ -392,3 +392,30 @@ def test_the_docs_table_states_the_default_weights() -> None:
     assert set(rows) == set(TERMS)
     defaults = {f.name: f.default for f in dataclasses.fields(Objective)}
     assert {k: float(v) for k, v in rows.items()} == {k: defaults[k] for k in TERMS}
+
+
+def test_a_tune_resumed_in_a_new_process_ends_as_an_uninterrupted_one(tmp_path: Path, monkeypatch) -> None:
+    """Stopped inside its first generation and resumed by another process, which tells that generation
+    and asks the next ones: the same history and best.yaml as a tune run in one go (pycma's lookup of
+    told solutions hashes them, and the hash differs between processes)."""
+    import subprocess
+
+    p = write_tune(tmp_path, with_(TINY, evaluations=7))
+    run_tune(load_tune(p), tmp_path / "whole", progress=False)
+    real, scored = tune_cmaes.evaluate, []
+
+    def stopping(task):
+        if len(scored) == 2:
+            raise KeyboardInterrupt
+        scored.append(task[0])
+        return real(task)
+
+    monkeypatch.setattr(tune_cmaes, "evaluate", stopping)
+    with pytest.raises(KeyboardInterrupt):
+        run_tune(load_tune(p), tmp_path / "resumed", progress=False)
+    proc = subprocess.run([sys.executable, "-m", "bipedsim.cli", "tune", str(p), "--out", str(tmp_path / "resumed")],
+                          capture_output=True, text=True, timeout=600, check=False,
+                          env={**__import__("os").environ, "PYTHONHASHSEED": "12345"})
+    assert proc.returncode == 0, proc.stderr
+    assert _without_timing(_history(tmp_path / "resumed")) == _without_timing(_history(tmp_path / "whole"))
+    assert (tmp_path / "resumed" / "best.yaml").read_text() == (tmp_path / "whole" / "best.yaml").read_text()

@@ -4,10 +4,10 @@ The parameters are scaled to [0, 1] (``low`` .. ``high``) and CMA-ES keeps its s
 ``bounds``, its default boundary transform); the start controller's values (clipped into the ranges)
 are the initial mean. Candidates of a generation are scored in parallel (local processes or Ray, the
 sweep's backends) and each is appended to ``history.csv`` as it finishes. The optimiser's state --
-pycma's object, its own random generator, the generation asked and not yet told -- is pickled to
-``state.pkl`` (atomically) before a generation is scored and after it is told, so rerunning the same
-command resumes: the candidates already in ``history.csv`` are not scored again and the run ends with
-what an uninterrupted one would have found. ``best.yaml``, ``convergence.png`` and ``summary.json``
+pycma's object with its own random generator -- is pickled to ``state.pkl`` (atomically) after each
+generation is told, so rerunning the same command resumes: CMA-ES asks the interrupted generation again
+(the same candidates), the candidates already in ``history.csv`` are not scored again, and the run ends
+with what an uninterrupted one would have found. ``best.yaml``, ``convergence.png`` and ``summary.json``
 are rewritten after every generation.
 """
 
@@ -49,7 +49,7 @@ STATE_FILE, HISTORY_FILE = "state.pkl", "history.csv"
 HEAD_COLUMNS = ["candidate", "generation", "score", *TERMS, "survived", "rollouts", "walk_s"]
 TAIL_COLUMNS = ["wall_seconds"]
 #: state.pkl's format; an older one is refused, not misread
-STATE_VERSION = 1
+STATE_VERSION = 2
 
 
 class Randn:
@@ -92,7 +92,7 @@ def _new_state(tune: Tune) -> dict[str, Any]:
         opts["popsize"] = s.popsize
     es = cma.CMAEvolutionStrategy(x0.tolist(), s.sigma, opts)
     return {"version": STATE_VERSION, "fingerprint": _fingerprint(tune), "es": es, "generation": 0,
-            "asked": None, "evaluated": 0, "told": []}
+            "evaluated": 0, "told": []}
 
 
 def _bounds(tune: Tune) -> tuple[np.ndarray, np.ndarray]:
@@ -286,19 +286,20 @@ def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, back
 
 
 def _generation(tune: Tune, state: dict[str, Any], scorer: _Scorer, out: Path, budget: int) -> None:
-    """Ask (or take the generation asked before an interruption), score, tell, save."""
+    """Ask, score (the candidates not already in the history), tell, save."""
+    # The state is saved only once a generation is told: a resumed tune asks again from the saved
+    # state and gets the same candidates (CMA-ES's generator is in the pickle). It must not tell
+    # candidates asked by another process: pycma finds a told solution's internal (unbounded) form by
+    # a hash that differs between processes, and would recompute it -- another update, other results.
     es = state["es"]
-    if state["asked"] is None:
-        state["asked"] = [np.asarray(x, dtype=float).tolist() for x in es.ask()]
-        state["generation"] += 1
-        _save_state(out / STATE_FILE, state)
-    asked, gen = state["asked"], state["generation"]
+    asked = [np.asarray(x, dtype=float) for x in es.ask()]
+    gen = state["generation"] + 1
     n = min(len(asked), budget - state["evaluated"])
-    scores = scorer.score(gen, [(state["evaluated"] + 1 + i, _values(tune, asked[i])) for i in range(n)])
+    scores = scorer.score(gen, [(state["evaluated"] + 1 + i, _values(tune, asked[i].tolist())) for i in range(n)])
     if n == len(asked):
-        es.tell([np.asarray(x) for x in asked], scores)
-    state["told"] += [(gen, x) for x in asked[:n]]
-    state.update(asked=None, evaluated=state["evaluated"] + n)
+        es.tell(asked, scores)
+    state["told"] += [(gen, x.tolist()) for x in asked[:n]]
+    state.update(generation=gen, evaluated=state["evaluated"] + n)
     _save_state(out / STATE_FILE, state)
 
 

@@ -259,22 +259,29 @@ def test_another_seed_samples_other_candidates(tiny_run, tmp_path: Path) -> None
     assert a[1]["balance.sagittal.cd"] != b[1]["balance.sagittal.cd"]
 
 
-@pytest.mark.parametrize("stop_after", [1, 4])  # inside the first generation; inside the second
-def test_interrupted_tune_resumes_without_scoring_any_candidate_twice(tiny_run, tmp_path: Path, monkeypatch,
-                                                                       stop_after: int) -> None:
-    p, first, _ = tiny_run
-    real = tune_cmaes.evaluate
-    scored: list[int] = []
+def interrupt_after(tune_file: Path, out: Path, count: int, monkeypatch) -> list[int]:
+    """Run the tune into ``out`` and stop it (as Ctrl-C does) when ``count`` candidates are scored;
+    returns the candidates scored (the caller may go on appending to that list)."""
+    real, scored = tune_cmaes.evaluate, []
 
     def stopping(task):
-        if len(scored) == stop_after:
+        if len(scored) == count:
             raise KeyboardInterrupt
         scored.append(task[0])
         return real(task)
 
     monkeypatch.setattr(tune_cmaes, "evaluate", stopping)
     with pytest.raises(KeyboardInterrupt):
-        run_tune(load_tune(p), tmp_path / "r", progress=False)
+        run_tune(load_tune(tune_file), out, progress=False)
+    return scored
+
+
+@pytest.mark.parametrize("stop_after", [1, 4])  # inside the first generation; inside the second
+def test_interrupted_tune_resumes_without_scoring_any_candidate_twice(tiny_run, tmp_path: Path, monkeypatch,
+                                                                       stop_after: int) -> None:
+    p, first, _ = tiny_run
+    real = tune_cmaes.evaluate
+    scored = interrupt_after(p, tmp_path / "r", stop_after, monkeypatch)
     assert len(_history(tmp_path / "r")) == stop_after
     before = list(scored)
 
@@ -402,17 +409,7 @@ def test_a_tune_resumed_in_a_new_process_ends_as_an_uninterrupted_one(tmp_path: 
 
     p = write_tune(tmp_path, with_(TINY, evaluations=7))
     run_tune(load_tune(p), tmp_path / "whole", progress=False)
-    real, scored = tune_cmaes.evaluate, []
-
-    def stopping(task):
-        if len(scored) == 2:
-            raise KeyboardInterrupt
-        scored.append(task[0])
-        return real(task)
-
-    monkeypatch.setattr(tune_cmaes, "evaluate", stopping)
-    with pytest.raises(KeyboardInterrupt):
-        run_tune(load_tune(p), tmp_path / "resumed", progress=False)
+    interrupt_after(p, tmp_path / "resumed", 2, monkeypatch)
     proc = subprocess.run([sys.executable, "-m", "bipedsim.cli", "tune", str(p), "--out", str(tmp_path / "resumed")],
                           capture_output=True, text=True, timeout=600, check=False,
                           env={**__import__("os").environ, "PYTHONHASHSEED": "12345"})

@@ -265,21 +265,35 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     exp = load_experiment(args.experiment)  # every check before any rollout
     prepare_output_dir(args.out, "--out")
+    return _resumable("sweep", lambda: format_summary(run_sweep(exp, args.out, workers=args.workers,
+                                                                backend=args.backend, progress=sys.stderr.isatty()),
+                                                      args.out),
+                      lambda: interrupted_message(exp, args.out))
+
+
+def _resumable(command: str, run: Callable[[], str], interrupted: Callable[[], str]) -> int:
+    """Run a long, resumable job and print the lines it returns; on Ctrl-C (or a terminate signal) say
+    what it kept and how to finish it, exit status 130."""
     try:
-        summary = run_sweep(exp, args.out, workers=args.workers, backend=args.backend, progress=sys.stderr.isatty())
+        lines = run()
     except KeyboardInterrupt:
-        print(f"bipedsim sweep: {interrupted_message(exp, args.out)}", file=sys.stderr)
+        print(f"bipedsim {command}: {interrupted()}", file=sys.stderr)
         return 130
-    print(format_summary(summary, args.out))
+    print(lines)
     return 0
+
+
+def _parallel_flags(p: argparse.ArgumentParser, what: str) -> None:
+    """--workers and --backend of a job run in parallel."""
+    p.add_argument("--workers", type=int, default=1, help=f"{what} (default 1)")
+    p.add_argument("--backend", choices=("local", "ray"), default="local", help="local processes or Ray")
 
 
 def _add_sweep(sub: argparse._SubParsersAction) -> None:
     p = _subparser(sub, "sweep", cmd_sweep, "run every rollout of an experiment in parallel; resumable")
     p.add_argument("experiment", help="experiment YAML (experiments/*.yaml)")
     p.add_argument("--out", required=True, help="output folder (results.csv, summary.json, push_polar.png)")
-    p.add_argument("--workers", type=int, default=1, help="parallel rollouts (default 1)")
-    p.add_argument("--backend", choices=("local", "ray"), default="local", help="local processes or Ray")
+    _parallel_flags(p, "parallel rollouts")
 
 
 def cmd_regress(args: argparse.Namespace) -> int:
@@ -335,9 +349,29 @@ def _add_world(sub: argparse._SubParsersAction) -> None:
 WORLD_VIDEO_DEFAULTS = {"--cam-distance": 8.0, "--cam-elevation": -25.0}
 
 
+# ---------------------------------------------------------------------- tune
+def cmd_tune(args: argparse.Namespace) -> int:
+    from bipedsim.tune import format_tune_summary, interrupted_message, load_tune, run_tune
+
+    tune = load_tune(args.tune)  # every check before any rollout
+    return _resumable("tune", lambda: format_tune_summary(run_tune(tune, args.out, workers=args.workers,
+                                                                   backend=args.backend,
+                                                                   progress=sys.stderr.isatty()), args.out),
+                      lambda: interrupted_message(tune, args.out))
+
+
+def _add_tune(sub: argparse._SubParsersAction) -> None:
+    p = _subparser(sub, "tune", cmd_tune, "tune controller values with CMA-ES over rollouts; parallel, resumable")
+    p.add_argument("tune", help="tune YAML (experiments/tune_*.yaml; see docs/tuning.md)")
+    p.add_argument("--out", required=True,
+                   help="output folder (best.yaml, history.csv, convergence.png, summary.json, state.pkl)")
+    _parallel_flags(p, "candidates scored in parallel")
+
+
 #: Subcommand registrars, in the order ``--help`` lists them.
 COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress, _add_breed, _add_graph, _add_world]
+    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress, _add_tune, _add_breed, _add_graph,
+    _add_world]
 
 
 def build_parser() -> argparse.ArgumentParser:

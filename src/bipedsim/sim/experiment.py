@@ -264,27 +264,35 @@ def load_experiment(path: str | os.PathLike[str]) -> Experiment:
     """Load and validate an experiment file: keys, values, referenced files, body names, pushes."""
     p = Path(path)
     spec = config.load(ExperimentSpec, p)
-    exp = Experiment(spec=spec, path=p.resolve())
+    return check_experiment(Experiment(spec=spec, path=p.resolve()), p)
+
+
+def check_experiment(exp: Experiment, path: str | os.PathLike[str], prefix: str = "") -> Experiment:
+    """Check what a parsed experiment refers to: its rollouts, every push against the run's length,
+    the reference and controller files, the push body. ``prefix`` goes before each key an error names
+    (``"experiment."`` for an experiment inside another file, e.g. a tune)."""
+    p, spec = Path(path), exp.spec
     rows = exp.rows()
     if not rows:
-        raise ConfigError("the experiment expands to no rollouts", path=p, key="grid")
+        raise ConfigError("the experiment expands to no rollouts", path=p, key=f"{prefix}grid")
     per_repeat = len(rows) // spec.repeats
     for r in rows[:per_repeat]:  # repeats hold the same pushes
         key = "grid" if spec.grid else ("random" if spec.random else f"runs[{r.index}]")
-        check_pushes([r.push], spec.seconds, path=p, key=key, seconds_key="seconds")
+        check_pushes([r.push], spec.seconds, path=p, key=f"{prefix}{key}", seconds_key=f"{prefix}seconds")
     ref = exp.resolve(spec.reference)
     if ref is not None and not Path(ref).is_file():
-        raise ConfigError(f"no such file {ref}", path=p, key="reference")
+        raise ConfigError(f"no such file {ref}", path=p, key=f"{prefix}reference")
     from bipedsim.control.config import load_controller
 
     for ctl in {r.controller for r in rows if r.controller}:
         if not Path(ctl).is_file():
             raise ConfigError(f"no such controller file {ctl}", path=p,
-                              key="random.controller" if spec.random else "grid.controller")
+                              key=f"{prefix}random.controller" if spec.random else f"{prefix}grid.controller")
         load_controller(ctl)
     bodies = _body_names(ref, spec.profile)
     if spec.body not in bodies and spec.body != DEFAULT_PUSH_BODY:
-        raise ConfigError(f"unknown body {spec.body!r}; bodies are {', '.join(sorted(bodies))}", path=p, key="body")
+        raise ConfigError(f"unknown body {spec.body!r}; bodies are {', '.join(sorted(bodies))}", path=p,
+                          key=f"{prefix}body")
     return exp
 
 

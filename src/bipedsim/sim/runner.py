@@ -137,7 +137,8 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
     nominal = None
     if pushes:
         # the same rollout without pushes, for the centre-of-mass deviation (cached per scenario)
-        key = (spec.seconds, spec.seed, spec.init_noise, spec.start_frame)
+        # the seed only matters with initial noise: without it, rollouts of other seeds share one
+        key = (spec.seconds, spec.seed if spec.init_noise > 0 else 0, spec.init_noise, spec.start_frame)
         cache = sc.extra.setdefault("nominal_com", {})
         if key not in cache:
             o, _ = rollout(sc.built.model, sc.built.plan, sc.controller(), spec, initial_qpos=qpos0,

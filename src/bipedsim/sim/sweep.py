@@ -8,6 +8,7 @@ give the same file whatever order the workers finished in (apart from the ``wall
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import io
 import json
@@ -208,20 +209,27 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _local(tasks: list, workers: int) -> Iterator[dict[str, Any]]:
+def _local(tasks: list, workers: int, fn: Callable[[Any], Any] | None = None) -> Iterator[Any]:
+    """``fn`` (default :func:`run_row`) of every task, as each finishes: in this process (1 worker) or a
+    pool of ``workers``."""
+    fn = fn or run_row  # looked up at call time (tests replace run_row)
     if workers <= 1:
         for t in tasks:
-            yield run_row(t)
+            yield fn(t)
         return
     import multiprocessing as mp
 
     ctx = mp.get_context("spawn")  # a clean interpreter per worker: no inherited MuJoCo or GL state
     # workers leave Ctrl-C to the parent, which stops the pool (no traceback from every worker)
     with ctx.Pool(workers, initializer=_ignore_sigint) as pool:
-        yield from pool.imap_unordered(run_row, tasks)
+        yield from pool.imap_unordered(fn, tasks)
 
 
-def _ray(tasks: list, workers: int) -> Iterator[dict[str, Any]]:
+@contextlib.contextmanager
+def ray_session(workers: int) -> Iterator[Any]:
+    """The ``ray`` module, initialised for ``workers`` CPUs unless it already is (and then shut down
+    on leaving); :class:`BipedsimError` when Ray is not installed. A long job that sends work to Ray
+    in several rounds holds one session around them all."""
     try:
         import ray
     except ImportError:
@@ -232,17 +240,41 @@ def _ray(tasks: list, workers: int) -> Iterator[dict[str, Any]]:
                  ignore_reinit_error=True)
         started = True
     try:
-        remote = ray.remote(run_row)
-        pending = [remote.remote(t) for t in tasks]
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            yield ray.get(done[0])
+        yield ray
     finally:
         if started:
             ray.shutdown()
 
 
-BACKENDS: dict[str, Callable[[list, int], Iterator[dict[str, Any]]]] = {"local": _local, "ray": _ray}
+def _ray(tasks: list, workers: int, fn: Callable[[Any], Any] | None = None) -> Iterator[Any]:
+    with ray_session(workers) as ray:
+        remote = ray.remote(fn or run_row)
+        pending = [remote.remote(t) for t in tasks]
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            yield ray.get(done[0])
+
+
+@contextlib.contextmanager
+def backend_session(backend: str, workers: int) -> Iterator[Callable[[list, Callable[[Any], Any]], Iterator[Any]]]:
+    """``run(tasks, fn)`` -> ``fn``'s result of each task as it finishes, for a job that sends work in
+    several rounds (a tune's generations): the workers start once and keep what they have built (each
+    process's cached bodies and clips) from one round to the next -- one pool of ``workers`` spawned
+    processes (local; in this process for 1), or one Ray session."""
+    if backend == "ray":
+        with ray_session(workers):
+            yield lambda tasks, fn: _ray(tasks, workers, fn)
+    elif workers <= 1:
+        yield lambda tasks, fn: (fn(t) for t in tasks)
+    else:
+        import multiprocessing as mp
+
+        with mp.get_context("spawn").Pool(workers, initializer=_ignore_sigint) as pool:
+            yield lambda tasks, fn: pool.imap_unordered(fn, tasks)
+
+
+#: backend name -> (tasks, workers, fn) -> fn's result of each task, in the order they finish
+BACKENDS: dict[str, Callable[..., Iterator[dict[str, Any]]]] = {"local": _local, "ray": _ray}
 
 
 def usable_cpus() -> int:

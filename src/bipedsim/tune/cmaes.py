@@ -1,0 +1,413 @@
+"""``bipedsim tune``: CMA-ES (pycma's ask/tell) over a controller's values, scored by rollouts.
+
+The parameters are scaled to [0, 1] (``low`` .. ``high``) and CMA-ES keeps its samples there (pycma's
+``bounds``, its default boundary transform); the start controller's values (clipped into the ranges)
+are the initial mean. Candidates of a generation are scored in parallel (local processes or Ray, the
+sweep's backends) and each is appended to ``history.csv`` as it finishes. The optimiser's state --
+pycma's object with its own random generator -- is pickled to ``state.pkl`` (atomically) after each
+generation is told, so rerunning the same command resumes: CMA-ES asks the interrupted generation again
+(the same candidates), the candidates already in ``history.csv`` are not scored again, and the run ends
+with what an uninterrupted one would have found. ``best.yaml``, ``convergence.png`` and ``summary.json``
+are rewritten after every generation.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+import math
+import os
+import pickle
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from bipedsim import config
+from bipedsim.errors import BipedsimError, ConfigError, OutputError
+from bipedsim.io import (
+    atomic_write_bytes,
+    atomic_write_json,
+    atomic_write_text,
+    os_reason,
+    prepare_output_dir,
+    progress_bar,
+    versions,
+)
+from bipedsim.sim.sweep import BACKENDS, backend_session, worker_count
+from bipedsim.tune.evaluate import Setup, evaluate
+from bipedsim.tune.objective import TERMS
+from bipedsim.tune.spec import CONFIG_CLASSES, Tune
+
+STATE_FILE, HISTORY_FILE = "state.pkl", "history.csv"
+#: history.csv's columns before the parameters' (one column per dotted key) and after them
+HEAD_COLUMNS = ["candidate", "generation", "score", *TERMS, "survived", "rollouts", "walk_s"]
+TAIL_COLUMNS = ["wall_seconds"]
+#: state.pkl's format; an older one is refused, not misread
+STATE_VERSION = 2
+
+
+class Randn:
+    """CMA-ES's normal samples from its own generator, seeded by the tune (pycma's ``randn`` option
+    would take NumPy's global one, which the pickled state would not hold)."""
+
+    def __init__(self, seed: int) -> None:
+        self.rng = np.random.default_rng(seed)
+
+    def __call__(self, *shape: int) -> np.ndarray:
+        return self.rng.standard_normal(shape)
+
+
+def history_columns(tune: Tune) -> list[str]:
+    return HEAD_COLUMNS + tune.keys + TAIL_COLUMNS
+
+
+def _fingerprint(tune: Tune) -> str:
+    """What a resumed tune must share with the one that wrote the folder (all but the budget: a tune
+    may be continued with more ``evaluations``)."""
+    spec = config.to_dict(tune.spec)
+    spec.pop("evaluations")
+    spec.pop("name")
+    spec["controller"] = tune.controller_path  # resolved: the same file named from another folder is the same
+    spec.pop("reference")  # resolved below
+    ident = json.dumps({"spec": spec, "references": tune.references, "start": tune.start}, sort_keys=True,
+                       default=str)
+    return hashlib.sha1(ident.encode()).hexdigest()
+
+
+def _new_state(tune: Tune) -> dict[str, Any]:
+    import cma
+
+    s = tune.spec
+    lo, hi = _bounds(tune)
+    x0 = np.clip((np.array([tune.start_values()[k] for k in tune.keys]) - lo) / (hi - lo), 0.0, 1.0)
+    opts = {"bounds": [0.0, 1.0], "seed": s.seed + 1, "randn": Randn(s.seed), "verbose": -9, "verb_log": 0,
+            "verb_disp": 0}
+    if s.popsize is not None:
+        opts["popsize"] = s.popsize
+    es = cma.CMAEvolutionStrategy(x0.tolist(), s.sigma, opts)
+    return {"version": STATE_VERSION, "fingerprint": _fingerprint(tune), "es": es, "generation": 0,
+            "evaluated": 0, "told": []}
+
+
+def _bounds(tune: Tune) -> tuple[np.ndarray, np.ndarray]:
+    ranges = np.array([tune.spec.parameters[k] for k in tune.keys], dtype=float)
+    return ranges[:, 0], ranges[:, 1]
+
+
+def _save_state(path: Path, state: dict[str, Any]) -> None:
+    atomic_write_bytes(path, pickle.dumps(state))
+
+
+def _load_state(path: Path, tune: Tune, has_history: bool) -> dict[str, Any] | None:
+    """The saved state of this tune, or None for a fresh folder; BipedsimError for another tune's
+    folder or an unreadable state."""
+    if not path.exists():
+        if has_history:
+            raise BipedsimError(f"--out {path.parent}: holds {HISTORY_FILE} but no {STATE_FILE}: not a tune folder "
+                                f"this version can resume; give another --out, or remove {HISTORY_FILE}")
+        return None
+    try:
+        state = pickle.loads(path.read_bytes())
+        ok = isinstance(state, dict) and state.get("version") == STATE_VERSION
+    except Exception:  # noqa: BLE001 - a torn or foreign pickle: refuse it, whatever it raised
+        ok = False
+    if not ok:
+        raise BipedsimError(f"{path}: not a state file of this version of bipedsim tune; give another --out, or "
+                            "remove the folder's state.pkl and history.csv to start again")
+    if state["fingerprint"] != _fingerprint(tune):
+        raise BipedsimError(f"--out {path.parent}: holds a tune of another configuration (the tune file, its "
+                            "controller or its references changed since); give another --out, or remove "
+                            f"{STATE_FILE} and {HISTORY_FILE} to start again")
+    return state
+
+
+def _load_history(path: Path, columns: list[str]) -> dict[int, dict[str, str]]:
+    """The whole rows of history.csv by candidate number (a torn last line is dropped: that candidate
+    is scored again)."""
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except FileNotFoundError:
+        return {}
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot read: {os_reason(exc)}") from None
+    rows = list(csv.reader(io.StringIO(text, newline="")))
+    if not rows:
+        return {}
+    if rows[0] != columns:
+        raise BipedsimError(f"{path}: its columns are not this tune's ({', '.join(rows[0][:3])}, ...); give "
+                            f"another --out, or remove {HISTORY_FILE} and {STATE_FILE} to start again")
+    body = rows[1:]
+    if body and not text.endswith(("\n", "\r")):
+        body = body[:-1]
+    out: dict[int, dict[str, str]] = {}
+    for rec in body:
+        if len(rec) == len(columns):
+            try:
+                d = dict(zip(columns, rec))
+                if math.isfinite(float(d["score"])):
+                    out[int(d["candidate"])] = d
+            except ValueError:
+                continue
+    return out
+
+
+def _write_history(path: Path, columns: list[str], rows: list[dict[str, Any]], append: bool) -> None:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
+    if not append:
+        w.writeheader()
+    for r in rows:
+        w.writerow({k: r.get(k, "") for k in columns})
+    if not append:
+        atomic_write_text(path, buf.getvalue())
+        return
+    try:
+        new = not path.exists() or path.stat().st_size == 0
+        with open(path, "a", encoding="utf-8", newline="") as f:
+            if new:
+                f.write(",".join(columns) + "\n")
+            f.write(buf.getvalue())
+            f.flush()
+            os.fsync(f.fileno())
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot write: {os_reason(exc)}; the rows written before are kept "
+                          "(run the same command again to resume)") from None
+
+
+def _record(result: dict[str, Any], generation: int, values: dict[str, float]) -> dict[str, Any]:
+    """A history row: floats written so they read back exactly (the resumed tune tells CMA-ES the same)."""
+    row = {k: (repr(float(v)) if isinstance(v, float) else v) for k, v in result.items()}
+    row["generation"] = generation
+    row.update({k: repr(float(v)) for k, v in values.items()})
+    return row
+
+
+def _setup(tune: Tune) -> Setup:
+    from dataclasses import asdict
+
+    e = tune.spec.experiment
+    assert e is not None
+    return Setup(references=tune.references, profile=tune.spec.profile, support=tune.spec.support,
+                 rows=tuple(tune.experiment().rows()), seconds=e.seconds, init_noise=e.init_noise,
+                 fall=None if e.fall is None else asdict(e.fall), objective=tune.spec.objective)
+
+
+def _values(tune: Tune, x: list[float]) -> dict[str, float]:
+    lo, hi = _bounds(tune)
+    real = lo + np.asarray(x, dtype=float) * (hi - lo)
+    return {k: float(v) for k, v in zip(tune.keys, real)}
+
+
+def _say(message: str) -> None:
+    print(f"bipedsim tune: {message}", file=sys.stderr)
+
+
+class _Scorer:
+    """Scores candidates not yet in the history, appending each row as it finishes."""
+
+    def __init__(self, tune: Tune, out: Path, history: dict[int, dict[str, str]], run: Callable[..., Any],
+                 bar: Any) -> None:
+        self.tune, self.history, self.run, self.bar = tune, history, run, bar
+        self.path, self.columns, self.setup = out / HISTORY_FILE, history_columns(tune), _setup(tune)
+
+    def score(self, generation: int, candidates: list[tuple[int, dict[str, float]]]) -> list[float]:
+        todo = [(n, v) for n, v in candidates if n not in self.history]
+        for n, v in candidates:
+            if n in self.history:
+                self._check_same(n, v)
+        values = dict(todo)
+        tasks = [(n, config.to_dict(self.tune.settings(v)), self.setup) for n, v in todo]
+        for res in self.run(tasks, evaluate):
+            row = _record(res, generation, values[res["candidate"]])
+            _write_history(self.path, self.columns, [row], append=True)
+            self.history[res["candidate"]] = {k: str(v) for k, v in row.items()}
+            if self.bar is not None:
+                self.bar.update(1)
+                self.bar.set_postfix(best=f"{self.best()[1]:.4g}")
+        return [float(self.history[n]["score"]) for n, _ in candidates]
+
+    def _check_same(self, number: int, values: dict[str, float]) -> None:
+        rec = self.history[number]
+        if any(float(rec[k]) != v for k, v in values.items()):
+            raise BipedsimError(f"{self.path}: candidate {number}'s values differ from the tune's state (the file "
+                                f"was edited?); remove {HISTORY_FILE} and {STATE_FILE} to start again")
+
+    def best(self) -> tuple[int, float]:
+        return min(((n, float(r["score"])) for n, r in self.history.items()), key=lambda p: (p[1], p[0]))
+
+
+def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, backend: str = "local",
+             progress: bool = True, say: Callable[[str], None] = _say) -> dict[str, Any]:
+    """Tune ``tune``'s parameters into ``out_dir`` (resuming what is there); returns the summary.
+
+    Candidate 0 is the start controller (the baseline, besides the budget); 1 .. ``evaluations`` are
+    CMA-ES's, in generations of ``popsize`` (the last one cut to the budget). CMA-ES may stop before
+    the budget (its own criteria, e.g. every candidate scoring the same); the summary says why."""
+    if backend not in BACKENDS:
+        raise ConfigError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}", key="--backend")
+    if workers < 1:
+        raise ConfigError(f"must be at least 1, got {workers}", key="--workers")
+    out = prepare_output_dir(out_dir, "--out")
+    columns = history_columns(tune)
+    has_history = (out / HISTORY_FILE).is_file() and (out / HISTORY_FILE).stat().st_size > 0
+    state = _load_state(out / STATE_FILE, tune, has_history) or _new_state(tune)
+    history = _load_history(out / HISTORY_FILE, columns)
+    _save_state(out / STATE_FILE, state)
+    if history:
+        _write_history(out / HISTORY_FILE, columns, [history[n] for n in sorted(history)], append=False)
+    budget = tune.spec.evaluations
+    bar = progress_bar(budget + 1, tune.spec.name, "candidate", force=True, leave=True) if progress else None
+    if bar is not None:
+        bar.update(min(len(history), budget + 1))
+    n_workers, note = worker_count(workers, int(state["es"].popsize))  # capped by the CPUs or a generation
+    if note:
+        say(note.replace("rollout(s) left", "candidates per generation"))
+    try:
+        # one pool (or Ray session) for every generation: the workers build each reference's body once
+        with backend_session(backend, n_workers) as run:
+            scorer = _Scorer(tune, out, history, run, bar)
+            scorer.score(0, [(0, tune.start_values())])
+            _rescore_lost(tune, state, scorer)
+            while state["evaluated"] < budget and not state["es"].stop():
+                _generation(tune, state, scorer, out, budget)
+                write_outputs(tune, out, scorer.history, state)
+    finally:
+        if bar is not None:
+            bar.close()
+    # in candidate order: the same tune gives the same file whatever order the workers finished in
+    _write_history(out / HISTORY_FILE, columns, [history[n] for n in sorted(history)], append=False)
+    return write_outputs(tune, out, history, state)
+
+
+def _generation(tune: Tune, state: dict[str, Any], scorer: _Scorer, out: Path, budget: int) -> None:
+    """Ask, score (the candidates not already in the history), tell, save."""
+    # The state is saved only once a generation is told: a resumed tune asks again from the saved
+    # state and gets the same candidates (CMA-ES's generator is in the pickle). It must not tell
+    # candidates asked by another process: pycma finds a told solution's internal (unbounded) form by
+    # a hash that differs between processes, and would recompute it -- another update, other results.
+    es = state["es"]
+    asked = [np.asarray(x, dtype=float) for x in es.ask()]
+    gen = state["generation"] + 1
+    n = min(len(asked), budget - state["evaluated"])
+    scores = scorer.score(gen, [(state["evaluated"] + 1 + i, _values(tune, asked[i].tolist())) for i in range(n)])
+    if n == len(asked):
+        es.tell(asked, scores)
+    state["told"] += [(gen, x.tolist()) for x in asked[:n]]
+    state.update(generation=gen, evaluated=state["evaluated"] + n)
+    _save_state(out / STATE_FILE, state)
+
+
+def _rescore_lost(tune: Tune, state: dict[str, Any], scorer: _Scorer) -> None:
+    """Score again the told candidates missing from history.csv (a row torn by a crash mid-write):
+    CMA-ES has their scores already; the history gets back the same rows."""
+    for number, (gen, x) in enumerate(state["told"], start=1):
+        if number not in scorer.history:
+            scorer.score(gen, [(number, _values(tune, x))])
+
+
+# ---------------------------------------------------------------------- outputs
+def write_outputs(tune: Tune, out: Path, history: dict[int, dict[str, str]], state: dict[str, Any]) -> dict[str, Any]:
+    """best.yaml, convergence.png and summary.json from the history so far; returns the summary."""
+    import cma
+
+    best_n = min(history, key=lambda n: (float(history[n]["score"]), n))
+    best, start = history[best_n], history[0]
+    stop = {k: str(v) for k, v in state["es"].stop().items()}
+    summary = {"name": tune.spec.name, "file": str(tune.path), "controller": tune.controller_path,
+               "references": list(tune.references), "profile": tune.spec.profile, "seed": tune.spec.seed,
+               "budget": tune.spec.evaluations, "evaluated": state["evaluated"], "generations": state["generation"],
+               "popsize": int(state["es"].popsize), "stopped_early": stop if stop and state["evaluated"] <
+               tune.spec.evaluations else None,
+               "start": _summary_row(tune, start), "best": _summary_row(tune, best),
+               "config": config.to_dict(tune.spec), "versions": {**versions(), "cma": cma.__version__}}
+    values = {k: float(best[k]) for k in tune.keys}
+    _write_best(tune, out / "best.yaml", values, best_n, summary)
+    convergence_plot(history, out / "convergence.png", title=f"{tune.spec.name}: CMA-ES, seed {tune.spec.seed}")
+    atomic_write_json(out / "summary.json", summary)
+    return summary
+
+
+def _summary_row(tune: Tune, rec: dict[str, str]) -> dict[str, Any]:
+    return {"candidate": int(rec["candidate"]), "score": float(rec["score"]),
+            "terms": {k: float(rec[k]) for k in TERMS}, "survived": int(rec["survived"]),
+            "rollouts": int(rec["rollouts"]), "walk_s": float(rec["walk_s"]),
+            "parameters": {k: float(rec[k]) for k in tune.keys}}
+
+
+def _write_best(tune: Tune, path: Path, values: dict[str, float], number: int, summary: dict[str, Any]) -> None:
+    """The best candidate as a complete controller file, with a header saying how it was found."""
+    data = config.to_dict(tune.settings(values))
+    if "name" in data:
+        data["name"] = f"{tune.spec.name}-best"
+    s, b = summary["start"], summary["best"]
+    lines = [f"Found by `bipedsim tune {tune.path.name}` (CMA-ES, pycma; seed {tune.spec.seed}): candidate "
+             f"{number} of {summary['evaluated']} evaluated in {summary['generations']} generation(s).",
+             f"start: {tune.controller_path or 'the default controller'}; references: "
+             + ", ".join(Path(r).name if r else "the built-in walk" for r in tune.references) + ".",
+             f"score {b['score']:.4g} (start {s['score']:.4g}; lower is better); pushes survived "
+             f"{b['survived']}/{b['rollouts']} (start {s['survived']}/{s['rollouts']}).",
+             "tuned: " + ", ".join(f"{k} {s['parameters'][k]:g} -> {v:.4g}" for k, v in values.items()) + "."]
+    if tune.spec.profile == "creature":
+        lines.append("These are a creature controller's settings (CreatureControlConfig); `bipedsim run` takes "
+                     "only --support for a creature.")
+    else:
+        lines.append("A complete controller file: bipedsim run best.yaml [--bvh REFERENCE].")
+    header = "".join(f"# {line}\n" for line in lines)
+    atomic_write_text(path, header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100))
+
+
+def convergence_plot(history: dict[int, dict[str, str]], path: Path, title: str) -> None:
+    """Every candidate's score and the best so far, against the candidates scored."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    nums = sorted(history)
+    scores = np.array([float(history[n]["score"]) for n in nums])
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.scatter(nums, scores, s=10, c="tab:gray", label="candidate")
+    ax.plot(nums, np.minimum.accumulate(scores), c="tab:blue", label="best so far")
+    ax.axhline(scores[0], c="tab:red", ls="--", lw=1, label="start controller")
+    ax.set_xlabel("candidate (0: the start controller)")
+    if np.all(scores > 0):
+        ax.set_yscale("log")  # a broken start scores tens, a good controller about one
+    ax.set_ylabel("score (lower is better)")
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    atomic_write_bytes(path, buf.getvalue())
+
+
+def format_tune_summary(summary: dict[str, Any], out_dir: str | os.PathLike[str]) -> str:
+    """The lines ``bipedsim tune`` prints: the best candidate against the start, each parameter's
+    start and tuned value, why CMA-ES stopped early (if it did) and the files written."""
+    s, b = summary["start"], summary["best"]
+    lines = [f"{summary['evaluated']} candidates in {summary['generations']} generation(s): best score "
+             f"{b['score']:.4g} (candidate {b['candidate']}), start {s['score']:.4g}",
+             f"  pushes survived {b['survived']}/{b['rollouts']} (start {s['survived']}/{s['rollouts']}); walk "
+             f"{b['walk_s']:g} s (start {s['walk_s']:g} s)"]
+    lines += [f"  {k}: {s['parameters'][k]:g} -> {v:.4g}" for k, v in b["parameters"].items()]
+    if summary["stopped_early"]:
+        lines.append(f"  CMA-ES stopped before the budget: {', '.join(summary['stopped_early'])}")
+    lines.append(f"wrote {out_dir}/best.yaml, history.csv, convergence.png, summary.json")
+    return "\n".join(lines)
+
+
+def interrupted_message(tune: Tune, out_dir: str | os.PathLike[str]) -> str:
+    n = len(_load_history(Path(out_dir) / HISTORY_FILE, history_columns(tune)))
+    return (f"interrupted; {out_dir}/{HISTORY_FILE} holds {n} of {tune.spec.evaluations + 1} candidates; run the "
+            "same command again to resume")
+
+
+__all__ = ["CONFIG_CLASSES", "HISTORY_FILE", "STATE_FILE", "convergence_plot", "format_tune_summary",
+           "history_columns", "interrupted_message", "run_tune", "write_outputs"]

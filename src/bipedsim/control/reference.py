@@ -231,6 +231,12 @@ class Hinges:
         return self.names.index(name)
 
 
+def foot_points(model: mujoco.MjModel, side: str) -> list[int]:
+    """The bodies whose origins stand for a foot's lowest point: the foot (ankle) and its toe if any."""
+    names = [f"{side}_foot", f"{side}_toe"]
+    return [model.body(x).id for x in names if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, x) >= 0]
+
+
 class GaitSource:
     """Interface of a gait source (see module docstring)."""
 
@@ -270,7 +276,8 @@ class GaitSource:
 
     def swing_leg(self, f: float, side: str) -> tuple[float, float, float] | None:
         """The reference's leg of ``side`` at frame ``f``: the ankle from the hip, forward and up in
-        the heading frame (m), and the foot's height above the other foot (m); None if unknown."""
+        the heading frame (m), and the foot's height above the other foot (m, each foot's lowest of its
+        ankle and toe origins); None if unknown."""
         return None
 
     def swing_phase(self, f: float, swing: str) -> float | None:
@@ -453,6 +460,8 @@ class ClipSource(GaitSource):
         ankle = {s: np.zeros((n, 3)) for s in SIDES}
         heading = np.zeros(n)
         hip = {s: np.zeros((n, 3)) for s in SIDES}
+        low = {s: np.zeros(n) for s in SIDES}
+        self.foot_points = {s: foot_points(model, s) for s in SIDES}
         for t in range(n):
             data.qpos[:] = clip.qpos[t]
             mujoco.mj_kinematics(model, data)
@@ -466,6 +475,7 @@ class ClipSource(GaitSource):
                 self.foot_hf[s][t] = ry @ data.xmat[feet[s]].reshape(3, 3)
                 ankle[s][t] = data.xpos[feet[s]]
                 hip[s][t] = ry @ (data.xpos[feet[s]] - data.xpos[thighs[s]])
+                low[s][t] = min(float(data.xpos[b, 2]) for b in self.foot_points[s])
             com[t] = data.subtree_com[pelvis]
         vel = np.gradient(com, self.frame_time, axis=0)
         self.d_ref = {}
@@ -482,7 +492,7 @@ class ClipSource(GaitSource):
         # the swing leg's reference geometry (reference modulation): hip-to-ankle forward and up, the
         # foot's height above the other foot
         other = {"left": "right", "right": "left"}
-        self._leg = {s: np.column_stack([hip[s][:, 0], hip[s][:, 2], ankle[s][:, 2] - ankle[other[s]][:, 2]])
+        self._leg = {s: np.column_stack([hip[s][:, 0], hip[s][:, 2], low[s] - low[other[s]]])
                      for s in SIDES}
         root = clip.qpos[:, :2]
         self._speed = float(np.linalg.norm(root[int(self.b)] - root[int(self.a)]) / (self.period * self.frame_time))

@@ -40,7 +40,7 @@ from bipedsim.control.balance import (
 from bipedsim.control.base import Controller, register
 from bipedsim.control.config import ControllerConfig
 from bipedsim.control.fsm import GaitFSM
-from bipedsim.control.reference import SIDES, ClipSource, CourseTracker, GaitSource, Hinges, PoseSource
+from bipedsim.control.reference import SIDES, ClipSource, CourseTracker, GaitSource, Hinges, PoseSource, foot_points
 from bipedsim.errors import ConfigError, ModelError
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
@@ -154,6 +154,7 @@ class SimbiconController(Controller):
         self.leg_len = {s: (float(np.linalg.norm(model.body_pos[self.shin_body[s]])),
                             float(np.linalg.norm(model.body_pos[model.body(f"{s}_foot").id]))) for s in SIDES}
         self.knee = {s: self.hinges.index(f"{s}_knee") for s in SIDES}
+        self._foot_pts = {s: foot_points(model, s) for s in SIDES}
 
     def _model_tables(self) -> None:
         """What the controller changes in the model (damping, actuator fields), saved to restore."""
@@ -653,7 +654,8 @@ class SimbiconController(Controller):
         if leg is None or ph is None:
             return 0.0
         x, z, h_ref = leg
-        h = float(data.xpos[self.foot_body[swing], 2] - data.xpos[self.foot_body[stance], 2])
+        zs = data.xpos[:, 2]
+        h = min(float(zs[b]) for b in self._foot_pts[swing]) - min(float(zs[b]) for b in self._foot_pts[stance])
         ph = min(max(ph, 0.0), 1.0)
         dz = min(max(sf.height_gain * (h_ref - h) + sf.lift * math.sin(math.pi * ph), -sf.max_drop), sf.max_raise)
         l1, l2 = self.leg_len[swing]

@@ -104,3 +104,21 @@ def test_stance_ankle_tilts_the_foot_toe_down_when_the_com_runs_ahead(scenario) 
         assert math.asin(-c._stance_tilt()[2, 0]) == pytest.approx(0.2, abs=1e-9)  # clipped
     finally:
         c.restore_model()
+
+
+def test_swing_foot_ik_with_a_deadband_leaves_a_foot_at_its_reference_height_alone(scenario) -> None:
+    c = controller(scenario, swing_foot=SwingFootConfig(enabled=True, deadband=0.02))
+    try:
+        src, model = c.source, c.model
+        data = mujoco.MjData(model)
+        c.reset(data, src.a)
+        left = src.next_strike(src.a + 1e-3, "left")
+        c.frame = src.a + 0.5 * (left - src.a)
+        data.qpos[:] = src.reference_qpos(c.frame, 2, data.qpos)  # the foot exactly as high as the reference's
+        mujoco.mj_forward(model, data)
+        q_d, _ = src.hinge_targets(c.frame, 2)
+        before, tau = q_d.copy(), np.zeros(len(q_d))
+        assert c._swing_foot_ik(data, q_d, tau) == 0.0
+        assert np.array_equal(q_d, before) and not tau.any()
+    finally:
+        c.restore_model()

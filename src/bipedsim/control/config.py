@@ -242,6 +242,12 @@ class SwingFootConfig:
     lift: float = field(default=0.04, metadata={"min": 0.0})  #: m
     max_raise: float = field(default=0.15, metadata={"min": 0.0})  #: m
     max_drop: float = field(default=0.05, metadata={"min": 0.0})  #: m
+    #: m: acts only while the swing foot is more than this below its reference height (0: always)
+    deadband: float = field(default=0.0, metadata={"min": 0.0})
+    #: the ankle target also moved forward by ``placement_gain`` x its lag behind the reference's
+    #: (hip to ankle, heading frame), clipped to +-``max_placement`` m: the swing leg's lag made up
+    placement_gain: float = field(default=0.0, metadata={"min": 0.0})
+    max_placement: float = field(default=0.2, metadata={"min": 0.0})  #: m
 
 
 @dataclass(frozen=True)

@@ -155,6 +155,7 @@ class SimbiconController(Controller):
                             float(np.linalg.norm(model.body_pos[model.body(f"{s}_foot").id]))) for s in SIDES}
         self.knee = {s: self.hinges.index(f"{s}_knee") for s in SIDES}
         self._foot_pts = {s: foot_points(model, s) for s in SIDES}
+        self.thigh_body = {s: model.body(f"{s}_thigh").id for s in SIDES}
 
     def _model_tables(self) -> None:
         """What the controller changes in the model (damping, actuator fields), saved to restore."""
@@ -657,15 +658,32 @@ class SimbiconController(Controller):
         zs = data.xpos[:, 2]
         h = min(float(zs[b]) for b in self._foot_pts[swing]) - min(float(zs[b]) for b in self._foot_pts[stance])
         ph = min(max(ph, 0.0), 1.0)
-        dz = min(max(sf.height_gain * (h_ref - h) + sf.lift * math.sin(math.pi * ph), -sf.max_drop), sf.max_raise)
+        err = h_ref - h
+        if sf.deadband > 0.0:
+            # only a foot lower than its reference by more than the band is raised (the lift phased in
+            # over one more band), so a swing that clears the floor as its reference does is left alone
+            w = min(max((err - sf.deadband) / sf.deadband, 0.0), 1.0)
+            if w == 0.0:
+                return 0.0
+            err -= sf.deadband
+            lift = w * sf.lift
+        else:
+            lift = sf.lift
+        dz = min(max(sf.height_gain * err + lift * math.sin(math.pi * ph), -sf.max_drop), sf.max_raise)
+        dx = 0.0
+        if sf.placement_gain > 0.0:
+            # the ankle's forward lag behind the reference's, from the hip, in the heading frame
+            fx, fy, _ = (data.xpos[self.foot_body[swing]] - data.xpos[self.thigh_body[swing]]).tolist()
+            lag = x - (self._ry[0, 0] * fx + self._ry[1, 0] * fy)
+            dx = min(max(sf.placement_gain * lag, -sf.max_placement), sf.max_placement)
         l1, l2 = self.leg_len[swing]
         k0, b0 = _two_link(l1, l2, math.hypot(x, z))
-        k1, b1 = _two_link(l1, l2, math.hypot(x, z + dz))
+        k1, b1 = _two_link(l1, l2, math.hypot(x + dx, z + dz))
         i = self.knee[swing]
         new = min(max(float(q_d[i]) + k1 - k0, self._tlo_l[i]), self._thi_l[i])
         tau[i] += self._akp[i] * (new - float(q_d[i]))
         q_d[i] = new
-        return math.atan2(x, -(z + dz)) - math.atan2(x, -z) + b1 - b0
+        return math.atan2(x + dx, -(z + dz)) - math.atan2(x, -z) + b1 - b0
 
     def _feet_world(self, data: mujoco.MjData, q: FloatArray, qd: FloatArray, q_d: FloatArray, qd_d: FloatArray,
                     tau: FloatArray) -> None:

@@ -217,6 +217,65 @@ class ResyncConfig:
 
 
 @dataclass(frozen=True)
+class SyncConfig:
+    """Synchronisation at the real swing-foot contact (Lee, Kim & Lee 2010): the swing foot's touch
+    ends a step only once the reference is ``accept`` of the way through that step (from the stance
+    foot's strike to the swing foot's); an early touch then moves the reference on to its strike frame
+    over ``blend`` s; a late one holds the reference at the strike frame (up to ``fsm.max_wait``)."""
+
+    enabled: bool = False
+    accept: float = field(default=0.7, metadata={"min": 0.0, "max": 1.0})
+    blend: float = field(default=0.1, metadata={"min": 0.0})  #: s
+    hold: bool = True
+
+
+@dataclass(frozen=True)
+class SwingFootConfig:
+    """Swing-foot height by two-link leg IK (Lee, Kim & Lee 2010): the swing ankle's target, the
+    reference's hip-to-ankle vector, is raised by ``height_gain`` x (the reference foot's height above
+    the stance foot - the simulated one's) + ``lift`` sin(pi phase) (m, phase 0-1 through the step),
+    clipped to [-``max_drop``, ``max_raise``]; the swing knee and the world thigh target follow (law of
+    cosines on the thigh and shin lengths)."""
+
+    enabled: bool = False
+    height_gain: float = field(default=0.5, metadata={"min": 0.0})
+    lift: float = field(default=0.04, metadata={"min": 0.0})  #: m
+    max_raise: float = field(default=0.15, metadata={"min": 0.0})  #: m
+    max_drop: float = field(default=0.05, metadata={"min": 0.0})  #: m
+    #: m: acts only while the swing foot is more than this below its reference height (0: always)
+    deadband: float = field(default=0.0, metadata={"min": 0.0})
+    #: the ankle target also moved forward by ``placement_gain`` x its lag behind the reference's
+    #: (hip to ankle, heading frame), clipped to +-``max_placement`` m: the swing leg's lag made up
+    placement_gain: float = field(default=0.0, metadata={"min": 0.0})
+    max_placement: float = field(default=0.2, metadata={"min": 0.0})  #: m
+
+
+@dataclass(frozen=True)
+class StanceAnkleConfig:
+    """Stance-ankle feedback (Lee, Kim & Lee 2010): the stance foot's world target pitched toe-down by
+    ``kv`` x (COM velocity - the reference's) + ``kd`` x (COM offset from the stance ankle - the
+    reference's) (rad per m/s, rad per m; sagittal and coronal), clipped to +-``max_angle`` rad."""
+
+    enabled: bool = False
+    kv: float = field(default=0.1, metadata={"min": 0.0})
+    kd: float = field(default=0.1, metadata={"min": 0.0})
+    max_angle: float = field(default=0.2, metadata={"min": 0.0})
+
+
+@dataclass(frozen=True)
+class ModulationConfig:
+    """Reference modulation for tracking real captures (Lee, Kim & Lee 2010), each term switchable."""
+
+    sync: SyncConfig = field(default_factory=SyncConfig)
+    #: the swing leg's hip and knee damped against the reference's velocity, kd (qdot_d - qdot), not
+    #: -kd qdot: with absolute damping a leg swinging at w rad/s lags its target by kd/kp w (0.1 s of
+    #: motion at the default gains, 25 cm of foot on a 1.5 m/s walk)
+    swing_velocity: bool = False
+    swing_foot: SwingFootConfig = field(default_factory=SwingFootConfig)
+    stance_ankle: StanceAnkleConfig = field(default_factory=StanceAnkleConfig)
+
+
+@dataclass(frozen=True)
 class PoseState:
     """SIMBICON key pose of one state (rad): swing hip (world, sagittal), knees, ankles, torso."""
 
@@ -251,6 +310,7 @@ class ControllerConfig:
     balance: BalanceConfig = field(default_factory=BalanceConfig)
     fade: FadeConfig = field(default_factory=FadeConfig)
     resync: ResyncConfig = field(default_factory=ResyncConfig)
+    modulation: ModulationConfig = field(default_factory=ModulationConfig)
     pose_gait: PoseGait = field(default_factory=PoseGait)
 
     def validate(self) -> None:

@@ -231,6 +231,12 @@ class Hinges:
         return self.names.index(name)
 
 
+def foot_points(model: mujoco.MjModel, side: str) -> list[int]:
+    """The bodies whose origins stand for a foot's lowest point: the foot (ankle) and its toe if any."""
+    names = [f"{side}_foot", f"{side}_toe"]
+    return [model.body(x).id for x in names if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, x) >= 0]
+
+
 class GaitSource:
     """Interface of a gait source (see module docstring)."""
 
@@ -266,6 +272,17 @@ class GaitSource:
 
     def next_strike(self, f: float, side: str) -> float | None:
         """The first reference strike frame of ``side`` at or after ``f`` (unwrapped), if known."""
+        return None
+
+    def swing_leg(self, f: float, side: str) -> tuple[float, float, float] | None:
+        """The reference's leg of ``side`` at frame ``f``: the ankle from the hip, forward and up in
+        the heading frame (m), and the foot's height above the other foot (m, each foot's lowest of its
+        ankle and toe origins); None if unknown."""
+        return None
+
+    def swing_phase(self, f: float, swing: str) -> float | None:
+        """How far the reference is through ``swing``'s step at frame ``f``: 0 at the other foot's
+        last strike, 1 at this foot's next (None if unknown)."""
         return None
 
     def nearest_strike(self, f: float, side: str) -> float | None:
@@ -442,6 +459,9 @@ class ClipSource(GaitSource):
         com = np.zeros((n, 3))
         ankle = {s: np.zeros((n, 3)) for s in SIDES}
         heading = np.zeros(n)
+        hip = {s: np.zeros((n, 3)) for s in SIDES}
+        low = {s: np.zeros(n) for s in SIDES}
+        self.foot_points = {s: foot_points(model, s) for s in SIDES}
         for t in range(n):
             data.qpos[:] = clip.qpos[t]
             mujoco.mj_kinematics(model, data)
@@ -454,6 +474,8 @@ class ClipSource(GaitSource):
                 self.thigh_hf[s][t] = ry @ data.xmat[thighs[s]].reshape(3, 3)
                 self.foot_hf[s][t] = ry @ data.xmat[feet[s]].reshape(3, 3)
                 ankle[s][t] = data.xpos[feet[s]]
+                hip[s][t] = ry @ (data.xpos[feet[s]] - data.xpos[thighs[s]])
+                low[s][t] = min(float(data.xpos[b, 2]) for b in self.foot_points[s])
             com[t] = data.subtree_com[pelvis]
         vel = np.gradient(com, self.frame_time, axis=0)
         self.d_ref = {}
@@ -467,6 +489,11 @@ class ClipSource(GaitSource):
                 dd[t] = (yaw_matrix(-heading[t]) @ (com[t] - ankle[s][t]))[:2]
             self.d_ref[s] = dd
         self._d_lat = {s: self.d_ref[s][:, 1].tolist() for s in SIDES}  # per-step reads on plain floats
+        # the swing leg's reference geometry (reference modulation): hip-to-ankle forward and up, the
+        # foot's height above the other foot
+        other = {"left": "right", "right": "left"}
+        self._leg = {s: np.column_stack([hip[s][:, 0], hip[s][:, 2], low[s] - low[other[s]]])
+                     for s in SIDES}
         root = clip.qpos[:, :2]
         self._speed = float(np.linalg.norm(root[int(self.b)] - root[int(self.a)]) / (self.period * self.frame_time))
         steps = np.sort(np.concatenate([self.strikes["right"], self.strikes["left"]]))
@@ -551,6 +578,19 @@ class ClipSource(GaitSource):
     def nearest_strike(self, f: float, side: str) -> float | None:
         c = self._strikes_near(f, side)
         return float(c[np.argmin(np.abs(c - f))])
+
+    def swing_leg(self, f: float, side: str) -> tuple[float, float, float] | None:
+        x, z, h = self._interp(self._leg[side], f).tolist()
+        return x, z, h
+
+    def swing_phase(self, f: float, swing: str) -> float | None:
+        nxt = self.next_strike(f, swing)
+        c = self._strikes_near(f, "left" if swing == "right" else "right")
+        c = c[c <= f + 1e-9]
+        if nxt is None or not len(c):
+            return None
+        prv = float(c.max())
+        return (f - prv) / max(nxt - prv, 1e-6)
 
     def start_frame(self) -> float:
         """Where a rollout starts: just after the loop's first right-foot strike, when that foot

@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.control.balance import (
+    axis_rotation,
     beyond,
     course_turn,
     euler_from_matrix,
@@ -39,7 +40,7 @@ from bipedsim.control.balance import (
 from bipedsim.control.base import Controller, register
 from bipedsim.control.config import ControllerConfig
 from bipedsim.control.fsm import GaitFSM
-from bipedsim.control.reference import SIDES, ClipSource, CourseTracker, GaitSource, Hinges, PoseSource
+from bipedsim.control.reference import SIDES, ClipSource, CourseTracker, GaitSource, Hinges, PoseSource, foot_points
 from bipedsim.errors import ConfigError, ModelError
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
@@ -149,6 +150,12 @@ class SimbiconController(Controller):
             axes = [np.asarray(jplan[x].axis) for x in names]
             self.ankle[s] = (idx, axes)
         self.shin_body = {s: model.body(f"{s}_shin").id for s in SIDES}
+        # two-link legs for the swing foot's IK: thigh and shin lengths (m), the knee hinge
+        self.leg_len = {s: (float(np.linalg.norm(model.body_pos[self.shin_body[s]])),
+                            float(np.linalg.norm(model.body_pos[model.body(f"{s}_foot").id]))) for s in SIDES}
+        self.knee = {s: self.hinges.index(f"{s}_knee") for s in SIDES}
+        self._foot_pts = {s: foot_points(model, s) for s in SIDES}
+        self.thigh_body = {s: model.body(f"{s}_thigh").id for s in SIDES}
 
     def _model_tables(self) -> None:
         """What the controller changes in the model (damping, actuator fields), saved to restore."""
@@ -194,6 +201,7 @@ class SimbiconController(Controller):
         self.last_strike_frame = source.loop_start
         self.wait_time = 0.0
         self.pending_shift = 0.0
+        self._shift_spread = cfg.resync.spread
         self.resyncs: list[ResyncEvent] = []
         self.ctrl = np.zeros(model.nu)
         self.torque = np.zeros(n)  #: the torques (N*m) of the last control step
@@ -240,6 +248,13 @@ class SimbiconController(Controller):
         self._ankle_fast = {s: (self.ankle[s][0].tolist(), [tuple((a / np.linalg.norm(a)).tolist())
                                                              for a in self.ankle[s][1]])
                             for s in SIDES}
+        mod = cfg.modulation
+        self._sync_on = mod.sync.enabled
+        self._swing_vel_on = mod.swing_velocity and not self._ref_vel and self.implicit
+        self._swing_leg = {s: [*self.hip[s][0].tolist(), self.knee[s]] for s in SIDES}
+        self._ik_on = mod.swing_foot.enabled and source.swing_leg(source.loop_start, "left") is not None
+        self._ankle_fb_on = mod.stance_ankle.enabled
+        self._com_hf = (0.0, 0.0, 0.0, 0.0)  #: the last step's COM offset from the stance ankle and velocity
         vel = cfg.balance.velocity
         self._vel_on = cfg.balance.enabled and (vel.kv_sagittal > 0 or vel.kv_coronal > 0)
         #: per side: (hinge index, joint id) of the knee and ankle hinges, the stance leg's chain below
@@ -395,7 +410,7 @@ class SimbiconController(Controller):
                 delta = np.clip(self.cfg.resync.gain * (target - self.frame), -self.cfg.resync.max_frames,
                                 self.cfg.resync.max_frames)
                 if self.cfg.resync.spread > 0:
-                    self.pending_shift = float(delta)
+                    self.pending_shift, self._shift_spread = float(delta), self.cfg.resync.spread
                 else:
                     self.frame += float(delta)
             self.last_strike_frame = target
@@ -425,20 +440,31 @@ class SimbiconController(Controller):
             rate = min(max(1.0 + tc.gain * e, tc.min), tc.max)
         dt_ref = dt * rate
         self.clock += dt_ref
-        struck = fsm.update(dt_ref, t, float(sd[self.touch[fsm.swing][0]]))
+        swing_force = float(sd[self.touch[fsm.swing][0]])
+        if self._sync_on and fsm.state in (2, 4):
+            # a touch ends the step only once the reference is far enough through it
+            ph = src.swing_phase(self.frame, fsm.swing)
+            if ph is not None and ph < cfg.modulation.sync.accept:
+                swing_force = 0.0
+        struck = fsm.update(dt_ref, t, swing_force)
         if struck is not None:
             self._resync(struck, t)
             self.wait_time = 0.0
+            if self._sync_on:
+                # an early touch: the reference moves on to its strike frame (over sync.blend s)
+                tgt = src.next_strike(self.frame, struck)
+                if tgt is not None and tgt - self.frame < 0.5 * src.step_time() / src.frame_time:
+                    self.pending_shift, self._shift_spread = tgt - self.frame, cfg.modulation.sync.blend
         # advance the reference, holding at the swing foot's strike frame while it has not landed
         nxt = self.frame + dt_ref / src.frame_time
         if self.pending_shift:
-            step = self.pending_shift * min(1.0, dt / cfg.resync.spread)
+            step = self.pending_shift * (min(1.0, dt / self._shift_spread) if self._shift_spread > 0 else 1.0)
             if abs(self.pending_shift - step) < 1e-9 or abs(step) >= abs(self.pending_shift):
                 step = self.pending_shift
             nxt += step
             self.pending_shift -= step
         holding = False
-        if cfg.resync.hold and fsm.state in (2, 4):
+        if (cfg.resync.hold or (self._sync_on and cfg.modulation.sync.hold)) and fsm.state in (2, 4):
             exp = src.next_strike(self.frame, fsm.swing)
             if exp is not None and nxt >= exp and self.wait_time < cfg.fsm.max_wait:
                 nxt = exp - 1e-6
@@ -465,6 +491,10 @@ class SimbiconController(Controller):
             tau += self._ff
         st = self.state
         st.frame, st.fsm_state, st.fade, st.holding, st.tempo = self.frame, fsm.state, a, holding, rate
+        if self._swing_vel_on:
+            # the swing leg's damping against the reference's velocity (implicit -kd qdot stays)
+            for i in self._swing_leg[fsm.swing]:
+                tau[i] += self._akd[i] * qd_d[i]
         if cfg.balance.enabled:
             self._dt = dt
             self._balance(data, q, qd, q_d, qd_d, tau, forces)
@@ -517,6 +547,8 @@ class SimbiconController(Controller):
         tau_torso = self._torso_torque(r_p, pm, data.qvel[3:6].tolist(), c, s)
         ax, ay, _ = data.xpos[self.foot_body[stance]].tolist()
         fs, fc, vh0, vh1 = self._feedback(cx - ax, cy - ay, vx, vy, c, s, place)
+        if self._ik_on:
+            fs += self._swing_foot_ik(data, q_d, tau)
         if b.swing_hip_world:
             tb = self._swing_hip(data, r_p, q, qd, q_d, qd_d, fs, fc)
         else:
@@ -556,6 +588,7 @@ class SimbiconController(Controller):
         b, src, stance, frame = self.cfg.balance, self.source, self.fsm.stance, self.frame
         d0, d1 = c * dx + s * dy, -s * dx + c * dy
         v0, v1 = c * vx + s * vy, -s * vx + c * vy
+        self._com_hf = (d0, d1, v0, v1)
         vh0, vh1 = v0, v1
         self._v_sag = v0
         if b.relative == "full":
@@ -599,6 +632,8 @@ class SimbiconController(Controller):
         q_d[i0], q_d[i1] = v0, v1
         qb = q[sl_b].tolist() if isinstance(sl_b, slice) else [float(q[i]) for i in idx_b]
         tb = [kp[i0] * (v0 - qb[0]), kp[i1] * (v1 - qb[1]), kp[i2] * (float(q_d[i2]) - qb[2])]
+        if self._swing_vel_on:
+            tb = [x + kd[i] * float(qd_d[i]) for x, i in zip(tb, idx_b)]
         if not implicit or ref_vel:
             for k, i in enumerate(idx_b):
                 vel = (0.0 if implicit else float(qd[i])) - (float(qd_d[i]) if ref_vel else 0.0)
@@ -609,16 +644,60 @@ class SimbiconController(Controller):
             tb = [x + float(bias[d]) for x, d in zip(tb, dadr_b)]
         return tb
 
+    def _swing_foot_ik(self, data: mujoco.MjData, q_d: FloatArray, tau: FloatArray) -> float:
+        """Swing-foot height by two-link IK (``modulation.swing_foot``): the reference's hip-to-ankle
+        vector raised by dz (see :class:`~bipedsim.control.config.SwingFootConfig`); the knee target
+        (and its torque in ``tau``) changes by the knee angle that shortens the leg so, and the returned
+        angle (rad, forward) turns the swing thigh's world target to keep the ankle on the raised point."""
+        sf, src, swing, stance = self.cfg.modulation.swing_foot, self.source, self.fsm.swing, self.fsm.stance
+        leg = src.swing_leg(self.frame, swing)
+        ph = src.swing_phase(self.frame, swing)
+        if leg is None or ph is None:
+            return 0.0
+        x, z, h_ref = leg
+        zs = data.xpos[:, 2]
+        h = min(float(zs[b]) for b in self._foot_pts[swing]) - min(float(zs[b]) for b in self._foot_pts[stance])
+        ph = min(max(ph, 0.0), 1.0)
+        err = h_ref - h
+        if sf.deadband > 0.0:
+            # only a foot lower than its reference by more than the band is raised (the lift phased in
+            # over one more band), so a swing that clears the floor as its reference does is left alone
+            w = min(max((err - sf.deadband) / sf.deadband, 0.0), 1.0)
+            if w == 0.0:
+                return 0.0
+            err -= sf.deadband
+            lift = w * sf.lift
+        else:
+            lift = sf.lift
+        dz = min(max(sf.height_gain * err + lift * math.sin(math.pi * ph), -sf.max_drop), sf.max_raise)
+        dx = 0.0
+        if sf.placement_gain > 0.0:
+            # the ankle's forward lag behind the reference's, from the hip, in the heading frame
+            fx, fy, _ = (data.xpos[self.foot_body[swing]] - data.xpos[self.thigh_body[swing]]).tolist()
+            lag = x - (self._ry[0, 0] * fx + self._ry[1, 0] * fy)
+            dx = min(max(sf.placement_gain * lag, -sf.max_placement), sf.max_placement)
+        l1, l2 = self.leg_len[swing]
+        k0, b0 = _two_link(l1, l2, math.hypot(x, z))
+        k1, b1 = _two_link(l1, l2, math.hypot(x + dx, z + dz))
+        i = self.knee[swing]
+        new = min(max(float(q_d[i]) + k1 - k0, self._tlo_l[i]), self._thi_l[i])
+        tau[i] += self._akp[i] * (new - float(q_d[i]))
+        q_d[i] = new
+        return math.atan2(x + dx, -(z + dz)) - math.atan2(x, -z) + b1 - b0
+
     def _feet_world(self, data: mujoco.MjData, q: FloatArray, qd: FloatArray, q_d: FloatArray, qd_d: FloatArray,
                     tau: FloatArray) -> None:
         """Ankle torques (into ``tau``) aiming each foot at the reference's heading-frame orientation."""
         src, state, frame, ry = self.source, self.fsm.state, self.frame, self._ry
         fade, kp, kd, tlo, thi = self.fade, self._kp_l, self._kd_l, self._tlo_l, self._thi_l
         ref_vel, implicit, grav = self._ref_vel, self.implicit, self.cfg.pd.gravity_compensation
+        tilt = self._stance_tilt() if self._ankle_fb_on else None
         for side in SIDES:
             r_f = src.foot_target(frame, state, side)
             if r_f is None:
                 continue
+            if tilt is not None and side == self.fsm.stance:
+                r_f = tilt.dot(r_f)
             idx, axes = self._ankle_fast[side]
             local = data.xmat[self.shin_body[side]].reshape(3, 3).T.dot(ry.dot(r_f))
             ang = _hinge_angles_small(local, axes)
@@ -632,6 +711,18 @@ class SimbiconController(Controller):
                 if grav:
                     t_i += float(self._ff[i])
                 tau[i] = t_i
+
+    def _stance_tilt(self) -> FloatArray:
+        """Stance-ankle feedback (``modulation.stance_ankle``): the heading-frame rotation applied to
+        the stance foot's target, toe down (COP forward) while the COM runs ahead of the reference's,
+        the outer edge down while it runs outward."""
+        sa = self.cfg.modulation.stance_ankle
+        d0, d1, v0, v1 = self._com_hf
+        d_ref, v_ref = self.source.com_reference(self.frame, self.fsm.stance)
+        lim = sa.max_angle
+        a = min(max(sa.kv * (v0 - float(v_ref[0])) + sa.kd * (d0 - float(d_ref[0])), -lim), lim)
+        b = min(max(-(sa.kv * (v1 - float(v_ref[1])) + sa.kd * (d1 - float(d_ref[1]))), -lim), lim)
+        return axis_rotation(np.array([0.0, 1.0, 0.0]), a).dot(axis_rotation(np.array([1.0, 0.0, 0.0]), b))
 
     def _hips(self, data: mujoco.MjData, tau: FloatArray, tau_torso: tuple[float, float, float], tb: list[float],
               forces: dict[str, float]) -> None:
@@ -724,6 +815,16 @@ def _hinge_angles_small(local: FloatArray, axes: list[tuple[float, float, float]
     third = next(k for k in range(3) if k not in order)
     ang = euler_from_matrix(local, (order[0], order[1], third))
     return ang[0] * signs[0], ang[1] * signs[1]
+
+
+def _two_link(l1: float, l2: float, reach: float) -> tuple[float, float]:
+    """A two-link leg (thigh ``l1``, shin ``l2``, m) reaching ``reach`` m from hip to ankle: the knee's
+    flexion and the thigh's angle ahead of the hip-ankle line (rad), the reach clamped to what the
+    links can span."""
+    r = min(max(reach, abs(l1 - l2) + 1e-3), 0.9999 * (l1 + l2))
+    knee = math.pi - math.acos(min(max((l1 * l1 + l2 * l2 - r * r) / (2 * l1 * l2), -1.0), 1.0))
+    thigh = math.acos(min(max((l1 * l1 + r * r - l2 * l2) / (2 * l1 * r), -1.0), 1.0))
+    return knee, thigh
 
 
 def _has_sensor(model: mujoco.MjModel, name: str) -> bool:

@@ -1,0 +1,124 @@
+"""Reference modulation (Lee, Kim & Lee 2010; ``modulation:`` in the controller YAML): synchronisation at
+the real swing-foot contact, swing-leg damping against the reference's velocity, swing-foot height by
+two-link leg IK, stance-ankle feedback."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import mujoco
+import numpy as np
+import pytest
+
+from bipedsim.control.config import ModulationConfig, StanceAnkleConfig, SwingFootConfig, SyncConfig
+from bipedsim.control.simbicon import SimbiconController, _two_link, gait_source
+from bipedsim.sim.rollout import RolloutSpec
+from bipedsim.sim.runner import load_scenario
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario()
+
+
+def controller(scenario, **mod):
+    cfg = replace(scenario.cfg, modulation=replace(ModulationConfig(), **mod))
+    src = gait_source(scenario.built.model, scenario.built.plan, scenario.clip, cfg)
+    return SimbiconController(scenario.built.model, scenario.built.plan, src, cfg)
+
+
+@pytest.mark.parametrize("reach", [0.5, 0.7, 0.85, 0.9])
+def test_two_link_reaches_the_ankle(reach: float) -> None:
+    l1, l2 = 0.45, 0.47
+    knee, thigh = _two_link(l1, l2, reach)
+    # thigh turned `thigh` ahead of the hip-ankle line (along 0), the shin turned back by the knee
+    x = l1 * math.cos(thigh) + l2 * math.cos(thigh - knee)
+    y = l1 * math.sin(thigh) + l2 * math.sin(thigh - knee)
+    assert math.hypot(x, y) == pytest.approx(reach, abs=1e-9)
+    assert math.atan2(y, x) == pytest.approx(0.0, abs=1e-9)
+    # a reach beyond the links' span is clamped: the leg straight
+    assert _two_link(l1, l2, 2.0)[0] == pytest.approx(0.0, abs=0.03)
+
+
+def test_swing_phase_runs_from_the_stance_strike_to_the_swing_strike(scenario) -> None:
+    src = gait_source(scenario.built.model, scenario.built.plan, scenario.clip, scenario.cfg)
+    a = src.a  # a right strike: the left foot's step begins
+    nxt = src.next_strike(a + 1e-3, "left")
+    assert src.swing_phase(a, "left") == pytest.approx(0.0)
+    assert src.swing_phase(nxt - 1e-6, "left") == pytest.approx(1.0, abs=1e-3)
+    mids = [src.swing_phase(a + u * (nxt - a), "left") for u in (0.25, 0.5, 0.75)]
+    assert mids == pytest.approx([0.25, 0.5, 0.75], abs=1e-6)
+
+
+def test_sync_accepts_strikes_only_late_in_the_step(scenario) -> None:
+    c = controller(scenario, sync=SyncConfig(enabled=True, accept=0.7, blend=0.0))
+    from bipedsim.sim.rollout import rollout
+
+    frame = c.start_frame()
+    out_s, c = rollout(scenario.built.model, scenario.built.plan, c, RolloutSpec(seconds=4.0, start_frame=frame),
+                       initial_qpos=scenario.clip.qpos[frame], initial_qvel=scenario.clip.qvel[frame])
+    assert out_s.outcome == "no_fall"
+    assert len(c.resyncs) >= 4
+    for ev in c.resyncs:
+        # each strike came with the reference at least 70 % through that foot's step (or held at it)
+        ph = c.source.swing_phase(ev.frame_before - 1e-3, ev.foot)
+        assert ph >= 0.7 - 1e-6, (ev, ph)
+    c.restore_model()
+
+
+def test_swing_foot_ik_raises_the_ankle_by_bending_the_knee(scenario) -> None:
+    c = controller(scenario, swing_foot=SwingFootConfig(enabled=True, height_gain=0.0, lift=0.05))
+    try:
+        src, model = c.source, c.model
+        data = mujoco.MjData(model)
+        c.reset(data, src.a)
+        left = src.next_strike(src.a + 1e-3, "left")
+        c.frame = src.a + 0.5 * (left - src.a)  # mid-swing of the left foot: lift 0.05 m
+        data.qpos[:] = src.reference_qpos(c.frame, 2, data.qpos)
+        mujoco.mj_forward(model, data)
+        q_d, _ = src.hinge_targets(c.frame, 2)
+        tau = np.zeros(len(q_d))
+        k = c.knee["left"]
+        before = float(q_d[k])
+        turn = c._swing_foot_ik(data, q_d, tau)
+        x, z, _ = src.swing_leg(c.frame, "left")
+        l1, l2 = c.leg_len["left"]
+        dk = _two_link(l1, l2, math.hypot(x, z + 0.05))[0] - _two_link(l1, l2, math.hypot(x, z))[0]
+        assert dk > 0.02
+        assert q_d[k] - before == pytest.approx(min(dk, c.thi[k] - before), abs=1e-9)
+        assert tau[k] == pytest.approx(c._akp[k] * (q_d[k] - before))
+        assert turn > 0  # the thigh turns forward to keep the ankle above the same point
+    finally:
+        c.restore_model()
+
+
+def test_stance_ankle_tilts_the_foot_toe_down_when_the_com_runs_ahead(scenario) -> None:
+    c = controller(scenario, stance_ankle=StanceAnkleConfig(enabled=True, kv=0.1, kd=0.0, max_angle=0.2))
+    try:
+        d_ref, v_ref = c.source.com_reference(c.frame, c.fsm.stance)
+        c._com_hf = (float(d_ref[0]), float(d_ref[1]), float(v_ref[0]) + 1.0, float(v_ref[1]))
+        r = c._stance_tilt()
+        assert math.asin(-r[2, 0]) == pytest.approx(0.1, abs=1e-9)  # toe down by kv x 1 m/s
+        c._com_hf = (float(d_ref[0]), float(d_ref[1]), float(v_ref[0]) + 5.0, float(v_ref[1]))
+        assert math.asin(-c._stance_tilt()[2, 0]) == pytest.approx(0.2, abs=1e-9)  # clipped
+    finally:
+        c.restore_model()
+
+
+def test_swing_foot_ik_with_a_deadband_leaves_a_foot_at_its_reference_height_alone(scenario) -> None:
+    c = controller(scenario, swing_foot=SwingFootConfig(enabled=True, deadband=0.02))
+    try:
+        src, model = c.source, c.model
+        data = mujoco.MjData(model)
+        c.reset(data, src.a)
+        left = src.next_strike(src.a + 1e-3, "left")
+        c.frame = src.a + 0.5 * (left - src.a)
+        data.qpos[:] = src.reference_qpos(c.frame, 2, data.qpos)  # the foot exactly as high as the reference's
+        mujoco.mj_forward(model, data)
+        q_d, _ = src.hinge_targets(c.frame, 2)
+        before, tau = q_d.copy(), np.zeros(len(q_d))
+        assert c._swing_foot_ik(data, q_d, tau) == 0.0
+        assert np.array_equal(q_d, before) and not tau.any()
+    finally:
+        c.restore_model()

@@ -9,8 +9,8 @@ from typing import Any
 
 from bipedsim.io import check_output_file
 from bipedsim.model.build import build_model
-from bipedsim.model.gait import humanoid_motion
 from bipedsim.model.creature_kind import AUTO, resolve_profile
+from bipedsim.model.gait import humanoid_motion
 from bipedsim.model.naming import load_map
 from bipedsim.model.retarget import retarget
 from bipedsim.motion.bvh import read_bvh

@@ -17,8 +17,8 @@ from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
-from bipedsim.model.gait import humanoid_motion
 from bipedsim.model.creature_kind import AUTO, resolve_profile
+from bipedsim.model.gait import humanoid_motion
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout

@@ -39,6 +39,26 @@ def test_shared_humans_are_humanoids(path: Path) -> None:
     assert kind == "humanoid", detect_body_kind(motion).describe()
 
 
+#: human bodies among the odd shared files (other skeleton layouts: MakeHuman's pelvis bone joining both
+#: thighs under the root, 163-173 joints, Blender names, a crouch)
+ODD_HUMANS = ("makehuman_walk1__zup_decimetre.bvh", "makehuman_tpose__173j_144six-channel.bvh",
+              "makehuman_face_poseunits__163j.bvh", "bvhtools_test3__YXZ_XYZ_metres_first600f__DERIVED.bvh",
+              "fairmotion_pfnn_hierarchy__crlf_metres_static.bvh", "mocapbank_crouch__lf.bvh")
+
+
+@pytest.mark.parametrize("name", ODD_HUMANS)
+def test_odd_human_layouts_are_humanoids_with_two_legs(name: str) -> None:
+    path = SHARED_BVH / "odd" / name
+    if not path.exists():
+        pytest.skip(f"shared BVH file not found: {path}")
+    kind = detect_body_kind(load_bvh(path))
+    assert kind.kind == "humanoid" and len(kind.legs) == 2, kind.describe()
+    # one leg per thigh: a bone joining both legs (MakeHuman's 'Hips' under 'Root') is no leg's root
+    sk = load_bvh(path).skeleton
+    roots = [sk.names.index(r) for r, _ in kind.legs]
+    assert len(set(roots)) == 2 and not set(roots) & {int(sk.parents[r]) for r in roots}
+
+
 @pytest.mark.parametrize("path, legs", [(HORSE_WALK, 4), (PTEROSAUR_FLIGHT, 2), (BUILTIN_WALK, 2)])
 def test_shipped_clips_body_kind(path: Path, legs: int) -> None:
     kind = detect_body_kind(load_bvh(path))

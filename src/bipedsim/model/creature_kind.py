@@ -34,6 +34,10 @@ AUTO = "auto"
 FOOT_HEIGHT_FRACTION = 0.25
 #: a leg has at least this many joints from its root down to its foot (a hip and a knee)
 MIN_LEG_JOINTS = 2
+#: a joint from which two branches each reach down from at least this fraction of the body's height to
+#: the floor joins two legs (a pelvis bone between the root and both thighs, as in MakeHuman's skeleton);
+#: a foot's toes branch near the floor
+LEG_BRANCH_FRACTION = 0.15
 #: largest angle (rad) from vertical of the hips -> upper-body-centroid line of an upright trunk
 UPRIGHT_MAX_RAD = np.radians(50.0)
 #: hip height as a fraction of the standing height (top of the body) for human proportions: 0.53 of
@@ -98,10 +102,17 @@ def detect_body_kind(motion: Motion) -> BodyKind:
     tips = _subtree_tips(parents, list(sk.end_site_parents), n)
     all_tips = sorted(set().union(*tips)) if n else []
     low = {t for t in all_tips if np.median(rel[:, t]) <= FOOT_HEIGHT_FRACTION * height}
+    def tall(c: int) -> bool:  # the branch at joint c reaches from well above the floor down to it
+        under = [t for t in tips[c] if t in low]
+        return bool(under) and float(np.median(z[:, c] - z[:, under].min(axis=1))) >= LEG_BRANCH_FRACTION * height
+
+    def joins_legs(p: int) -> bool:  # p is where two legs meet (a pelvis bone above both), not a foot's toes
+        return sum(tall(int(c)) for c in np.flatnonzero(parents == p) if c != p) >= 2
+
     legs: dict[int, list[int]] = {}
     for t in sorted(low):
         j = t if t < n else int(sk.end_site_parents[t - n])
-        while j > 0 and parents[j] > 0 and tips[int(parents[j])] <= low:
+        while j > 0 and parents[j] > 0 and tips[int(parents[j])] <= low and not joins_legs(int(parents[j])):
             j = int(parents[j])
         if j == 0 or _chain_joints(parents, t if t < n else int(sk.end_site_parents[t - n]), j) < MIN_LEG_JOINTS:
             continue

@@ -181,3 +181,21 @@ def test_graph_config_errors(tmp_path: Path) -> None:
     p.write_text(f"name: x\nclips:\n  - {{name: a, file: {SHARED_BVH}/human/missing.bvh}}\n")
     with pytest.raises(ConfigError, match="no such BVH file"):
         build_graph(load_graph_config(p), tmp_path)
+
+
+@pytest.mark.parametrize("content", [None, b"", b"# a README\n", "pickled"])
+def test_loading_what_is_no_graph_file_says_so_and_how_to_make_one(tmp_path: Path, content: object,
+                                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """An absent, empty, text or object-holding file given as a graph: one line naming it and
+    `bipedsim graph build`, exit 2 -- never a traceback nor numpy's advice to unpickle it."""
+    path = tmp_path / "g.npz"
+    if content == "pickled":
+        np.savez(path, meta=np.array([{"a": 1}], dtype=object))
+    elif content is not None:
+        path.write_bytes(content)
+    script = tmp_path / "s.txt"
+    script.write_text("WALK for 1 sec\n")
+    assert main(["graph", "play", str(path), str(script), "-o", str(tmp_path / "o.bvh")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(path) in err and "bipedsim graph build" in err, err
+    assert "allow_pickle" not in err and "Traceback" not in err

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import io
 import json
+import zipfile
 import os
 import time
 from dataclasses import asdict, dataclass, field
@@ -176,7 +177,12 @@ class MotionGraph:
 
     @staticmethod
     def load(path: str | os.PathLike[str]) -> MotionGraph:
+        if not Path(path).is_file():
+            raise BipedsimError(f"{path}: no such motion graph file (make one with `bipedsim graph build "
+                                "GRAPH.yaml -o GRAPH.npz`)")
         try:
+            if not zipfile.is_zipfile(path):
+                raise ValueError("not an .npz archive")
             with np.load(path, allow_pickle=False) as z:
                 meta = json.loads(str(z["meta"]))
                 if meta.get("format") != "bipedsim.MotionGraph/1":
@@ -197,8 +203,10 @@ class MotionGraph:
                                          predecessors=z[f"{name}_predecessors"], threshold=d["threshold"],
                                          sigma=d["sigma"], kept_clips=d["kept_clips"], scc_nodes=d["scc_nodes"],
                                          build_seconds=d.get("build_seconds", 0.0), report=d.get("report", {}))
-        except (OSError, KeyError, ValueError) as exc:
-            raise BipedsimError(f"{path}: not a bipedsim motion graph ({exc})") from None
+        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+            why = "it holds Python objects" if "allow_pickle" in str(exc) else str(exc)
+            raise BipedsimError(f"{path}: not a bipedsim motion graph ({why}); graph files are written by "
+                                "`bipedsim graph build GRAPH.yaml -o GRAPH.npz`") from None
         return MotionGraph(config=cfg, skeleton=sk, clips=clips, tags=meta["tags"], layers=layers,
                            timings=meta.get("timings", {}), folded_roots=meta.get("folded_roots", {}))
 

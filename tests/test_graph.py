@@ -199,3 +199,17 @@ def test_loading_what_is_no_graph_file_says_so_and_how_to_make_one(tmp_path: Pat
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(path) in err and "bipedsim graph build" in err, err
     assert "allow_pickle" not in err and "Traceback" not in err
+
+
+def test_a_threshold_that_prunes_every_frame_is_refused_and_nothing_written(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    need_shared()
+    example = Path(__file__).resolve().parents[1] / "examples" / "graphs" / "walk_wave.yaml"
+    text = example.read_text().replace("../../../shared", str(SHARED_BVH.parents[1]))
+    cfg = tmp_path / "g.yaml"
+    cfg.write_text(text + "threshold_quantile: 0.02\n")
+    out = tmp_path / "g.npz"
+    assert main(["graph", "build", str(cfg), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"{cfg}: threshold_quantile: pruning" in err and "left no frame" in err and "remove threshold" in err
+    assert not out.exists()

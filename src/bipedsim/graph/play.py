@@ -7,7 +7,8 @@ import os
 from pathlib import Path
 from typing import Any
 
-from bipedsim.graph.build import MotionGraph, build_graph, load_graph_config
+from bipedsim.errors import ConfigError
+from bipedsim.graph.build import FULL, MotionGraph, build_graph, load_graph_config
 from bipedsim.graph.player import Player
 from bipedsim.graph.script import parse
 from bipedsim.io import atomic_write_json, check_output_file, read_text_file
@@ -28,6 +29,12 @@ def build_graph_file(config: PathLike, output: PathLike, report: PathLike | None
     if report:
         check_output_file(report, "--report")
     g = build_graph(cfg, path.resolve().parent)
+    full = g.layers[FULL]
+    if full.scc_nodes == 0:  # nothing to play: refuse rather than write an empty graph
+        given = "threshold" if cfg.threshold is not None else "threshold_quantile"
+        raise ConfigError(f"pruning at threshold {full.threshold:.4g} left no frame in the full-body graph "
+                          "(every tag lost); remove threshold/threshold_quantile (the builder then chooses one "
+                          "that keeps every tag) or raise it", path=path, key=given)
     g.save(output)
     if report:
         atomic_write_json(report, build_report(g))

@@ -63,7 +63,7 @@ def test_breed_files_writes_child_and_report(tmp_path: Path) -> None:
     from bipedsim.motion import load_bvh
 
     assert resolve_profile(load_bvh(child)) == rep.body == "creature" and rep.body_detected
-    assert lines[2] == f"  a creature: bipedsim run --bvh {child}"
+    assert lines[2] == f"  a creature: bipedsim run --bvh {child} --scale cm"
     assert len(format_breed_summary(rep, child).splitlines()) == 3
 
 

@@ -15,7 +15,7 @@ from bipedsim.motion.motion import Motion
 
 PathLike = str | os.PathLike[str]
 #: Metres -> centimetres: the child is written as most BVH files are, Y up, in centimetres.
-CHILD_UNITS_PER_M = 100.0
+CHILD_UNITS_PER_M = 100.0  # the child BVH is written in cm (run it with --scale cm)
 
 
 def breed_files(a: PathLike, b: PathLike, output: PathLike, *, x: float = 0.5, mutations: int = 5,
@@ -95,7 +95,9 @@ def format_breed_summary(rep: BreedReport, output: PathLike, report: PathLike | 
     pairs = ", ".join(f"{a}={b}" for a, b in rep.correspondence.items())
     lines.append(f"  correspondence {how}, {len(rep.correspondence)} pairs (A=B): {pairs}")
     if rep.body:
-        flag = "" if rep.body_detected else f" --profile {rep.body}"
+        # the child's unit is known (cm): said, not left to the reader's guess, which takes a small
+        # upright child for a human in inches
+        flag = " --scale cm" + ("" if rep.body_detected else f" --profile {rep.body}")
         lines.append(f"  a {rep.body}: bipedsim run --bvh {output}{flag}")
     for path in (report, save_map):
         if path:

@@ -352,6 +352,8 @@ def test_a_creature_tune_tunes_its_controller_settings(tmp_path: Path) -> None:
     p = write_tune(tmp_path, data)
     with pytest.raises(ConfigError, match="parameters.support: .*not a number"):
         load_tune(write_tune(tmp_path, with_(data, parameters={"support": [0, 1]}), name="bad.yaml"))
+    with pytest.raises(ConfigError, match="parameters.support_kp: .*only with root support"):
+        load_tune(write_tune(tmp_path, with_(data, support=False), name="unsupported.yaml"))
     summary = run_tune(load_tune(p), tmp_path / "o", progress=False)
     assert summary["profile"] == "creature" and summary["evaluated"] == 2
     best = yaml.safe_load((tmp_path / "o" / "best.yaml").read_text())

@@ -165,6 +165,9 @@ def _check_parameters(tune: Tune) -> None:
     cls = CONFIG_CLASSES[spec.profile]
     for key, (lo, hi) in spec.parameters.items():
         where = f"parameters.{key}"
+        if spec.profile == "creature" and key.startswith("support_") and not spec.support:
+            raise ConfigError("the root support's gains act only with root support: without support: true "
+                              "every candidate would score the same", path=path, key=where)
         try:
             value = get_dotted(tune.start, key)
         except KeyError as exc:

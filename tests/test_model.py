@@ -412,3 +412,16 @@ def test_splayed_rest_legs_get_flexion_axes_and_level_soles() -> None:
     walk = build_model(load_bvh(BUILTIN_WALK)).model
     for j in ("left_knee", "right_knee", "left_ankle", "left_toe"):
         assert np.allclose(walk.jnt_axis[walk.joint(j).id], [0.0, 1.0, 0.0])
+
+
+def test_thigh_helper_bones_at_the_pelvis_centre_are_passed_for_the_hip_joints() -> None:
+    """MakeHuman names a helper bone at the pelvis centre __UpLeg_L/__UpLeg_R above the hip joints
+    UpLeg_L/UpLeg_R: the thighs found by name coincide, so the legs start at the joints that part."""
+    path = SHARED_BVH / "odd" / "makehuman_walk1__zup_decimetre.bvh"
+    if not path.exists():
+        pytest.skip(f"shared BVH file not found: {path}")
+    from bipedsim.model.naming import recognise_humanoid
+
+    hm = recognise_humanoid(load_bvh(path).skeleton)
+    assert (hm.legs["left"]["thigh"], hm.legs["right"]["thigh"]) == ("UpLeg_L", "UpLeg_R")
+    assert hm.pelvis == "Hips"

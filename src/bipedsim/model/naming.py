@@ -167,6 +167,35 @@ def _find_first(sk: Skeleton, side: str, words: list[str], under: int | None = N
     return min(cands, key=lambda j: (depth[j], j))
 
 
+#: the two thigh joints found by name stand closer than this fraction of the knees' distance in the
+#: rest pose: helper bones at the pelvis centre (MakeHuman's __UpLeg_L/__UpLeg_R above UpLeg_L/UpLeg_R)
+COINCIDENT_THIGHS = 0.1
+
+
+def _rest_positions(sk: Skeleton) -> list:
+    pos: list = []
+    for j in range(sk.num_joints):
+        p = int(sk.parents[j])
+        pos.append(sk.offsets[j] if p < 0 else pos[p] + sk.offsets[j])
+    return pos
+
+
+def _separate_thighs(sk: Skeleton, legs: dict[str, dict[str, str | None]], idx: dict[str, int]) -> None:
+    """Where the left and right thighs found by name coincide in the rest pose, take the next joints
+    down each leg until they part (the hip joints proper), short of the knees."""
+    rest = _rest_positions(sk)
+    th = {s: idx[legs[s]["thigh"]] for s in SIDES}  # type: ignore[index]
+    kn = {s: idx[legs[s]["knee"]] for s in SIDES}  # type: ignore[index]
+    width = float(sum((rest[kn["left"]] - rest[kn["right"]]) ** 2) ** 0.5)
+    while float(sum((rest[th["left"]] - rest[th["right"]]) ** 2) ** 0.5) < COINCIDENT_THIGHS * width:
+        down = {s: next((c for c in _ancestors(sk, kn[s]) if int(sk.parents[c]) == th[s]), None) for s in SIDES}
+        if any(d is None or d == kn[s] for s, d in down.items()):
+            return
+        th = down  # type: ignore[assignment]
+    for s in SIDES:
+        legs[s]["thigh"] = sk.names[th[s]]
+
+
 def recognise_humanoid(sk: Skeleton, mapping: MapFile | None = None) -> HumanoidMap:
     """Find the humanoid roles in a skeleton; raise :class:`ModelError` saying what is missing."""
     mp = mapping or MapFile()
@@ -208,6 +237,8 @@ def recognise_humanoid(sk: Skeleton, mapping: MapFile | None = None) -> Humanoid
     if len(arms) == 1:
         arms = {}  # one arm only: drop both, the body stays symmetric
 
+    if "thigh" not in mp.left and "thigh" not in mp.right:
+        _separate_thighs(sk, legs, idx)
     th_l, th_r = idx[legs["left"]["thigh"]], idx[legs["right"]["thigh"]]  # type: ignore[index]
     pelvis = idx[mp.pelvis] if mp.pelvis else _lca(sk, th_l, th_r)
     head = idx[mp.head] if mp.head else _find_first(sk, "", HEAD_WORDS)

@@ -62,6 +62,8 @@ def format_graph_summary(g: MotionGraph, output: PathLike, report: PathLike | No
     for name, ly in g.layers.items():
         rep = ly.report
         q = "" if rep.get("quantile") is None else f" {rep['quantile']:g}"
+        if q and rep.get("chosen", "").startswith("raised"):  # "raised from the default quantile to 0.35"
+            q = f" to{q}"
         lines.append(f"  {name:12s} parent {ly.parent or '-':10s} {len(ly.transitions):4d} transitions, "
                      f"{ly.scc_nodes} nodes in the strongly connected graph, "
                      f"motions {len(ly.kept_clips)}/{len(g.clips)}, threshold {ly.threshold:.4g} "

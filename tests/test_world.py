@@ -30,6 +30,7 @@ from bipedsim.world import (
     warp_times,
 )
 from bipedsim.world import path as path_mod
+from bipedsim.world.creature import load_creature
 from bipedsim.world.events import ANGLES_DEG, GRAVITY, ccd_frame
 from bipedsim.world.scene import scene_xml
 
@@ -184,6 +185,7 @@ def test_malformed_rows(rows: list[str], pattern: str) -> None:
                                                       r"found 'M' \(mountain\)"),
     ([{"kind": "fall", "at": [0, 0]}], r"events\[0\]: unknown kind 'fall'; allowed: jump"),
     ([{"kind": "jump", "at": [0, 0], "width": 3.0}], r"width must be > 0 and < the tile \(2 m\), got 3"),
+    ([{"kind": "jump", "at": [1, 0], "size": 2}], r"events\[0\]\.size: unknown key; allowed keys here: kind, at, width"),
 ])
 def test_malformed_events(events: list[dict], pattern: str) -> None:
     with pytest.raises(WorldError, match=pattern):
@@ -297,3 +299,20 @@ def test_scene_height_field_matches_the_terrain() -> None:
     x, y = w.centre(*ev.at)
     dist = mujoco.mj_ray(model, data, np.array([x, y, 10.0]), np.array([0.0, 0.0, -1.0]), None, 1, -1, gid)
     assert 10.0 - dist < -0.5  # the gap is cut out
+
+
+@pytest.mark.parametrize("text, key", [
+    ("name: x\nclips: {walk: a.bvh}\nlegs: 4\n", "legs"),
+])
+def test_a_creature_file_key_that_does_not_exist_is_named(tmp_path: Path, text: str, key: str) -> None:
+    f = tmp_path / "c.yaml"
+    f.write_text(text)
+    with pytest.raises(WorldError, match=rf"{key}: unknown key; allowed keys here: name, clips, scale, up"):
+        load_creature(f)
+
+
+def test_world_breeding_refuses_bvh_parents(tmp_path: Path) -> None:
+    from bipedsim.world.breeding import breed_world_files
+
+    with pytest.raises(WorldError, match="with --world the parents are creature files"):
+        breed_world_files(tmp_path / "a.bvh", tmp_path / "b.bvh", tmp_path / "w.yaml", tmp_path / "c.yaml")

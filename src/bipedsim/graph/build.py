@@ -30,9 +30,9 @@ from __future__ import annotations
 
 import io
 import json
-import zipfile
 import os
 import time
+import zipfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any

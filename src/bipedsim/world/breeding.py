@@ -75,6 +75,10 @@ def breed_world_files(a: PathLike, b: PathLike, world: PathLike, output: PathLik
     """Breed creature files ``a`` and ``b`` for ``world``; writes the child creature YAML ``output`` and one
     BVH per mode beside it (``<stem>_<mode>.bvh``, Y up, cm like ``bipedsim breed``); returns the report
     (also written to ``report``)."""
+    for parent in (a, b):
+        if Path(parent).suffix.lower() == ".bvh":
+            raise WorldError("with --world the parents are creature files (name, clips: mode -> BVH; see "
+                             "examples/worlds/horse.yaml), not BVH files", path=str(parent))
     w = load_world(world)
     (name_a, clips_a), (name_b, clips_b) = _creature_clips(a), _creature_clips(b)
     out = Path(output)

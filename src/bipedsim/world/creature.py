@@ -132,9 +132,13 @@ def load_creature(path: str | os.PathLike[str]) -> Creature:
     ``scale:``/``up:`` for the BVH reader."""
     p = Path(path)
     data = load_yaml(p)
-    if not isinstance(data, dict) or set(data) - {"name", "clips", "scale", "up"}:
-        raise WorldError("a creature file is a mapping with name, clips (mode: BVH file) and optional scale, up",
+    allowed = ("name", "clips", "scale", "up")
+    if not isinstance(data, dict):
+        raise WorldError(f"a creature file is a mapping with keys {', '.join(allowed)} (clips: mode -> BVH file)",
                          path=p)
+    unknown = [k for k in data if k not in allowed]
+    if unknown:
+        raise WorldError(f"unknown key; allowed keys here: {', '.join(allowed)}", path=p, key=str(unknown[0]))
     clips = data.get("clips")
     if not isinstance(clips, dict) or not clips:
         raise WorldError(f"must map modes ({', '.join(CLIP_MODES)}) to BVH files", path=p, key="clips")

@@ -150,8 +150,13 @@ def _legend(raw: Any, path: str) -> dict[str, TileKind]:
         key = f"legend.{ch}"
         if not isinstance(ch, str) or len(ch) != 1:
             raise WorldError("a tile is one character", path=path, key=key)
-        if not isinstance(spec, dict) or set(spec) - {"name", "modes", "cost", "height", "water"}:
-            raise WorldError("must be a mapping with keys name, modes, cost, height, water", path=path, key=key)
+        allowed = ("name", "modes", "cost", "height", "water")
+        if not isinstance(spec, dict):
+            raise WorldError(f"must be a mapping with keys {', '.join(allowed)}", path=path, key=key)
+        unknown = [k for k in spec if k not in allowed]
+        if unknown:
+            raise WorldError(f"unknown key; allowed keys here: {', '.join(allowed)}", path=path,
+                             key=f"{key}.{unknown[0]}")
         base = legend.get(ch, TileKind(name=ch, modes=()))
         modes = tuple(spec.get("modes", base.modes))
         bad = [m for m in modes if m not in TRAVEL_MODES]
@@ -210,8 +215,11 @@ def _events(raw: Any, rows: list[str], legend: dict[str, TileKind], tile: float,
     n_rows, n_cols = len(rows), len(rows[0])
     for i, ev in enumerate(raw):
         key = f"events[{i}]"
-        if not isinstance(ev, dict) or set(ev) - {"kind", "at", "width"} or "at" not in ev:
+        if not isinstance(ev, dict) or "at" not in ev:
             raise WorldError("must be a mapping {kind, at: [row, column], width}", path=path, key=key)
+        unknown = [k for k in ev if k not in ("kind", "at", "width")]
+        if unknown:
+            raise WorldError("unknown key; allowed keys here: kind, at, width", path=path, key=f"{key}.{unknown[0]}")
         kind = ev.get("kind", "jump")
         if kind not in EVENT_KINDS:
             raise WorldError(f"unknown kind {kind!r}; allowed: {', '.join(EVENT_KINDS)}", path=path, key=key)

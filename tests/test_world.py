@@ -185,7 +185,8 @@ def test_malformed_rows(rows: list[str], pattern: str) -> None:
                                                       r"found 'M' \(mountain\)"),
     ([{"kind": "fall", "at": [0, 0]}], r"events\[0\]: unknown kind 'fall'; allowed: jump"),
     ([{"kind": "jump", "at": [0, 0], "width": 3.0}], r"width must be > 0 and < the tile \(2 m\), got 3"),
-    ([{"kind": "jump", "at": [1, 0], "size": 2}], r"events\[0\]\.size: unknown key; allowed keys here: kind, at, width"),
+    ([{"kind": "jump", "at": [1, 0], "size": 2}],
+     r"events\[0\]\.size: unknown key; allowed keys here: kind, at, width"),
 ])
 def test_malformed_events(events: list[dict], pattern: str) -> None:
     with pytest.raises(WorldError, match=pattern):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -68,6 +69,19 @@ def test_script_parser_and_errors() -> None:
             parse(text, source="s.txt")
         assert (exc.value.line, exc.value.column) == (line, col) and msg in str(exc.value)
         assert str(exc.value).startswith(f"s.txt:{line}:{col}: ")
+
+
+@pytest.mark.parametrize("text, col", [("WALK with Lower-Body WAVE_HAND", 11),
+                                       ("WALK and lower-body WAVE_HAND for 2 sec", 10)])
+def test_a_part_the_graph_lacks_is_named_with_the_graphs_parts(text: str, col: int) -> None:
+    """`WALK with Lower-Body WAVE_HAND` on a graph whose only part is Upper-Body: 'no part', the parts
+    listed, at the part's column -- it said "unexpected 'WAVE_HAND'"."""
+    with pytest.raises(ScriptError) as exc:
+        parse(text, source="s.txt", layers=(FULL, "Upper-Body"))
+    assert str(exc.value).startswith(f"s.txt:1:{col}: no part ")
+    assert "the graph's parts: Upper-Body" in str(exc.value) and FULL not in str(exc.value)
+    with pytest.raises(ScriptError, match="no part 'Lower-Body'; the graph's parts: Upper-Body"):
+        parse("Lower-Body WAVE_HAND", source="s.txt", layers=(FULL, "Upper-Body"))
 
 
 @pytest.fixture(scope="module")
@@ -169,6 +183,29 @@ def test_cli_build_play_and_run(graph: MotionGraph, tmp_path: Path) -> None:
     bad = tmp_path / "bad.txt"
     bad.write_text("WALK for 2 sec\nFLY for 2 sec\n")
     assert main(["graph", "play", str(g), str(bad), "-o", str(out)]) == 2
+
+
+def test_play_errors_from_the_graph_name_the_script_file_and_line(graph: MotionGraph, tmp_path: Path,
+                                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    """A tag the graph lacks is reported FILE:LINE: as a syntax error is (it said `line 2:` alone)."""
+    from bipedsim.graph import PlayError, play_script
+
+    g = tmp_path / "g.npz"
+    graph.save(g)
+    script = tmp_path / "bad.txt"
+    script.write_text("WALK for 1 sec\nFLY for 2 sec\n")
+    with pytest.raises(PlayError) as exc:
+        play_script(g, script, tmp_path / "o.bvh")
+    assert str(exc.value).startswith(f"{script}:2: no motion named or tagged 'FLY'") and exc.value.line == 2
+    script.write_text("WALK with NOD for 1 sec\n")
+    with pytest.raises(PlayError, match=f"^{re.escape(str(script))}:1: no child layer has a motion tagged 'NOD'"):
+        play_script(g, script, tmp_path / "o.bvh")
+    assert main(["graph", "play", str(g), str(script), "-o", str(tmp_path / "o.bvh")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.splitlines() == [f"bipedsim graph: error: {script}:1: no child layer has a motion tagged 'NOD'"]
+    # without a file name (a script parsed from text): `line N:`
+    with pytest.raises(PlayError, match="^line 1: no motion named or tagged 'FLY'"):
+        Player(graph, start="walk").run(parse("FLY", layers=tuple(graph.layers)))
 
 
 def test_graph_config_errors(tmp_path: Path) -> None:

@@ -92,7 +92,7 @@ def play_script(graph: PathLike, script: PathLike, output: PathLike, *, start: s
     check_output_file(output, "-o")
     if report:
         check_output_file(report, "--report")
-    player = Player(g, start=start)
+    player = Player(g, start=start, source=str(script))
     motion = player.run(cmds)
     write_bvh(motion.with_up("y").scaled(BVH_UNITS_PER_M), output, precision=6)
     rep = player.report()

@@ -35,7 +35,18 @@ SYNC_SEARCH_S = 1.0
 
 
 class PlayError(BipedsimError):
-    pass
+    """A script the graph cannot play: names the script file and line (``FILE:LINE: ...``, as a
+    :class:`~bipedsim.graph.script.ScriptError` does; ``line N: ...`` when the file is not known)."""
+
+    def __init__(self, message: str, line: int | None = None, source: str | None = None) -> None:
+        self.reason, self.line, self.source = message, line, source
+        if line is None:
+            where = ""
+        elif source:
+            where = f"{source}:{line}: "
+        else:
+            where = f"line {line}: "
+        super().__init__(f"{where}{message}")
 
 
 @dataclass
@@ -72,6 +83,8 @@ class Player:
     rots: list[FloatArray] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
     parts: dict[str, PartState] = field(default_factory=dict)
+    #: the script's file name, put before the line number in errors (``FILE:LINE: ...``)
+    source: str | None = None
 
     def __post_init__(self) -> None:
         g = self.graph
@@ -246,9 +259,9 @@ class Player:
         q = rep.get("keeps_every_tag_from_quantile")
         fix = f" or set threshold_quantile: {q:g}" if q is not None else ""
         how = rep.get("chosen", "given threshold")
-        return PlayError(f"line {line}: {tag!r} ({names}) was dropped from the {layer.name} graph when it was built "
+        return PlayError(f"{tag!r} ({names}) was dropped from the {layer.name} graph when it was built "
                          f"({how}, threshold {layer.threshold:.4g}): {lost}. To keep it, rebuild without "
-                         f"threshold/threshold_quantile (the builder then keeps every tag){fix}")
+                         f"threshold/threshold_quantile (the builder then keeps every tag){fix}", line, self.source)
 
     def _child_layer_for(self, target: Target) -> Layer | None:
         g = self.graph
@@ -265,7 +278,12 @@ class Player:
 
     def run(self, commands: list[Command]) -> Motion:
         for cmd in commands:
-            self.command(cmd)
+            try:
+                self.command(cmd)
+            except PlayError as exc:  # name the script's file and the command's line
+                if exc.line is not None and exc.source == self.source:
+                    raise
+                raise PlayError(exc.reason, cmd.line if exc.line is None else exc.line, self.source) from None
         return self.motion()
 
     def command(self, cmd: Command) -> None:
@@ -281,20 +299,21 @@ class Player:
         if main.layer not in (None, FULL):  # `Upper-Body TALK` alone: a part on the current motion
             layer = g.layers.get(main.layer)
             if layer is None:
-                raise PlayError(f"line {cmd.line}: no layer {main.layer!r}; layers: {', '.join(g.layers)}")
+                raise PlayError(f"no layer {main.layer!r}; layers: {', '.join(g.layers)}", cmd.line, self.source)
             self._play_layer_only(layer, main.tag, cmd.seconds)
             return
         if not targets:
             raise self._lost(full, main.tag, cmd.line) or PlayError(
-                f"line {cmd.line}: no motion named or tagged {main.tag!r} in the full-body graph; "
-                f"tags: {sorted({t for ts in g.tags for t in ts})}")
+                f"no motion named or tagged {main.tag!r} in the full-body graph; "
+                f"tags: {sorted({t for ts in g.tags for t in ts})}", cmd.line, self.source)
         if extra is not None:
             layer = self._child_layer_for(extra)
             wanted = [] if layer is None else self._targets(layer, extra.tag)
             if not wanted:
                 parts = [ly for ly in g.layers.values() if ly.parent is not None]
                 lost = next((e for ly in parts if (e := self._lost(ly, extra.tag, cmd.line))), None)
-                raise lost or PlayError(f"line {cmd.line}: no child layer has a motion tagged {extra.tag!r}")
+                raise lost or PlayError(f"no child layer has a motion tagged {extra.tag!r}", cmd.line,
+                                        self.source)
             self._reach(full, targets)
             self._start_part(layer, wanted)  # type: ignore[arg-type]
             self._play_target(full, targets, cmd.seconds, keep_parts=True)

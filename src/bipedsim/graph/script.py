@@ -17,6 +17,7 @@ import re
 from dataclasses import dataclass
 
 from bipedsim.errors import BipedsimError
+from bipedsim.graph.build import FULL
 
 
 class ScriptError(BipedsimError):
@@ -45,7 +46,8 @@ KEYWORDS = {"with", "and", "for", "sec", "s", "secs", "seconds"}
 
 
 def parse(text: str, source: str = "<script>", layers: tuple[str, ...] = ()) -> list[Command]:
-    """Parse a script. ``layers``: known layer names (so ``Upper-Body TALK`` targets a layer)."""
+    """Parse a script. ``layers``: known layer names (so ``Upper-Body TALK`` targets a layer; a
+    second target ``with|and WORD TAG`` whose WORD is none of them is refused naming the parts)."""
     known = {name.lower(): name for name in layers}
     out = []
     for ln, raw in enumerate(text.splitlines(), 1):
@@ -77,7 +79,14 @@ def _command(toks: list[tuple[str, str, int]], ln: int, source: str, known: dict
     def err(msg: str, col: int | None = None) -> ScriptError:
         return ScriptError(msg, ln, col if col is not None else (toks[i][2] if i < len(toks) else width + 1), source)
 
-    def target() -> Target:
+    def no_part(word: str) -> str:
+        parts = [name for name in known.values() if name != FULL]
+        if not known:
+            return f"no part {word!r}; no layers are known"
+        return (f"no part {word!r}; the graph's parts: {', '.join(parts)}" if parts
+                else f"no part {word!r}; the graph has no part layers")
+
+    def target(second: bool = False) -> Target:
         nonlocal i
         if i >= len(toks):
             raise err("expected a motion name or tag")
@@ -91,6 +100,8 @@ def _command(toks: list[tuple[str, str, int]], ln: int, source: str, known: dict
             tag = toks[i][1]
             i += 1
             return Target(tag=tag.upper(), layer=known[word.lower()])
+        if second and i < len(toks) and toks[i][0] == "word" and toks[i][1].lower() not in KEYWORDS:
+            raise err(no_part(word), toks[i - 1][2])  # `with Lower-Body WAVE_HAND`: a part name mistyped
         return Target(tag=word.upper())
 
     main = target()
@@ -98,7 +109,7 @@ def _command(toks: list[tuple[str, str, int]], ln: int, source: str, known: dict
     if i < len(toks) and toks[i][1].lower() in ("with", "and"):
         mode = toks[i][1].lower()
         i += 1
-        extra = target()
+        extra = target(second=True)
     if i < len(toks) and toks[i][1].lower() == "for":
         i += 1
         if i >= len(toks) or toks[i][0] != "num":
@@ -112,5 +123,8 @@ def _command(toks: list[tuple[str, str, int]], ln: int, source: str, known: dict
         else:
             raise err("expected 'sec' after the number")
     if i < len(toks):
-        raise err(f"unexpected {toks[i][1]!r}: a command is TARGET [with|and TARGET] [for N sec]")
+        hint = ""
+        if i == 1 and toks[i][0] == "word":  # `Lower-Body WAVE_HAND`: a part name mistyped?
+            hint = f" ({no_part(toks[0][1])})"
+        raise err(f"unexpected {toks[i][1]!r}: a command is TARGET [with|and TARGET] [for N sec]{hint}")
     return Command(main=main, extra=extra, mode=mode, seconds=seconds, line=ln)

@@ -180,9 +180,12 @@ def test_human_animal_child(animal: Path, tmp_path: Path, capsys: pytest.Capture
     _simulate(child)
 
 
-def test_breed_cli_errors(tmp_path: Path) -> None:
+def test_breed_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = str(tmp_path / "c.bvh")
-    assert main(["breed", str(HORSE_WALK), str(PTEROSAUR_FLIGHT), "-o", out, "--x", "2"]) == 2
+    for x in ("2", "-0.5", "nan"):  # the flag and its range named (the error said 'x must be in ...')
+        assert main(["breed", str(HORSE_WALK), str(PTEROSAUR_FLIGHT), "-o", out, "--x", x]) == 2
+        assert capsys.readouterr().err.strip() == (f"bipedsim breed: error: --x: must be in [0, 1] (0: parent A's "
+                                                   f"motion, 1: B's), got {float(x)}")
     assert main(["breed", str(HORSE_WALK), str(PTEROSAUR_FLIGHT), "-o", out, "--mutations", "99"]) == 2
     bad_map = tmp_path / "m.yaml"
     bad_map.write_text("Hips: Hips\nMane: Crest\n")

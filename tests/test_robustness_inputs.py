@@ -140,7 +140,12 @@ def test_given_scale_that_makes_an_absurd_body_is_refused(capsys: pytest.Capture
 @pytest.mark.parametrize("mass", ["inf", "nan", "-3", "0"])
 def test_impossible_mass_is_refused(tmp_path: Path, mass: str, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", "--mass", mass, "--seconds", "1", "--out", str(tmp_path)]) == 2
-    assert "total mass must be a finite number > 0 kg" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--mass: total mass must be a finite number > 0 kg" in err and len(err.splitlines()) == 1
+    from bipedsim.data import BUILTIN_WALK
+
+    assert main(["convert", str(BUILTIN_WALK), "-o", str(tmp_path / "m.xml"), "--mass", mass]) == 2
+    assert "bipedsim convert: error: --mass: total mass must be a finite number > 0 kg" in capsys.readouterr().err
 
 
 def test_humanoid_of_implausible_height_is_refused_not_built(tmp_path: Path,

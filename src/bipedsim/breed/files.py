@@ -7,8 +7,8 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
-from bipedsim.breed.evolve import BreedReport, breed, load_joint_map
-from bipedsim.errors import ModelError
+from bipedsim.breed.evolve import X_RANGE, BreedReport, breed, load_joint_map
+from bipedsim.errors import ConfigError, ModelError
 from bipedsim.io import atomic_write_json, atomic_write_text, check_output_file
 from bipedsim.motion.bvh import load_bvh, write_bvh
 from bipedsim.motion.motion import Motion
@@ -28,7 +28,11 @@ def breed_files(a: PathLike, b: PathLike, output: PathLike, *, x: float = 0.5, m
     without it the joints are paired by role); ``report``: also write the report as JSON there;
     ``save_map``: write the correspondence used as a mapping YAML that ``map`` accepts back (edit it
     and breed again). Output locations are checked (errors name ``-o``, ``--report`` and
-    ``--save-map``) before the breeding. Returns the report."""
+    ``--save-map``) before the breeding, and ``x`` (errors name ``--x``) before reading. Returns the
+    report."""
+    if not X_RANGE[0] <= x <= X_RANGE[1]:  # also NaN
+        raise ConfigError(f"must be in [{X_RANGE[0]:g}, {X_RANGE[1]:g}] (0: parent A's motion, 1: B's), got {x}",
+                          key="--x")
     ma, mb = load_bvh(a), load_bvh(b)
     check_output_file(output, "-o")
     if report:

@@ -11,7 +11,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from bipedsim.errors import ModelError
+from bipedsim.errors import ConfigError, ModelError
 from bipedsim.model.plan import BodyPlanSet, ModelBuilder, model_hash, plan_from_model
 from bipedsim.model.profile import CreatureProfile, HumanoidProfile, load_profile
 from bipedsim.motion.motion import Motion
@@ -45,6 +45,12 @@ class BuiltModel:
         from bipedsim.io import atomic_write_text
 
         atomic_write_text(path, self.xml)
+
+
+def check_total_mass(mass: float | None, flag: str = "--mass") -> None:
+    """Refuse a total mass (kg) that is not a finite number > 0, naming the command's ``flag``."""
+    if mass is not None and not (math.isfinite(mass) and mass > 0):
+        raise ConfigError(f"total mass must be a finite number > 0 kg, got {mass}", key=flag)
 
 
 def build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfile | CreatureProfile = "humanoid",

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from bipedsim.io import check_output_file
-from bipedsim.model.build import build_model
+from bipedsim.model.build import build_model, check_total_mass
 from bipedsim.model.creature_kind import AUTO, resolve_profile
 from bipedsim.model.gait import humanoid_motion
 from bipedsim.model.naming import load_map
@@ -34,6 +34,7 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = AUTO, profi
     anything is built. Returns the body's summary (bodies, DOFs, mass in kg, height in m, timestep in
     s, ...) with ``source``, ``output``, ``unit``, ``up`` and, with ``clip``, the clip's frames,
     trimmed frames and foot strikes."""
+    check_total_mass(mass)
     raw, info = read_bvh(input, scale=scale, up=up, positions=positions)
     motion = raw.to_project_frame()
     if profile == AUTO and not profile_file:

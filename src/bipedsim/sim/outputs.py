@@ -24,6 +24,7 @@ from bipedsim.control.reference import clip_speed, describe_clip
 from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_text, check_output_file, prepare_output_dir, progress_bar, remove_stale
+from bipedsim.model.build import check_total_mass
 from bipedsim.render.gl import RenderError
 from bipedsim.render.plots import PLOT_FILES, plot_run
 from bipedsim.render.video import (
@@ -225,7 +226,7 @@ def render_folder(folder: PathLike, output: PathLike | None = None, video_option
 # ---------------------------------------------------------------------- the whole run
 def check_run_options(*, profile: str | None = None, support: bool = False, bvh: PathLike | None = None,
                       scale: float | str | None = None, up: str | None = None, init_noise: float = 0.0,
-                      seed: int = 0, positions: str | None = None) -> None:
+                      seed: int = 0, positions: str | None = None, mass: float | None = None) -> None:
     """Refuse run options that would be ignored or meaningless, before anything runs: each error names
     the flag and what is allowed. Ranges of the run length and pushes are checked by
     :func:`~bipedsim.sim.push.check_pushes`, the video options by :meth:`VideoOptions.validate`."""
@@ -241,6 +242,7 @@ def check_run_options(*, profile: str | None = None, support: bool = False, bvh:
         raise ConfigError(f"must be a standard deviation >= 0 (rad/s, m/s), got {init_noise}", key="--init-noise")
     if seed < 0:
         raise ConfigError(f"must be a whole number >= 0, got {seed}", key="--seed")
+    check_total_mass(mass)
 
 
 def found_lines(sc: Scenario) -> list[str]:
@@ -327,7 +329,7 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     say = say or (lambda line: None)
     options = video_options or VideoOptions()
     check_run_options(profile=profile, support=support, bvh=bvh, scale=scale, up=up, init_noise=init_noise,
-                      seed=seed, positions=positions)
+                      seed=seed, positions=positions, mass=mass)
     options.validate()
     pushes = [p if isinstance(p, Push) else Push.parse(p) for p in pushes]
     check_pushes(pushes, seconds)  # the run length too, before anything is built

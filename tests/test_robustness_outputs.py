@@ -99,6 +99,22 @@ def test_unwritable_outputs_fail_before_the_work(case: int, tmp_path: Path, afil
     assert afile.read_text() == "not a folder\n"
 
 
+@pytest.mark.parametrize("argv, flag, allowed", [
+    (["breed", WALK, WALK, "-o", "{tmp}/c.txt"], "-o", ".bvh"),
+    (["graph", "build", str(GRAPH_YAML), "-o", "{tmp}/g.txt"], "-o", ".npz"),
+    (["world", str(REPO / "examples" / "worlds" / "ridge.yaml"), str(REPO / "examples" / "worlds" / "dog.yaml"),
+      "-o", "{tmp}/w.bvh", "--plot", "{tmp}/p.jpg"], "--plot", ".png"),
+])
+def test_an_output_of_the_wrong_kind_is_refused_naming_the_flag_and_suffix(
+        argv: list[str], flag: str, allowed: str, tmp_path: Path, capsys) -> None:
+    """breed -o c.txt wrote a BVH into .txt, graph build -o g.txt an npz zip, world --plot p.jpg PNG data."""
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    assert main(argv) == 2
+    line = one_error_line(capsys, argv[0])
+    assert line.endswith(f"{flag} {argv[argv.index(flag) + 1]}: must end in {allowed}"), line
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_graph_play_checks_its_outputs(tmp_path: Path, afile: Path, capsys) -> None:
     need_shared()  # the example graph's clips are the shared CMU files
     g = tmp_path / "g.npz"
@@ -107,6 +123,8 @@ def test_graph_play_checks_its_outputs(tmp_path: Path, afile: Path, capsys) -> N
     script = REPO / "examples" / "graphs" / "walk_and_wave.txt"
     assert main(["graph", "play", str(g), str(script), "-o", str(tmp_path)]) == 2
     assert "is a folder; give a file name" in one_error_line(capsys, "graph")
+    assert main(["graph", "play", str(g), str(script), "-o", str(tmp_path / "o.txt")]) == 2
+    assert one_error_line(capsys, "graph").endswith(f"-o {tmp_path / 'o.txt'}: must end in .bvh")
     out = tmp_path / "ok.bvh"
     assert main(["graph", "play", str(g), str(script), "-o", str(out), "--report", str(afile / "r.json")]) == 2
     assert "--report" in one_error_line(capsys, "graph")

@@ -211,7 +211,7 @@ def _add_breed(sub: argparse._SubParsersAction) -> None:
     p = _subparser(sub, "breed", cmd_breed, "breed two creatures' motions into a child BVH (hierarchical evolution)")
     p.add_argument("parent_a", help="first parent BVH (the child follows its timing)")
     p.add_argument("parent_b", help="second parent BVH")
-    _output(p, "child BVH to write")
+    _output(p, "child BVH to write (.bvh)")
     p.add_argument("--x", type=float, default=0.5, help="spacetime parameter in [0, 1] (0: A's motion, 1: B's)")
     p.add_argument("--mutations", type=int, default=None,
                    help="joints removed (with their subtrees), default 5 (0 with --world: every limb may carry a mode)")
@@ -252,7 +252,7 @@ def _add_graph(sub: argparse._SubParsersAction) -> None:
     pl = _subparser(gs, "play", cmd_graph_play, "play a Motion Script on a graph and write the result as BVH")
     pl.add_argument("graph", help="graph file from `bipedsim graph build`")
     pl.add_argument("script", help="Motion Script text file")
-    _output(pl, "BVH to write")
+    _output(pl, "BVH to write (.bvh)")
     pl.add_argument("--start", default=None, help="motion (name or tag) to start from")
     pl.add_argument("--report", default=None, help="JSON report of the path taken")
 
@@ -337,7 +337,7 @@ def _add_world(sub: argparse._SubParsersAction) -> None:
     _output(p, "BVH to write (several creatures: OUT_<name>.bvh each)")
     p.add_argument("--report", default=None, help="JSON report: path, modes, length, frames, events, weights, timings")
     p.add_argument("--video", default=None, help="render the world and the creature to this .mp4 (or .gif)")
-    p.add_argument("--plot", default=None, help="PNG of the map with every creature's path")
+    p.add_argument("--plot", default=None, help="PNG (.png) of the map with every creature's path")
     p.add_argument("--blend", choices=("quadratic", "linear", "smoothstep"), default="quadratic",
                    help="transition weights (default quadratic: P(n) = n^2/m^2)")
     g = p.add_argument_group("video")

@@ -119,10 +119,10 @@ def check_output_file(path: str | os.PathLike[str], flag: str, suffixes: tuple[s
     (lower case, with the dot), ending in one of them. Raises :class:`OutputError` naming ``flag``."""
     p = Path(path)
     what = f"{flag} {p}"
+    if p.is_dir():  # before the suffix: a folder named x.bvh is still a folder
+        raise OutputError(f"{what}: is a folder; give a file name")
     if suffixes and p.suffix.lower() not in suffixes:
         raise OutputError(f"{what}: must end in {' or '.join(suffixes)}")
-    if p.is_dir():
-        raise OutputError(f"{what}: is a folder; give a file name")
     if p.exists() and not p.is_file():
         # outputs are written beside and renamed over: that would replace a device such as /dev/null
         raise OutputError(f"{what}: is not a regular file (a device, pipe or socket); give a file name")

@@ -34,7 +34,7 @@ def breed_files(a: PathLike, b: PathLike, output: PathLike, *, x: float = 0.5, m
         raise ConfigError(f"must be in [{X_RANGE[0]:g}, {X_RANGE[1]:g}] (0: parent A's motion, 1: B's), got {x}",
                           key="--x")
     ma, mb = load_bvh(a), load_bvh(b)
-    check_output_file(output, "-o")
+    check_output_file(output, "-o", (".bvh",))
     if report:
         check_output_file(report, "--report")
     if save_map:

@@ -25,7 +25,7 @@ def build_graph_file(config: PathLike, output: PathLike, report: PathLike | None
     the build report as JSON there (:func:`build_report`). Returns the graph."""
     path = Path(config)
     cfg = load_graph_config(path)
-    check_output_file(output, "-o")
+    check_output_file(output, "-o", (".npz",))
     if report:
         check_output_file(report, "--report")
     g = build_graph(cfg, path.resolve().parent)
@@ -89,7 +89,7 @@ def play_script(graph: PathLike, script: PathLike, output: PathLike, *, start: s
     the graph's ``fps`` (frames/s) added (not in the JSON file)."""
     g = MotionGraph.load(graph)
     cmds = parse(read_text_file(script), source=str(script), layers=tuple(g.layers))
-    check_output_file(output, "-o")
+    check_output_file(output, "-o", (".bvh",))
     if report:
         check_output_file(report, "--report")
     player = Player(g, start=start, source=str(script))

@@ -115,9 +115,10 @@ def run_world(world: PathLike, creatures: list[PathLike], output: PathLike, *, r
     outs = output_paths(output, names)
     for o in outs:
         check_output_file(o, "-o", (".bvh",))
-    for f, flag in ((report, "--report"), (plot, "--plot")):
-        if f:
-            check_output_file(f, flag)
+    if report:
+        check_output_file(report, "--report")
+    if plot:
+        check_output_file(plot, "--plot", (".png",))
     videos = output_paths(video, names) if video else []
     for v in videos:
         check_output_file(v, "--video", (".mp4", ".gif"))

@@ -5,6 +5,7 @@ so that each takes seconds."""
 from __future__ import annotations
 
 import csv
+import json
 import sys
 from pathlib import Path
 from types import SimpleNamespace
@@ -249,6 +250,29 @@ def test_same_seed_same_result_and_a_finished_tune_reruns_nothing(tiny_run, tmp_
     # a tune that has finished evaluates nothing when run again
     monkeypatch.setattr(tune_cmaes, "evaluate", lambda task: pytest.fail("evaluated again"))
     run_tune(load_tune(p), tmp_path / "b", progress=False)
+
+
+def test_a_finished_tune_run_again_says_there_is_nothing_to_do_and_writes_nothing(tiny_run, tmp_path: Path,
+                                                                                  monkeypatch, capsys) -> None:
+    """It rewrote state.pkl (and the outputs) and printed the summary again; with evaluations below the
+    candidates evaluated it wrote a summary whose budget was below what was evaluated."""
+    import shutil
+
+    p, first, _ = tiny_run
+    shutil.copytree(first, tmp_path / "t")
+    files = {f.name: (f.read_bytes(), f.stat().st_mtime_ns) for f in (tmp_path / "t").iterdir()}
+    monkeypatch.setattr(tune_cmaes, "evaluate", lambda task: pytest.fail("evaluated again"))
+    assert main(["tune", str(p), "--out", str(tmp_path / "t")]) == 0
+    out = capsys.readouterr().out.strip().splitlines()
+    assert len(out) == 1 and out[0].startswith("tune already finished (5 candidates evaluated); nothing to do "
+                                               "(raise evaluations in tune.yaml to continue)"), out
+    fewer = write_tune(tmp_path, with_(TINY, evaluations=3), name="fewer.yaml")
+    assert main(["tune", str(fewer), "--out", str(tmp_path / "t")]) == 0
+    out = capsys.readouterr().out.strip().splitlines()
+    assert len(out) == 1 and out[0].startswith("tune already finished (5 candidates evaluated, more than "
+                                               "evaluations: 3 in fewer.yaml); nothing to do"), out
+    assert {f.name: (f.read_bytes(), f.stat().st_mtime_ns) for f in (tmp_path / "t").iterdir()} == files
+    assert json.loads((tmp_path / "t" / "summary.json").read_text())["budget"] == 5
 
 
 def test_another_seed_samples_other_candidates(tiny_run, tmp_path: Path) -> None:

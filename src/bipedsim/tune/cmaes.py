@@ -248,7 +248,10 @@ def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, back
 
     Candidate 0 is the start controller (the baseline, besides the budget); 1 .. ``evaluations`` are
     CMA-ES's, in generations of ``popsize`` (the last one cut to the budget). CMA-ES may stop before
-    the budget (its own criteria, e.g. every candidate scoring the same); the summary says why."""
+    the budget (its own criteria, e.g. every candidate scoring the same); the summary says why. A
+    folder whose tune has finished is left untouched (state.pkl included): the summary of its history
+    is returned with ``nothing_to_do``, the line saying so (and, when ``evaluations`` is now below the
+    candidates evaluated, that too)."""
     if backend not in BACKENDS:
         raise ConfigError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}", key="--backend")
     if workers < 1:
@@ -256,12 +259,15 @@ def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, back
     out = prepare_output_dir(out_dir, "--out")
     columns = history_columns(tune)
     has_history = (out / HISTORY_FILE).is_file() and (out / HISTORY_FILE).stat().st_size > 0
-    state = _load_state(out / STATE_FILE, tune, has_history) or _new_state(tune)
+    loaded = _load_state(out / STATE_FILE, tune, has_history)
+    state = loaded or _new_state(tune)
     history = _load_history(out / HISTORY_FILE, columns)
+    budget = tune.spec.evaluations
+    if loaded is not None and _finished(state, history, budget):  # rewrite nothing, state.pkl included
+        return {**summarize(tune, history, state), "nothing_to_do": _nothing_to_do(tune, state, budget)}
     _save_state(out / STATE_FILE, state)
     if history:
         _write_history(out / HISTORY_FILE, columns, [history[n] for n in sorted(history)], append=False)
-    budget = tune.spec.evaluations
     bar = progress_bar(budget + 1, tune.spec.name, "candidate", force=True, leave=True) if progress else None
     if bar is not None:
         bar.update(min(len(history), budget + 1))
@@ -283,6 +289,26 @@ def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, back
     # in candidate order: the same tune gives the same file whatever order the workers finished in
     _write_history(out / HISTORY_FILE, columns, [history[n] for n in sorted(history)], append=False)
     return write_outputs(tune, out, history, state)
+
+
+def _finished(state: dict[str, Any], history: dict[int, dict[str, str]], budget: int) -> bool:
+    """Whether a resumed tune has nothing left to do: its budget spent (or CMA-ES stopped) and every
+    candidate told, and the start, in the history."""
+    done = state["evaluated"] >= budget or bool(state["es"].stop())
+    return done and all(n in history for n in range(len(state["told"]) + 1))
+
+
+def _nothing_to_do(tune: Tune, state: dict[str, Any], budget: int) -> str:
+    """The line a rerun of a finished tune prints instead of its summary."""
+    n, name = state["evaluated"], tune.path.name
+    if n > budget:
+        return (f"tune already finished ({n} candidates evaluated, more than evaluations: {budget} in {name}); "
+                f"nothing to do (evaluations above {n} continue it)")
+    if n < budget:
+        stop = ", ".join(state["es"].stop())
+        return (f"tune already finished ({n} candidates evaluated; CMA-ES stopped before the budget: {stop}); "
+                "nothing to do")
+    return f"tune already finished ({n} candidates evaluated); nothing to do (raise evaluations in {name} to continue)"
 
 
 def _generation(tune: Tune, state: dict[str, Any], scorer: _Scorer, out: Path, budget: int) -> None:
@@ -314,6 +340,17 @@ def _rescore_lost(tune: Tune, state: dict[str, Any], scorer: _Scorer) -> None:
 # ---------------------------------------------------------------------- outputs
 def write_outputs(tune: Tune, out: Path, history: dict[int, dict[str, str]], state: dict[str, Any]) -> dict[str, Any]:
     """best.yaml, convergence.png and summary.json from the history so far; returns the summary."""
+    summary = summarize(tune, history, state)
+    best_n = summary["best"]["candidate"]
+    values = {k: float(history[best_n][k]) for k in tune.keys}
+    _write_best(tune, out / "best.yaml", values, best_n, summary)
+    convergence_plot(history, out / "convergence.png", title=f"{tune.spec.name}: CMA-ES, seed {tune.spec.seed}")
+    atomic_write_json(out / "summary.json", summary)
+    return summary
+
+
+def summarize(tune: Tune, history: dict[int, dict[str, str]], state: dict[str, Any]) -> dict[str, Any]:
+    """The summary (what summary.json holds) of the history so far."""
     import cma
 
     best_n = min(history, key=lambda n: (float(history[n]["score"]), n))
@@ -326,10 +363,6 @@ def write_outputs(tune: Tune, out: Path, history: dict[int, dict[str, str]], sta
                tune.spec.evaluations else None,
                "start": _summary_row(tune, start), "best": _summary_row(tune, best),
                "config": config.to_dict(tune.spec), "versions": {**versions(), "cma": cma.__version__}}
-    values = {k: float(best[k]) for k in tune.keys}
-    _write_best(tune, out / "best.yaml", values, best_n, summary)
-    convergence_plot(history, out / "convergence.png", title=f"{tune.spec.name}: CMA-ES, seed {tune.spec.seed}")
-    atomic_write_json(out / "summary.json", summary)
     return summary
 
 
@@ -390,7 +423,11 @@ def convergence_plot(history: dict[int, dict[str, str]], path: Path, title: str)
 
 def format_tune_summary(summary: dict[str, Any], out_dir: str | os.PathLike[str]) -> str:
     """The lines ``bipedsim tune`` prints: the best candidate against the start, each parameter's
-    start and tuned value, why CMA-ES stopped early (if it did) and the files written."""
+    start and tuned value, why CMA-ES stopped early (if it did) and the files written; for a rerun of a
+    finished tune, one line saying there was nothing to do and where its results are."""
+    if summary.get("nothing_to_do"):
+        return (f"{summary['nothing_to_do']}; its results: {out_dir}/best.yaml, history.csv, convergence.png, "
+                "summary.json")
     s, b = summary["start"], summary["best"]
     lines = [f"{summary['evaluated']} candidates in {summary['generations']} generation(s): best score "
              f"{b['score']:.4g} (candidate {b['candidate']}), start {s['score']:.4g}",

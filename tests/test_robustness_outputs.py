@@ -102,7 +102,7 @@ def test_unwritable_outputs_fail_before_the_work(case: int, tmp_path: Path, afil
 @pytest.mark.parametrize("argv, flag, allowed", [
     (["breed", WALK, WALK, "-o", "{tmp}/c.txt"], "-o", ".bvh"),
     (["graph", "build", str(GRAPH_YAML), "-o", "{tmp}/g.txt"], "-o", ".npz"),
-    (["world", str(REPO / "examples" / "worlds" / "ridge.yaml"), str(REPO / "examples" / "worlds" / "dog.yaml"),
+    (["world", str(REPO / "examples" / "worlds" / "ridge.yaml"), str(REPO / "examples" / "worlds" / "horse.yaml"),
       "-o", "{tmp}/w.bvh", "--plot", "{tmp}/p.jpg"], "--plot", ".png"),
 ])
 def test_an_output_of_the_wrong_kind_is_refused_naming_the_flag_and_suffix(

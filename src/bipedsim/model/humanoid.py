@@ -529,33 +529,44 @@ class _HumanoidBuilder:
             fit=FitPlan(method="aim", origin=hm.neck, points=[self.head_top], ref=f"bvh:{hm.head}",
                         rest_vectors=[list(bone)])))
 
+    def _two_bone(self, side: str, a: str, b: str, c: str, segments: tuple[str, str], joints: tuple[str, str],
+                  parent: str, radii: tuple[float, float], bones: tuple[str, str]
+                  ) -> tuple[FloatArray, FloatArray, list[JointPlan]]:
+        """A limb of two bodies on one side: the upper (3 hinges named ``joints[0]``, twobone fit) from
+        source joint ``a`` to ``b`` under ``parent``, the lower (hinge ``joints[1]``) from ``b`` to ``c``,
+        the right side's axes mirrored. Returns the upper and lower bone vectors and the lower hinge."""
+        mirror, q, masses = side == "right", self.q, self.profile.masses
+        upper, lower = segments
+        self._chain(a, b)
+        self._chain(b, c)
+        ub = _check_bone(self._vec(a, b), a, b, f"{side} {bones[0]}")
+        lb = _check_bone(self._vec(b, c), b, c, f"{side} {bones[1]}")
+        hinge = self._group_hinges(f"{side}_{joints[1]}", joints[1], lb, mirror, parent_bone=ub)
+        self.bodies.append(BodyPlan(
+            name=f"{side}_{upper}", parent=parent, pos=list(q[a]), source=a, segment=upper,
+            joints=self._group_hinges(f"{side}_{joints[0]}", joints[0], ub, mirror),
+            geoms=[_capsule(q[a], q[b], q[a], radii[0], masses[upper])],
+            fit=FitPlan(method="twobone", origin=a, points=[b, c], ref=f"bvh:{a}",
+                        hinge_axis=hinge[0].axis, rest_vectors=[list(ub), list(lb)],
+                        hinge_range=hinge[0].range)))
+        self.bodies.append(BodyPlan(
+            name=f"{side}_{lower}", parent=f"{side}_{upper}", pos=list(q[b]), source=b, segment=lower,
+            joints=hinge, geoms=[_capsule(q[b], q[c], q[b], radii[1], masses[lower], inset=True)],
+            fit=FitPlan(method="hinge", origin=b, points=[c], ref="parent",
+                        hinge_axis=hinge[0].axis, rest_vectors=[list(lb)])))
+        self.markers[a] = ["body", f"{side}_{upper}"]
+        self.markers[b] = ["body", f"{side}_{lower}"]
+        return ub, lb, hinge
+
     # ----------------------------------------------------------------- limbs
     def add_arm(self, side: str) -> None:
         """Upper arm (3 shoulder hinges, twobone fit) and lower arm (elbow hinge; the hand merged, a
         wrist site at its end) on one side; the right side's axes mirrored."""
         sh, el, wr = (self.hm.arms[side][k] for k in ("upper_arm", "elbow", "wrist"))
-        mirror, q, g, masses = side == "right", self.q, self.geometry, self.profile.masses
-        self._chain(sh, el)
-        self._chain(el, wr)
-        ub = _check_bone(self._vec(sh, el), sh, el, f"{side} upper arm")
-        lb = _check_bone(self._vec(el, wr), el, wr, f"{side} lower arm")
-        elbow = self._group_hinges(f"{side}_elbow", "elbow", lb, mirror, parent_bone=ub)
-        self.bodies.append(BodyPlan(
-            name=f"{side}_upper_arm", parent="torso", pos=list(q[sh]), source=sh, segment="upper_arm",
-            joints=self._group_hinges(f"{side}_shoulder", "shoulder", ub, mirror),
-            geoms=[_capsule(q[sh], q[el], q[sh], g.upper_arm_radius, masses["upper_arm"])],
-            fit=FitPlan(method="twobone", origin=sh, points=[el, wr], ref=f"bvh:{sh}",
-                        hinge_axis=elbow[0].axis, rest_vectors=[list(ub), list(lb)],
-                        hinge_range=elbow[0].range)))
-        self.bodies.append(BodyPlan(
-            name=f"{side}_lower_arm", parent=f"{side}_upper_arm", pos=list(q[el]), source=el,
-            segment="lower_arm", joints=elbow,
-            geoms=[_capsule(q[el], q[wr], q[el], g.lower_arm_radius, masses["lower_arm"], inset=True)],
-            sites=[SitePlan(name=f"{side}_wrist", pos=list(lb))],
-            fit=FitPlan(method="hinge", origin=el, points=[wr], ref="parent",
-                        hinge_axis=elbow[0].axis, rest_vectors=[list(lb)])))
-        self.markers[sh] = ["body", f"{side}_upper_arm"]
-        self.markers[el] = ["body", f"{side}_lower_arm"]
+        g = self.geometry
+        _, lb, _ = self._two_bone(side, sh, el, wr, ("upper_arm", "lower_arm"), ("shoulder", "elbow"), "torso",
+                                  (g.upper_arm_radius, g.lower_arm_radius), ("upper arm", "lower arm"))
+        self.bodies[-1].sites.append(SitePlan(name=f"{side}_wrist", pos=list(lb)))
         self.markers[wr] = ["site", f"{side}_wrist"]
 
     def add_leg(self, side: str) -> None:
@@ -564,27 +575,9 @@ class _HumanoidBuilder:
         leg = self.hm.legs[side]
         th, kn, an = leg["thigh"], leg["knee"], leg["ankle"]
         assert th and kn and an
-        mirror, q, g, masses = side == "right", self.q, self.geometry, self.profile.masses
-        self._chain(th, kn)
-        self._chain(kn, an)
-        tb = _check_bone(self._vec(th, kn), th, kn, f"{side} thigh")
-        sb = _check_bone(self._vec(kn, an), kn, an, f"{side} shin")
-        knee = self._group_hinges(f"{side}_knee", "knee", sb, mirror, parent_bone=tb)
-        self.bodies.append(BodyPlan(
-            name=f"{side}_thigh", parent="pelvis", pos=list(q[th]), source=th, segment="thigh",
-            joints=self._group_hinges(f"{side}_hip", "hip", tb, mirror),
-            geoms=[_capsule(q[th], q[kn], q[th], g.thigh_radius, masses["thigh"])],
-            fit=FitPlan(method="twobone", origin=th, points=[kn, an], ref=f"bvh:{th}",
-                        hinge_axis=knee[0].axis, rest_vectors=[list(tb), list(sb)],
-                        hinge_range=knee[0].range)))
-        self.bodies.append(BodyPlan(
-            name=f"{side}_shin", parent=f"{side}_thigh", pos=list(q[kn]), source=kn, segment="shin",
-            joints=knee,
-            geoms=[_capsule(q[kn], q[an], q[kn], g.shin_radius, masses["shin"], inset=True)],
-            fit=FitPlan(method="hinge", origin=kn, points=[an], ref="parent",
-                        hinge_axis=knee[0].axis, rest_vectors=[list(sb)])))
-        self.markers[th] = ["body", f"{side}_thigh"]
-        self.markers[kn] = ["body", f"{side}_shin"]
+        g = self.geometry
+        _, sb, knee = self._two_bone(side, th, kn, an, ("thigh", "shin"), ("hip", "knee"), "pelvis",
+                                     (g.thigh_radius, g.shin_radius), ("thigh", "shin"))
         self.markers[an] = ["body", f"{side}_foot"]
         foot_frame, sole = self._add_foot(side, sb, np.asarray(knee[0].axis))
         if leg["toe"]:

@@ -99,10 +99,11 @@ def hinge_table(model: mujoco.MjModel) -> tuple[list[str], list[int]]:
     return [model.joint(j).name for j in hinges], [int(model.jnt_qposadr[j]) for j in hinges]
 
 
-def save_run_files(folder: PathLike, scenario: Scenario, recorder: Recorder, outcome: Outcome) -> Trajectory:
+def save_run_files(folder: PathLike, scenario: Scenario, recorder: Recorder, outcome: Outcome,
+                   feet: Sequence[str] | None = None) -> Trajectory:
     """Write ``trajectory.npz`` (everything rendering and export read: the samples, the hinge table, the
     outcome, the source file's unit and up axis) and ``model.xml`` into ``folder``, beside
-    ``outcome.json``; returns the trajectory."""
+    ``outcome.json``; returns the trajectory. ``feet``: the controller's foot names, when known."""
     names, qadr = hinge_table(scenario.built.model)
     info = scenario.bvh_info
     meta = {"hinge_names": names, "hinge_qadr": qadr, "outcome": outcome.outcome, "fall_time_s": outcome.fall_time_s,
@@ -110,7 +111,7 @@ def save_run_files(folder: PathLike, scenario: Scenario, recorder: Recorder, out
             "trimmed_frames": scenario.clip.trimmed_frames,
             "source_unit": getattr(info, "unit_scale", 1.0), "source_up": getattr(info, "up", "y"),
             "profile": scenario.profile,
-            "foot_names": list(scenario.foot_names())}
+            "foot_names": list(feet if feet is not None else scenario.foot_names())}
     tr = recorder.trajectory(meta)
     tr.save(Path(folder) / TRAJECTORY_FILE)
     atomic_write_text(Path(folder) / MODEL_FILE, scenario.built.xml)
@@ -338,8 +339,10 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     check_run_length(seconds, sc.built.model.opt.timestep)
     for line in found_lines(sc):
         say(line)
-    sc.check_pushes(pushes)
-    rec = Recorder(sc.built.model, record_hz=record_hz, seconds=seconds, key="--record-hz", feet=len(sc.foot_names()))
+    probe = sc.controller()  # asked once, before the run, for what the checks and the recorder need
+    sc.check_pushes(pushes, probe)
+    feet = sc.foot_names(probe)
+    rec = Recorder(sc.built.model, record_hz=record_hz, seconds=seconds, key="--record-hz", feet=len(feet))
     folder = check_run_outputs(out, csv=csv, export_bvh=export_bvh, video=video, gif=gif)
     tick, close = _timed_bar(seconds, progress)
     outcome, _ = runner.run_scenario(sc, RolloutSpec(seconds=seconds, seed=seed, init_noise=init_noise),
@@ -351,7 +354,7 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     if removed:
         say(f"removed from an earlier run in {folder}: {', '.join(removed)}")
     path = runner.write_outcome(outcome, folder)
-    tr = save_run_files(folder, sc, rec, outcome)
+    tr = save_run_files(folder, sc, rec, outcome, feet)
     del rec  # the trajectory holds the samples
     say(outcome_line(outcome, sc))
     for why in outcome.extra.get("pushes_not_applied", []):

@@ -52,14 +52,16 @@ class Scenario:
         cfg = self.creature_cfg if self.profile == "creature" else self.cfg
         return CONTROLLERS[self.profile](self.built.model, self.built.plan, self.clip, cfg)
 
-    def foot_names(self) -> tuple[str, ...]:
-        """The feet the controller reports contact forces for (the recorder's columns)."""
-        return self.controller().foot_names()
+    def foot_names(self, ctrl: Controller | None = None) -> tuple[str, ...]:
+        """The feet the controller reports contact forces for (the recorder's columns); ``ctrl``: a
+        controller of this scenario already made (else one is made to ask)."""
+        return (ctrl or self.controller()).foot_names()
 
-    def check_pushes(self, pushes: list[Push]) -> None:
-        """The pushes fit this body: bodies it has, gait states its controller has (before any run)."""
+    def check_pushes(self, pushes: list[Push], ctrl: Controller | None = None) -> None:
+        """The pushes fit this body: bodies it has, gait states its controller has (before any run);
+        ``ctrl`` as for :meth:`foot_names`."""
         if pushes:
-            PushSchedule(self.built.model, list(pushes)).check_controller(self.controller())
+            PushSchedule(self.built.model, list(pushes)).check_controller(ctrl or self.controller())
 
     def fall_criteria(self) -> FallCriteria:
         return FallCriteria.for_body(self.profile, support=self.creature_cfg.support)

@@ -11,6 +11,8 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from bipedsim.control.config import BalanceConfig
+
 FloatArray = npt.NDArray[np.float64]
 
 
@@ -18,6 +20,23 @@ def feedback_angle(theta0: float, cd: float, cv: float, d: float, v: float, limi
     """Eq. 6: theta_d = theta_d0 + c_d d + c_v v, the feedback part clipped to +-``limit`` rad."""
     fb = cd * float(d) + cv * float(v)
     return theta0 + (limit if fb > limit else -limit if fb < -limit else fb)
+
+
+def froude(speed: float, leg: float, g: float = 9.81) -> float:
+    """The Froude number of a walk, v^2 / (g L): its speed ``speed`` (m/s) against the pendulum speed of a
+    leg ``leg`` m long; walks of one Froude number are dynamically alike whatever the body's size."""
+    return speed * speed / (g * leg)
+
+
+def sagittal_cv(balance: BalanceConfig, speed: float, leg: float, g: float = 9.81) -> float:
+    """The sagittal c_v (rad per m/s) for a walk of mean ``speed`` (m/s) on legs ``leg`` m long: the
+    configured one, scaled by ``cv_froude / Fr`` above the Froude number ``balance.cv_froude`` (no scaling
+    when that is null)."""
+    cv = balance.sagittal.cv
+    if balance.cv_froude is None or leg <= 0.0:
+        return cv
+    fr = froude(speed, leg, g)
+    return cv if fr <= balance.cv_froude else cv * balance.cv_froude / fr
 
 
 def beyond(offset: float, band: float) -> float:

@@ -179,6 +179,13 @@ class BalanceConfig:
     feet_world: bool = True
     redistribution: bool = True
     max_feedback: float = field(default=0.6, metadata={"gt": 0.0})
+    #: speed scheduling of the sagittal c_v: for a walk faster than this Froude number, Fr = v^2 / (g L)
+    #: (v the reference's mean walking speed, L the body's leg length, hip to ankle), the sagittal c_v is
+    #: scaled by cv_froude / Fr; null: c_v as given at every speed. 0.1 is 0.96 m/s on the built-in body's
+    #: 0.93 m legs, so its own 0.95 m/s walk keeps c_v 0.2. Measured on generated walks 0.6-1.5 m/s
+    #: (benchmarks/speed_range.py): 25 of 36 walk 20 s at >= 70 % of their speed, 17 with it off
+    #: (docs/controller.md, "Speed range")
+    cv_froude: float | None = field(default=0.1, metadata={"gt": 0.0})
     velocity: VelocityConfig = field(default_factory=VelocityConfig)
     #: what d and v are measured against: "none" (SIMBICON: raw COM offset from the stance ankle and
     #: raw COM velocity), "mean_velocity" (velocity relative to the reference's mean walking velocity),

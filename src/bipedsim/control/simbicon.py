@@ -33,6 +33,7 @@ from bipedsim.control.balance import (
     hinges_to_world,
     hinges_to_world3,
     hip_torques3,
+    sagittal_cv,
     stance_share,
     world_to_hinges3,
     yaw_matrix,
@@ -222,6 +223,8 @@ class SimbiconController(Controller):
         self._fade_on = cfg.fade.enabled
         self._roll_kp = cfg.balance.torso_kp if cfg.balance.roll_kp is None else cfg.balance.roll_kp
         self._speed = float(source.speed())
+        self._cv_sagittal = sagittal_cv(cfg.balance, self._speed, sum(self.leg_len["left"]),
+                                        -float(model.opt.gravity[2]))
         self._tempo_on = cfg.fsm.tempo.gain > 0.0
         self._v_sag = self._speed  #: the last control step's sagittal COM velocity (heading frame)
         self.clock = 0.0  #: the gait clock (s): real time run at the tempo rate
@@ -600,7 +603,7 @@ class SimbiconController(Controller):
             d1 -= src.lateral_reference(frame, stance)
             v0 -= self._speed
         if b.feedback:
-            fs = feedback_angle(0.0, b.sagittal.cd, b.sagittal.cv, d0, v0, b.max_feedback)
+            fs = feedback_angle(0.0, b.sagittal.cd, self._cv_sagittal, d0, v0, b.max_feedback)
             fc = feedback_angle(place, b.coronal.cd, b.coronal.cv, d1, v1, b.max_feedback)
         else:
             fs = fc = 0.0

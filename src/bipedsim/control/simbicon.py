@@ -223,7 +223,8 @@ class SimbiconController(Controller):
         self._fade_on = cfg.fade.enabled
         self._roll_kp = cfg.balance.torso_kp if cfg.balance.roll_kp is None else cfg.balance.roll_kp
         self._speed = float(source.speed())
-        self._cv_sagittal = sagittal_cv(cfg.balance, self._speed, sum(self.leg_len["left"]),
+        # the sagittal c_v scheduled by the walk's Froude number (legs: hip to ankle, both sides' mean)
+        self._cv_sagittal = sagittal_cv(cfg.balance, self._speed, sum(sum(self.leg_len[s]) for s in SIDES) / 2,
                                         -float(model.opt.gravity[2]))
         self._tempo_on = cfg.fsm.tempo.gain > 0.0
         self._v_sag = self._speed  #: the last control step's sagittal COM velocity (heading frame)

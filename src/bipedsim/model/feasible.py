@@ -133,10 +133,12 @@ def _smoothstep(u: FloatArray) -> FloatArray:
 @dataclass
 class FootPlan:
     """Per side and frame, where the feasible reference puts the foot: the ankle (foot body origin,
-    (T, 3) m) and the sole box's heading (T,) rad, the sole level; ``stance`` (T,) the clip's contact."""
+    (T, 3) m), the sole box's world rotation (T, 3, 3), the toe box's (T, 3, 3; level where the foot
+    rolls over its toes) and ``stance`` (T,), the clip's contact."""
 
     ankle: FloatArray
-    heading: FloatArray
+    sole: FloatArray
+    toe: FloatArray
     stance: npt.NDArray[np.bool_]
 
 
@@ -164,12 +166,50 @@ def _lowest(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> float:
     return float(data.geom_xpos[g][2] - np.abs(r[2]) @ model.geom_size[g])
 
 
-def _ankle_above_sole(model: mujoco.MjModel, leg: _Leg) -> float:
-    """Height (m) of the ankle above the floor when the foot's sole box lies level on it."""
-    r_g = Rotation.from_quat(model.geom_quat[leg.foot_geom], scalar_first=True).as_matrix()
-    # body rotation that levels the box: R_body = R_geom^T (heading 0); the box centre in the world
-    c = r_g.T @ model.geom_pos[leg.foot_geom]
-    return float(-(c[2] - model.geom_size[leg.foot_geom][2]))
+def _rot_y(theta: FloatArray) -> FloatArray:
+    """(T, 3, 3) rotations by ``-theta`` about y: the x axis (a foot's forward) tipped up by theta."""
+    c, s = np.cos(theta), np.sin(theta)
+    r = np.zeros((len(theta), 3, 3))
+    r[:, 0, 0] = c
+    r[:, 0, 2] = -s
+    r[:, 2, 0] = s
+    r[:, 2, 2] = c
+    r[:, 1, 1] = 1.0
+    return r
+
+
+def _yaws(psi: FloatArray) -> FloatArray:
+    c, s = np.cos(psi), np.sin(psi)
+    r = np.zeros((len(psi), 3, 3))
+    r[:, 0, 0], r[:, 0, 1], r[:, 1, 0], r[:, 1, 1], r[:, 2, 2] = c, -s, s, c, 1.0
+    return r
+
+
+@dataclass
+class _FootShape:
+    """A foot's points in its level sole frame (the sole box's axes, heading 0), from the ankle (m):
+    the box's corners, the heel and front bottom edges' midpoints and the pivot it rolls over at
+    push-off (the toe joint, else the front edge)."""
+
+    corners: FloatArray
+    heel: FloatArray
+    front: FloatArray
+    ball: FloatArray
+
+    @staticmethod
+    def of(model: mujoco.MjModel, leg: _Leg) -> _FootShape:
+        g = leg.foot_geom
+        r_g = Rotation.from_quat(model.geom_quat[g], scalar_first=True).as_matrix()
+        c = r_g.T @ model.geom_pos[g]
+        sx, sy, sz = model.geom_size[g]
+        corners = np.array([c + [i * sx, j * sy, k * sz] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)])
+        heel, front = c + [-sx, 0.0, -sz], c + [sx, 0.0, -sz]
+        ball = r_g.T @ model.body_pos[leg.toe] if leg.toe is not None else front
+        return _FootShape(corners, heel, front, ball)
+
+
+#: A stance foot's pitch (rad) within this band of level counts as flat (the capture's jitter).
+FLAT_BAND = 0.05
 
 
 def plan_feet(model: mujoco.MjModel, clip: ReferenceClip, legs: dict[str, _Leg],
@@ -179,23 +219,36 @@ def plan_feet(model: mujoco.MjModel, clip: ReferenceClip, legs: dict[str, _Leg],
     out = {}
     for s, leg in legs.items():
         k = kin[s]
+        shape = _FootShape.of(model, leg)
         stance = clip.contacts[:, clip.foot_names.index(s)].astype(bool)
-        h0 = _ankle_above_sole(model, leg)
         yaw_clip = np.unwrap(_yaw(k["sole"]))
+        pitch = np.arcsin(np.clip(k["sole"][:, 2, 0], -1.0, 1.0))  # toes up > 0
+        # the clip's pitch less a flat band: a stance foot rolls over its heel (toes up) or its ball
+        pitch = np.sign(pitch) * np.maximum(np.abs(pitch) - FLAT_BAND, 0.0)
         tilt = _tilt(k["sole"])
-        ankle = k["ankle"].copy()
         heading = yaw_clip.copy()
+        flat_ankle = k["ankle"].copy()
         prints: list[tuple[int, int, FloatArray, float]] = []
+        h0 = -float(shape.heel[2])
         for a, b in _runs(stance):
             cut = np.quantile(tilt[a:b], FLAT_SHARE)
             flat = np.arange(a, b)[tilt[a:b] <= cut + 1e-12]
             p = np.median(k["ankle"][flat, :2], axis=0)
             psi = float(np.median(yaw_clip[flat]))
             prints.append((a, b, np.array([p[0], p[1], h0]), psi))
-            ankle[a:b] = [p[0], p[1], h0]
+            flat_ankle[a:b] = [p[0], p[1], h0]
             heading[a:b] = psi
+        rot = _yaws(heading) @ _rot_y(pitch)
+        ankle = k["ankle"].copy()
+        # stance: rolled over the heel edge or the ball, which stays where the flat foot puts it
+        st = np.flatnonzero(stance)
+        if len(st):
+            y = _yaws(heading[st])
+            pivot = np.where((pitch[st] > 0)[:, None], shape.heel[None], shape.ball[None])
+            fixed = flat_ankle[st] + np.einsum("tij,tj->ti", y, pivot)
+            ankle[st] = fixed - np.einsum("tij,tj->ti", rot[st], pivot)
         # swings (and the frames before the first stance / after the last): the clip's path moved
-        # from the footprint left to the one reached
+        # from the footprint left to the one reached, its sole at least the clearance above the floor
         starts = [0] + [b for _, b, _, _ in prints]
         ends = [a for a, _, _, _ in prints] + [n]
         for j, (start, end) in enumerate(zip(starts, ends)):
@@ -205,9 +258,10 @@ def plan_feet(model: mujoco.MjModel, clip: ReferenceClip, legs: dict[str, _Leg],
             reach = prints[j] if j < len(prints) else None
             t = np.arange(start, end)
             u = (t - start + 1) / (end - start + 1)
-            w = _smoothstep(u) if left is not None and reach is not None else np.full(len(t), 0.0 if left else 1.0)
-            d0 = None if left is None else left[2] - k["ankle"][max(start - 1, 0)]
-            d1 = None if reach is None else reach[2] - k["ankle"][min(end, n - 1)]
+            both = left is not None and reach is not None
+            w = _smoothstep(u) if both else np.full(len(t), 0.0 if left is not None else 1.0)
+            d0 = None if left is None else ankle[start - 1] - k["ankle"][start - 1]
+            d1 = None if reach is None else ankle[end] - k["ankle"][end]
             d0 = d1 if d0 is None else d0
             d1 = d0 if d1 is None else d1
             if d0 is None or d1 is None:
@@ -216,9 +270,14 @@ def plan_feet(model: mujoco.MjModel, clip: ReferenceClip, legs: dict[str, _Leg],
             y0 = left[3] if left is not None else reach[3]  # type: ignore[index]
             y1 = reach[3] if reach is not None else y0
             heading[t] = (1 - w) * y0 + w * y1
-            lift = clearance * leg.length * np.sin(np.pi * u) if left is not None and reach is not None else 0.0
-            ankle[t, 2] = h0 + np.maximum(np.maximum(k["low"][t], 0.0), lift)
-        out[s] = FootPlan(ankle=ankle, heading=heading, stance=stance)
+            rot[t] = _yaws(heading[t]) @ _rot_y(pitch[t])
+            lift = clearance * leg.length * np.sin(np.pi * u) if both else 0.0
+            lowest = np.min(np.einsum("tij,cj->tci", rot[t], shape.corners)[..., 2], axis=1)
+            ankle[t, 2] = np.maximum(np.maximum(k["low"][t], 0.0), lift) - lowest
+        toe = rot.copy()
+        ball = stance & (pitch < 0)
+        toe[ball] = _yaws(heading[ball])
+        out[s] = FootPlan(ankle=ankle, sole=rot, toe=toe, stance=stance)
     return out
 
 
@@ -242,17 +301,11 @@ def pelvis_drop(kin: dict[str, dict[str, FloatArray]], feet: dict[str, FootPlan]
     return need
 
 
-def _level(psi: float) -> FloatArray:
-    c, s = np.cos(psi), np.sin(psi)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
 def solve_leg(model: mujoco.MjModel, data: mujoco.MjData, leg: _Leg, q0: FloatArray, q_clip: FloatArray,
-              ankle: FloatArray, psi: float) -> FloatArray:
+              ankle: FloatArray, r_sole: FloatArray, r_toe: FloatArray) -> FloatArray:
     """Leg hinge angles (within their ranges) putting the foot body's origin at ``ankle`` (m) with its
     sole box level at heading ``psi`` (and the toe box level alike), from ``q0``; ``data.qpos`` holds
     the rest of the pose. Projected Levenberg-Marquardt on the body's own kinematics."""
-    r_sole = _level(psi)
     r_fg = data.geom_xmat  # views refreshed by mj_kinematics
     q = np.clip(q0.copy(), leg.lo, leg.hi)
     jacp = np.zeros((3, model.nv))
@@ -275,7 +328,7 @@ def solve_leg(model: mujoco.MjModel, data: mujoco.MjData, leg: _Leg, q0: FloatAr
         jac[3:6] = wrot[:, None] * jacr[:, leg.dadr]
         if leg.toe_geom is not None and leg.toe is not None:
             rt = r_fg[leg.toe_geom].reshape(3, 3)
-            res[6:9] = W_TOE * Rotation.from_matrix(rt @ r_sole.T).as_rotvec()
+            res[6:9] = W_TOE * Rotation.from_matrix(rt @ r_toe.T).as_rotvec()
             mujoco.mj_jacBody(model, data, jacp, jacr, leg.toe)
             jac[6:9] = W_TOE * jacr[:, leg.dadr]
         res[-len(qq):] = W_REG * (qq - q_clip)
@@ -325,7 +378,7 @@ def feasible_clip(clip: ReferenceClip, model: mujoco.MjModel, cfg: FeasibleConfi
         data.qpos[:] = qpos[t]
         for s, leg in legs.items():
             f = feet[s]
-            q = solve_leg(model, data, leg, prev[s], clip.qpos[t, leg.qadr], f.ankle[t], float(f.heading[t]))
+            q = solve_leg(model, data, leg, prev[s], clip.qpos[t, leg.qadr], f.ankle[t], f.sole[t], f.toe[t])
             solved[s][t] = prev[s] = q
     w = cfg.blend
     out = clip.qpos.copy()

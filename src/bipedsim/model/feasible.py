@@ -387,3 +387,43 @@ def feasible_clip(clip: ReferenceClip, model: mujoco.MjModel, cfg: FeasibleConfi
         out[:, leg.qadr] = (1.0 - w) * clip.qpos[:, leg.qadr] + w * solved[s]
     qvel = velocities(model, out, clip.frame_time)
     return replace(clip, qpos=out, qvel=qvel)
+
+
+def measure(clip: ReferenceClip, model: mujoco.MjModel) -> dict[str, float]:
+    """How feasible a clip's legs are for ``model`` (the properties :func:`feasible_clip` builds):
+
+    - ``out_of_range``: share of frames with any hinge more than 0.05 rad outside its range;
+      ``legs_out_of_range``: the same over the legs' hinges;
+    - ``max_extension``: the longest hip-joint-to-ankle distance over the leg's length (thigh + shin);
+    - ``stance_low_min`` / ``stance_low_max``: the stance feet's lowest point (m; 0 = on the floor);
+    - ``flat_slide``: the largest horizontal travel (m) of a stance ankle over the frames of one stance
+      where its sole lies flat (tilt below :data:`FLAT_BAND`), from their median;
+    - ``flat_tilt``: the largest sole tilt (rad) on the frames of a stance flatter than the band."""
+    legs = {s: _Leg.of(model, s) for s in SIDES}
+    kin = _kinematics(model, clip.qpos, legs)
+    hinges = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE]
+    q = clip.qpos[:, model.jnt_qposadr[hinges]]
+    out = np.maximum(model.jnt_range[hinges, 0] - q, 0) + np.maximum(q - model.jnt_range[hinges, 1], 0)
+    leg_cols = np.isin(model.jnt_qposadr[hinges], np.concatenate([leg.qadr for leg in legs.values()]))
+    res = {"out_of_range": float(np.mean((out > 0.05).any(axis=1))),
+           "legs_out_of_range": float(np.mean((out[:, leg_cols] > 0.05).any(axis=1))),
+           "max_extension": 0.0, "stance_low_min": np.inf, "stance_low_max": -np.inf, "flat_slide": 0.0,
+           "flat_tilt": 0.0}
+    for s, leg in legs.items():
+        k = kin[s]
+        ext = np.linalg.norm(k["hip"] - k["ankle"], axis=1) / leg.length
+        res["max_extension"] = max(res["max_extension"], float(ext.max()))
+        stance = clip.contacts[:, clip.foot_names.index(s)].astype(bool)
+        if stance.any():
+            res["stance_low_min"] = min(res["stance_low_min"], float(k["low"][stance].min()))
+            res["stance_low_max"] = max(res["stance_low_max"], float(k["low"][stance].max()))
+        tilt = _tilt(k["sole"])
+        for a, b in _runs(stance):
+            flat = np.arange(a, b)[tilt[a:b] < FLAT_BAND]
+            if len(flat) < 2:
+                continue
+            xy = k["ankle"][flat, :2]
+            res["flat_slide"] = max(res["flat_slide"],
+                                    float(np.linalg.norm(xy - np.median(xy, axis=0), axis=1).max()))
+            res["flat_tilt"] = max(res["flat_tilt"], float(tilt[flat].max()))
+    return res

@@ -115,7 +115,36 @@ def _twobone_twist(g: FloatArray, u: FloatArray, w: FloatArray, axis0: FloatArra
     phi = np.take_along_axis(cands, np.argmin(cost, axis=1)[:, None], axis=1)[:, 0]
     bend = np.linalg.norm(np.cross(uh, wh), axis=-1)
     phi = np.where((r > 1e-9) & (bend > np.sin(TWOBONE_MIN_BEND)) | (abs(cos_beta) > 0.05), phi, 0.0)
+    phi = _continuous_twist(phi, cands, bend)
     return Rotation.from_rotvec(uh * phi[:, None]).as_matrix() @ g
+
+
+#: A limb bent less than this (rad) has an ill-conditioned twist: a nearly straight knee or elbow is
+#: reached by almost any twist, so the capture's noise (or a knee passing through straight into a
+#: slight hyperextension) flips it by up to pi between frames (games105's hips near frames 110/146).
+TWOBONE_RELIABLE_BEND = np.radians(10.0)
+
+
+def _continuous_twist(phi: FloatArray, cands: FloatArray, bend: FloatArray) -> FloatArray:
+    """Twists (T,) made continuous through nearly straight frames: where the limb bends less than
+    :data:`TWOBONE_RELIABLE_BEND` (``bend``: sines, T), the twist interpolated in time from the reliable
+    frames around (unwrapped), the candidate (``cands`` (T, 2)) nearest it taken and eased in as the
+    bend grows from :data:`TWOBONE_MIN_BEND`."""
+    ang = np.arcsin(np.clip(bend, 0.0, 1.0))
+    good = ang >= TWOBONE_RELIABLE_BEND
+    if good.all() or not good.any():
+        return phi
+    t = np.arange(len(phi))
+    base = np.interp(t, t[good], np.unwrap(phi[good]))
+    near = np.take_along_axis(cands, np.argmin(np.abs(_wrap(cands - base[:, None])), axis=1)[:, None], axis=1)[:, 0]
+    w = np.clip((ang - TWOBONE_MIN_BEND) / (TWOBONE_RELIABLE_BEND - TWOBONE_MIN_BEND), 0.0, 1.0)
+    w = w * w * (3.0 - 2.0 * w)
+    out = base + w * _wrap(near - base)
+    return np.where(good, phi, _wrap(out))
+
+
+def _wrap(a: FloatArray) -> FloatArray:
+    return (a + np.pi) % (2 * np.pi) - np.pi
 
 
 def fit_orientations(plan: BodyPlanSet, pts: SourcePoints) -> dict[str, FloatArray]:

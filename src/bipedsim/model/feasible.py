@@ -54,7 +54,7 @@ class FeasibleConfig:
     #: longest leg (hip joint to ankle) as a fraction of thigh + shin (gaitgen's 0.985)
     max_extension: float = field(default=0.985, metadata={"gt": 0.5, "max": 1.0})
     #: the swing sole's least peak height above the floor as a fraction of the leg length
-    clearance: float = field(default=0.08, metadata={"min": 0.0, "max": 0.5})
+    clearance: float = field(default=0.11, metadata={"min": 0.0, "max": 0.5})
     #: seconds over which the pelvis lowering is spread
     smooth_s: float = field(default=0.15, metadata={"min": 0.0})
 

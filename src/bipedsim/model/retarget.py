@@ -248,6 +248,24 @@ def _hinge_angles(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
     return eul[:, :len(axes)] * np.array(signs)
 
 
+def _in_range_euler(ang: FloatArray, ranges: FloatArray, signs: FloatArray) -> FloatArray:
+    """Three hinge angles (T, 3) as the one of the two equivalent Euler triples -- (a, b, c) and
+    (a + pi, pi - b, c + pi) on the unsigned axes -- that leaves the joint's ``ranges`` (3, 2) the
+    least, the nearer the previous frame's on a tie. Near the middle hinge's +-pi/2 (an arm raised
+    sideways) the decomposition wraps its outer angles by 2 pi from frame to frame (CMU 131's right
+    shoulder: 1.59 rad beyond its range); the other triple is the same rotation within range."""
+    raw = ang * signs
+    alt = np.stack([raw[:, 0] + np.pi, np.pi - raw[:, 1], raw[:, 2] + np.pi], axis=1)
+    cands = [_wrap(raw) * signs, _wrap(alt) * signs]
+    excess = [np.sum(np.maximum(ranges[:, 0] - c, 0) + np.maximum(c - ranges[:, 1], 0), axis=1) for c in cands]
+    out = np.where((excess[1] < excess[0] - 1e-9)[:, None], cands[1], cands[0])
+    for t in np.flatnonzero(np.abs(excess[0] - excess[1]) <= 1e-9):  # a tie: the nearer the frame before
+        if t > 0:
+            d = [float(np.sum(np.abs(_wrap(c[t] - out[t - 1])))) for c in cands]
+            out[t] = cands[int(d[1] < d[0])][t]
+    return out
+
+
 #: A humanoid foot's shortest swing (s): a shorter lift is a shuffle or a pivot, not a step (a walk's
 #: swing lasts 0.3-0.5 s).
 MIN_SWING_S = 0.15
@@ -320,6 +338,9 @@ def _pose_qpos(model: mujoco.MjModel, plan: BodyPlanSet, pts: SourcePoints, g: d
             qpos[:, adr:adr + 4] = Rotation.from_matrix(local).as_quat(scalar_first=True)
             continue
         ang = _hinge_angles(local, [np.asarray(j.axis) for j in b.joints])
+        if len(b.joints) == 3:
+            ang = _in_range_euler(ang, np.array([j.range for j in b.joints], dtype=float),
+                                  np.array([np.sign(j.axis[int(np.argmax(np.abs(j.axis)))]) for j in b.joints]))
         for k, j in enumerate(b.joints):
             jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
             qpos[:, model.jnt_qposadr[jid]] = ang[:, k]

@@ -103,3 +103,33 @@ def test_feasible_reference_lets_the_cmu_02_02_walk_go_20s(tmp_path) -> None:
     sc = runner.load_scenario(cfg, SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
     out, _ = runner.run_scenario(sc, RolloutSpec(seconds=20.0))
     assert out.outcome == "no_fall"
+
+
+def test_pendulum_moves_the_zmp_toward_the_stance_feet() -> None:
+    """The pendulum term: the COM's linear-inverted-pendulum ZMP, c - c''/w^2, nearer the stance foot's
+    bearing point in single support (the clip's COM is a capture's, on another body), by a few cm."""
+    from bipedsim.model.feasible import _com_path, pendulum_shift
+
+    need_shared()
+    sc = _scenario("cmu_02_01_walk__holden31_crlf")
+    model, clip = sc.built.model, sc.clip
+    legs = {s: _Leg.of(model, s) for s in SIDES}
+    feet = plan_feet(model, clip, legs, _kinematics(model, clip.qpos, legs), FeasibleConfig().clearance)
+    com = _com_path(model, clip.qpos)
+    dt = clip.frame_time
+    w2 = 9.81 / float(np.mean(com[:, 2]))
+
+    def zmp_error(c: np.ndarray) -> float:
+        acc = (c[:-2] - 2 * c[1:-1] + c[2:]) / dt**2
+        z = c[1:-1] - acc / w2
+        errs = []
+        for f, g in ((feet["right"], feet["left"]), (feet["left"], feet["right"])):
+            single = f.stance[1:-1] & ~g.stance[1:-1]
+            errs.append(np.linalg.norm(z[single] - f.cop[1:-1][single, :2], axis=1))
+        return float(np.sqrt(np.mean(np.concatenate(errs) ** 2)))
+
+    shift = pendulum_shift(com, feet, dt, 1.0)
+    moved = com.copy()
+    moved[:, :2] += shift
+    assert zmp_error(moved[:, :2]) < 0.5 * zmp_error(com[:, :2])
+    assert np.abs(shift).max() < 0.1

@@ -57,6 +57,10 @@ class FeasibleConfig:
     clearance: float = field(default=0.11, metadata={"min": 0.0, "max": 0.5})
     #: seconds over which the pelvis lowering is spread
     smooth_s: float = field(default=0.15, metadata={"min": 0.0})
+    #: weight of the linear inverted pendulum on the pelvis's horizontal path (0: the clip's path): the
+    #: centre of mass moved so that its pendulum ZMP, c - c''/w^2, stays near the stance feet's centre of
+    #: pressure (least squares against staying on the clip's path)
+    pendulum: float = field(default=0.0, metadata={"min": 0.0})
 
 
 #: Share of a stance's frames (the sole's least tilted) whose ankle positions and headings make the
@@ -140,6 +144,9 @@ class FootPlan:
     sole: FloatArray
     toe: FloatArray
     stance: npt.NDArray[np.bool_]
+    #: (T, 3) the point the stance foot bears on (the pivot it rolls over, the sole's middle when flat;
+    #: NaN in the swing)
+    cop: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 def _kinematics(model: mujoco.MjModel, qpos: FloatArray, legs: dict[str, _Leg]) -> dict[str, dict[str, FloatArray]]:
@@ -158,6 +165,18 @@ def _kinematics(model: mujoco.MjModel, qpos: FloatArray, legs: dict[str, _Leg]) 
             o["ankle"][t] = data.xpos[leg.foot]
             o["sole"][t] = data.geom_xmat[leg.foot_geom].reshape(3, 3)
             o["low"][t] = min(_lowest(model, data, g) for g in (leg.foot_geom, leg.toe_geom) if g is not None)
+    return out
+
+
+def _com_path(model: mujoco.MjModel, qpos: FloatArray) -> FloatArray:
+    """(T, 3) the body's centre of mass over the frames."""
+    data = mujoco.MjData(model)
+    out = np.zeros((len(qpos), 3))
+    for t in range(len(qpos)):
+        data.qpos[:] = qpos[t]
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        out[t] = data.subtree_com[1]
     return out
 
 
@@ -242,11 +261,14 @@ def plan_feet(model: mujoco.MjModel, clip: ReferenceClip, legs: dict[str, _Leg],
         ankle = k["ankle"].copy()
         # stance: rolled over the heel edge or the ball, which stays where the flat foot puts it
         st = np.flatnonzero(stance)
+        cop = np.full((n, 3), np.nan)
         if len(st):
             y = _yaws(heading[st])
             pivot = np.where((pitch[st] > 0)[:, None], shape.heel[None], shape.ball[None])
             fixed = flat_ankle[st] + np.einsum("tij,tj->ti", y, pivot)
             ankle[st] = fixed - np.einsum("tij,tj->ti", rot[st], pivot)
+            mid = np.where((np.abs(pitch[st]) < 1e-9)[:, None], 0.5 * (shape.heel + shape.front)[None], pivot)
+            cop[st] = flat_ankle[st] + np.einsum("tij,tj->ti", y, mid)
         # swings (and the frames before the first stance / after the last): the clip's path moved
         # from the footprint left to the one reached, its sole at least the clearance above the floor
         starts = [0] + [b for _, b, _, _ in prints]
@@ -277,7 +299,50 @@ def plan_feet(model: mujoco.MjModel, clip: ReferenceClip, legs: dict[str, _Leg],
         toe = rot.copy()
         ball = stance & (pitch < 0)
         toe[ball] = _yaws(heading[ball])
-        out[s] = FootPlan(ankle=ankle, sole=rot, toe=toe, stance=stance)
+        out[s] = FootPlan(ankle=ankle, sole=rot, toe=toe, stance=stance, cop=cop)
+    return out
+
+
+GRAVITY = 9.81
+
+
+def pendulum_shift(com: FloatArray, feet: dict[str, FootPlan], dt: float, weight: float) -> FloatArray:
+    """(T, 2) horizontal shift (m) of the centre of mass ``com`` (T, 3) that makes its linear-inverted-
+    pendulum ZMP, c - c''/w^2 (w^2 = g / the mean COM height), follow the stance feet's centre of pressure
+    (one foot's in single support; in double support moving from the trailing foot's to the leading
+    one's): least squares of ``weight`` x the ZMP's error against the shift itself, per axis."""
+    from scipy.sparse import diags, vstack
+    from scipy.sparse.linalg import spsolve
+
+    n = len(com)
+    w2 = GRAVITY / max(float(np.mean(com[:, 2])), 0.1)
+    cops = np.stack([f.cop for f in feet.values()], axis=0)  # (S, T, 3)
+    down = ~np.isnan(cops[..., 0])
+    target = np.full((n, 2), np.nan)
+    one = down.sum(axis=0) == 1
+    for k in range(len(cops)):
+        sel = one & down[k]
+        target[sel] = cops[k, sel, :2]
+    both = down.all(axis=0)
+    for a, b in _runs(both):
+        # the leading foot: the one whose stance began later
+        start = [a - int(np.argmin(down[k, :a + 1][::-1])) if not down[k, :a + 1].all() else 0
+                 for k in range(len(cops))]
+        lead = int(np.argmax(start))
+        u = (np.arange(a, b) - a + 0.5) / (b - a)
+        target[a:b] = (1 - u)[:, None] * cops[1 - lead, a:b, :2] + u[:, None] * cops[lead, a:b, :2]
+    rows = np.flatnonzero(~np.isnan(target[:, 0]))
+    rows = rows[(rows > 0) & (rows < n - 1)]
+    if len(rows) == 0 or weight <= 0:
+        return np.zeros((n, 2))
+    k2 = 1.0 / (w2 * dt * dt)
+    # ZMP z = c - k2 (c[t-1] - 2 c[t] + c[t+1]) as a sparse operator on the whole path
+    zmp = diags([-k2 * np.ones(n - 1), (1 + 2 * k2) * np.ones(n), -k2 * np.ones(n - 1)], [-1, 0, 1], format="csr")
+    a_mat = vstack([diags(np.ones(n)), weight * zmp[rows]]).tocsc()
+    out = np.zeros((n, 2))
+    for ax in range(2):
+        rhs = np.concatenate([np.zeros(n), weight * (target[rows, ax] - zmp[rows] @ com[:, ax])])
+        out[:, ax] = spsolve((a_mat.T @ a_mat).tocsc(), a_mat.T @ rhs)
     return out
 
 
@@ -368,8 +433,12 @@ def feasible_clip(clip: ReferenceClip, model: mujoco.MjModel, cfg: FeasibleConfi
     legs = {s: _Leg.of(model, s) for s in SIDES}
     kin = _kinematics(model, clip.qpos, legs)
     feet = plan_feet(model, clip, legs, kin, cfg.clearance)
+    base = clip.qpos.copy()
+    if cfg.pendulum > 0:
+        base[:, :2] += pendulum_shift(_com_path(model, clip.qpos), feet, clip.frame_time, cfg.pendulum)
+        kin = _kinematics(model, base, legs)
     drop = pelvis_drop(kin, feet, legs, cfg.max_extension, clip.frame_time, cfg.smooth_s)
-    qpos = clip.qpos.copy()
+    qpos = base.copy()
     qpos[:, 2] -= drop
     data = mujoco.MjData(model)
     solved = {s: np.zeros((clip.num_frames, len(leg.qadr))) for s, leg in legs.items()}
@@ -382,7 +451,7 @@ def feasible_clip(clip: ReferenceClip, model: mujoco.MjModel, cfg: FeasibleConfi
             solved[s][t] = prev[s] = q
     w = cfg.blend
     out = clip.qpos.copy()
-    out[:, 2] -= w * drop
+    out[:, :3] += w * (qpos[:, :3] - clip.qpos[:, :3])
     for s, leg in legs.items():
         out[:, leg.qadr] = (1.0 - w) * clip.qpos[:, leg.qadr] + w * solved[s]
     qvel = velocities(model, out, clip.frame_time)

@@ -366,6 +366,18 @@ def pelvis_drop(kin: dict[str, dict[str, FloatArray]], feet: dict[str, FootPlan]
     return need
 
 
+def _log(r: FloatArray) -> FloatArray:
+    """The rotation vector of a 3x3 rotation (scipy's per-call cost is 100 us; this ~5 us)."""
+    c = min(max((r[0, 0] + r[1, 1] + r[2, 2] - 1.0) * 0.5, -1.0), 1.0)
+    v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    ang = float(np.arccos(c))
+    if ang < 1e-6:
+        return 0.5 * v
+    if np.pi - ang < 1e-3:
+        return Rotation.from_matrix(r).as_rotvec()
+    return (ang / (2.0 * np.sin(ang))) * v
+
+
 def solve_leg(model: mujoco.MjModel, data: mujoco.MjData, leg: _Leg, q0: FloatArray, q_clip: FloatArray,
               ankle: FloatArray, r_sole: FloatArray, r_toe: FloatArray) -> FloatArray:
     """Leg hinge angles (within their ranges) putting the foot body's origin at ``ankle`` (m) with its
@@ -387,13 +399,13 @@ def solve_leg(model: mujoco.MjModel, data: mujoco.MjData, leg: _Leg, q0: FloatAr
         mujoco.mj_comPos(model, data)
         res[:3] = W_POS * (data.xpos[leg.foot] - ankle)
         rg = r_fg[leg.foot_geom].reshape(3, 3)
-        res[3:6] = wrot * Rotation.from_matrix(rg @ r_sole.T).as_rotvec()
+        res[3:6] = wrot * _log(rg @ r_sole.T)
         mujoco.mj_jacBody(model, data, jacp, jacr, leg.foot)
         jac[:3] = W_POS * jacp[:, leg.dadr]
         jac[3:6] = wrot[:, None] * jacr[:, leg.dadr]
         if leg.toe_geom is not None and leg.toe is not None:
             rt = r_fg[leg.toe_geom].reshape(3, 3)
-            res[6:9] = W_TOE * Rotation.from_matrix(rt @ r_toe.T).as_rotvec()
+            res[6:9] = W_TOE * _log(rt @ r_toe.T)
             mujoco.mj_jacBody(model, data, jacp, jacr, leg.toe)
             jac[6:9] = W_TOE * jacr[:, leg.dadr]
         res[-len(qq):] = W_REG * (qq - q_clip)

@@ -6,16 +6,19 @@ to toe, float or sink by centimetres and slide; its stance knees straighten to t
 swing toes drag (docs/controller.md, *Feasible reference*). From the clip's own gait events (the
 contacts :mod:`bipedsim.model.gait` measured) and footprints, every frame gets:
 
-- **stance feet** flat on the floor at the clip's footprint: per stance, the ankle's median position
-  and the foot's median heading over the stance's flattest frames (the sole's tilt in its lowest
-  third), the sole level and touching z = 0, held for the whole stance (no sliding, float or sink);
+- **stance feet** planted at the clip's footprint: per stance, the ankle's median position and the
+  foot's median heading over the stance's flattest frames (the sole's tilt in its lowest third), where
+  the sole lies level on z = 0; where the clip's sole pitches more than :data:`FLAT_BAND`, the foot
+  rolls by the excess over its heel edge (toes up) or its ball (heel up: the toe joint, the toe box
+  kept level), that pivot held in place -- no sliding, float or sink;
 - **swing feet** on the clip's path, moved smoothly (smoothstep over the swing) from the footprint
-  they leave to the one they reach, the sole level with the heading turned from one footprint's to
-  the next, the sole at least ``clearance`` x the leg length x sin(pi u) above the floor (u: the
-  swing's progress) and never lower than the clip's own foot;
-- **the pelvis** where the clip has it, lowered wherever a leg would be straighter than
-  ``max_extension`` of its length (hip joint to ankle over thigh + shin), the lowering spread over
-  ``smooth_s`` so it does not jerk;
+  they leave to the one they reach, the heading turned from one footprint's to the next, the clip's
+  pitch, the box's lowest corner at least ``clearance`` x the leg length x sin(pi u) above the floor
+  (u: the swing's progress) and never lower than the clip's own foot;
+- **the pelvis** where the clip has it (or, with ``pendulum`` > 0, moved so its centre of mass moves
+  as a linear inverted pendulum over the stance feet, :func:`pendulum_shift`), lowered wherever a leg
+  would be straighter than ``max_extension`` of its length (hip joint to ankle over thigh + shin), the
+  lowering spread over ``smooth_s`` so it does not jerk;
 - **leg hinges** by inverse kinematics on the built MuJoCo body: per leg and frame a projected
   Levenberg-Marquardt on the foot's position and sole orientation (and the toe's, when the body has
   one), within the joints' ranges, warm-started from the previous frame, lightly pulled toward the

@@ -8,6 +8,7 @@ row by row (``--resume`` keeps the rows already there).
 
     python benchmarks/real_walks.py                 # ~1-3 min on one core
     python benchmarks/real_walks.py --seconds 60 --csv /tmp/walks.csv
+    python benchmarks/real_walks.py --feasible      # the legs made feasible first (model/feasible.py)
 """
 
 from __future__ import annotations
@@ -16,10 +17,12 @@ import argparse
 import csv
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from bipedsim.control.reference import clip_speed
 from bipedsim.errors import BipedsimError
+from bipedsim.model.feasible import feasible_clip
 from bipedsim.sim import runner
 from bipedsim.sim.rollout import RolloutSpec
 
@@ -28,10 +31,12 @@ FIELDS = ["file", "outcome", "fall_time_s", "speed_mps", "clip_speed_mps", "spee
           "rmse_rad", "strikes", "wall_s", "reason"]
 
 
-def run_one(path: Path, seconds: float, config: str | None) -> dict[str, object]:
+def run_one(path: Path, seconds: float, config: str | None, feasible: bool = False) -> dict[str, object]:
     t0 = time.perf_counter()
     try:
         sc = runner.load_scenario(config, path)
+        if feasible and not sc.cfg.reference.feasible:  # as `reference: {feasible: true}` in the config
+            sc.clip = feasible_clip(sc.clip, sc.built.model, replace(sc.cfg.reference, feasible=True))
         out, _ = runner.run_scenario(sc, RolloutSpec(seconds=seconds))
     except BipedsimError as exc:
         return {"file": path.name, "outcome": "refused", "reason": str(exc)[:200],
@@ -50,6 +55,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per walk (default 20)")
     ap.add_argument("--config", default=None, help="controller YAML (default: the default controller)")
+    ap.add_argument("--feasible", action="store_true",
+                    help="track the feasible lower-body reference (as `reference: {feasible: true}` in the config)")
     ap.add_argument("--csv", default=None, help="also write the rows to this CSV, one at a time")
     ap.add_argument("--resume", action="store_true", help="keep the CSV's rows and run only the files missing")
     ap.add_argument("--files", nargs="*", default=None, help="only these BVH files (default: every shared human)")
@@ -72,7 +79,8 @@ def main(argv: list[str] | None = None) -> int:
           f"{'RMSE':>6s} {'strk':>4s} {'wall s':>6s}")
     ok = 0
     for p in files:
-        row: dict[str, object] = dict(done[p.name]) if p.name in done else run_one(p, args.seconds, args.config)
+        row: dict[str, object] = (dict(done[p.name]) if p.name in done
+                                  else run_one(p, args.seconds, args.config, args.feasible))
         if writer is not None and p.name not in done:
             writer.writerow(row)
             fh.flush()

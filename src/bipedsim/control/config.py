@@ -17,6 +17,7 @@ from typing import Any
 
 from bipedsim import config
 from bipedsim.errors import ConfigError
+from bipedsim.model.feasible import FeasibleConfig
 
 PD_MODES = ("pd", "pd_ref_velocity")
 SOURCES = ("clip", "pose")
@@ -318,6 +319,8 @@ class ControllerConfig:
     fade: FadeConfig = field(default_factory=FadeConfig)
     resync: ResyncConfig = field(default_factory=ResyncConfig)
     modulation: ModulationConfig = field(default_factory=ModulationConfig)
+    #: the reference made feasible for the built body before tracking (model/feasible.py)
+    reference: FeasibleConfig = field(default_factory=FeasibleConfig)
     pose_gait: PoseGait = field(default_factory=PoseGait)
 
     def validate(self) -> None:

@@ -167,6 +167,17 @@ def _find_first(sk: Skeleton, side: str, words: list[str], under: int | None = N
     return min(cands, key=lambda j: (depth[j], j))
 
 
+def _find_by_last_word(sk: Skeleton, words: list[str]) -> int | None:
+    """The shallowest joint whose name's last word (split at separators) is one of ``words``: joints
+    named for the bone from their parent (games105's ``torso_head``, ``lowerback_torso``)."""
+    cands = [j for j in range(sk.num_joints)
+             if re.split(r"[_\-. ]+", sk.names[j].split(":")[-1].lower())[-1] in words]
+    if not cands:
+        return None
+    depth = sk.depth()
+    return min(cands, key=lambda j: (depth[j], j))
+
+
 #: the two thigh joints found by name stand closer than this fraction of the knees' distance in the
 #: rest pose: helper bones at the pelvis centre (MakeHuman's __UpLeg_L/__UpLeg_R above UpLeg_L/UpLeg_R)
 COINCIDENT_THIGHS = 0.1
@@ -242,6 +253,8 @@ def recognise_humanoid(sk: Skeleton, mapping: MapFile | None = None) -> Humanoid
     th_l, th_r = idx[legs["left"]["thigh"]], idx[legs["right"]["thigh"]]  # type: ignore[index]
     pelvis = idx[mp.pelvis] if mp.pelvis else _lca(sk, th_l, th_r)
     head = idx[mp.head] if mp.head else _find_first(sk, "", HEAD_WORDS)
+    if head is None and not mp.head:
+        head = _find_by_last_word(sk, HEAD_WORDS)
     if arms:
         ua_l, ua_r = idx[arms["left"]["upper_arm"]], idx[arms["right"]["upper_arm"]]
         chest = idx[mp.chest] if mp.chest else _lca(sk, ua_l, ua_r)

@@ -115,7 +115,36 @@ def _twobone_twist(g: FloatArray, u: FloatArray, w: FloatArray, axis0: FloatArra
     phi = np.take_along_axis(cands, np.argmin(cost, axis=1)[:, None], axis=1)[:, 0]
     bend = np.linalg.norm(np.cross(uh, wh), axis=-1)
     phi = np.where((r > 1e-9) & (bend > np.sin(TWOBONE_MIN_BEND)) | (abs(cos_beta) > 0.05), phi, 0.0)
+    phi = _continuous_twist(phi, cands, bend)
     return Rotation.from_rotvec(uh * phi[:, None]).as_matrix() @ g
+
+
+#: A limb bent less than this (rad) has an ill-conditioned twist: a nearly straight knee or elbow is
+#: reached by almost any twist, so the capture's noise (or a knee passing through straight into a
+#: slight hyperextension) flips it by up to pi between frames (games105's hips near frames 110/146).
+TWOBONE_RELIABLE_BEND = np.radians(10.0)
+
+
+def _continuous_twist(phi: FloatArray, cands: FloatArray, bend: FloatArray) -> FloatArray:
+    """Twists (T,) made continuous through nearly straight frames: where the limb bends less than
+    :data:`TWOBONE_RELIABLE_BEND` (``bend``: sines, T), the twist interpolated in time from the reliable
+    frames around (unwrapped), the candidate (``cands`` (T, 2)) nearest it taken and eased in as the
+    bend grows from :data:`TWOBONE_MIN_BEND`."""
+    ang = np.arcsin(np.clip(bend, 0.0, 1.0))
+    good = ang >= TWOBONE_RELIABLE_BEND
+    if good.all() or not good.any():
+        return phi
+    t = np.arange(len(phi))
+    base = np.interp(t, t[good], np.unwrap(phi[good]))
+    near = np.take_along_axis(cands, np.argmin(np.abs(_wrap(cands - base[:, None])), axis=1)[:, None], axis=1)[:, 0]
+    w = np.clip((ang - TWOBONE_MIN_BEND) / (TWOBONE_RELIABLE_BEND - TWOBONE_MIN_BEND), 0.0, 1.0)
+    w = w * w * (3.0 - 2.0 * w)
+    out = base + w * _wrap(near - base)
+    return np.where(good, phi, _wrap(out))
+
+
+def _wrap(a: FloatArray) -> FloatArray:
+    return (a + np.pi) % (2 * np.pi) - np.pi
 
 
 def fit_orientations(plan: BodyPlanSet, pts: SourcePoints) -> dict[str, FloatArray]:
@@ -219,6 +248,24 @@ def _hinge_angles(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
     return eul[:, :len(axes)] * np.array(signs)
 
 
+def _in_range_euler(ang: FloatArray, ranges: FloatArray, signs: FloatArray) -> FloatArray:
+    """Three hinge angles (T, 3) as the one of the two equivalent Euler triples -- (a, b, c) and
+    (a + pi, pi - b, c + pi) on the unsigned axes -- that leaves the joint's ``ranges`` (3, 2) the
+    least, the nearer the previous frame's on a tie. Near the middle hinge's +-pi/2 (an arm raised
+    sideways) the decomposition wraps its outer angles by 2 pi from frame to frame (CMU 131's right
+    shoulder: 1.59 rad beyond its range); the other triple is the same rotation within range."""
+    raw = ang * signs
+    alt = np.stack([raw[:, 0] + np.pi, np.pi - raw[:, 1], raw[:, 2] + np.pi], axis=1)
+    cands = [_wrap(raw) * signs, _wrap(alt) * signs]
+    excess = [np.sum(np.maximum(ranges[:, 0] - c, 0) + np.maximum(c - ranges[:, 1], 0), axis=1) for c in cands]
+    out = np.where((excess[1] < excess[0] - 1e-9)[:, None], cands[1], cands[0])
+    for t in np.flatnonzero(np.abs(excess[0] - excess[1]) <= 1e-9):  # a tie: the nearer the frame before
+        if t > 0:
+            d = [float(np.sum(np.abs(_wrap(c[t] - out[t - 1])))) for c in cands]
+            out[t] = cands[int(d[1] < d[0])][t]
+    return out
+
+
 #: A humanoid foot's shortest swing (s): a shorter lift is a shuffle or a pivot, not a step (a walk's
 #: swing lasts 0.3-0.5 s).
 MIN_SWING_S = 0.15
@@ -291,6 +338,9 @@ def _pose_qpos(model: mujoco.MjModel, plan: BodyPlanSet, pts: SourcePoints, g: d
             qpos[:, adr:adr + 4] = Rotation.from_matrix(local).as_quat(scalar_first=True)
             continue
         ang = _hinge_angles(local, [np.asarray(j.axis) for j in b.joints])
+        if len(b.joints) == 3:
+            ang = _in_range_euler(ang, np.array([j.range for j in b.joints], dtype=float),
+                                  np.array([np.sign(j.axis[int(np.argmax(np.abs(j.axis)))]) for j in b.joints]))
         for k, j in enumerate(b.joints):
             jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
             qpos[:, model.jnt_qposadr[jid]] = ang[:, k]

@@ -1,0 +1,135 @@
+"""The feasible lower-body reference (model/feasible.py): stance feet on the floor, flat where the clip's
+foot is, planted; legs within reach and within their joint ranges; IK that reproduces its targets on the
+built body; and the controller key that switches it on."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+import pytest
+from conftest import SHARED_BVH, need_shared
+
+from bipedsim.errors import ConfigError
+from bipedsim.model.feasible import SIDES, FeasibleConfig, _kinematics, _Leg, feasible_clip, measure, plan_feet
+from bipedsim.sim import runner
+
+
+@lru_cache(maxsize=4)
+def _scenario(name: str | None):
+    path = None if name is None else SHARED_BVH / "human" / f"{name}.bvh"
+    return runner.load_scenario(None, path)
+
+
+def _feasible(name: str | None):
+    if name is not None:
+        need_shared()
+    sc = _scenario(name)
+    return sc, feasible_clip(sc.clip, sc.built.model)
+
+
+@pytest.mark.parametrize("name", [None, "cmu_02_01_walk__holden31_crlf", "bandai2_walk_exhausted_001"])
+def test_stance_feet_planted_flat_on_the_floor_and_legs_within_reach_and_range(name: str | None) -> None:
+    sc, fc = _feasible(name)
+    before, after = measure(sc.clip, sc.built.model), measure(fc, sc.built.model)
+    assert after["legs_out_of_range"] == 0.0  # the IK keeps every leg hinge within its range
+    assert after["out_of_range"] <= before["out_of_range"]
+    assert after["max_extension"] <= FeasibleConfig().max_extension + 0.005
+    # stance feet neither float nor sink (the capture's float 2-4 cm), flat ones do not slide
+    assert after["stance_low_min"] >= -0.01 and after["stance_low_max"] <= 0.02
+    assert after["stance_low_max"] < before["stance_low_max"]
+    assert after["flat_slide"] <= 0.012
+
+
+def test_ik_reproduces_the_planned_feet_by_forward_kinematics() -> None:
+    need_shared()
+    sc, fc = _feasible("cmu_02_01_walk__holden31_crlf")
+    model = sc.built.model
+    legs = {s: _Leg.of(model, s) for s in SIDES}
+    # the plan as feasible_clip made it (on the clip's pelvis), the feet as the solved legs put them
+    kin0 = _kinematics(model, sc.clip.qpos, legs)
+    plan = plan_feet(model, sc.clip, legs, kin0, FeasibleConfig().clearance)
+    kin = _kinematics(model, fc.qpos, legs)
+    for s in SIDES:
+        err = np.linalg.norm(kin[s]["ankle"] - plan[s].ankle, axis=1)
+        stance = plan[s].stance
+        assert np.percentile(err, 95) < 0.015 and np.median(err[stance]) < 0.005, s
+        # the sole's normal as planned, on stance frames (its heading may give: a 1-DOF ankle cannot
+        # roll the foot, and the hip's twist range bounds the toe-out)
+        cosang = np.einsum("ti,ti->t", kin[s]["sole"][stance][:, :, 2], plan[s].sole[stance][:, :, 2])
+        ang = np.arccos(np.clip(cosang, -1.0, 1.0))
+        assert np.median(ang) < 0.05 and np.percentile(ang, 95) < 0.15, s
+
+
+def test_blend_zero_keeps_the_clip_and_the_upper_body_is_always_kept() -> None:
+    sc = _scenario(None)
+    model = sc.built.model
+    same = feasible_clip(sc.clip, model, FeasibleConfig(feasible=True, blend=0.0))
+    assert np.allclose(same.qpos, sc.clip.qpos)
+    fc = feasible_clip(sc.clip, model, FeasibleConfig(feasible=True))
+    legs = np.concatenate([_Leg.of(model, s).qadr for s in SIDES])
+    rest = np.setdiff1d(np.arange(7, model.nq), legs)
+    assert np.allclose(fc.qpos[:, rest], sc.clip.qpos[:, rest])
+    assert np.allclose(fc.qpos[:, :2], sc.clip.qpos[:, :2])  # the pelvis's path and its orientation
+    assert np.allclose(fc.qpos[:, 3:7], sc.clip.qpos[:, 3:7])
+    assert fc.events == sc.clip.events
+
+
+def test_controller_key_switches_it_on_and_is_checked(tmp_path) -> None:
+    from bipedsim.control.config import load_controller
+
+    good = tmp_path / "f.yaml"
+    good.write_text("reference: {feasible: true, blend: 0.5}\n")
+    cfg = load_controller(good)
+    assert cfg.reference.feasible and cfg.reference.blend == 0.5
+    bad = tmp_path / "b.yaml"
+    bad.write_text("reference: {feasible: true, blend: 1.5}\n")
+    with pytest.raises(ConfigError, match="reference.blend"):
+        load_controller(bad)
+    sc = runner.load_scenario(good)
+    plain = _scenario(None)
+    assert not np.allclose(sc.clip.qpos, plain.clip.qpos)  # the built-in walk's legs re-solved
+
+
+@pytest.mark.slow
+def test_feasible_reference_lets_the_cmu_02_02_walk_go_20s(tmp_path) -> None:
+    """Measured: the CMU 02_02 walk (both skeletons) falls at about 1 s on the clip's legs and walks
+    20 s on the feasible ones (docs/controller.md, *Feasible reference*)."""
+    need_shared()
+    from bipedsim.sim.rollout import RolloutSpec
+
+    cfg = tmp_path / "f.yaml"
+    cfg.write_text("reference: {feasible: true}\n")
+    sc = runner.load_scenario(cfg, SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
+    out, _ = runner.run_scenario(sc, RolloutSpec(seconds=20.0))
+    assert out.outcome == "no_fall"
+
+
+def test_pendulum_moves_the_zmp_toward_the_stance_feet() -> None:
+    """The pendulum term: the COM's linear-inverted-pendulum ZMP, c - c''/w^2, nearer the stance foot's
+    bearing point in single support (the clip's COM is a capture's, on another body), by a few cm."""
+    from bipedsim.model.feasible import _com_path, pendulum_shift
+
+    need_shared()
+    sc = _scenario("cmu_02_01_walk__holden31_crlf")
+    model, clip = sc.built.model, sc.clip
+    legs = {s: _Leg.of(model, s) for s in SIDES}
+    feet = plan_feet(model, clip, legs, _kinematics(model, clip.qpos, legs), FeasibleConfig().clearance)
+    com = _com_path(model, clip.qpos)
+    dt = clip.frame_time
+    w2 = 9.81 / float(np.mean(com[:, 2]))
+
+    def zmp_error(c: np.ndarray) -> float:
+        acc = (c[:-2] - 2 * c[1:-1] + c[2:]) / dt**2
+        z = c[1:-1] - acc / w2
+        errs = []
+        for f, g in ((feet["right"], feet["left"]), (feet["left"], feet["right"])):
+            single = f.stance[1:-1] & ~g.stance[1:-1]
+            errs.append(np.linalg.norm(z[single] - f.cop[1:-1][single, :2], axis=1))
+        return float(np.sqrt(np.mean(np.concatenate(errs) ** 2)))
+
+    shift = pendulum_shift(com, feet, dt, 1.0)
+    moved = com.copy()
+    moved[:, :2] += shift
+    assert zmp_error(moved[:, :2]) < 0.5 * zmp_error(com[:, :2])
+    assert np.abs(shift).max() < 0.1

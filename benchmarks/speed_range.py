@@ -17,11 +17,12 @@ there).
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from rows import Rows
 
 from bipedsim.errors import BipedsimError, ModelError
 from bipedsim.motion.bvh import bvh_text
@@ -84,35 +85,25 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     walks = [(v, c, w) for w in args.widths for v in args.speeds for c in args.cadences]
     walks += [x for x in ([] if args.no_extra else EXTRA) if x not in walks]
-    done: dict[str, dict[str, str]] = {}
-    if args.csv and args.resume and Path(args.csv).exists():
-        with open(args.csv, newline="") as fh:
-            done = {key(float(r["speed_mps"]), float(r["cadence"]), float(r["width_m"])): r
-                    for r in csv.DictReader(fh)}
-    writer = None
-    if args.csv:
-        out = open(args.csv, "a" if done else "w", newline="")  # noqa: SIM115 - closed below
-        writer = csv.DictWriter(out, fieldnames=FIELDS)
-        if not done:
-            writer.writeheader()
+    rows = Rows(args.csv, FIELDS, args.resume, lambda r: key(float(r["speed_mps"]), float(r["cadence"]),
+                                                             float(r["width_m"])))
     print(f"{'m/s':>5s} {'steps/min':>9s} {'width':>5s} {'outcome':10s} {'fall s':>6s} {'achieved':>8s} "
           f"{'ratio':>5s} {'RMSE':>6s} {'strk':>4s}")
     ok = feasible = 0
     with tempfile.TemporaryDirectory(prefix="bipedsim-speed-") as tmp:
         for v, c, w in walks:
             k = key(v, c, w)
-            row: dict[str, object] = dict(done[k]) if k in done else run_one(v, c, w, args.seconds, args.config,
-                                                                              Path(tmp))
-            if writer is not None and k not in done:
-                writer.writerow(row)
-                out.flush()
+            if k in rows.done:
+                row: dict[str, object] = dict(rows.done[k])
+            else:
+                row = run_one(v, c, w, args.seconds, args.config, Path(tmp))
+                rows.add(row)
             feasible += row["outcome"] != "infeasible"
             ok += passed(row)
             print(f"{float(v):5.2f} {float(c):9g} {float(w):5.2f} {row['outcome']!s:10s} "
                   f"{row.get('fall_time_s', '')!s:>6s} {row.get('achieved_mps', '')!s:>8s} "
                   f"{row.get('speed_ratio', '')!s:>5s} {row.get('rmse_rad', '')!s:>6s} {row.get('strikes', '')!s:>4s}")
-    if writer is not None:
-        out.close()
+    rows.close()
     print(f"{ok} of {feasible} feasible walks walked {args.seconds:g} s without a fall at >= 70 % of their speed "
           f"({len(walks) - feasible} infeasible for the generator)")
     return 0

@@ -68,6 +68,11 @@ class CreatureBalanceConfig:
     speed_fraction: float = field(default=0.6, metadata={"min": 0.0})
     #: the legs' swings in one cycle, summed, as a share of the cycle (each leg swings share/n)
     swing_share: float = field(default=0.8, metadata={"gt": 0.0, "max": 1.0})
+    #: footfall pattern: ``sequence`` (one leg after another in the clip's order, swing_share/n each) or
+    #: ``clip`` (the clip's own phases and swing share, e.g. a trot's diagonal pairs)
+    phases: str = field(default="sequence", metadata={"choices": ("sequence", "clip")})
+    #: largest swing as a share of the cycle
+    max_swing_fraction: float = field(default=0.45, metadata={"gt": 0.0, "max": 0.9})
     #: longest stride as a fraction of the standing root height
     stride_fraction: float = field(default=0.8, metadata={"gt": 0.0})
     #: shortest swing (s)
@@ -81,8 +86,12 @@ class CreatureBalanceConfig:
     #: share of the way the centre of mass moves toward the next support's centroid; time constant (s)
     com_shift: float = field(default=1.0, metadata={"min": 0.0})
     shift_time_s: float = field(default=0.1, metadata={"min": 0.0})
+    #: 1: the centre of mass shifts only sideways (across the walking direction), 0: also along it
+    lateral_only: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
     #: swing-foot placement of the planned gait per (m/s) of velocity error, in units of sqrt(L/g) s
     step_placement: float = field(default=1.0, metadata={"min": 0.0})
+    #: the planned gait's body PD (root position and velocity) natural frequency, x sqrt(g/L)
+    body_freq: float = field(default=2.0, metadata={"min": 0.0})
     #: IK's null-space pull toward the neutral leg pose (per iteration)
     posture_pull: float = field(default=0.1, metadata={"min": 0.0, "max": 1.0})
     #: standing time before the first step (s), speed ramp (s), re-planning period (s)

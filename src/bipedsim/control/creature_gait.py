@@ -35,7 +35,8 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray
 from bipedsim.control.creature import CreatureControlConfig
-from bipedsim.control.creature_balance import CreatureBalanceConfig, CreatureBalanceController, _rz
+from bipedsim.control.creature_balance import (CreatureBalanceConfig, CreatureBalanceController, _rz,
+                                                distribute_wrench)
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
 
@@ -62,8 +63,26 @@ class CreatureGaitController(CreatureBalanceController):
         super().__init__(model, plan, clip, cfg, balance)
         self.ik_data = mujoco.MjData(model)
         self._site_ids = [s[0] for s in self.leg_sites]
+        # IK turns the joints above the feet: a paw's or toe's own joint is held at its neutral pose (a
+        # foot bent to reach is a foot folded under the load, and past its joint range)
+        self.ik_dofs = []
+        for i, leg in enumerate(self.legs):
+            foot_dofs = {int(model.body_dofadr[model.body(f).id]) + k for f in leg.feet for k in range(3)
+                         if model.body_dofnum[model.body(f).id]}
+            self.ik_dofs.append(np.array([v for v in self.leg_dofs[i] if v not in foot_dofs], dtype=np.int64))
         self._measure_gait()
         self._neutral_stance()
+        if len(self.legs) >= 3:
+            # the body's own long axis: the hips' principal horizontal direction (a clip that turns or
+            # walks a little crabwise travels at an angle to it)
+            h = self._hips[:, 0:2] - self._hips[:, 0:2].mean(axis=0)
+            axis = np.linalg.svd(h, full_matrices=False)[2][0]
+            theta = math.atan2(axis[1], axis[0]) if axis[0] >= 0 else math.atan2(-axis[1], -axis[0])
+            if abs(theta) > 1e-3:
+                att = self.neutral_att
+                fwd = att.T @ _rz(theta) @ att @ self.fwd
+                self.fwd = fwd / np.linalg.norm(fwd)
+                self._neutral_stance()
 
     # ------------------------------------------------------------------ measured from the clip
     def _measure_gait(self) -> None:
@@ -88,26 +107,35 @@ class CreatureGaitController(CreatureBalanceController):
         n = len(self.legs)
         # lift-off phase of each leg in the clip (first swing frame after a stance frame)
         starts = []
-        swing_times = []
+        swing_times, strides = [], []
         for i in range(n):
             down = np.array([self._ref_down(f, i) for f in range(a, b)])
             lifts = np.flatnonzero(down[:-1] & ~down[1:])
             lands = np.flatnonzero(~down[:-1] & down[1:])
             starts.append(float(lifts[0]) if len(lifts) else float(i * (b - a) / max(n, 1)))
+            strides.extend(np.diff(lifts) * clip.frame_time)
             for lf in lifts:
                 after = lands[lands > lf]
                 if len(after):
                     swing_times.append((after[0] - lf) * clip.frame_time)
         self.leg_order = [int(i) for i in np.argsort(starts, kind="stable")]
-        swing = float(np.median(swing_times)) if swing_times else 0.25 * math.sqrt(self.leg_height / 9.81) * 2
-        self.swing_frac = min(b_.swing_share / max(n, 1), 0.45)
-        period = swing / self.swing_frac
+        swing = float(np.median(swing_times)) if swing_times else 0.5 * math.sqrt(self.leg_height / 9.81)
+        stride = float(np.median(strides)) if strides else 4.0 * swing
+        self.offsets = np.zeros(n)
+        if b_.phases == "clip" and strides:
+            # the clip's own footfall pattern (a trot's diagonal pairs), its swing share capped
+            self.swing_frac = float(np.clip(swing / stride, 0.2, b_.max_swing_fraction))
+            period = stride
+            for i in range(n):
+                self.offsets[i] = ((starts[i] - starts[self.leg_order[0]]) * clip.frame_time / stride) % 1.0
+        else:
+            self.swing_frac = min(b_.swing_share / max(n, 1), b_.max_swing_fraction)
+            period = swing / self.swing_frac
+            for rank, i in enumerate(self.leg_order):
+                self.offsets[i] = rank / max(n, 1)
         if self.v_des > 0:  # a stride of at most stride_fraction x the leg length
             period = min(period, b_.stride_fraction * self.leg_height / self.v_des)
         self.period = max(period, b_.min_swing_s / self.swing_frac)
-        self.offsets = np.zeros(n)
-        for rank, i in enumerate(self.leg_order):
-            self.offsets[i] = rank / max(n, 1)
 
     def _neutral_stance(self) -> None:
         """The neutral pose: root height and attitude, non-leg joints, and each foot's position relative
@@ -128,34 +156,55 @@ class CreatureGaitController(CreatureBalanceController):
                 rel[k, i] = h @ (d.site_xpos[self._site_ids[i]] - root)
                 hips[k, i] = h @ (d.xpos[model.body(self.legs[i].root).id] - root)
             atts.append(Rotation.from_matrix(h @ r))
-        # the neutral frame: the looped frame whose leg joints are closest to their means (all feet down
-        # in a standing-like pose); its non-leg joints are the trunk's pose
+        # the neutral pose: the looped frame with its feet lowest, its non-leg joints (spine, neck,
+        # tail) at their mean over the loop (a turning clip's bent spine straightened), the root at the
+        # mean attitude (heading removed) and the median height
         lowest = np.nansum(np.where(np.isfinite(self.ref_low[a:b]), self.ref_low[a:b], 0.0), axis=1)
         f0 = a + int(np.argmin(lowest))
         self.neutral_q = clip.qpos[f0].copy()
-        mean_att = Rotation.concatenate(atts).mean()
-        self.neutral_att = mean_att.as_matrix()  # root attitude in the heading frame
+        leg_dofs = set(np.concatenate(self.leg_dofs).tolist()) if n else set()
+        for k, qa in enumerate(self.qadr):
+            if int(self.dadr[k]) not in leg_dofs:
+                mean = Rotation.from_quat(clip.qpos[a:b, qa:qa + 4], scalar_first=True).mean()
+                self.neutral_q[qa:qa + 4] = mean.as_quat(scalar_first=True)
+        self.neutral_att = Rotation.concatenate(atts).mean().as_matrix()  # root attitude, heading frame
         self.neutral_height = float(np.median(clip.qpos[a:b, 2])) * self.bal.height_fraction
-        foot = rel.mean(axis=0)
-        hip = hips.mean(axis=0)
-        self.site_ground = np.array([float(np.median(clip.qpos[a:b, 2] + rel[:, i, 2]
-                                                     - self.ref_low[a:b, i]))
-                                     if np.all(np.isfinite(self.ref_low[a:b, i])) else 0.0 for i in range(n)])
-        # widen: each foot at least stance_width x its hip's lateral offset from the hips' mid-line
-        mid = hip[:, 1].mean()
-        for i in range(n):
-            want = self.bal.stance_width * (hip[i, 1] - mid)
-            if abs(foot[i, 1] - mid) < abs(want):
-                foot[i, 1] = mid + want
-        # centre: the feet's centroid under the neutral pose's centre of mass
+        self.neutral_q[0:2] = 0.0
         self.neutral_q[2] = self.neutral_height
         self.neutral_q[3:7] = Rotation.from_matrix(self.neutral_att).as_quat(scalar_first=True)
-        self.neutral_q[0:2] = 0.0
         d.qpos[:] = self.neutral_q
         mujoco.mj_kinematics(model, d)
         mujoco.mj_comPos(model, d)
-        com = d.subtree_com[self.root_body] - d.xpos[self.root_body]  # heading frame = world here
-        foot[:, 0:2] += com[0:2] - foot[:, 0:2].mean(axis=0)
+        root = d.xpos[self.root_body].copy()
+        com = d.subtree_com[self.root_body] - root  # heading frame = world here
+        hip = np.array([d.xpos[model.body(leg.root).id] - root for leg in self.legs]).reshape(n, 3)
+        self._hips = hip
+        foot = rel.mean(axis=0)
+        self.site_ground = np.array([float(np.median(clip.qpos[a:b, 2] + rel[:, i, 2]
+                                                     - self.ref_low[a:b, i]))
+                                     if np.all(np.isfinite(self.ref_low[a:b, i])) else 0.0 for i in range(n)])
+        # pairs of legs (left and right: each hip the nearest to the other's mirror image across the
+        # hips' mid-line) stand symmetric about their hips' centre, at least stance_width x their hips'
+        # half spacing apart, level with each other
+        mid = float(hip[:, 1].mean()) if n else 0.0
+        mirror = hip.copy()
+        mirror[:, 1] = 2 * mid - mirror[:, 1]
+        for i in range(n):
+            dist = np.linalg.norm(hip - mirror[i], axis=1)
+            dist[i] = np.inf
+            j = int(np.argmin(dist)) if n > 1 else i
+            back = np.linalg.norm(hip - mirror[j], axis=1)
+            back[j] = np.inf
+            if j == i or int(np.argmin(back)) != i or j < i:
+                continue
+            cy = 0.5 * (hip[i, 1] + hip[j, 1])
+            half = max(abs(foot[i, 1] - foot[j, 1]) / 2, self.bal.stance_width * abs(hip[i, 1] - hip[j, 1]) / 2)
+            side = 1.0 if hip[i, 1] >= cy else -1.0
+            foot[i, 1], foot[j, 1] = cy + side * half, cy - side * half
+            foot[i, 0] = foot[j, 0] = 0.5 * (foot[i, 0] + foot[j, 0])
+        # centre: the feet's centroid under the neutral pose's centre of mass
+        if n:
+            foot[:, 0:2] += com[0:2] - foot[:, 0:2].mean(axis=0)
         self.neutral_feet = foot  # (n, 3) relative to the root, heading frame (z unused)
         self.neutral_com = com
 
@@ -234,10 +283,13 @@ class CreatureGaitController(CreatureBalanceController):
         path = self._root_path(t)
         com_path = path + (self._heading_rot() @ self.neutral_com)[0:2]
         want = self.bal.com_shift * (centroid - com_path) if n > 2 else np.zeros(2)
+        side = np.array([-self._dir[1], self._dir[0]])
+        want = (1.0 - self.bal.lateral_only) * want + self.bal.lateral_only * float(want @ side) * side
         a = min(1.0, self._dt_plan / max(self.bal.shift_time_s, 1e-6))
         self._shift += a * (want - self._shift)
         q = self.neutral_q.copy()
         q[0:2] = path + self._shift
+        q[2] = self.neutral_height + self._z_offset
         q[3:7] = Rotation.from_matrix(self._heading_rot() @ self.neutral_att).as_quat(scalar_first=True)
         q[self._leg_q] = self._ik_q[self._leg_q]
         self._solve_ik(q, feet)
@@ -271,7 +323,7 @@ class CreatureGaitController(CreatureBalanceController):
             dq = np.zeros(m.nv)
             diff = np.zeros(m.nv)
             mujoco.mj_differentiatePos(m, diff, 1.0, q, self.neutral_q)
-            for i, dofs in enumerate(self.leg_dofs):
+            for i, dofs in enumerate(self.ik_dofs):
                 err = feet[i] - d.site_xpos[self._site_ids[i]]
                 mujoco.mj_jacSite(m, d, jac, None, self._site_ids[i])
                 j = jac[:, dofs]
@@ -309,6 +361,7 @@ class CreatureGaitController(CreatureBalanceController):
                 leg_q.extend(range(self.qadr[k], self.qadr[k] + 4))
         self._leg_q = np.array(leg_q, dtype=np.int64)
         self._ik_q = self.neutral_q.copy()
+        self._z_offset = 0.0
         q = self._plan(t, data)
         for _ in range(5):
             q = self._plan(t, data)
@@ -318,10 +371,37 @@ class CreatureGaitController(CreatureBalanceController):
         mujoco.mj_kinematics(self.model, data)
         low = min(self._lowest(data, i) for i in range(n)) if n else 0.0
         data.qpos[2] -= low
+        self._z_offset = -low
         self._target = q
         self._target[2] -= low
         self._next_plan = t
+        self._qdot_ref = np.zeros(self.model.nv)
         mujoco.mj_forward(self.model, data)
+
+    def _body_wrench(self, data: mujoco.MjData, target: FloatArray, t: float, stance: list[int]) -> FloatArray:
+        """Joint torques (by actuator) through the stance legs for the body's virtual wrench: gravity
+        compensation, a PD of the root toward its planned position and velocity (horizontal and vertical,
+        natural frequency ``body_freq`` sqrt(g/L), damping ratio ``damping_ratio``: the body on stiff legs
+        is a mass on springs that the legs' own joint damping, sized for the legs, leaves underdamped) and
+        a PD of its attitude toward the planned one."""
+        b, m, w0 = self.bal, self.mass, self.omega0
+        g = -float(self.model.opt.gravity[2])
+        w = b.body_freq * w0
+        v_d = np.array([*(self._speed_at(t) * self._dir), 0.0])
+        force = m * (w * w * (target[0:3] - data.qpos[0:3]) + 2 * b.damping_ratio * w * (v_d - data.qvel[0:3]))
+        force[2] += m * b.gravity_comp * g
+        r = data.xmat[self.root_body].reshape(3, 3)
+        r_d = Rotation.from_quat(target[3:7], scalar_first=True).as_matrix()
+        err = Rotation.from_matrix(r_d @ r.T).as_rotvec()
+        wa = b.attitude_freq * w0
+        torque = m * self.leg_height ** 2 * (wa * wa * err - 2 * b.damping_ratio * wa * (r @ data.qvel[3:6]))
+        self.virtual.append((float(np.linalg.norm(force)), float(np.linalg.norm(torque))))
+        pts = np.array([self.contact_points[i] for i in stance])
+        fs = distribute_wrench(force, torque, pts, data.subtree_com[self.root_body])
+        out = np.zeros(self.model.nu)
+        for k, i in enumerate(stance):
+            out[self.leg_acts[i]] += self.leg_torques(data, i, pts[k], self._in_cone(fs[k]))
+        return out
 
     def _lowest(self, data: mujoco.MjData, i: int) -> float:
         from bipedsim.control.creature_balance import geom_bottom
@@ -333,20 +413,24 @@ class CreatureGaitController(CreatureBalanceController):
             return super().__call__(model, data, t, dt)
         down = self._feet_down(data)
         if t >= self._next_plan - 1e-9:
+            prev = self._target
             self._target = self._plan(t, data)
+            mujoco.mj_differentiatePos(model, self._qdot_ref, self._dt_plan, prev, self._target)
             self._next_plan = t + self._dt_plan
         target = self._target
         self.frame = self.loop[0] + (t - self._t_start) / self.clip.frame_time
         e = self._quat_error(data, target)
         self.tracking_error = np.linalg.norm(e, axis=1)
         tau_all = np.zeros(model.nu)
-        tau_all[self.acts.ravel()] = (self.kp[:, None] * e).ravel()
+        # kd (qdot_ref - qdot): the -kd qdot half is MuJoCo's implicit joint damping; the planned joint
+        # velocity half is fed forward, or the damping would hold back the stance legs' sweep
+        tau = self.kp[:, None] * e
+        if self.bal.velocity_feedforward:
+            tau = tau + self.kd[:, None] * self._qdot_ref[self._vel_idx]
+        tau_all[self.acts.ravel()] = tau.ravel()
         stance = [i for i, dn in enumerate(down) if dn and self._phase(t, i) < 0]
         if stance:
-            r = data.xmat[self.root_body].reshape(3, 3)
-            r_ref = Rotation.from_quat(target[3:7], scalar_first=True).as_matrix()
-            v_d = np.array([*(self._speed_at(t) * self._dir), 0.0])
-            tau_all += self._virtual_torques(data, target, r, r_ref, 0.0, v_d, stance)
+            tau_all += self._body_wrench(data, target, t, stance)
         lim = np.repeat(self.limit, 3)
         order = self.acts.ravel()
         self.torque[order] = np.clip(tau_all[order], -lim, lim)

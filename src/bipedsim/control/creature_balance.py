@@ -92,8 +92,10 @@ class CreatureBalanceConfig:
     step_placement: float = field(default=1.0, metadata={"min": 0.0})
     #: the planned gait's body PD (root position and velocity) natural frequency, x sqrt(g/L)
     body_freq: float = field(default=2.0, metadata={"min": 0.0})
+    #: stance feet aimed this fraction of the standing root height below the floor, so they press on it
+    press: float = field(default=0.0, metadata={"min": 0.0})
     #: IK's null-space pull toward the neutral leg pose (per iteration)
-    posture_pull: float = field(default=0.1, metadata={"min": 0.0, "max": 1.0})
+    posture_pull: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
     #: standing time before the first step (s), speed ramp (s), re-planning period (s)
     settle_s: float = field(default=0.5, metadata={"min": 0.0})
     speed_ramp_s: float = field(default=1.0, metadata={"gt": 0.0})

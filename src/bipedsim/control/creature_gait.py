@@ -268,6 +268,7 @@ class CreatureGaitController(CreatureBalanceController):
                     self._planted[i] = np.array([p[0], p[1], self.site_ground[i]])
                     self._lift[i] = None
                 feet[i] = self._planted[i]
+                feet[i, 2] -= self.bal.press * self.leg_height
             else:
                 if self._lift[i] is None:
                     self._lift[i] = self._planted[i].copy()
@@ -425,8 +426,12 @@ class CreatureGaitController(CreatureBalanceController):
         # kd (qdot_ref - qdot): the -kd qdot half is MuJoCo's implicit joint damping; the planned joint
         # velocity half is fed forward, or the damping would hold back the stance legs' sweep
         tau = self.kp[:, None] * e
-        if self.bal.velocity_feedforward:
-            tau = tau + self.kd[:, None] * self._qdot_ref[self._vel_idx]
+        if self.bal.velocity_feedforward:  # on the swinging legs only: the stance legs move slowly
+            ff = np.zeros(model.nv)
+            for i in range(len(self.legs)):
+                if self._phase(t, i) >= 0:
+                    ff[self.leg_dofs[i]] = self._qdot_ref[self.leg_dofs[i]]
+            tau = tau + self.kd[:, None] * ff[self._vel_idx]
         tau_all[self.acts.ravel()] = tau.ravel()
         stance = [i for i, dn in enumerate(down) if dn and self._phase(t, i) < 0]
         if stance:

@@ -80,7 +80,7 @@ class CreatureBalanceConfig:
     #: root height as a fraction of the clip's median
     height_fraction: float = field(default=1.0, metadata={"gt": 0.0})
     #: each foot at least this multiple of its hip's lateral offset from the hips' mid-line
-    stance_width: float = field(default=1.2, metadata={"min": 0.0})
+    stance_width: float = field(default=2.0, metadata={"min": 0.0})
     #: swing-foot lift as a fraction of the standing root height
     step_height: float = field(default=0.12, metadata={"min": 0.0})
     #: share of the way the centre of mass moves toward the next support's centroid; time constant (s)
@@ -94,6 +94,10 @@ class CreatureBalanceConfig:
     body_freq: float = field(default=2.0, metadata={"min": 0.0})
     #: stance feet aimed this fraction of the standing root height below the floor, so they press on it
     press: float = field(default=0.0, metadata={"min": 0.0})
+    #: a swinging leg's joint stiffness as a share of its stance stiffness (damping x its square root)
+    swing_stiffness: float = field(default=0.25, metadata={"gt": 0.0, "max": 1.0})
+    #: time constant (s) with which the planned path follows the body (0: a rigid path)
+    path_follow_s: float = field(default=0.5, metadata={"min": 0.0})
     #: IK's null-space pull toward the neutral leg pose (per iteration)
     posture_pull: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
     #: standing time before the first step (s), speed ramp (s), re-planning period (s)

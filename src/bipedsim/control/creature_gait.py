@@ -258,6 +258,11 @@ class CreatureGaitController(CreatureBalanceController):
         """The target pose (qpos) at time ``t``: root from the path and the support shift, feet from the
         gait, legs by IK."""
         n = len(self.legs)
+        if self.bal.path_follow_s > 0 and t > self._t_start:
+            # the planned path drifts after the body (time constant path_follow_s): a body that lags or
+            # strays is walked on from where it is, not pulled back by its stance legs like a spring
+            lag = data.qpos[0:2] - (self._root_path(t) + self._shift)
+            self._origin += min(1.0, self._dt_plan / self.bal.path_follow_s) * lag
         feet = np.zeros((n, 3))
         swinging = []
         for i in range(n):
@@ -377,6 +382,10 @@ class CreatureGaitController(CreatureBalanceController):
         self._target[2] -= low
         self._next_plan = t
         self._qdot_ref = np.zeros(self.model.nv)
+        self._swing_state = [False] * n
+        self._kp_now, self._kd_now = self.kp.copy(), self.kd.copy()
+        leg_dof_sets = [set(d.tolist()) for d in self.leg_dofs]
+        self._leg_balls = [[k for k in range(len(self.qadr)) if int(self.dadr[k]) in ds] for ds in leg_dof_sets]
         mujoco.mj_forward(self.model, data)
 
     def _body_wrench(self, data: mujoco.MjData, target: FloatArray, t: float, stance: list[int]) -> FloatArray:
@@ -422,16 +431,28 @@ class CreatureGaitController(CreatureBalanceController):
         self.frame = self.loop[0] + (t - self._t_start) / self.clip.frame_time
         e = self._quat_error(data, target)
         self.tracking_error = np.linalg.norm(e, axis=1)
+        swinging = [self._phase(t, i) >= 0 for i in range(len(self.legs))]
+        if swinging != self._swing_state:  # a swinging leg is softer: stiffness x s, damping x sqrt(s)
+            self._swing_state = swinging
+            kp_scale = np.ones(len(self.qadr))
+            for i, sw in enumerate(swinging):
+                if sw:
+                    kp_scale[self._leg_balls[i]] = self.bal.swing_stiffness
+            self._kp_now = self.kp * kp_scale
+            kd_now = self.kd * np.sqrt(kp_scale)
+            for k, dadr in enumerate(self.dadr):
+                model.dof_damping[dadr:dadr + 3] = self.base_damping[dadr:dadr + 3] + kd_now[k]
+            self._kd_now = kd_now
         tau_all = np.zeros(model.nu)
         # kd (qdot_ref - qdot): the -kd qdot half is MuJoCo's implicit joint damping; the planned joint
         # velocity half is fed forward, or the damping would hold back the stance legs' sweep
-        tau = self.kp[:, None] * e
+        tau = self._kp_now[:, None] * e
         if self.bal.velocity_feedforward:  # on the swinging legs only: the stance legs move slowly
             ff = np.zeros(model.nv)
-            for i in range(len(self.legs)):
-                if self._phase(t, i) >= 0:
+            for i, sw in enumerate(swinging):
+                if sw:
                     ff[self.leg_dofs[i]] = self._qdot_ref[self.leg_dofs[i]]
-            tau = tau + self.kd[:, None] * ff[self._vel_idx]
+            tau = tau + self._kd_now[:, None] * ff[self._vel_idx]
         tau_all[self.acts.ravel()] = tau.ravel()
         stance = [i for i, dn in enumerate(down) if dn and self._phase(t, i) < 0]
         if stance:

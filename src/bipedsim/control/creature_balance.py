@@ -32,7 +32,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
-from bipedsim.control.base import FloatArray, register
+from bipedsim.control.base import FloatArray
 from bipedsim.control.creature import CreatureControlConfig, CreatureController, quat_error_rotvecs
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature import creature_legs
@@ -445,7 +445,6 @@ class CreatureBalanceController(CreatureController):
         return out
 
 
-@register("creature")
 def make_creature_balance(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
                           cfg: CreatureControlConfig | None = None) -> CreatureBalanceController:
     return CreatureBalanceController(model, plan, clip, cfg)

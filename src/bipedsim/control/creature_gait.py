@@ -33,7 +33,7 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bipedsim.control.base import FloatArray
+from bipedsim.control.base import FloatArray, register
 from bipedsim.control.creature import CreatureControlConfig
 from bipedsim.control.creature_balance import (CreatureBalanceConfig, CreatureBalanceController, _rz,
                                                 distribute_wrench)
@@ -473,3 +473,18 @@ class CreatureGaitController(CreatureBalanceController):
         out.update({"controller": "creature_gait", "gait_period_s": self.period, "swing_fraction": self.swing_frac,
                     "target_speed_mps": self.v_des, "clip_speed_mps": self.clip_speed})
         return out
+
+
+@register("creature")
+def make_creature_controller(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
+                             cfg: CreatureControlConfig | None = None,
+                             balance: CreatureBalanceConfig | None = None) -> CreatureBalanceController:
+    """The creature's controller: the planned gait (``gait: planned``, the default) or the clip-timed
+    balance of :class:`~bipedsim.control.creature_balance.CreatureBalanceController` (``gait: clip``)."""
+    balance = balance or CreatureBalanceConfig()
+    if balance.gait == "clip":
+        return CreatureBalanceController(model, plan, clip, cfg, balance)
+    return CreatureGaitController(model, plan, clip, cfg, balance)
+
+
+__all__ = ["CreatureGaitController", "make_creature_controller"]

@@ -275,6 +275,11 @@ def _leg_loads(bodies: list[BodyPlan], tree: _Tree, legs: list[Leg], total: floa
 MAX_STIFFNESS_STEP = 0.25
 
 
+#: a leg joint's motor turns it at this many sqrt(g / reach) rad/s against its damping (on top of holding
+#: its load): a swing the gait needs
+LEG_SWING_RATE = 2.0
+
+
 def _set_motors(bodies: list[BodyPlan], tree: _Tree, mass: dict[int, float], profile: CreatureProfile,
                 size: float, loads: dict[int, float] | None = None) -> None:
     """Motor strength from the load each ball joint carries: torque limit (N m) ``torque_scale`` x load x
@@ -298,6 +303,10 @@ def _set_motors(bodies: list[BodyPlan], tree: _Tree, mass: dict[int, float], pro
         # no more than critical damping of the subtree it swings: a leg sized for the body's weight
         # would otherwise swing through syrup
         b.joints[0].kd = float(min(kd_unit * load * r, 2.0 * np.sqrt(kp * inertia)))
+        if j in (loads or {}):
+            # a leg joint also swings its leg against its own damping: the motor reaches LEG_SWING_RATE
+            # sqrt(g / reach) rad/s against it (the damping alone otherwise caps a dog's hip at 6 rad/s)
+            b.joints[0].torque += float(b.joints[0].kd * LEG_SWING_RATE * np.sqrt(GRAVITY / r))
 
 
 def _stand_on_floor(bodies: list[BodyPlan]) -> float:

@@ -97,7 +97,7 @@ class CreatureBalanceConfig:
     #: a swinging leg's joint stiffness as a share of its stance stiffness (damping x its square root)
     swing_stiffness: float = field(default=0.25, metadata={"gt": 0.0, "max": 1.0})
     #: time constant (s) with which the planned path follows the body (0: a rigid path)
-    path_follow_s: float = field(default=0.5, metadata={"min": 0.0})
+    path_follow_s: float = field(default=0.2, metadata={"min": 0.0})
     #: IK's null-space pull toward the neutral leg pose (per iteration)
     posture_pull: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
     #: standing time before the first step (s), speed ramp (s), re-planning period (s)

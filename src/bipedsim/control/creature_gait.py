@@ -63,6 +63,11 @@ class CreatureGaitController(CreatureBalanceController):
         super().__init__(model, plan, clip, cfg, balance)
         self.ik_data = mujoco.MjData(model)
         self._site_ids = [s[0] for s in self.leg_sites]
+        ball_ids = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL]
+        leg_dofs = set(np.concatenate(self.leg_dofs).tolist()) if self.legs else set()
+        #: (qpos address, range less a 5 % margin) of each limited leg ball joint
+        self._ik_limits = [(int(model.jnt_qposadr[j]), 0.95 * float(model.jnt_range[j, 1])) for j in ball_ids
+                           if model.jnt_limited[j] and int(model.jnt_dofadr[j]) in leg_dofs]
         # IK turns the joints above the feet: a paw's or toe's own joint is held at its neutral pose (a
         # foot bent to reach is a foot folded under the load, and past its joint range)
         self.ik_dofs = []
@@ -205,6 +210,19 @@ class CreatureGaitController(CreatureBalanceController):
         # centre: the feet's centroid under the neutral pose's centre of mass
         if n:
             foot[:, 0:2] += com[0:2] - foot[:, 0:2].mean(axis=0)
+        # reachable: the legs posed by IK on this stance (inside their joint ranges), the stance then
+        # taken from where the feet got, re-centred under the posed body's centre of mass
+        self._ik_q = self.neutral_q.copy()
+        for _ in range(3):
+            q = self.neutral_q.copy()
+            self._solve_ik(q, np.column_stack([foot[:, 0:2], self.site_ground]), iters=20)
+            mujoco.mj_kinematics(model, d)
+            mujoco.mj_comPos(model, d)
+            com = d.subtree_com[self.root_body] - d.xpos[self.root_body]
+            foot[:, 0:2] = np.array([d.site_xpos[s][0:2] for s in self._site_ids]).reshape(n, 2)
+            if n:
+                foot[:, 0:2] += com[0:2] - foot[:, 0:2].mean(axis=0)
+            self.neutral_q = q
         self.neutral_feet = foot  # (n, 3) relative to the root, heading frame (z unused)
         self.neutral_com = com
 
@@ -338,7 +356,20 @@ class CreatureGaitController(CreatureBalanceController):
                 null = diff[dofs] - j.T @ inv @ (j @ diff[dofs])
                 dq[dofs] = step + self.bal.posture_pull * null
             mujoco.mj_integratePos(m, q, dq, 1.0)
+            self._clamp_balls(q)
         self._ik_q[:] = q
+
+    def _clamp_balls(self, q: FloatArray) -> None:
+        """Each leg ball joint's rotation (in ``q``, in place) kept inside its range (the cone MuJoCo
+        enforces): a target past it is one the leg cannot take."""
+        for qa, lim in self._ik_limits:
+            w = q[qa]
+            v = q[qa + 1:qa + 4]
+            angle = 2.0 * math.atan2(float(np.linalg.norm(v)), abs(float(w)))
+            if angle > lim:
+                axis = v / max(float(np.linalg.norm(v)), 1e-12) * (1.0 if w >= 0 else -1.0)
+                q[qa] = math.cos(lim / 2)
+                q[qa + 1:qa + 4] = axis * math.sin(lim / 2)
 
     # ------------------------------------------------------------------ the control step
     def start_frame(self) -> int:

@@ -219,7 +219,12 @@ class CreatureGaitController(CreatureBalanceController):
             mujoco.mj_kinematics(model, d)
             mujoco.mj_comPos(model, d)
             com = d.subtree_com[self.root_body] - d.xpos[self.root_body]
-            foot[:, 0:2] = np.array([d.site_xpos[s][0:2] for s in self._site_ids]).reshape(n, 2)
+            got = np.array([d.site_xpos[s] for s in self._site_ids]).reshape(n, 3)
+            foot[:, 0:2] = got[:, 0:2]
+            short = float(np.max(got[:, 2] - self.site_ground)) if n else 0.0
+            if short > 0.0:  # a leg too short to reach the floor from here: the body stands lower
+                self.neutral_height -= short
+                q[2] = self.neutral_height
             if n:
                 foot[:, 0:2] += com[0:2] - foot[:, 0:2].mean(axis=0)
             self.neutral_q = q

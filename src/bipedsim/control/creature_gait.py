@@ -264,7 +264,7 @@ class CreatureGaitController(CreatureBalanceController):
         ahead = self._speed_at(t_land) * stance_t / 2.0 * self._dir
         p = self._foot_home(t_land, i)
         p[0:2] += ahead
-        dv = data.qvel[0:2] - self._speed_at(t) * self._dir
+        dv = self._v_filt - self._speed_at(t) * self._dir
         shift = self.bal.step_placement / self.omega0 * dv
         cap = self.bal.max_placement * self.leg_height
         size = float(np.linalg.norm(shift))
@@ -281,6 +281,10 @@ class CreatureGaitController(CreatureBalanceController):
         """The target pose (qpos) at time ``t``: root from the path and the support shift, feet from the
         gait, legs by IK."""
         n = len(self.legs)
+        # the body's velocity, low-passed over a quarter swing, for the foot placement: a landing point
+        # that jumps with every bounce makes the swing leg's IK target jump
+        a_v = min(1.0, self._dt_plan / max(0.25 * self.swing_frac * self.period, 1e-6))
+        self._v_filt += a_v * (data.qvel[0:2] - self._v_filt)
         if self.bal.path_follow_s > 0 and t > self._t_start:
             # the planned path drifts after the body (time constant path_follow_s): a body that lags or
             # strays is walked on from where it is, not pulled back by its stance legs like a spring
@@ -392,6 +396,7 @@ class CreatureGaitController(CreatureBalanceController):
         self._t_walk = t + self.bal.settle_s
         self._t_start = t
         self._shift = np.zeros(2)
+        self._v_filt = np.zeros(2)
         self._dt_plan = self.bal.plan_dt_s
         self._lift: list[FloatArray | None] = [None] * n
         self._planted = [self._foot_home(t, i) for i in range(n)]
@@ -490,6 +495,9 @@ class CreatureGaitController(CreatureBalanceController):
                     ff[self.leg_dofs[i]] = self._qdot_ref[self.leg_dofs[i]]
             tau = tau + self._kd_now[:, None] * ff[self._vel_idx]
         tau_all[self.acts.ravel()] = tau.ravel()
+        for i, sw in enumerate(swinging):  # a swinging leg carries its own weight (gravity, Coriolis)
+            if sw:
+                tau_all[self.leg_acts[i]] += data.qfrc_bias[self.leg_dofs[i]]
         stance = [i for i, dn in enumerate(down) if dn and self._phase(t, i) < 0]
         if stance:
             tau_all += self._body_wrench(data, target, t, stance)

@@ -42,6 +42,9 @@ from bipedsim.model.plan import BodyPlanSet
 
 #: a clip whose root travels slower than this (m/s, mean over the loop) walks in place
 IN_PLACE_MPS = 0.1
+#: the neutral stance lowers the body by at most this share of the clip's root height so every leg
+#: reaches the floor
+MAX_CROUCH = 0.25
 
 
 def _heading(r: FloatArray, fwd: FloatArray) -> float:
@@ -173,7 +176,8 @@ class CreatureGaitController(CreatureBalanceController):
                 mean = Rotation.from_quat(clip.qpos[a:b, qa:qa + 4], scalar_first=True).mean()
                 self.neutral_q[qa:qa + 4] = mean.as_quat(scalar_first=True)
         self.neutral_att = Rotation.concatenate(atts).mean().as_matrix()  # root attitude, heading frame
-        self.neutral_height = float(np.median(clip.qpos[a:b, 2])) * self.bal.height_fraction
+        self._clip_height = float(np.median(clip.qpos[a:b, 2]))
+        self.neutral_height = self._clip_height * self.bal.height_fraction
         self.neutral_q[0:2] = 0.0
         self.neutral_q[2] = self.neutral_height
         self.neutral_q[3:7] = Rotation.from_matrix(self.neutral_att).as_quat(scalar_first=True)
@@ -222,7 +226,10 @@ class CreatureGaitController(CreatureBalanceController):
             got = np.array([d.site_xpos[s] for s in self._site_ids]).reshape(n, 3)
             foot[:, 0:2] = got[:, 0:2]
             short = float(np.max(got[:, 2] - self.site_ground)) if n else 0.0
-            if short > 0.0:  # a leg too short to reach the floor from here: the body stands lower
+            # a leg too short to reach the floor from here: the body stands lower, by at most
+            # MAX_CROUCH of its height (a 'leg' that is no leg -- a low head -- does not sink it)
+            short = min(short, self.neutral_height - (1.0 - MAX_CROUCH) * self._clip_height)
+            if short > 0.0:
                 self.neutral_height -= short
                 q[2] = self.neutral_height
             if n:

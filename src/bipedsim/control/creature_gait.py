@@ -303,6 +303,7 @@ class CreatureGaitController(CreatureBalanceController):
             s = self._phase(t, i)
             if s < 0:
                 if self._lift[i] is not None:  # just landed: plant where the foot is
+                    self._strikes.append((t, self.legs[i].root))
                     p = data.site_xpos[self._site_ids[i]].copy()
                     self._planted[i] = np.array([p[0], p[1], self.site_ground[i]])
                     self._lift[i] = None

@@ -11,8 +11,12 @@ import numpy as np
 import pytest
 from conftest import SHARED_BVH, need_shared, shared_params
 
-from bipedsim.control.creature_balance import (CreatureBalanceConfig, CreatureBalanceController, distribute_wrench,
-                                               loop_segment)
+from bipedsim.control.creature_balance import (
+    CreatureBalanceConfig,
+    CreatureBalanceController,
+    distribute_wrench,
+    loop_segment,
+)
 from bipedsim.control.creature_gait import make_creature_controller
 from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.errors import ModelError

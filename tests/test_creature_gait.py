@@ -129,8 +129,9 @@ def test_the_dog_walks_20_s_at_half_its_clip_speed() -> None:
 @pytest.mark.xfail(strict=True, reason="issue 20 not met yet: the horse (about 10 s), the bred child and the "
                    "flamingo (a biped on line feet: the planned gait is quasi-static) still fall")
 def test_issue_20_every_creature_walks_20_s() -> None:
-    from bipedsim.breed.files import breed_files
     import tempfile
+
+    from bipedsim.breed.files import breed_files
 
     child = Path(tempfile.mkdtemp()) / "child.bvh"
     breed_files(_clip(DOG), HORSE_WALK, child, mutations=0)

@@ -18,5 +18,5 @@ from bipedsim.control.reference import ClipSource, GaitSource, Hinges, PoseSourc
 from bipedsim.control.simbicon import SimbiconController
 
 __all__ = ["CONTROLLERS", "ClipSource", "Controller", "ControllerConfig", "CreatureBalanceConfig",
-           "CreatureBalanceController", "CreatureControlConfig", "CreatureGaitController", "CreatureController", "GaitFSM", "GaitSource",
-           "Hinges", "PoseSource", "SimbiconController", "load_controller"]
+           "CreatureBalanceController", "CreatureControlConfig", "CreatureController", "CreatureGaitController",
+           "GaitFSM", "GaitSource", "Hinges", "PoseSource", "SimbiconController", "load_controller"]

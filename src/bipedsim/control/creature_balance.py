@@ -92,8 +92,6 @@ class CreatureBalanceConfig:
     step_placement: float = field(default=1.0, metadata={"min": 0.0})
     #: the planned gait's body PD (root position and velocity) natural frequency, x sqrt(g/L)
     body_freq: float = field(default=2.0, metadata={"min": 0.0})
-    #: stance feet aimed this fraction of the standing root height below the floor, so they press on it
-    press: float = field(default=0.0, metadata={"min": 0.0})
     #: a swinging leg's joint stiffness as a share of its stance stiffness (damping x its square root)
     swing_stiffness: float = field(default=0.25, metadata={"gt": 0.0, "max": 1.0})
     #: time constant (s) with which the planned path follows the body (0: a rigid path)

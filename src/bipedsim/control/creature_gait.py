@@ -35,8 +35,13 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray, register
 from bipedsim.control.creature import CreatureControlConfig
-from bipedsim.control.creature_balance import (CreatureBalanceConfig, CreatureBalanceController, _rz,
-                                                distribute_wrench)
+from bipedsim.control.creature_balance import (
+    CreatureBalanceConfig,
+    CreatureBalanceController,
+    _rz,
+    distribute_wrench,
+    geom_bottom,
+)
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
 
@@ -308,7 +313,6 @@ class CreatureGaitController(CreatureBalanceController):
                     self._planted[i] = np.array([p[0], p[1], self.site_ground[i]])
                     self._lift[i] = None
                 feet[i] = self._planted[i]
-                feet[i, 2] -= self.bal.press * self.leg_height
             else:
                 if self._lift[i] is None:
                     self._lift[i] = self._planted[i].copy()
@@ -408,13 +412,9 @@ class CreatureGaitController(CreatureBalanceController):
         self._dt_plan = self.bal.plan_dt_s
         self._lift: list[FloatArray | None] = [None] * n
         self._planted = [self._foot_home(t, i) for i in range(n)]
-        leg_q = []
-        for dofs in self.leg_dofs:
-            pass
-        for k in range(len(self.qadr)):
-            if any(self.dadr[k] in dofs for dofs in self.leg_dofs):
-                leg_q.extend(range(self.qadr[k], self.qadr[k] + 4))
-        self._leg_q = np.array(leg_q, dtype=np.int64)
+        leg_dofs = set(np.concatenate(self.leg_dofs).tolist()) if n else set()
+        self._leg_q = np.array([a for k, qa in enumerate(self.qadr) if int(self.dadr[k]) in leg_dofs
+                                for a in range(qa, qa + 4)], dtype=np.int64)
         self._ik_q = self.neutral_q.copy()
         self._z_offset = 0.0
         q = self._plan(t, data)
@@ -463,7 +463,7 @@ class CreatureGaitController(CreatureBalanceController):
         return out
 
     def _lowest(self, data: mujoco.MjData, i: int) -> float:
-        from bipedsim.control.creature_balance import geom_bottom
+        """The lowest point (m, world z) of leg ``i``'s lower end as posed in ``data``."""
         gs = [g for g, leg in self.geom_leg.items() if leg == i]
         return min(geom_bottom(self.model, data, g) for g in gs) if gs else 0.0
 

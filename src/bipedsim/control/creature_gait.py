@@ -85,11 +85,13 @@ class CreatureGaitController(CreatureBalanceController):
             self.ik_dofs.append(np.array([v for v in self.leg_dofs[i] if v not in foot_dofs], dtype=np.int64))
         self._measure_gait()
         self._neutral_stance()
-        if len(self.legs) >= 3:
+        if len(self.legs) >= 2:
             # the body's own long axis: the hips' principal horizontal direction (a clip that turns or
-            # walks a little crabwise travels at an angle to it)
+            # walks a little crabwise travels at an angle to it); two hips side by side: across it
             h = self._hips[:, 0:2] - self._hips[:, 0:2].mean(axis=0)
             axis = np.linalg.svd(h, full_matrices=False)[2][0]
+            if len(self.legs) == 2:
+                axis = np.array([-axis[1], axis[0]])
             theta = math.atan2(axis[1], axis[0]) if axis[0] >= 0 else math.atan2(-axis[1], -axis[0])
             if abs(theta) > 1e-3:
                 att = self.neutral_att
@@ -424,7 +426,9 @@ class CreatureGaitController(CreatureBalanceController):
         data.qpos[:] = q
         data.qvel[:] = 0.0
         mujoco.mj_kinematics(self.model, data)
-        low = min(self._lowest(data, i) for i in range(n)) if n else 0.0
+        # the whole body above the floor (a shin posed below it is a contact impulse at t = 0)
+        low = min(geom_bottom(self.model, data, g) for g in range(self.model.ngeom)
+                  if self.model.geom_bodyid[g] > 0)
         data.qpos[2] -= low
         self._z_offset = -low
         self._target = q

@@ -93,6 +93,22 @@ def test_ik_reaches_the_planned_feet_inside_joint_ranges() -> None:
     assert worst < 0.015
 
 
+def test_heading_is_the_walking_direction() -> None:
+    """A creature's heading (pushes are aimed in it: 90 deg is its left) is its planned walking
+    direction, not its root frame's x axis (which points backward in the dog's skeleton)."""
+    sc, c = _gait(_clip(DOG))
+    m = sc.built.model
+    d = mujoco.MjData(m)
+    f = c.start_frame()
+    d.qpos[:] = sc.clip.qpos[f]
+    mujoco.mj_forward(m, d)
+    c.reset(d, f)
+    h = c.heading(d)
+    assert np.allclose([np.cos(h), np.sin(h)], c._dir, atol=1e-6)
+    x_axis = d.xmat[c.root_body].reshape(3, 3)[:, 0]
+    assert float(x_axis[0:2] @ c._dir) < 0.0  # the root frame's x axis points backward
+
+
 def test_gait_measured_from_the_clip() -> None:
     """One leg swings at a time (four legs: three feet always down), the walking speed is the
     configured share of the clip's, a stride is at most stride_fraction x the leg length."""

@@ -518,6 +518,11 @@ class CreatureGaitController(CreatureBalanceController):
         self.torque[order] = np.clip(tau_all[order], -lim, lim)
         return self.torque
 
+    def heading(self, data: mujoco.MjData) -> float:
+        """The body's heading (rad about world Z): its forward axis, measured from the clip (the root
+        frame's x axis points backward in the dog's skeleton), so a push at 90 deg is to its left."""
+        return _heading(data.xmat[self.root_body].reshape(3, 3), self.fwd)
+
     def reference_qpos(self) -> FloatArray:
         return self._target if hasattr(self, "_target") else super().reference_qpos()
 

@@ -182,7 +182,8 @@ class CreatureGaitController(CreatureBalanceController):
             if int(self.dadr[k]) not in leg_dofs:
                 mean = Rotation.from_quat(clip.qpos[a:b, qa:qa + 4], scalar_first=True).mean()
                 self.neutral_q[qa:qa + 4] = mean.as_quat(scalar_first=True)
-        self.neutral_att = Rotation.concatenate(atts).mean().as_matrix()  # root attitude, heading frame
+        att = Rotation.concatenate(atts).mean().as_matrix()  # root attitude in the heading frame
+        self.neutral_att = _rz(-_heading(att, self.fwd)) @ att  # the mean's residual heading removed
         self._clip_height = float(np.median(clip.qpos[a:b, 2]))
         self.neutral_height = self._clip_height * self.bal.height_fraction
         self.neutral_q[0:2] = 0.0

@@ -3,6 +3,10 @@ clip's own, for the creature balance controller and, as the baseline, PD trackin
 
     python benchmarks/creatures.py [--seconds 20] [--animals ../shared/data/bvh/animal]
 
+The controller is the registered creature controller (the planned gait, ``gait: planned``); two
+baselines from the clip's start frame: the clip-timed balance controller (``gait: clip``, the controller
+before the planned gait) and PD tracking alone.
+
 Clips: every ``*.bvh`` in the shared animal folder, the shipped horse walk, and a child bred from the
 shared dog and the horse (``bipedsim breed``'s package function, no mutations). Each row is one
 rollout from the controller's start frame through the one rollout loop; the body kind is measured from
@@ -23,6 +27,8 @@ import numpy as np
 
 from bipedsim.breed.files import breed_files
 from bipedsim.control.creature import CreatureController
+from bipedsim.control.creature_balance import CreatureBalanceConfig
+from bipedsim.control.creature_gait import make_creature_controller
 from bipedsim.data import HORSE_WALK
 from bipedsim.sim.rollout import RolloutSpec, rollout
 from bipedsim.sim.runner import load_scenario, run_scenario
@@ -41,10 +47,14 @@ def clip_speed(sc, ctrl) -> float:
     return float(path / max((b - a - 1) * sc.clip.frame_time, 1e-9))
 
 
-def baseline(sc, seconds: float):
-    """PD tracking alone (no balance) from the same start."""
-    ctrl = CreatureController(sc.built.model, sc.built.plan, sc.clip, sc.creature_cfg)
-    f = sc.controller().start_frame()
+def baseline(sc, seconds: float, balance: CreatureBalanceConfig | None = None):
+    """PD tracking alone (no balance), or with ``balance`` the clip-timed balance controller (the
+    controller before the planned gait), from the clip's start frame."""
+    if balance is None:
+        ctrl = CreatureController(sc.built.model, sc.built.plan, sc.clip, sc.creature_cfg)
+    else:
+        ctrl = make_creature_controller(sc.built.model, sc.built.plan, sc.clip, sc.creature_cfg, balance)
+    f = ctrl.start_frame() if balance is not None else sc.controller().start_frame()
     out, _ = rollout(sc.built.model, sc.built.plan, ctrl, RolloutSpec(seconds=seconds, start_frame=float(f),
                      fall=sc.fall_criteria()), initial_qpos=sc.clip.qpos[f], initial_qvel=sc.clip.qvel[f])
     return out
@@ -55,16 +65,18 @@ def row(name: str, path: Path, seconds: float) -> str:
         sc = load_scenario(bvh=path)
         out, ctrl = run_scenario(sc, RolloutSpec(seconds=seconds))
     except Exception as exc:  # noqa: BLE001 - a benchmark reports and goes on
-        return f"| {name} | refused: {exc} | | | | | |"
+        return f"| {name} | refused: {exc} | | | | | | |"
     base = baseline(sc, seconds)
+    timed = baseline(sc, seconds, CreatureBalanceConfig(gait="clip"))
+    t_timed = timed.fall_time_s or timed.sim_seconds
     v_clip = clip_speed(sc, ctrl)
     speed = "in place" if v_clip < IN_PLACE_MPS else f"{100 * out.mean_speed_mps / v_clip:.0f} %"
     t_bal = out.fall_time_s or out.sim_seconds
     t_base = base.fall_time_s or base.sim_seconds
     fall = f"{out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else "-"
     return (f"| {name} | {sc.profile}, {len(getattr(ctrl, 'legs', []))} legs | {out.outcome} | {fall} | "
-            f"{out.mean_speed_mps:.2f} / {v_clip:.2f} m/s ({speed}) | {base.outcome} at {t_base:.2f} s | "
-            f"{t_bal / max(t_base, 1e-9):.2f} |")
+            f"{out.mean_speed_mps:.2f} / {v_clip:.2f} m/s ({speed}) | {timed.outcome} at {t_timed:.2f} s | "
+            f"{base.outcome} at {t_base:.2f} s | {t_bal / max(t_base, 1e-9):.2f} |")
 
 
 def main() -> int:
@@ -80,8 +92,9 @@ def main() -> int:
         breed_files(dog, HORSE_WALK, child, mutations=0)
         clips.append(("child of dog x horse (bred)", child))
     print(f"{args.seconds:g} s per rollout, no support, no flags\n")
-    print("| clip | body | outcome | fall | speed sim / clip | baseline (PD only) | survival ratio |")
-    print("|---|---|---|---|---|---|---|")
+    print("| clip | body | outcome | fall | speed sim / clip | clip-timed balance (gait: clip) | baseline (PD only) "
+          "| survival ratio |")
+    print("|---|---|---|---|---|---|---|---|")
     for name, path in clips:
         print(row(name, path, args.seconds), flush=True)
     return 0

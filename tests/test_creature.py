@@ -11,7 +11,13 @@ import numpy as np
 import pytest
 from conftest import SHARED_BVH, need_shared, shared_params
 
-from bipedsim.control.creature_balance import CreatureBalanceController, distribute_wrench, loop_segment
+from bipedsim.control.creature_balance import (
+    CreatureBalanceConfig,
+    CreatureBalanceController,
+    distribute_wrench,
+    loop_segment,
+)
+from bipedsim.control.creature_gait import make_creature_controller
 from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.errors import ModelError
 from bipedsim.model.creature import creature_legs, trunk_bodies
@@ -142,8 +148,9 @@ def test_reference_is_levelled_on_the_legs() -> None:
     rollout starts from the levelled pose."""
     sc = load_scenario(bvh=HORSE_WALK)
     m = sc.built.model
-    ctrl = sc.controller()
-    assert isinstance(ctrl, CreatureBalanceController)
+    # the clip-timed controller starts from the levelled clip (the planned gait from its own stance)
+    ctrl = make_creature_controller(m, sc.built.plan, sc.clip, sc.creature_cfg, CreatureBalanceConfig(gait="clip"))
+    assert type(ctrl) is CreatureBalanceController
     assert np.all(np.abs(ctrl.level_shift) < 0.1 * ctrl.leg_height)
     assert np.any(np.abs(ctrl.level_shift) > 1e-3)  # the horse's hooves float in the capture
     data = mujoco.MjData(m)
@@ -251,7 +258,7 @@ def test_run_a_dog_without_flags_and_sweep_it(tmp_path: Path) -> None:
     need_shared()
     assert main(["run", "--bvh", str(DOG), "--seconds", "0.5", "--out", str(tmp_path / "r")]) == 0
     out = json.loads((tmp_path / "r" / "outcome.json").read_text())
-    assert out["config"]["profile"] == "creature" and out["extra"]["controller"] == "creature_balance"
+    assert out["config"]["profile"] == "creature" and out["extra"]["controller"] == "creature_gait"
     assert len(out["extra"]["legs"]) == 4
     exp = tmp_path / "dog.yaml"
     exp.write_text(f"name: dog\nreference: {DOG}\nseconds: 0.6\n"

@@ -32,7 +32,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
-from bipedsim.control.base import FloatArray, register
+from bipedsim.control.base import FloatArray
 from bipedsim.control.creature import CreatureControlConfig, CreatureController, quat_error_rotvecs
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature import creature_legs
@@ -62,6 +62,46 @@ class CreatureBalanceConfig:
     velocity_feedforward: bool = True
     #: window (s) over which the clip's root velocity is averaged for the speed target
     velocity_window_s: float = field(default=0.5, metadata={"gt": 0.0})
+    # ---- the planned gait (``gait: planned``, control/creature_gait.py); ``clip`` tracks the clip's timing
+    gait: str = field(default="planned", metadata={"choices": ("planned", "clip")})
+    #: walking speed as a fraction of the clip's mean root speed
+    speed_fraction: float = field(default=0.6, metadata={"min": 0.0})
+    #: the legs' swings in one cycle, summed, as a share of the cycle (each leg swings share/n)
+    swing_share: float = field(default=0.8, metadata={"gt": 0.0, "max": 1.0})
+    #: footfall pattern: ``sequence`` (one leg after another in the clip's order, swing_share/n each) or
+    #: ``clip`` (the clip's own phases and swing share, e.g. a trot's diagonal pairs)
+    phases: str = field(default="sequence", metadata={"choices": ("sequence", "clip")})
+    #: largest swing as a share of the cycle
+    max_swing_fraction: float = field(default=0.45, metadata={"gt": 0.0, "max": 0.9})
+    #: longest stride as a fraction of the standing root height
+    stride_fraction: float = field(default=0.8, metadata={"gt": 0.0})
+    #: shortest swing (s)
+    min_swing_s: float = field(default=0.12, metadata={"gt": 0.0})
+    #: root height as a fraction of the clip's median
+    height_fraction: float = field(default=1.0, metadata={"gt": 0.0})
+    #: each foot at least this multiple of its hip's lateral offset from the hips' mid-line
+    stance_width: float = field(default=2.0, metadata={"min": 0.0})
+    #: swing-foot lift as a fraction of the standing root height
+    step_height: float = field(default=0.12, metadata={"min": 0.0})
+    #: share of the way the centre of mass moves toward the next support's centroid; time constant (s)
+    com_shift: float = field(default=1.0, metadata={"min": 0.0})
+    shift_time_s: float = field(default=0.1, metadata={"min": 0.0})
+    #: 1: the centre of mass shifts only sideways (across the walking direction), 0: also along it
+    lateral_only: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
+    #: swing-foot placement of the planned gait per (m/s) of velocity error, in units of sqrt(L/g) s
+    step_placement: float = field(default=1.0, metadata={"min": 0.0})
+    #: the planned gait's body PD (root position and velocity) natural frequency, x sqrt(g/L)
+    body_freq: float = field(default=2.0, metadata={"min": 0.0})
+    #: a swinging leg's joint stiffness as a share of its stance stiffness (damping x its square root)
+    swing_stiffness: float = field(default=0.25, metadata={"gt": 0.0, "max": 1.0})
+    #: time constant (s) with which the planned path follows the body (0: a rigid path)
+    path_follow_s: float = field(default=0.2, metadata={"min": 0.0})
+    #: IK's null-space pull toward the neutral leg pose (per iteration)
+    posture_pull: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
+    #: standing time before the first step (s), speed ramp (s), re-planning period (s)
+    settle_s: float = field(default=0.5, metadata={"min": 0.0})
+    speed_ramp_s: float = field(default=1.0, metadata={"gt": 0.0})
+    plan_dt_s: float = field(default=0.01, metadata={"gt": 0.0})
 
 
 def distribute_wrench(force: FloatArray, torque: FloatArray, points: FloatArray, com: FloatArray,
@@ -403,7 +443,6 @@ class CreatureBalanceController(CreatureController):
         return out
 
 
-@register("creature")
 def make_creature_balance(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
                           cfg: CreatureControlConfig | None = None) -> CreatureBalanceController:
     return CreatureBalanceController(model, plan, clip, cfg)

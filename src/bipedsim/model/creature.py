@@ -261,18 +261,23 @@ def _subtrees(tree: _Tree, mass: dict[int, float]) -> tuple[dict[int, float], di
 def _leg_loads(bodies: list[BodyPlan], tree: _Tree, legs: list[Leg], total: float) -> dict[int, float]:
     """The mass (kg) each leg joint holds up when its leg stands: the body's ``total`` mass times
     min(1, 2 / legs) (a biped stands on one leg, a quadruped trots on two), for every joint of a leg
-    above its feet (a foot's own joint carries only the foot)."""
+    including its feet (the ground pushes on the foot: a paw sized for the paw alone folds under the body)."""
     if not legs:
         return {}
     share = total * min(1.0, 2.0 / len(legs))
     by_name = {tree.names[j]: j for j in tree.kept}
-    return {by_name[b]: share for leg in legs for b in leg.bodies if b not in leg.feet}
+    return {by_name[b]: share for leg in legs for b in leg.bodies}
 
 
 #: Largest stiffness of a joint's PD as (natural frequency x timestep)^2 of the subtree it turns, with
 #: the subtree's inertia taken as mass x reach^2: PD torques are explicit, so a stiff light body
 #: (a foot, a toe) must stay far inside the explicit integrator's limit of 4.
 MAX_STIFFNESS_STEP = 0.25
+
+
+#: a leg joint's motor turns it at this many sqrt(g / reach) rad/s against its damping (on top of holding
+#: its load): a swing the gait needs
+LEG_SWING_RATE = 2.0
 
 
 def _set_motors(bodies: list[BodyPlan], tree: _Tree, mass: dict[int, float], profile: CreatureProfile,
@@ -291,12 +296,17 @@ def _set_motors(bodies: list[BodyPlan], tree: _Tree, mass: dict[int, float], pro
         r = max(reach[j], 0.05 * size)
         load = max(sub_mass[j], (loads or {}).get(j, 0.0))
         b.joints[0].torque = float(profile.torque_scale * load * r * GRAVITY)
-        inertia = sub_mass[j] * r * r
+        # the joint's armature (rotor inertia) turns with it: a light paw or toe is stiff enough to stand on
+        inertia = sub_mass[j] * r * r + profile.sim.armature
         kp = min(kp_unit * load * r, MAX_STIFFNESS_STEP * inertia / (dt * dt))
         b.joints[0].kp = float(kp)
         # no more than critical damping of the subtree it swings: a leg sized for the body's weight
         # would otherwise swing through syrup
         b.joints[0].kd = float(min(kd_unit * load * r, 2.0 * np.sqrt(kp * inertia)))
+        if j in (loads or {}):
+            # a leg joint also swings its leg against its own damping: the motor reaches LEG_SWING_RATE
+            # sqrt(g / reach) rad/s against it (the damping alone otherwise caps a dog's hip at 6 rad/s)
+            b.joints[0].torque += float(b.joints[0].kd * LEG_SWING_RATE * np.sqrt(GRAVITY / r))
 
 
 def _stand_on_floor(bodies: list[BodyPlan]) -> float:

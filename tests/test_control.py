@@ -187,6 +187,21 @@ def test_shared_cmu_walk_tracked_20s_without_falling() -> None:
     assert ctrl.frame - ctrl.source.loop_start > 3 * ctrl.source.period
 
 
+def test_shared_cmu_walk_walks_20s_with_the_default_controller() -> None:
+    """The same clip with no controller file: its legs measure infeasible for the body (out of range,
+    straight knees), the default re-solves them (``reference: {feasible: auto}``) and it walks 20 s."""
+    from conftest import SHARED_BVH
+
+    path = SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh"
+    if not path.exists():
+        pytest.skip(f"shared BVH data not found at {path}")
+    sc = load_scenario(None, path)
+    assert "feasible" in sc.extra
+    out, _ = run_scenario(sc, RolloutSpec(seconds=20.0))
+    assert out.outcome == "no_fall", (out.fall_time_s, out.fall_reason)
+    assert out.mean_speed_mps > 0.4 * out.reference_speed_mps
+
+
 @pytest.mark.slow
 def test_default_walk_60s(scenario) -> None:
     out, _ = run_scenario(scenario, RolloutSpec(seconds=60.0))

@@ -5,20 +5,33 @@ built body; and the controller key that switches it on."""
 from __future__ import annotations
 
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import SHARED_BVH, need_shared
 
 from bipedsim.errors import ConfigError
-from bipedsim.model.feasible import SIDES, FeasibleConfig, _kinematics, _Leg, feasible_clip, measure, plan_feet
+from bipedsim.model.feasible import (
+    SIDES,
+    FeasibleConfig,
+    _kinematics,
+    _Leg,
+    feasible_clip,
+    infeasible_because,
+    measure,
+    plan_feet,
+)
 from bipedsim.sim import runner
+
+RAW = Path(__file__).resolve().parent / "data" / "reference_as_captured.yaml"  # reference: {feasible: false}
 
 
 @lru_cache(maxsize=4)
 def _scenario(name: str | None):
+    """The clip's own legs (the default's ``feasible: auto`` would already have re-solved a capture's)."""
     path = None if name is None else SHARED_BVH / "human" / f"{name}.bvh"
-    return runner.load_scenario(None, path)
+    return runner.load_scenario(RAW, path)
 
 
 def _feasible(name: str | None):
@@ -133,3 +146,31 @@ def test_pendulum_moves_the_zmp_toward_the_stance_feet() -> None:
     moved[:, :2] += shift
     assert zmp_error(moved[:, :2]) < 0.5 * zmp_error(com[:, :2])
     assert np.abs(shift).max() < 0.1
+
+
+@pytest.mark.parametrize("name", [None, "cmu_02_02_walk__daz43", "games105_walk60__metres_crlf"])
+def test_auto_re_solves_a_capture_and_leaves_the_built_in_walk(name: str | None) -> None:
+    """``feasible: auto`` (the default): the built-in walk measures feasible and is tracked as it is; a
+    capture whose legs are out of range or straighter than ``max_extension`` is re-solved, and says why."""
+    if name is not None:
+        need_shared()
+    raw = _scenario(name)
+    why = infeasible_because(measure(raw.clip, raw.built.model), FeasibleConfig())
+    sc = runner.load_scenario(None, None if name is None else SHARED_BVH / "human" / f"{name}.bvh")
+    if name is None:
+        assert why == [] and "feasible" not in sc.extra
+        assert np.array_equal(sc.clip.qpos, raw.clip.qpos)
+    else:
+        assert why and sc.extra["feasible"] == why
+        after = measure(sc.clip, sc.built.model)
+        assert after["legs_out_of_range"] == 0.0
+        assert after["stance_low_min"] >= -0.015 and after["stance_low_max"] <= 0.015
+        assert not np.allclose(sc.clip.qpos, raw.clip.qpos)
+
+
+def test_infeasible_because_names_each_measure() -> None:
+    ok = {"legs_out_of_range": 0.0, "max_extension": 0.985, "stance_low_min": 0.0, "stance_low_max": 0.022}
+    assert infeasible_because(ok, FeasibleConfig()) == []
+    why = infeasible_because({**ok, "legs_out_of_range": 0.2, "max_extension": 0.999, "stance_low_max": 0.05},
+                             FeasibleConfig())
+    assert len(why) == 3 and "20%" in why[0] and "0.999" in why[1] and "5.0 cm" in why[2]

@@ -42,15 +42,25 @@ def generated_walk(tmp_path: Path, speed: float, cadence: float, width: float = 
 
 
 def scheduled_off(tmp_path: Path) -> Path:
+    """The default with the clip's own legs: c_v as given at every speed."""
     path = tmp_path / "no_cv_froude.yaml"
-    path.write_text("balance: {cv_froude: null}\n")
+    path.write_text("balance: {cv_froude: null}\nreference: {feasible: false}\n")
+    return path
+
+
+def scheduled(tmp_path: Path) -> Path:
+    """The Froude schedule on (it is off by default: docs/controller.md, *Speed range*), the clip's own
+    legs (the generated walks above 1.1 m/s measure out of range and ``feasible: auto`` would re-solve
+    them)."""
+    path = tmp_path / "cv_froude.yaml"
+    path.write_text("balance: {cv_froude: 0.1}\nreference: {feasible: false}\n")
     return path
 
 
 def test_builtin_walk_keeps_its_cv_and_a_fast_walk_gets_a_smaller_one(tmp_path: Path) -> None:
     ctrl = load_scenario().controller()
     assert ctrl._cv_sagittal == ControllerConfig().balance.sagittal.cv  # 0.95 m/s: Froude 0.098 < 0.1
-    fast = load_scenario(None, generated_walk(tmp_path, 1.5, 129)).controller()
+    fast = load_scenario(scheduled(tmp_path), generated_walk(tmp_path, 1.5, 129)).controller()
     leg = (sum(fast.leg_len["left"]) + sum(fast.leg_len["right"])) / 2
     assert leg == pytest.approx(0.933, abs=0.01)
     assert fast._cv_sagittal == pytest.approx(0.2 * 0.1 * 9.8 * leg / 1.5 ** 2, rel=1e-6)
@@ -62,7 +72,7 @@ def test_a_1_2_mps_walk_at_110_steps_needs_the_scheduled_cv(tmp_path: Path) -> N
     bvh = generated_walk(tmp_path, 1.2, 110)
     off, _ = run_scenario(load_scenario(scheduled_off(tmp_path), bvh), RolloutSpec(seconds=10.0))
     assert off.outcome == "fall" and off.fall_time_s < 3.0
-    on, _ = run_scenario(load_scenario(None, bvh), RolloutSpec(seconds=10.0))
+    on, _ = run_scenario(load_scenario(scheduled(tmp_path), bvh), RolloutSpec(seconds=10.0))
     assert on.outcome == "no_fall", (on.fall_time_s, on.fall_reason)
     assert on.mean_speed_mps >= 0.7 * 1.2
 
@@ -72,7 +82,7 @@ def test_a_1_2_mps_walk_at_110_steps_needs_the_scheduled_cv(tmp_path: Path) -> N
 def test_generated_walks_walk_20s_at_70_percent_of_their_speed(tmp_path: Path, speed: float, cadence: float,
                                                                width: float) -> None:
     """A sample of benchmarks/speed_range.py's walks that the default controller walks (about 1 s each)."""
-    out, _ = run_scenario(load_scenario(None, generated_walk(tmp_path, speed, cadence, width)),
+    out, _ = run_scenario(load_scenario(scheduled(tmp_path), generated_walk(tmp_path, speed, cadence, width)),
                           RolloutSpec(seconds=20.0))
     assert out.outcome == "no_fall", (out.fall_time_s, out.fall_reason)
     assert out.mean_speed_mps >= 0.7 * speed
@@ -82,5 +92,6 @@ def test_generated_walks_walk_20s_at_70_percent_of_their_speed(tmp_path: Path, s
                                        "'Speed range': the reference needs a centre of pressure behind the heel)")
 @pytest.mark.parametrize("cadence", [110, 129])
 def test_goal_a_1_5_mps_walk_walks_20s(tmp_path: Path, cadence: float) -> None:
-    out, _ = run_scenario(load_scenario(None, generated_walk(tmp_path, 1.5, cadence)), RolloutSpec(seconds=20.0))
+    out, _ = run_scenario(load_scenario(scheduled(tmp_path), generated_walk(tmp_path, 1.5, cadence)),
+                          RolloutSpec(seconds=20.0))
     assert out.outcome == "no_fall" and out.mean_speed_mps >= 0.7 * 1.5

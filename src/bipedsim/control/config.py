@@ -182,11 +182,12 @@ class BalanceConfig:
     max_feedback: float = field(default=0.6, metadata={"gt": 0.0})
     #: speed scheduling of the sagittal c_v: for a walk faster than this Froude number, Fr = v^2 / (g L)
     #: (v the reference's mean walking speed, L the body's leg length, hip to ankle), the sagittal c_v is
-    #: scaled by cv_froude / Fr; null: c_v as given at every speed. 0.1 is 0.96 m/s on the built-in body's
-    #: 0.93 m legs, so its own 0.95 m/s walk keeps c_v 0.2. Measured on generated walks 0.6-1.5 m/s
-    #: (benchmarks/speed_range.py): 25 of 36 walk 20 s at >= 70 % of their speed, 17 with it off
+    #: scaled by cv_froude / Fr; null (default): c_v as given at every speed. At 0.1 (0.96 m/s on the
+    #: built-in body's 0.93 m legs) 25 of 36 generated walks 0.6-1.5 m/s walk 20 s at >= 70 % of their
+    #: speed, 17 with it off (benchmarks/speed_range.py), but the shared real walks with their feasible
+    #: references fall sooner (3 seeds x 7 walks: 56 s of walking in all against 174 s), so it is off
     #: (docs/controller.md, "Speed range")
-    cv_froude: float | None = field(default=0.1, metadata={"gt": 0.0})
+    cv_froude: float | None = field(default=None, metadata={"gt": 0.0})
     velocity: VelocityConfig = field(default_factory=VelocityConfig)
     #: what d and v are measured against: "none" (SIMBICON: raw COM offset from the stance ankle and
     #: raw COM velocity), "mean_velocity" (velocity relative to the reference's mean walking velocity),

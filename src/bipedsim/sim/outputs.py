@@ -252,6 +252,8 @@ def found_lines(sc: Scenario) -> list[str]:
     if sc.profile != "humanoid" or sc.bvh_info is None or sc.source_path == str(BUILTIN_WALK):
         return []
     notes = [f"note: {n}" for n in [sc.bvh_info.reading_note, *sc.bvh_info.notes] if n]
+    if "feasible" in sc.extra:
+        notes.append("reference: legs made feasible for the body (" + "; ".join(sc.extra["feasible"]) + ")")
     return notes + describe_clip(sc.clip, sc.built.model, sc.built.plan)
 
 

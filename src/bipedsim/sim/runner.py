@@ -18,7 +18,7 @@ from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature_kind import AUTO, resolve_profile
-from bipedsim.model.feasible import feasible_clip
+from bipedsim.model.feasible import feasible_clip, infeasible_because, measure
 from bipedsim.model.gait import humanoid_motion
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
@@ -113,11 +113,15 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
         built = build_model(motion, profile, total_mass=mass, name=Path(bvh).stem)
         src = str(bvh)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)
-    if cfg.reference.feasible and profile == "humanoid":  # the legs made feasible for the body (model/feasible.py)
-        clip = feasible_clip(clip, built.model, cfg.reference)
+    extra: dict[str, Any] = {}
+    if cfg.reference.feasible is not False and profile == "humanoid":  # model/feasible.py
+        why = infeasible_because(measure(clip, built.model), cfg.reference)
+        if cfg.reference.feasible is True or why:
+            clip = feasible_clip(clip, built.model, cfg.reference)
+            extra["feasible"] = why or ["reference: {feasible: true}"]
     return Scenario(built=built, clip=clip, cfg=cfg, source_path=src,
                     config_path=None if config is None else str(config), motion=motion, bvh_info=info,
-                    creature_cfg=CreatureControlConfig(support=support))
+                    extra=extra, creature_cfg=CreatureControlConfig(support=support))
 
 
 def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, before_step: list | None = None,

@@ -64,8 +64,9 @@ class CreatureBalanceConfig:
     velocity_window_s: float = field(default=0.5, metadata={"gt": 0.0})
     # ---- the planned gait (``gait: planned``, control/creature_gait.py); ``clip`` tracks the clip's timing
     gait: str = field(default="planned", metadata={"choices": ("planned", "clip")})
-    #: walking speed as a fraction of the clip's mean root speed
-    speed_fraction: float = field(default=0.6, metadata={"min": 0.0})
+    #: walking speed as a fraction of the clip's mean root speed, at most (the legs' measured reach may
+    #: lower it, control/creature_gait.py)
+    speed_fraction: float = field(default=0.8, metadata={"min": 0.0})
     #: the legs' swings in one cycle, summed, as a share of the cycle (each leg swings share/n)
     swing_share: float = field(default=0.8, metadata={"gt": 0.0, "max": 1.0})
     #: footfall pattern: ``sequence`` (one leg after another in the clip's order, swing_share/n each) or

@@ -50,6 +50,12 @@ IN_PLACE_MPS = 0.1
 #: the neutral stance lowers the body by at most this share of the clip's root height so every leg
 #: reaches the floor
 MAX_CROUCH = 0.25
+#: a foot the IK brings within this share of the root height of its target is reached
+REACH_TOL = 0.04
+#: the reach of the legs is measured in steps of this share of the root height
+REACH_STEP = 0.025
+#: IK iterations per measured target
+REACH_IK_ITERS = 30
 
 
 def _heading(r: FloatArray, fwd: FloatArray) -> float:
@@ -98,6 +104,52 @@ class CreatureGaitController(CreatureBalanceController):
                 fwd = att.T @ _rz(theta) @ att @ self.fwd
                 self.fwd = fwd / np.linalg.norm(fwd)
                 self._neutral_stance()
+        self._measure_reach()
+
+    # ------------------------------------------------------------------ measured on the built body
+    def _reach_error(self, shift: float, lift: float) -> FloatArray:
+        """Each leg's IK miss (m) with every foot ``shift`` (m) ahead of its neutral place (behind when
+        negative) and ``lift`` (m) above the floor, the body in its neutral pose."""
+        n = len(self.legs)
+        q = self.neutral_q.copy()
+        root = q[0:3]
+        feet = np.column_stack([root[0] + self.neutral_feet[:, 0] + shift, root[1] + self.neutral_feet[:, 1],
+                                self.site_ground + lift])
+        self._solve_ik(q, feet, iters=REACH_IK_ITERS)
+        mujoco.mj_kinematics(self.model, self.ik_data)
+        got = np.array([self.ik_data.site_xpos[s] for s in self._site_ids]).reshape(n, 3)
+        return np.linalg.norm(got - feet, axis=1)
+
+    def _measure_reach(self) -> None:
+        """The stride the legs reach by IK inside their joint ranges, measured
+        on the built body from the neutral stance; the gait plan is held to them (a clip's joint ranges
+        can leave a leg too little room for the planned step: the horse's hind hooves missed by 22 cm).
+
+        - ``self.reach``: the largest distance (m) every foot reaches both ahead of and behind its
+          neutral place on the floor (within REACH_TOL x the root height), in steps of REACH_STEP;
+        - the stance's sweep, speed x stance time, is at most 2 x reach: the cycle is shortened, and
+          where the shortest swing does not allow that, the speed lowered."""
+        n, b_ = len(self.legs), self.bal
+        L = self.leg_height
+        self.reach = math.inf
+        if n == 0 or self.cfg.support:
+            return
+        tol = REACH_TOL * L
+        saved = self._ik_q.copy()
+        self.reach = 0.0
+        for k in range(1, int(b_.stride_fraction / REACH_STEP) + 1):
+            s = k * REACH_STEP * L
+            if max(self._reach_error(s, 0.0).max(), self._reach_error(-s, 0.0).max()) > tol:
+                break
+            self.reach = s
+        self._ik_q[:] = saved
+        if self.v_des > 0:
+            stance = 1.0 - self.swing_frac
+            self.period = min(self.period, max(2.0 * self.reach, 1e-6) / (stance * self.v_des))
+            shortest = b_.min_swing_s / self.swing_frac
+            if self.period < shortest:
+                self.period = shortest
+                self.v_des = 2.0 * self.reach / (stance * shortest)
 
     # ------------------------------------------------------------------ measured from the clip
     def _measure_gait(self) -> None:

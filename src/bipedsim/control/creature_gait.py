@@ -11,7 +11,8 @@ kinematics on the built body every few milliseconds:
 - **gait clock**: the legs swing one after another in the order the clip lifts them
   (``swing_share``/n of the cycle each: with four legs at least three feet are down), the cycle period
   chosen so a stride is at most ``stride_fraction`` x the leg length at ``speed_fraction`` x the clip's
-  speed (a clip in place steps in place);
+  speed (a clip in place steps in place), and a stance foot's sweep under the body within the legs'
+  reach measured by IK on the built body (the speed lowered where the shortest swing needs it);
 - **trunk**: the root moves along a straight path at the desired speed, its centre of mass shifted
   toward the centroid of the feet that will carry it during the next swing (the support triangle of a
   walking quadruped), at the neutral height and attitude;

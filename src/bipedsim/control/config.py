@@ -125,10 +125,6 @@ class VelocityConfig:
     kv_sagittal: float = field(default=0.0, metadata={"min": 0.0})  #: N per m/s
     kv_coronal: float = field(default=0.0, metadata={"min": 0.0})  #: N per m/s
     max_force: float = field(default=150.0, metadata={"gt": 0.0})  #: N, the horizontal force's norm
-    #: the sagittal error counts only beyond this band (m/s): F = kv (e -+ deadband) outside it, 0 inside
-    deadband: float = field(default=0.0, metadata={"min": 0.0})
-    #: sagittal: push only a body slower than its target (a faster one is left to the step tempo)
-    behind_only: bool = False
 
 
 @dataclass(frozen=True)
@@ -199,8 +195,7 @@ class BalanceConfig:
     #: (as mean_velocity, and the coronal d against the reference's own lateral d on the current frame:
     #: only a deviation from the walk's sway about the stance foot moves the swing leg sideways)
     relative: str = field(default="lateral_reference",
-                          metadata={"choices": ("none", "mean_velocity", "full", "lateral_reference",
-                                                      "reference_d")})
+                          metadata={"choices": ("none", "mean_velocity", "full", "lateral_reference")})
     course: CourseConfig = field(default_factory=CourseConfig)
 
 

@@ -603,10 +603,6 @@ class SimbiconController(Controller):
         elif b.relative == "lateral_reference":
             d1 -= src.lateral_reference(frame, stance)
             v0 -= self._speed
-        elif b.relative == "reference_d":
-            d_ref = src.com_reference(frame, stance)[0]
-            d0, d1 = d0 - float(d_ref[0]), d1 - float(d_ref[1])
-            v0 -= self._speed
         if b.feedback:
             fs = feedback_angle(0.0, b.sagittal.cd, self._cv_sagittal, d0, v0, b.max_feedback)
             fc = feedback_angle(place, b.coronal.cd, b.coronal.cv, d1, v1, b.max_feedback)
@@ -780,8 +776,7 @@ class SimbiconController(Controller):
         knee and ankle hinge adds -share a . ((com - anchor) x F) (Jacobian transpose of the reversed
         chain; a joint's torque acts on its parent, the side toward the body, with the opposite sign)."""
         vc = self.cfg.balance.velocity
-        e = beyond(self._speed - v0, vc.deadband)
-        f0 = vc.kv_sagittal * (max(e, 0.0) if vc.behind_only else e)
+        f0 = vc.kv_sagittal * (self._speed - v0)
         f1 = vc.kv_coronal * (0.0 - v1)
         norm = math.hypot(f0, f1)
         if norm > vc.max_force:

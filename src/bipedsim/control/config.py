@@ -122,9 +122,15 @@ class VelocityConfig:
     knee and ankle hinges (Jacobian transpose of the chain from the fixed foot up to the COM). Sagittal
     target: the reference's mean walking speed; coronal: 0. 0 gains switch it off."""
 
-    kv_sagittal: float = field(default=0.0, metadata={"min": 0.0})  #: N per m/s
+    kv_sagittal: float = field(default=50.0, metadata={"min": 0.0})  #: N per m/s
     kv_coronal: float = field(default=0.0, metadata={"min": 0.0})  #: N per m/s
     max_force: float = field(default=150.0, metadata={"gt": 0.0})  #: N, the horizontal force's norm
+    #: the sagittal error counts only beyond this band (m/s): F = kv (e -+ deadband) outside it, 0 inside
+    deadband: float = field(default=0.0, metadata={"min": 0.0})
+    #: sagittal: push only a body slower than its target (one running ahead is left to the step tempo)
+    behind_only: bool = False
+    #: the sagittal velocity is low-passed with this time constant (s) before it is compared (0: raw)
+    filter_s: float = field(default=0.0, metadata={"min": 0.0})
 
 
 @dataclass(frozen=True)

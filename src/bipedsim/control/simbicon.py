@@ -323,7 +323,7 @@ class SimbiconController(Controller):
         self._rate_f = 0.0
         self.last_strike_time, self.last_strike_frame = t, self.frame
         self.clock = self.last_strike_clock = t
-        self._v_sag = self._speed
+        self._v_sag = self._vf_v = self._speed
         self.fade = 1.0
         self._configure_actuators()
         self._apply_damping(1.0)
@@ -776,7 +776,11 @@ class SimbiconController(Controller):
         knee and ankle hinge adds -share a . ((com - anchor) x F) (Jacobian transpose of the reversed
         chain; a joint's torque acts on its parent, the side toward the body, with the opposite sign)."""
         vc = self.cfg.balance.velocity
-        f0 = vc.kv_sagittal * (self._speed - v0)
+        if vc.filter_s > 0.0:
+            self._vf_v += (v0 - self._vf_v) * min(1.0, self._dt / vc.filter_s)
+            v0 = self._vf_v
+        e = beyond(self._speed - v0, vc.deadband)
+        f0 = vc.kv_sagittal * (max(e, 0.0) if vc.behind_only else e)
         f1 = vc.kv_coronal * (0.0 - v1)
         norm = math.hypot(f0, f1)
         if norm > vc.max_force:

@@ -320,7 +320,7 @@ def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:
     base = sc.cfg
     dev = {}
     for kv in (0.0, 300.0):
-        sc.cfg = replace(base, balance=replace(base.balance, velocity=VelocityConfig(kv_sagittal=kv)))
+        sc.cfg = replace(base, balance=replace(base.balance, velocity=VelocityConfig(kv_sagittal=kv, filter_s=0.0)))
         vs: list[float] = []
         out, ctrl = run_scenario(sc, RolloutSpec(seconds=3.0), pushes=[Push(150.0, 180.0, 0.2, start=1.0)],
                                  hooks=[lambda t, d, c, vs=vs: vs.append(d.subtree_linvel[1][0])])

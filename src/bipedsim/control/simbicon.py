@@ -779,8 +779,7 @@ class SimbiconController(Controller):
         if vc.filter_s > 0.0:
             self._vf_v += (v0 - self._vf_v) * min(1.0, self._dt / vc.filter_s)
             v0 = self._vf_v
-        e = beyond(self._speed - v0, vc.deadband)
-        f0 = vc.kv_sagittal * (max(e, 0.0) if vc.behind_only else e)
+        f0 = vc.kv_sagittal * (self._speed - v0)
         f1 = vc.kv_coronal * (0.0 - v1)
         norm = math.hypot(f0, f1)
         if norm > vc.max_force:

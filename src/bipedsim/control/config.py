@@ -131,7 +131,7 @@ class VelocityConfig:
     max_force: float = field(default=150.0, metadata={"gt": 0.0})  #: N, the horizontal force's norm
     #: the sagittal velocity is low-passed with this time constant (s) before it is compared (0: raw):
     #: the force answers the walk's lasting speed, not a push's transient (docs/controller.md)
-    filter_s: float = field(default=0.5, metadata={"min": 0.0})
+    filter_s: float = field(default=0.75, metadata={"min": 0.0})
 
 
 @dataclass(frozen=True)

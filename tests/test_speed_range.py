@@ -44,7 +44,7 @@ def generated_walk(tmp_path: Path, speed: float, cadence: float, width: float = 
 def scheduled_off(tmp_path: Path, kv: str = "") -> Path:
     """The default with the clip's own legs: c_v as given at every speed (``kv``: a velocity overlay)."""
     path = tmp_path / "no_cv_froude.yaml"
-    path.write_text("balance: {cv_froude: null%s}\nreference: {feasible: false}\n" % kv)
+    path.write_text("balance: {cv_froude: null" + kv + "}\nreference: {feasible: false}\n")
     return path
 
 
@@ -53,7 +53,7 @@ def scheduled(tmp_path: Path, kv: str = "") -> Path:
     legs (the generated walks above 1.1 m/s measure out of range and ``feasible: auto`` would re-solve
     them)."""
     path = tmp_path / "cv_froude.yaml"
-    path.write_text("balance: {cv_froude: 0.1%s}\nreference: {feasible: false}\n" % kv)
+    path.write_text("balance: {cv_froude: 0.1" + kv + "}\nreference: {feasible: false}\n")
     return path
 
 

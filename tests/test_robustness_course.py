@@ -257,10 +257,10 @@ def test_default_walk_holds_the_reference_line_for_60s(walk) -> None:
 
 
 def test_old_configuration_drifts_off_the_line(walk) -> None:
-    """The configuration before the course work -- sagittal c_d 0.65, no course law -- limps and crabs:
-    27.2 m off the line in 60 s (the check above can fail)."""
-    outcome, final, _ = _line_offset(walk, _cfg({"balance": {"sagittal": {"cd": 0.65}, "course": {"enabled": False}}}),
-                                     60.0)
+    """The configuration before the course work -- sagittal c_d 0.65, no course law, no velocity tuning --
+    limps and crabs: 27.2 m off the line in 60 s (the check above can fail)."""
+    old = {"sagittal": {"cd": 0.65}, "course": {"enabled": False}, "velocity": {"kv_sagittal": 0.0}}
+    outcome, final, _ = _line_offset(walk, _cfg({"balance": old}), 60.0)
     assert outcome == "no_fall" and abs(final) > 10.0
 
 

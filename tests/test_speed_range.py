@@ -41,19 +41,19 @@ def generated_walk(tmp_path: Path, speed: float, cadence: float, width: float = 
     return path
 
 
-def scheduled_off(tmp_path: Path) -> Path:
-    """The default with the clip's own legs: c_v as given at every speed."""
+def scheduled_off(tmp_path: Path, kv: str = "") -> Path:
+    """The default with the clip's own legs: c_v as given at every speed (``kv``: a velocity overlay)."""
     path = tmp_path / "no_cv_froude.yaml"
-    path.write_text("balance: {cv_froude: null}\nreference: {feasible: false}\n")
+    path.write_text("balance: {cv_froude: null" + kv + "}\nreference: {feasible: false}\n")
     return path
 
 
-def scheduled(tmp_path: Path) -> Path:
+def scheduled(tmp_path: Path, kv: str = "") -> Path:
     """The Froude schedule on (it is off by default: docs/controller.md, *Speed range*), the clip's own
     legs (the generated walks above 1.1 m/s measure out of range and ``feasible: auto`` would re-solve
     them)."""
     path = tmp_path / "cv_froude.yaml"
-    path.write_text("balance: {cv_froude: 0.1}\nreference: {feasible: false}\n")
+    path.write_text("balance: {cv_froude: 0.1" + kv + "}\nreference: {feasible: false}\n")
     return path
 
 
@@ -68,11 +68,14 @@ def test_builtin_walk_keeps_its_cv_and_a_fast_walk_gets_a_smaller_one(tmp_path: 
 
 def test_a_1_2_mps_walk_at_110_steps_needs_the_scheduled_cv(tmp_path: Path) -> None:
     """1.2 m/s at 110 steps/min (0.65 m steps, the built-in walk's 0.44 m): with c_v 0.2 it falls within
-    2 s (measured 1.33 s); with the Froude-scheduled c_v (0.13 here) it walks (20 s: 0.82 of its speed)."""
+    2 s (measured 1.33 s); with the Froude-scheduled c_v (0.13 here) it walks (20 s: 0.82 of its speed).
+    Measured without velocity tuning (``kv_sagittal: 0``): with the default's 75 N per m/s the scheduled walk
+    falls at 2.4 s (docs/controller.md, *Speed deficit*)."""
     bvh = generated_walk(tmp_path, 1.2, 110)
-    off, _ = run_scenario(load_scenario(scheduled_off(tmp_path), bvh), RolloutSpec(seconds=10.0))
+    kv0 = ", velocity: {kv_sagittal: 0.0}"
+    off, _ = run_scenario(load_scenario(scheduled_off(tmp_path, kv0), bvh), RolloutSpec(seconds=10.0))
     assert off.outcome == "fall" and off.fall_time_s < 3.0
-    on, _ = run_scenario(load_scenario(scheduled(tmp_path), bvh), RolloutSpec(seconds=10.0))
+    on, _ = run_scenario(load_scenario(scheduled(tmp_path, kv0), bvh), RolloutSpec(seconds=10.0))
     assert on.outcome == "no_fall", (on.fall_time_s, on.fall_reason)
     assert on.mean_speed_mps >= 0.7 * 1.2
 

@@ -260,7 +260,9 @@ class SimbiconController(Controller):
         self._ankle_fb_on = mod.stance_ankle.enabled
         self._com_hf = (0.0, 0.0, 0.0, 0.0)  #: the last step's COM offset from the stance ankle and velocity
         vel = cfg.balance.velocity
-        self._vel_on = cfg.balance.enabled and (vel.kv_sagittal > 0 or vel.kv_coronal > 0)
+        # the sagittal target is the source's walking speed: a source without one (key poses) has none
+        self._kv_sag = vel.kv_sagittal if self._speed > 0.0 else 0.0
+        self._vel_on = cfg.balance.enabled and (self._kv_sag > 0 or vel.kv_coronal > 0)
         #: per side: (hinge index, joint id) of the knee and ankle hinges, the stance leg's chain below
         #: the hip (which belongs to the torso law) for velocity tuning
         self._vf_joints = {s: [(int(i), int(self.hinges.jid[i])) for i in self.leg_low[s]
@@ -323,7 +325,7 @@ class SimbiconController(Controller):
         self._rate_f = 0.0
         self.last_strike_time, self.last_strike_frame = t, self.frame
         self.clock = self.last_strike_clock = t
-        self._v_sag = self._speed
+        self._v_sag = self._vf_v = self._speed
         self.fade = 1.0
         self._configure_actuators()
         self._apply_damping(1.0)
@@ -776,7 +778,10 @@ class SimbiconController(Controller):
         knee and ankle hinge adds -share a . ((com - anchor) x F) (Jacobian transpose of the reversed
         chain; a joint's torque acts on its parent, the side toward the body, with the opposite sign)."""
         vc = self.cfg.balance.velocity
-        f0 = vc.kv_sagittal * (self._speed - v0)
+        if vc.filter_s > 0.0:
+            self._vf_v += (v0 - self._vf_v) * min(1.0, self._dt / vc.filter_s)
+            v0 = self._vf_v
+        f0 = self._kv_sag * (self._speed - v0)
         f1 = vc.kv_coronal * (0.0 - v1)
         norm = math.hypot(f0, f1)
         if norm > vc.max_force:

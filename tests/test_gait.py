@@ -153,10 +153,15 @@ def test_run_prints_what_it_found_and_the_clip_speed(tmp_path: Path, capsys) -> 
     assert 0.9 < o["extra"]["clip_speed_mps"] < 1.1 and o["reference_speed_mps"] > 0.5
 
 
+#: The walks the default controller tracks 20 s at >= 70 % of their speed today (docs/controller.md, *Speed
+#: deficit*); the others are strict expected failures, so a walk that starts to pass flags its marker.
+TRACKED = {"cmu_02_01_walk__holden31_crlf"}
+_NOT_YET = pytest.mark.xfail(strict=True, reason="issue 19 not met yet for this walk (docs/controller.md, "
+                             "Feasible reference / Speed deficit); strict: passing flags the marker for removal")
+
+
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 19 not met yet: the default controller does not track the shared "
-                   "real walks for 20 s (docs/controller.md, Real walks); strict: passing flags the marker for removal")
-@pytest.mark.parametrize("name", sorted(HAND_COUNTS))
+@pytest.mark.parametrize("name", [n if n in TRACKED else pytest.param(n, marks=_NOT_YET) for n in sorted(HAND_COUNTS)])
 def test_shared_walk_tracked_20s_at_70_percent_of_its_speed(name: str) -> None:
     from bipedsim.control.reference import clip_speed
     from bipedsim.sim.rollout import RolloutSpec

@@ -650,7 +650,6 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     # local rotations are blended: both parents rebased on their own typical pose (FK unchanged), so
     # that similar poses are similar rotations, small ones from the rest, whatever rest pose (along X,
     # standing) and twist of joint frames a file has
-    a, b = on_typical_rest(a), on_typical_rest(b)
     folded = {p: {"root": f.root, "into": f.into} for p, f in (("A", fold_a), ("B", fold_b)) if f is not None}
     evidence: dict[str, dict[str, str]] = {}
     roles: dict[str, dict[str, str]] = {}
@@ -667,16 +666,18 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     tm["correspondence"] = time.perf_counter() - t0
     if not np.isclose(a.frame_time, b.frame_time):
         b = b.resample(a.fps)
+    a, b = on_typical_rest(a), on_typical_rest(b)
     t0 = time.perf_counter()
     meta = crossover(a.skeleton, b.skeleton, mapping)
     # B's rotations re-expressed in A's rest pose: local rotations are blended, and rotations from
     # rest poses that differ (one along X, one standing) mean different poses
     b = in_rest_of(a.skeleton, b, {int(jb): i for i, jb in enumerate(meta.from_b[:a.num_joints]) if jb is not None})
     meta = crossover(a.skeleton, b.skeleton, mapping)
+    act_a, act_b = joint_activity(a), joint_activity(b)  # from B's own FK, before the folding below
     b = across_unpaired(meta, a.skeleton, b)
     tm["crossover"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    mut = mutate(meta, joint_activity(a), joint_activity(b), mutations, weights)
+    mut = mutate(meta, act_a, act_b, mutations, weights)
     tm["mutation"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     surv = survivor(meta, a, b, x=x)

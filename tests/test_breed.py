@@ -8,7 +8,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from conftest import shared_params
+from conftest import SHARED_BVH, need_shared, shared_params
 from scipy.spatial.transform import Rotation
 
 from bipedsim.breed.evolve import BreedError, breed, crossover, floor_constraint, joint_activity, mutate, survivor
@@ -208,3 +208,54 @@ def test_run_creature_with_and_without_support(tmp_path: Path) -> None:
     b = json.loads((tmp_path / "b" / "outcome.json").read_text())
     assert b["outcome"] == "no_fall" and b["extra"]["support_force_mean_n"] > 0
     assert main(["run", "--profile", "creature", "--out", str(tmp_path / "c")]) == 2  # needs --bvh
+
+
+def _heights_over_body(m: Motion) -> tuple[list[str], np.ndarray]:
+    """Every joint and End Site (End Sites named PARENT.end): its height above the frame's lowest point,
+    over the frame's body height (T, P)."""
+    m = m if m.up == "z" else m.to_project_frame().in_metres()
+    sk = m.skeleton
+    z = np.concatenate([m.fk()[0][..., 2], m.end_site_positions()[..., 2]], axis=1)
+    low = z.min(axis=1, keepdims=True)
+    names = list(sk.names) + [sk.names[int(p)] + ".end" for p in sk.end_site_parents]
+    return names, (z - low) / (z.max(axis=1, keepdims=True) - low)
+
+
+@pytest.mark.parametrize("x", [0.25, 0.5, 0.75])
+def test_child_of_two_standing_quadrupeds_stands_on_four_feet(x: float) -> None:
+    """Issue 20: a child of the shared dog (rest pose along X, large local rotations) and the shipped
+    horse (standing rest pose), no mutation, stands on its four paws as both parents do: each paw is
+    near the floor in stance (10th percentile of its height <= 3 % of the body height) and low over
+    the clip (median <= 12 %), the lowest point of nearly every frame is a paw, and the head is well
+    up (median >= 50 %). Before the fix (rotations blended from different rest poses) the head lay on
+    the floor at x = 0.5 and the paws were 12-45 % up."""
+    need_shared()
+    dog = load_bvh(SHARED_BVH / "animal" / "mann_dog_D1_007_KAN01_001_locomotion.bvh")
+    child, _ = breed(dog, load_bvh(HORSE_WALK), x=x, mutations=0)
+    names, rel = _heights_over_body(child)
+    paws = [names.index(f"{n}.end") for n in ("LeftHand", "RightHand", "LeftFoot", "RightFoot")]
+    for p in paws:
+        assert np.percentile(rel[:, p], 10) <= 0.03, names[p]
+        assert np.median(rel[:, p]) <= 0.12, names[p]
+    paw_points = set(paws) | {names.index(n) for n in ("LeftHand", "RightHand", "LeftFoot", "RightFoot")}
+    assert np.mean([int(np.argmin(r)) in paw_points for r in rel]) >= 0.95
+    assert np.median(rel[:, names.index("Head.end")]) >= 0.5
+
+
+def test_rest_alignment_keeps_every_point_where_it_was() -> None:
+    """B re-expressed in A's rest pose (joint frames turned) moves no joint and no End Site, and its
+    rest pose takes A's bone directions at the paired joints."""
+    from bipedsim.breed.evolve import _rest_positions, in_rest_of, on_typical_rest
+
+    h, p = load_bvh(HORSE_WALK).to_project_frame(), load_bvh(PTEROSAUR_FLIGHT).to_project_frame()
+    h, p = on_typical_rest(h), on_typical_rest(p.resample(h.fps))
+    pairs = {p.skeleton.index(n): h.skeleton.index(n) for n in ("Hips", "Spine", "Chest", "Head", "LeftUpLeg",
+                                                                   "LeftLeg", "LeftFoot")}
+    q = in_rest_of(h.skeleton, p, pairs)
+    assert np.allclose(q.fk()[0], p.fk()[0], atol=1e-9)
+    assert np.allclose(q.end_site_positions(), p.end_site_positions(), atol=1e-9)
+    ra, rb = _rest_positions(h.skeleton), _rest_positions(q.skeleton)
+    for top, low in (("LeftUpLeg", "LeftLeg"), ("LeftLeg", "LeftFoot")):
+        da = ra[h.skeleton.index(low)] - ra[h.skeleton.index(top)]
+        db = rb[q.skeleton.index(low)] - rb[q.skeleton.index(top)]
+        assert np.dot(da, db) / np.linalg.norm(da) / np.linalg.norm(db) > 0.999

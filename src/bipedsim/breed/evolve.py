@@ -304,7 +304,163 @@ def survivor(meta: MetaSkeleton, a: Motion, b: Motion, x: float = 0.5, sample_ev
     for k, i in enumerate(common):
         ra = Rotation.from_quat(a.rotations[:, meta.from_a[i]])
         out[:, i] = (ra * Rotation.from_rotvec(x * corr[:, k])).as_quat()
+    for i in _between_paired(meta, a.skeleton):  # A's joints B's chain does not have: toward identity
+        ra = Rotation.from_quat(a.rotations[:, i])
+        out[:, i] = (ra * Rotation.from_rotvec(-x * ra.as_rotvec())).as_quat()
     return SurvivorResult(rotations=canonical_quat(out), matched=matched, correction=corr)
+
+
+# ---------------------------------------------------------------------- 3a. rest-pose alignment
+def _rest_positions(sk: Skeleton) -> FloatArray:
+    """Joint positions of the rest pose (every rotation identity), root at the origin."""
+    pos = np.zeros((sk.num_joints, 3))
+    for j in range(1, sk.num_joints):
+        pos[j] = pos[int(sk.parents[j])] + sk.offsets[j]
+    return pos
+
+
+def _best_rotation(src: list[FloatArray], dst: list[FloatArray]) -> FloatArray:
+    """The rotation taking the unit directions ``src`` onto ``dst`` best (least squares, Kabsch); one
+    pair, or pairs along one line: the smallest rotation of the first onto the first."""
+    u = np.array([v / np.linalg.norm(v) for v in src])
+    w = np.array([v / np.linalg.norm(v) for v in dst])
+    if len(u) > 1 and np.linalg.matrix_rank(u, tol=1e-3) >= 2 and np.linalg.matrix_rank(w, tol=1e-3) >= 2:
+        m = w.T @ u
+        uu, _, vt = np.linalg.svd(m)
+        d = np.sign(np.linalg.det(uu @ vt))
+        return uu @ np.diag([1.0, 1.0, d]) @ vt
+    return _min_rot(u[0], w[0])
+
+
+def rest_alignment(a: Skeleton, b: Skeleton, mapping: dict[int, int]) -> FloatArray:
+    """Per joint of B, the rotation C (3, 3) that takes A's rest bone directions at the corresponding
+    joint onto B's: C maps the direction from A's joint to its nearest paired descendants (in each
+    child branch, the first at a distance, else its End Site) onto the direction between B's
+    counterparts. ``mapping``: B joint -> A joint. Joints of B without a counterpart (or with no
+    direction to compare) take their parent's C.
+
+    Parents' local rotations are rotations from their own rest pose: a file whose rest pose lies
+    along X (bone-aligned joint frames, the pose made by the rotations) and one whose rest pose
+    stands have local rotations that mean different poses; they can be blended only in one rest."""
+    pa, pb = _rest_positions(a), _rest_positions(b)
+    size = max(float(np.ptp(pa, axis=0).max()), float(np.ptp(pb, axis=0).max()), 1e-9)
+    near = 1e-3 * size
+    out = np.tile(np.eye(3), (b.num_joints, 1, 1))
+    for jb in range(b.num_joints):
+        c = out[int(b.parents[jb])] if jb else np.eye(3)
+        ja = mapping.get(jb)
+        if ja is not None:
+            src, dst = [], []
+            b_sub = set(b.subtree(jb))
+            stack = list(a.children(ja))
+            while stack:
+                k = stack.pop()
+                kb = next((q for q, r in mapping.items() if r == k), None)
+                va = pa[k] - pa[ja]
+                if kb is not None and kb in b_sub and np.linalg.norm(va) > near and np.linalg.norm(
+                        pb[kb] - pb[jb]) > near:
+                    src.append(va)
+                    dst.append(pb[kb] - pb[jb])
+                else:
+                    stack.extend(a.children(k))
+            if not src:
+                ea = [a.end_site_offsets[e] for e, q in enumerate(a.end_site_parents) if int(q) == ja]
+                eb = [b.end_site_offsets[e] for e, q in enumerate(b.end_site_parents) if int(q) == jb]
+                if len(ea) == 1 and len(eb) == 1 and min(np.linalg.norm(ea[0]), np.linalg.norm(eb[0])) > near:
+                    src, dst = ea, eb
+            if src:
+                c = _best_rotation(src, dst)
+        out[jb] = c
+    return out
+
+
+def in_rest_of(a: Skeleton, b: Motion, mapping: dict[int, int]) -> Motion:
+    """``b`` with its joint frames turned (:func:`rest_alignment`) so that its rest pose is A's at the
+    paired joints: local rotations C_p^T L C, offsets C_p^T o, End Sites C^T e (p the parent). Every
+    joint and End Site stays where it was in every frame."""
+    sk = b.skeleton
+    c = rest_alignment(a, sk, mapping)
+    par = np.maximum(sk.parents, 0)
+    cp = c[par]
+    cp[0] = np.eye(3)
+    offsets = np.einsum("jki,jk->ji", cp, sk.offsets)
+    offsets[0] = sk.offsets[0]
+    es = np.einsum("jki,jk->ji", c[sk.end_site_parents], sk.end_site_offsets) if len(sk.end_site_parents) else \
+        sk.end_site_offsets
+    t, n = b.num_frames, sk.num_joints
+    loc = Rotation.from_quat(b.rotations.reshape(-1, 4)).as_matrix().reshape(t, n, 3, 3)
+    loc = np.einsum("jki,tjkl,jlm->tjim", cp, loc, c)
+    rot = canonical_quat(Rotation.from_matrix(loc.reshape(-1, 3, 3)).as_quat().reshape(t, n, 4))
+    trans = None
+    if b.translations is not None:
+        trans = np.einsum("jki,tjk->tji", cp, b.translations)
+        trans[:, 0] = b.translations[:, 0]
+    return b.copy(skeleton=sk.replace(offsets=offsets, end_site_offsets=es.reshape(-1, 3)), rotations=rot,
+                  translations=trans)
+
+
+def across_unpaired(meta: MetaSkeleton, a: Skeleton, b: Motion) -> Motion:
+    """``b`` with each paired joint's local rotation taken from its nearest paired ancestor (B's joints
+    between them, which A does not have, folded in: G_anc^T G_j), so that blended into A's chain --
+    where A's own unpaired joints in between turn toward identity as x goes to B
+    (:func:`survivor`) -- it gives B's pose of the joint. B-only joints keep their own rotations."""
+    _, g = b.fk()
+    rot = b.rotations.copy()
+    for i in meta.common:
+        jb = meta.from_b[i]
+        anc = _paired_ancestor(meta, a, i)
+        if anc is None or jb is None:
+            continue
+        ab = meta.from_b[anc]
+        assert ab is not None
+        if int(b.skeleton.parents[jb]) == ab:
+            continue
+        rel = np.einsum("tki,tkl->til", g[:, ab], g[:, jb])
+        rot[:, jb] = Rotation.from_matrix(rel).as_quat()
+    return b.copy(rotations=canonical_quat(rot))
+
+
+def _paired_ancestor(meta: MetaSkeleton, a: Skeleton, i: int) -> int | None:
+    """The nearest ancestor of A's joint ``i`` that is paired with a joint of B (None at the root)."""
+    common = set(meta.common)
+    k = int(a.parents[i])
+    while k >= 0 and k not in common:
+        k = int(a.parents[k])
+    return k if k >= 0 else None
+
+
+def _between_paired(meta: MetaSkeleton, a: Skeleton) -> list[int]:
+    """A's unpaired joints with a paired ancestor and a paired descendant (a clavicle A has and B has
+    not): their rotation is no part of B's chain."""
+    common = set(meta.common)
+    return [j for j in range(a.num_joints) if j not in common and _paired_ancestor(meta, a, j) is not None
+            and any(k in common for k in a.subtree(j) if k != j)]
+
+
+def typical_frame(motion: Motion) -> int:
+    """The frame whose pose (every joint's local rotation matrix) is closest to the clip's mean pose."""
+    t, n = motion.num_frames, motion.num_joints
+    r = Rotation.from_quat(motion.rotations.reshape(-1, 4)).as_matrix().reshape(t, n * 9)
+    return int(np.argmin(np.sum((r - r.mean(axis=0)) ** 2, axis=1)))
+
+
+def on_typical_rest(motion: Motion) -> Motion:
+    """``motion`` rebased (:meth:`Motion.rebased`) on its :func:`typical_frame`: its rest pose is a
+    pose of its own motion, with world-parallel joint frames, and its rotations measure how far each
+    frame is from it. Two files' local rotations mean the same pose only from such a rest."""
+    return motion.rebased(typical_frame(motion))
+
+
+def _folded_b_joints(meta: MetaSkeleton, b: Skeleton) -> list[str]:
+    """B's unpaired joints between paired ones that keep nothing under them in the meta-skeleton (their
+    rotation is folded into the paired joint below, :func:`across_unpaired`): left in, each would be
+    a stray bone."""
+    sk = meta.skeleton
+    paired_b = {jb for jb in meta.from_b if jb is not None and meta.from_a[meta.from_b.index(jb)] is not None}
+    return [sk.names[i] for i in range(sk.num_joints)
+            if meta.from_a[i] is None and meta.from_b[i] is not None and not sk.children(i)
+            and not any(e == i for e in sk.end_site_parents)
+            and any(k in paired_b for k in b.subtree(meta.from_b[i]) if k != meta.from_b[i])]
 
 
 # ---------------------------------------------------------------------- 4. floor constraint
@@ -491,6 +647,9 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     t0 = time.perf_counter()
     a, fold_a = fold_static_root(a.to_project_frame())
     b, fold_b = fold_static_root(b.to_project_frame())
+    # local rotations are blended: both parents rebased on their own typical pose (FK unchanged), so
+    # that similar poses are similar rotations, small ones from the rest, whatever rest pose (along X,
+    # standing) and twist of joint frames a file has
     folded = {p: {"root": f.root, "into": f.into} for p, f in (("A", fold_a), ("B", fold_b)) if f is not None}
     evidence: dict[str, dict[str, str]] = {}
     roles: dict[str, dict[str, str]] = {}
@@ -507,17 +666,24 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     tm["correspondence"] = time.perf_counter() - t0
     if not np.isclose(a.frame_time, b.frame_time):
         b = b.resample(a.fps)
+    a, b = on_typical_rest(a), on_typical_rest(b)
     t0 = time.perf_counter()
     meta = crossover(a.skeleton, b.skeleton, mapping)
+    # B's rotations re-expressed in A's rest pose: local rotations are blended, and rotations from
+    # rest poses that differ (one along X, one standing) mean different poses
+    b = in_rest_of(a.skeleton, b, {int(jb): i for i, jb in enumerate(meta.from_b[:a.num_joints]) if jb is not None})
+    meta = crossover(a.skeleton, b.skeleton, mapping)
+    act_a, act_b = joint_activity(a), joint_activity(b)  # from B's own FK, before the folding below
+    b = across_unpaired(meta, a.skeleton, b)
     tm["crossover"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    mut = mutate(meta, joint_activity(a), joint_activity(b), mutations, weights)
+    mut = mutate(meta, act_a, act_b, mutations, weights)
     tm["mutation"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     surv = survivor(meta, a, b, x=x)
     tm["survivor"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    child_sk, keep = prune(meta, surv.rotations, a, set(mut.removed_all))
+    child_sk, keep = prune(meta, surv.rotations, a, set(mut.removed_all) | set(_folded_b_joints(meta, b.skeleton)))
     child = Motion(skeleton=child_sk, frame_time=a.frame_time, root_translation=a.root_translation.copy(),
                    rotations=surv.rotations[:, keep], unit=1.0, up="z")
     child, fixes = floor_constraint(depth_first(child))

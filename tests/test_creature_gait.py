@@ -34,6 +34,17 @@ def _gait(path: Path, **kw: object) -> tuple[object, CreatureGaitController]:
     return sc, CreatureGaitController(sc.built.model, sc.built.plan, sc.clip, sc.creature_cfg, bal)
 
 
+def _dog_at_start() -> tuple[object, CreatureGaitController, mujoco.MjData]:
+    """The dog's gait controller reset on the clip's start frame, and the data posed there."""
+    sc, c = _gait(_clip(DOG))
+    d = mujoco.MjData(sc.built.model)
+    f = c.start_frame()
+    d.qpos[:] = sc.clip.qpos[f]
+    mujoco.mj_forward(sc.built.model, d)
+    c.reset(d, f)
+    return sc, c, d
+
+
 @pytest.fixture(params=["dog", "horse"])
 def quadruped(request: pytest.FixtureRequest) -> Path:
     return _clip(DOG) if request.param == "dog" else HORSE_WALK
@@ -72,13 +83,8 @@ def test_ik_reaches_the_planned_feet_inside_joint_ranges() -> None:
     foot's IK residual stays under 1.5 cm and no leg joint leaves its range. (On the horse the swing
     lift and the far stance feet of the old, unmeasured stride were out of reach of its clip-limited
     joints: residuals up to 22 cm.)"""
-    sc, c = _gait(_clip(DOG))
+    sc, c, d = _dog_at_start()
     m = sc.built.model
-    d = mujoco.MjData(m)
-    f = c.start_frame()
-    d.qpos[:] = sc.clip.qpos[f]
-    mujoco.mj_forward(m, d)
-    c.reset(d, f)
     worst = 0.0
     for k in range(200):
         t = 0.01 * k
@@ -97,13 +103,7 @@ def test_ik_reaches_the_planned_feet_inside_joint_ranges() -> None:
 def test_heading_is_the_walking_direction() -> None:
     """A creature's heading (pushes are aimed in it: 90 deg is its left) is its planned walking
     direction, not its root frame's x axis (which points backward in the dog's skeleton)."""
-    sc, c = _gait(_clip(DOG))
-    m = sc.built.model
-    d = mujoco.MjData(m)
-    f = c.start_frame()
-    d.qpos[:] = sc.clip.qpos[f]
-    mujoco.mj_forward(m, d)
-    c.reset(d, f)
+    sc, c, d = _dog_at_start()
     h = c.heading(d)
     assert np.allclose([np.cos(h), np.sin(h)], c._dir, atol=1e-6)
     x_axis = d.xmat[c.root_body].reshape(3, 3)[:, 0]

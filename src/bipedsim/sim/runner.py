@@ -115,10 +115,12 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)
     extra: dict[str, Any] = {}
     if cfg.reference.feasible is not False and profile == "humanoid":  # model/feasible.py
-        why = infeasible_because(measure(clip, built.model), cfg.reference)
-        if cfg.reference.feasible is True or why:
+        forced = cfg.reference.feasible is True
+        why = ["reference: {feasible: true}"] if forced else infeasible_because(measure(clip, built.model),
+                                                                                 cfg.reference)
+        if why:
             clip = feasible_clip(clip, built.model, cfg.reference)
-            extra["feasible"] = why or ["reference: {feasible: true}"]
+            extra["feasible"] = why
     return Scenario(built=built, clip=clip, cfg=cfg, source_path=src,
                     config_path=None if config is None else str(config), motion=motion, bvh_info=info,
                     extra=extra, creature_cfg=CreatureControlConfig(support=support))

@@ -442,3 +442,21 @@ def test_a_tune_resumed_in_a_new_process_ends_as_an_uninterrupted_one(tmp_path: 
     assert proc.returncode == 0, proc.stderr
     assert _without_timing(_history(tmp_path / "resumed")) == _without_timing(_history(tmp_path / "whole"))
     assert (tmp_path / "resumed" / "best.yaml").read_text() == (tmp_path / "whole" / "best.yaml").read_text()
+
+
+def test_each_candidate_is_scored_on_the_reference_its_own_settings_prepare() -> None:
+    """The tune's per-process scenario cache is keyed on the ``reference:`` block: a candidate whose
+    settings force the feasible reference gets that clip, not the one built for the default settings."""
+    import dataclasses
+
+    from bipedsim.control.config import ControllerConfig
+    from bipedsim.tune import evaluate
+
+    default = ControllerConfig()
+    forced = dataclasses.replace(default, reference=dataclasses.replace(default.reference, feasible=True))
+    as_is = evaluate._scenario(None, "humanoid", False, default)
+    rebuilt = evaluate._scenario(None, "humanoid", False, forced)
+    assert evaluate._scenario(None, "humanoid", False, default) is as_is  # built once
+    assert "feasible" not in as_is.extra and rebuilt.extra["feasible"] == ["reference: {feasible: true}"]
+    assert as_is.clip.qpos.shape == rebuilt.clip.qpos.shape
+    assert np.abs(as_is.clip.qpos - rebuilt.clip.qpos).max() > 1e-3  # the legs were re-solved

@@ -72,13 +72,14 @@ class Scenario:
         return to_dict(self.creature_cfg) if self.profile == "creature" else to_dict(self.cfg)
 
 
-def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.PathLike[str] | None = None, *,
+def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = None, bvh: str | os.PathLike[str] | None = None, *,
                   scale: float | str | None = None, up: str | None = None, mass: float | None = None,
                   profile: str | None = AUTO, support: bool = False, positions: str | None = None,
                   events: str | os.PathLike[str] | None = None) -> Scenario:
     """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
     retargeted onto it (``auto``: the kind measured from the skeleton, :func:`resolve_profile`). A
-    controller YAML configures the humanoid's controller; ``support`` (root support) is a creature's."""
+    controller YAML (or its settings, a :class:`ControllerConfig`) configures the humanoid's controller
+    and how its reference is prepared (``reference:``); ``support`` (root support) is a creature's."""
     from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
     from bipedsim.motion.bvh import read_bvh
 
@@ -101,7 +102,7 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
         raise ConfigError("root support holds a creature's root; it needs the creature profile", key="support")
     if profile == "creature" and bvh is None:
         raise ConfigError("the creature profile needs a motion: give a BVH (--bvh FILE)", key="profile")
-    cfg = load_controller(config)
+    cfg = config if isinstance(config, ControllerConfig) else load_controller(config)
     if bvh is None:
         raw, info = read_bvh(BUILTIN_WALK)
         motion = raw.to_project_frame()
@@ -122,7 +123,7 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
             clip = feasible_clip(clip, built.model, cfg.reference)
             extra["feasible"] = why
     return Scenario(built=built, clip=clip, cfg=cfg, source_path=src,
-                    config_path=None if config is None else str(config), motion=motion, bvh_info=info,
+                    config_path=None if config is None or isinstance(config, ControllerConfig) else str(config), motion=motion, bvh_info=info,
                     extra=extra, creature_cfg=CreatureControlConfig(support=support))
 
 

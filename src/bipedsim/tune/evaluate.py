@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from bipedsim import config
+from bipedsim.control.config import ControllerConfig
 from bipedsim.sim.experiment import Row
 from bipedsim.sim.rollout import FallCriteria, RolloutSpec
 from bipedsim.sim.runner import Scenario, load_scenario, run_scenario
@@ -38,11 +39,14 @@ class Setup:
 Task = tuple[int, dict[str, Any], Setup]
 
 
-def _scenario(reference: str | None, profile: str, support: bool) -> Scenario:
-    """The body and clip of a reference, built once per process (candidates change only settings)."""
-    key = (reference, profile, support)
+def _scenario(reference: str | None, profile: str, support: bool, settings: Any = None) -> Scenario:
+    """The body and clip of a reference, built once per process and per way of preparing the clip
+    (a humanoid's ``reference:`` block, which candidates rarely change; the rest is only settings)."""
+    prepared = getattr(settings, "reference", None) if profile == "humanoid" else None
+    key = (reference, profile, support, repr(prepared))
     if key not in _SCENARIOS:
-        _SCENARIOS[key] = load_scenario(None, reference, profile=profile, support=support)
+        controller = None if prepared is None else ControllerConfig(reference=prepared)
+        _SCENARIOS[key] = load_scenario(controller, reference, profile=profile, support=support)
     return _SCENARIOS[key]
 
 
@@ -79,7 +83,7 @@ def evaluate(task: Task) -> dict[str, Any]:
     t0 = time.perf_counter()
     number, settings, setup = task
     cfg = config.from_dict(CONFIG_CLASSES[setup.profile], settings)
-    per_ref = [evaluate_reference(with_settings(_scenario(r, setup.profile, setup.support), cfg), setup)
+    per_ref = [evaluate_reference(with_settings(_scenario(r, setup.profile, setup.support, cfg), cfg), setup)
                for r in setup.references]
     terms = {k: float(np.mean([t[k] for t in per_ref])) for k in TERMS}
     return {"candidate": number, "score": setup.objective.score(terms), **terms,

@@ -72,7 +72,8 @@ class Scenario:
         return to_dict(self.creature_cfg) if self.profile == "creature" else to_dict(self.cfg)
 
 
-def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = None, bvh: str | os.PathLike[str] | None = None, *,
+def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = None,
+                  bvh: str | os.PathLike[str] | None = None, *,
                   scale: float | str | None = None, up: str | None = None, mass: float | None = None,
                   profile: str | None = AUTO, support: bool = False, positions: str | None = None,
                   events: str | os.PathLike[str] | None = None) -> Scenario:
@@ -122,9 +123,9 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
         if why:
             clip = feasible_clip(clip, built.model, cfg.reference)
             extra["feasible"] = why
-    return Scenario(built=built, clip=clip, cfg=cfg, source_path=src,
-                    config_path=None if config is None or isinstance(config, ControllerConfig) else str(config), motion=motion, bvh_info=info,
-                    extra=extra, creature_cfg=CreatureControlConfig(support=support))
+    config_path = None if config is None or isinstance(config, ControllerConfig) else str(config)
+    return Scenario(built=built, clip=clip, cfg=cfg, source_path=src, config_path=config_path, motion=motion,
+                    bvh_info=info, extra=extra, creature_cfg=CreatureControlConfig(support=support))
 
 
 def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, before_step: list | None = None,

@@ -14,15 +14,16 @@ row by row (``--resume`` keeps the rows already there).
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 import time
 from dataclasses import replace
 from pathlib import Path
 
+from rows import Rows  # the benchmarks' resumable CSV (benchmarks/rows.py)
+
+from bipedsim.control.config import load_controller
 from bipedsim.control.reference import clip_speed
 from bipedsim.errors import BipedsimError
-from bipedsim.model.feasible import feasible_clip
 from bipedsim.sim import runner
 from bipedsim.sim.rollout import RolloutSpec
 
@@ -34,9 +35,10 @@ FIELDS = ["file", "outcome", "fall_time_s", "speed_mps", "clip_speed_mps", "spee
 def run_one(path: Path, seconds: float, config: str | None, feasible: bool = False) -> dict[str, object]:
     t0 = time.perf_counter()
     try:
-        sc = runner.load_scenario(config, path)
-        if feasible and not sc.cfg.reference.feasible:  # as `reference: {feasible: true}` in the config
-            sc.clip = feasible_clip(sc.clip, sc.built.model, replace(sc.cfg.reference, feasible=True))
+        cfg = load_controller(config)
+        if feasible:  # as `reference: {feasible: true}` in the config
+            cfg = replace(cfg, reference=replace(cfg.reference, feasible=True))
+        sc = runner.load_scenario(cfg, path)
         out, _ = runner.run_scenario(sc, RolloutSpec(seconds=seconds))
     except BipedsimError as exc:
         return {"file": path.name, "outcome": "refused", "reason": str(exc)[:200],
@@ -65,25 +67,16 @@ def main(argv: list[str] | None = None) -> int:
     if not files:
         print(f"no BVH files (shared data not found at {SHARED})")
         return 1
-    done: dict[str, dict[str, str]] = {}
-    if args.csv and args.resume and Path(args.csv).exists():
-        with open(args.csv, newline="") as fh:
-            done = {r["file"]: r for r in csv.DictReader(fh)}
-    writer = None
-    if args.csv:
-        fh = open(args.csv, "a" if done else "w", newline="")  # noqa: SIM115 - closed below
-        writer = csv.DictWriter(fh, fieldnames=FIELDS)
-        if not done:
-            writer.writeheader()
+    rows = Rows(args.csv, FIELDS, args.resume, key=lambda r: r["file"])
+    done = rows.done
     print(f"{'file':46s} {'outcome':8s} {'fall s':>6s} {'m/s':>5s} {'clip':>5s} {'ratio':>5s} {'loop':>5s} "
           f"{'RMSE':>6s} {'strk':>4s} {'wall s':>6s}")
     ok = 0
     for p in files:
         row: dict[str, object] = (dict(done[p.name]) if p.name in done
                                   else run_one(p, args.seconds, args.config, args.feasible))
-        if writer is not None and p.name not in done:
-            writer.writerow(row)
-            fh.flush()
+        if p.name not in done:
+            rows.add(row)
         ratio = row.get("speed_ratio")
         if row["outcome"] == "no_fall" and ratio not in ("", None) and float(ratio) >= 0.7:  # type: ignore[arg-type]
             ok += 1
@@ -92,8 +85,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{row.get('speed_ratio', '')!s:>5s} {row.get('loop_speed_mps', '')!s:>5s} "
               f"{row.get('rmse_rad', '')!s:>6s} {row.get('strikes', '')!s:>4s} {row.get('wall_s', '')!s:>6s}"
               + (f"  {row['reason']}" if row.get("reason") and row["outcome"] == "refused" else ""))
-    if writer is not None:
-        fh.close()
+    rows.close()
     print(f"{ok} of {len(files)} files walked {args.seconds:g} s without a fall at >= 70 % of the clip's speed")
     return 0
 

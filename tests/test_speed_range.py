@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from bipedsim.control.balance import froude, sagittal_cv
+from bipedsim.control.balance import froude, sagittal_cd, sagittal_cv
 from bipedsim.control.config import BalanceConfig, ControllerConfig, PlaneGains
 from bipedsim.motion.bvh import bvh_text
 from bipedsim.motion.gaitgen import WalkParams, walk_bvh_motion
@@ -32,6 +32,20 @@ def test_froude_number_and_the_scheduled_cv() -> None:
     assert sagittal_cv(b, 1.2, 0.7, 9.8) < sagittal_cv(b, 1.2, 0.93, 9.8)
     # null: no scheduling at any speed
     assert sagittal_cv(replace(b, cv_froude=None), 1.5, 0.93, 9.8) == 0.2
+
+
+def test_the_scheduled_cd() -> None:
+    b = BalanceConfig(sagittal=PlaneGains(0.55, 0.2), cd_froude=0.13, cd_froude_power=0.3)
+    # at or below the threshold (the built-in walk: 0.95 m/s on 0.93 m legs, Fr 0.098): c_d as configured
+    assert sagittal_cd(b, 0.95, 0.93, 9.81) == 0.55
+    assert sagittal_cd(b, math.sqrt(0.13 * 9.81 * 0.93), 0.93, 9.81) == pytest.approx(0.55)
+    # above it: c_d x (cd_froude / Fr) ** power, i.e. falling with speed ** (2 power)
+    fr = 1.5 ** 2 / (9.81 * 0.84)
+    assert sagittal_cd(b, 1.5, 0.84, 9.81) == pytest.approx(0.55 * (0.13 / fr) ** 0.3)
+    assert sagittal_cd(b, 1.5, 0.84, 9.81) / sagittal_cd(b, 1.2, 0.84, 9.81) == pytest.approx((1.2 / 1.5) ** 0.6)
+    # the default config: on, and null switches it off
+    assert BalanceConfig().cd_froude == 0.13
+    assert sagittal_cd(replace(b, cd_froude=None), 1.5, 0.84, 9.81) == 0.55
 
 
 def generated_walk(tmp_path: Path, speed: float, cadence: float, width: float = 0.2) -> Path:

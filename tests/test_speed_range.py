@@ -84,9 +84,10 @@ def test_a_1_2_mps_walk_at_110_steps_needs_the_scheduled_cv(tmp_path: Path) -> N
     """1.2 m/s at 110 steps/min (0.65 m steps, the built-in walk's 0.44 m): with c_v 0.2 it falls within
     2 s (measured 1.33 s); with the Froude-scheduled c_v (0.13 here) it walks (20 s: 0.82 of its speed).
     Measured without velocity tuning (``kv_sagittal: 0``): with the default's 75 N per m/s the scheduled walk
-    falls at 2.4 s (docs/controller.md, *Speed deficit*)."""
+    falls at 2.4 s (docs/controller.md, *Speed deficit*); and with the sagittal c_d as given (``cd_froude:
+    null``, the c_d schedule came later: with it, c_d 0.52 here, the scheduled-c_v walk falls at 2.4 s)."""
     bvh = generated_walk(tmp_path, 1.2, 110)
-    kv0 = ", velocity: {kv_sagittal: 0.0}"
+    kv0 = ", velocity: {kv_sagittal: 0.0}, cd_froude: null"
     off, _ = run_scenario(load_scenario(scheduled_off(tmp_path, kv0), bvh), RolloutSpec(seconds=10.0))
     assert off.outcome == "fall" and off.fall_time_s < 3.0
     on, _ = run_scenario(load_scenario(scheduled(tmp_path, kv0), bvh), RolloutSpec(seconds=10.0))

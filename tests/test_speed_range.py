@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from bipedsim.control.balance import froude, sagittal_cv
+from bipedsim.control.balance import froude, sagittal_cd, sagittal_cv
 from bipedsim.control.config import BalanceConfig, ControllerConfig, PlaneGains
 from bipedsim.motion.bvh import bvh_text
 from bipedsim.motion.gaitgen import WalkParams, walk_bvh_motion
@@ -32,6 +32,20 @@ def test_froude_number_and_the_scheduled_cv() -> None:
     assert sagittal_cv(b, 1.2, 0.7, 9.8) < sagittal_cv(b, 1.2, 0.93, 9.8)
     # null: no scheduling at any speed
     assert sagittal_cv(replace(b, cv_froude=None), 1.5, 0.93, 9.8) == 0.2
+
+
+def test_the_scheduled_cd() -> None:
+    b = BalanceConfig(sagittal=PlaneGains(0.55, 0.2), cd_froude=0.13, cd_froude_power=0.3)
+    # at or below the threshold (the built-in walk: 0.95 m/s on 0.93 m legs, Fr 0.098): c_d as configured
+    assert sagittal_cd(b, 0.95, 0.93, 9.81) == 0.55
+    assert sagittal_cd(b, math.sqrt(0.13 * 9.81 * 0.93), 0.93, 9.81) == pytest.approx(0.55)
+    # above it: c_d x (cd_froude / Fr) ** power, i.e. falling with speed ** (2 power)
+    fr = 1.5 ** 2 / (9.81 * 0.84)
+    assert sagittal_cd(b, 1.5, 0.84, 9.81) == pytest.approx(0.55 * (0.13 / fr) ** 0.3)
+    assert sagittal_cd(b, 1.5, 0.84, 9.81) / sagittal_cd(b, 1.2, 0.84, 9.81) == pytest.approx((1.2 / 1.5) ** 0.6)
+    # the default config: on, and null switches it off
+    assert BalanceConfig().cd_froude == 0.13
+    assert sagittal_cd(replace(b, cd_froude=None), 1.5, 0.84, 9.81) == 0.55
 
 
 def generated_walk(tmp_path: Path, speed: float, cadence: float, width: float = 0.2) -> Path:
@@ -70,9 +84,10 @@ def test_a_1_2_mps_walk_at_110_steps_needs_the_scheduled_cv(tmp_path: Path) -> N
     """1.2 m/s at 110 steps/min (0.65 m steps, the built-in walk's 0.44 m): with c_v 0.2 it falls within
     2 s (measured 1.33 s); with the Froude-scheduled c_v (0.13 here) it walks (20 s: 0.82 of its speed).
     Measured without velocity tuning (``kv_sagittal: 0``): with the default's 75 N per m/s the scheduled walk
-    falls at 2.4 s (docs/controller.md, *Speed deficit*)."""
+    falls at 2.4 s (docs/controller.md, *Speed deficit*); and with the sagittal c_d as given (``cd_froude:
+    null``, the c_d schedule came later: with it, c_d 0.52 here, the scheduled-c_v walk falls at 2.4 s)."""
     bvh = generated_walk(tmp_path, 1.2, 110)
-    kv0 = ", velocity: {kv_sagittal: 0.0}"
+    kv0 = ", velocity: {kv_sagittal: 0.0}, cd_froude: null"
     off, _ = run_scenario(load_scenario(scheduled_off(tmp_path, kv0), bvh), RolloutSpec(seconds=10.0))
     assert off.outcome == "fall" and off.fall_time_s < 3.0
     on, _ = run_scenario(load_scenario(scheduled(tmp_path, kv0), bvh), RolloutSpec(seconds=10.0))

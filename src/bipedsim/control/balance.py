@@ -39,6 +39,17 @@ def sagittal_cv(balance: BalanceConfig, speed: float, leg: float, g: float = 9.8
     return cv if fr <= balance.cv_froude else cv * balance.cv_froude / fr
 
 
+def sagittal_cd(balance: BalanceConfig, speed: float, leg: float, g: float = 9.81) -> float:
+    """The sagittal c_d (rad per m) for a walk of mean ``speed`` (m/s) on legs ``leg`` m long: the
+    configured one, scaled by ``(cd_froude / Fr) ** cd_froude_power`` above the Froude number
+    ``balance.cd_froude`` (no scaling when that is null)."""
+    cd = balance.sagittal.cd
+    if balance.cd_froude is None or leg <= 0.0:
+        return cd
+    fr = froude(speed, leg, g)
+    return cd if fr <= balance.cd_froude else cd * (balance.cd_froude / fr) ** balance.cd_froude_power
+
+
 def beyond(offset: float, band: float) -> float:
     """The part of ``offset`` outside the band [-band, band] (0 inside it), same units."""
     return offset - band if offset > band else offset + band if offset < -band else 0.0

@@ -197,6 +197,20 @@ class BalanceConfig:
     #: references fall sooner (3 seeds x 7 walks: 56 s of walking in all against 174 s), so it is off
     #: (docs/controller.md, "Speed range")
     cv_froude: float | None = field(default=None, metadata={"gt": 0.0})
+    #: speed scheduling of the sagittal c_d: above this Froude number the sagittal c_d is scaled by
+    #: (cd_froude / Fr) ** cd_froude_power. The raw d (COM from the stance ankle) swings by about a step
+    #: length through every stance, so on a long-striding fast walk c_d d pulls each swing leg back early
+    #: in its swing and the foot lands late and short (a period-2 limp at half the clip's speed). At
+    #: 0.13 / 0.3 (the built-in walk, Fr 0.098, and the slower captures keep 0.55; CMU 02_01 Fr 0.19 gets
+    #: 0.49, CMU 02_02 Fr 0.32 0.42): 3 seeds x 7 shared walks 203 s walked -> 221 s, runs at >= 70 % of
+    #: their speed 3 -> 6, the 02_02 walks 0.53 -> 0.68-0.76 of their speed (docs/controller.md, "Speed
+    #: deficit"); null: c_d as given at every speed
+    cd_froude: float | None = field(default=0.13, metadata={"gt": 0.0})
+    cd_froude_power: float = field(default=0.3, metadata={"min": 0.0})
+    #: the sagittal d measured against this share of the reference's own sagittal d on the current frame
+    #: (relative: lateral_reference only; 0: the raw d, 1: as "full"). Off: at 0.5 the games105 walk
+    #: walks 20 s on 3 seeds, every other shared walk falls sooner (docs/controller.md)
+    sagittal_reference: float = field(default=0.0, metadata={"min": 0.0, "max": 1.0})
     velocity: VelocityConfig = field(default_factory=VelocityConfig)
     #: what d and v are measured against: "none" (SIMBICON: raw COM offset from the stance ankle and
     #: raw COM velocity), "mean_velocity" (velocity relative to the reference's mean walking velocity),

@@ -33,6 +33,7 @@ from bipedsim.control.balance import (
     hinges_to_world,
     hinges_to_world3,
     hip_torques3,
+    sagittal_cd,
     sagittal_cv,
     stance_share,
     world_to_hinges3,
@@ -223,9 +224,10 @@ class SimbiconController(Controller):
         self._fade_on = cfg.fade.enabled
         self._roll_kp = cfg.balance.torso_kp if cfg.balance.roll_kp is None else cfg.balance.roll_kp
         self._speed = float(source.speed())
-        # the sagittal c_v scheduled by the walk's Froude number (legs: hip to ankle, both sides' mean)
-        self._cv_sagittal = sagittal_cv(cfg.balance, self._speed, sum(sum(self.leg_len[s]) for s in SIDES) / 2,
-                                        -float(model.opt.gravity[2]))
+        # the sagittal c_v and c_d scheduled by the walk's Froude number (legs: hip to ankle, both sides' mean)
+        leg, g = sum(sum(self.leg_len[s]) for s in SIDES) / 2, -float(model.opt.gravity[2])
+        self._cv_sagittal = sagittal_cv(cfg.balance, self._speed, leg, g)
+        self._cd_sagittal = sagittal_cd(cfg.balance, self._speed, leg, g)
         self._tempo_on = cfg.fsm.tempo.gain > 0.0
         self._v_sag = self._speed  #: the last control step's sagittal COM velocity (heading frame)
         self.clock = 0.0  #: the gait clock (s): real time run at the tempo rate
@@ -605,8 +607,10 @@ class SimbiconController(Controller):
         elif b.relative == "lateral_reference":
             d1 -= src.lateral_reference(frame, stance)
             v0 -= self._speed
+            if b.sagittal_reference > 0.0:  # a share of the reference's own sagittal d
+                d0 -= b.sagittal_reference * float(src.com_reference(frame, stance)[0][0])
         if b.feedback:
-            fs = feedback_angle(0.0, b.sagittal.cd, self._cv_sagittal, d0, v0, b.max_feedback)
+            fs = feedback_angle(0.0, self._cd_sagittal, self._cv_sagittal, d0, v0, b.max_feedback)
             fc = feedback_angle(place, b.coronal.cd, b.coronal.cv, d1, v1, b.max_feedback)
         else:
             fs = fc = 0.0

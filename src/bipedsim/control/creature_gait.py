@@ -44,6 +44,7 @@ from bipedsim.control.creature_balance import (
     geom_bottom,
 )
 from bipedsim.model.clip import ReferenceClip
+from bipedsim.model.creature import creature_legs
 from bipedsim.model.plan import BodyPlanSet
 
 #: a clip whose root travels slower than this (m/s, mean over the loop) walks in place
@@ -77,7 +78,7 @@ class CreatureGaitController(CreatureBalanceController):
                  cfg: CreatureControlConfig | None = None, balance: CreatureBalanceConfig | None = None) -> None:
         super().__init__(model, plan, clip, cfg, balance)
         self.ik_data = mujoco.MjData(model)
-        self._site_ids = [s[0] for s in self.leg_sites]
+        self._site_ids = self._foot_sites()
         ball_ids = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL]
         leg_dofs = set(np.concatenate(self.leg_dofs).tolist()) if self.legs else set()
         #: (qpos address, range less a 5 % margin) of each limited leg ball joint
@@ -106,6 +107,37 @@ class CreatureGaitController(CreatureBalanceController):
                 self.fwd = fwd / np.linalg.norm(fwd)
                 self._neutral_stance()
         self._measure_reach()
+
+    # ------------------------------------------------------------------ hooks (control/creature_biped.py)
+    def _foot_sites(self) -> list[int]:
+        """The site each leg's foot is placed by: its first foot's touch site."""
+        return [s[0] for s in self.leg_sites]
+
+    def _site_heights(self, rel: FloatArray) -> FloatArray:
+        """Each foot site's height (m) when its foot stands: the median over the loop of the site above
+        its leg's lowest point (``rel``: (frames, legs, 3) sites relative to the root, heading frame)."""
+        clip, (a, b) = self.clip, self.loop
+        return np.array([float(np.median(clip.qpos[a:b, 2] + rel[:, i, 2] - self.ref_low[a:b, i]))
+                         if np.all(np.isfinite(self.ref_low[a:b, i])) else 0.0 for i in range(len(self.legs))])
+
+    def _support_shift(self, t: float, centroid: FloatArray, com_path: FloatArray) -> FloatArray:
+        """The centre of mass's wanted shift (m, world xy) from its path toward ``centroid``, the feet that
+        carry the next swing (sideways only, by ``lateral_only``): none on two legs (a line of two feet is
+        no support polygon)."""
+        if len(self.legs) <= 2:
+            return np.zeros(2)
+        want = self.bal.com_shift * (centroid - com_path)
+        side = np.array([-self._dir[1], self._dir[0]])
+        return (1.0 - self.bal.lateral_only) * want + self.bal.lateral_only * float(want @ side) * side
+
+    def _velocity_error(self, t: float) -> FloatArray:
+        """The body's horizontal velocity error (m/s, world) the swing foot's placement corrects: its
+        low-passed velocity less the path's."""
+        return self._v_filt - self._speed_at(t) * self._dir
+
+    def _foot_attitude(self, i: int) -> FloatArray | None:
+        """The world orientation leg ``i``'s foot site is aimed at by the IK; None: its position only."""
+        return None
 
     # ------------------------------------------------------------------ measured on the built body
     def _reach_error(self, shift: float, lift: float) -> FloatArray:
@@ -250,9 +282,7 @@ class CreatureGaitController(CreatureBalanceController):
         hip = np.array([d.xpos[model.body(leg.root).id] - root for leg in self.legs]).reshape(n, 3)
         self._hips = hip
         foot = rel.mean(axis=0)
-        self.site_ground = np.array([float(np.median(clip.qpos[a:b, 2] + rel[:, i, 2]
-                                                     - self.ref_low[a:b, i]))
-                                     if np.all(np.isfinite(self.ref_low[a:b, i])) else 0.0 for i in range(n)])
+        self.site_ground = self._site_heights(rel)
         # pairs of legs (left and right: each hip the nearest to the other's mirror image across the
         # hips' mid-line) stand symmetric about their hips' centre, at least stance_width x their hips'
         # half spacing apart, level with each other
@@ -332,8 +362,7 @@ class CreatureGaitController(CreatureBalanceController):
         ahead = self._speed_at(t_land) * stance_t / 2.0 * self._dir
         p = self._foot_home(t_land, i)
         p[0:2] += ahead
-        dv = self._v_filt - self._speed_at(t) * self._dir
-        shift = self.bal.step_placement / self.omega0 * dv
+        shift = self.bal.step_placement / self.omega0 * self._velocity_error(t)
         cap = self.bal.max_placement * self.leg_height
         size = float(np.linalg.norm(shift))
         if size > cap:
@@ -383,9 +412,7 @@ class CreatureGaitController(CreatureBalanceController):
         centroid = np.mean([self._planted[i][0:2] if i not in swinging else feet[i, 0:2] for i in support], axis=0)
         path = self._root_path(t)
         com_path = path + (self._heading_rot() @ self.neutral_com)[0:2]
-        want = self.bal.com_shift * (centroid - com_path) if n > 2 else np.zeros(2)
-        side = np.array([-self._dir[1], self._dir[0]])
-        want = (1.0 - self.bal.lateral_only) * want + self.bal.lateral_only * float(want @ side) * side
+        want = self._support_shift(t, centroid, com_path)
         a = min(1.0, self._dt_plan / max(self.bal.shift_time_s, 1e-6))
         self._shift += a * (want - self._shift)
         q = self.neutral_q.copy()
@@ -416,7 +443,7 @@ class CreatureGaitController(CreatureBalanceController):
         least squares over the leg's DOFs, pulled toward the neutral leg pose in the null space."""
         m, d = self.model, self.ik_data
         lam2 = (damping * self.leg_height) ** 2
-        jac = np.zeros((3, m.nv))
+        jac, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
         for _ in range(iters):
             d.qpos[:] = q
             mujoco.mj_kinematics(m, d)
@@ -426,9 +453,15 @@ class CreatureGaitController(CreatureBalanceController):
             mujoco.mj_differentiatePos(m, diff, 1.0, q, self.neutral_q)
             for i, dofs in enumerate(self.ik_dofs):
                 err = feet[i] - d.site_xpos[self._site_ids[i]]
-                mujoco.mj_jacSite(m, d, jac, None, self._site_ids[i])
+                mujoco.mj_jacSite(m, d, jac, jacr, self._site_ids[i])
                 j = jac[:, dofs]
-                inv = np.linalg.solve(j @ j.T + lam2 * np.eye(3), np.eye(3))
+                att = self._foot_attitude(i)
+                if att is not None:  # the foot's attitude too, its radians weighed as leg_height m
+                    cur = d.site_xmat[self._site_ids[i]].reshape(3, 3)
+                    rot = Rotation.from_matrix(att @ cur.T).as_rotvec()
+                    err = np.concatenate([err, self.leg_height * rot])
+                    j = np.vstack([j, self.leg_height * jacr[:, dofs]])
+                inv = np.linalg.solve(j @ j.T + lam2 * np.eye(len(err)), np.eye(len(err)))
                 step = j.T @ inv @ err
                 null = diff[dofs] - j.T @ inv @ (j @ diff[dofs])
                 dq[dofs] = step + self.bal.posture_pull * null
@@ -590,6 +623,10 @@ class CreatureGaitController(CreatureBalanceController):
         return out
 
 
+#: the planned gait's controller by number of legs, where one differs (``control/creature_biped.py``: two)
+GAITS_BY_LEGS: dict[int, type[CreatureGaitController]] = {}
+
+
 @register("creature")
 def make_creature_controller(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
                              cfg: CreatureControlConfig | None = None,
@@ -599,7 +636,8 @@ def make_creature_controller(model: mujoco.MjModel, plan: BodyPlanSet, clip: Ref
     balance = balance or CreatureBalanceConfig()
     if balance.gait == "clip":
         return CreatureBalanceController(model, plan, clip, cfg, balance)
-    return CreatureGaitController(model, plan, clip, cfg, balance)
+    gait = GAITS_BY_LEGS.get(len(creature_legs(plan)), CreatureGaitController)
+    return gait(model, plan, clip, cfg, balance)
 
 
-__all__ = ["CreatureGaitController", "make_creature_controller"]
+__all__ = ["GAITS_BY_LEGS", "CreatureGaitController", "make_creature_controller"]

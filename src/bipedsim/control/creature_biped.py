@@ -48,6 +48,8 @@ class BipedGaitConfig:
     max_swing: float = field(default=3.0, metadata={"gt": 0.0})
     #: integral of the centre of mass's sideways and forward error, rate x sqrt(g/L)
     com_integral: float = field(default=0.0, metadata={"min": 0.0})
+    #: a stance ankle's torque at most this x body weight x the sole's half size (0: no cap)
+    ankle_cap: float = field(default=1.0, metadata={"min": 0.0})
 
 
 def smootherstep(s: float) -> float:
@@ -186,6 +188,39 @@ class CreatureBipedController(CreatureGaitController):
         mujoco.mj_kinematics(self.model, d)
         mujoco.mj_comPos(self.model, d)
         return self._root_path(t) + (d.subtree_com[self.root_body] - d.xpos[self.root_body])[0:2]
+
+    def _ankles(self) -> None:
+        """Per leg: the actuators of its sole's joint (the ankle) and the sole's half length and width (m)."""
+        m = self.model
+        ball_of = {int(m.jnt_bodyid[j]): k for k, j in enumerate(
+            [j for j in range(m.njnt) if m.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL])}
+        self._ankle_acts: list[np.ndarray | None] = []
+        self._sole_half: list[float] = []
+        for i, name in enumerate(self._sole_names):
+            body = int(m.site_bodyid[self._site_ids[i]]) if name else -1
+            k = ball_of.get(body)
+            self._ankle_acts.append(None if k is None else self.acts[k])
+            box = [g for g in range(m.ngeom) if m.geom_bodyid[g] == body and m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
+            self._sole_half.append(float(min(m.geom_size[box[0]][0:2])) if box else 0.0)
+
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, dt: float) -> FloatArray:
+        """The planned gait's torques, each stance ankle's held to what its sole can carry: the body's
+        weight times ``ankle_cap`` x the sole's half size (more would roll the foot onto its edge)."""
+        tau = super().__call__(model, data, t, dt)
+        if self.cfg.support or self.biped.ankle_cap <= 0:
+            return tau
+        if not hasattr(self, "_ankle_acts"):
+            self._ankles()
+        g = -float(model.opt.gravity[2])
+        for i, acts in enumerate(self._ankle_acts):
+            if acts is None or self._phase(t, i) >= 0:
+                continue
+            v = tau[acts]
+            size = float(np.linalg.norm(v))
+            cap = self.biped.ankle_cap * self.mass * g * self._sole_half[i]
+            if size > cap:
+                tau[acts] = v * (cap / size)
+        return tau
 
     def metrics(self) -> dict[str, object]:
         out = super().metrics()

@@ -42,12 +42,14 @@ from bipedsim.model.plan import BodyPlanSet
 class BipedGaitConfig:
     """Timing of the two-legged planned gait, in units of sqrt(L/g) (L: the standing root height)."""
 
-    #: double support between the swings, in which the centre of mass moves over the next stance sole
-    double_support: float = field(default=2.0, metadata={"gt": 0.0})
+    #: double support between the swings
+    double_support: float = field(default=0.3, metadata={"min": 0.0})
     #: longest swing (the clip's median swing otherwise)
-    max_swing: float = field(default=3.0, metadata={"gt": 0.0})
-    #: integral of the centre of mass's sideways and forward error, rate x sqrt(g/L)
-    com_integral: float = field(default=0.0, metadata={"min": 0.0})
+    max_swing: float = field(default=1.0, metadata={"gt": 0.0})
+    #: before the first step: the body moves this share of the way over its first stance sole, in
+    #: ``start_s`` sqrt(L/g) s (or the planned gait's settle_s, the longer)
+    pre_shift: float = field(default=0.6, metadata={"min": 0.0, "max": 1.0})
+    start_s: float = field(default=3.0, metadata={"min": 0.0})
     #: a stance ankle's torque at most this x body weight x the sole's half size (0: no cap)
     ankle_cap: float = field(default=1.0, metadata={"min": 0.0})
 
@@ -113,81 +115,80 @@ class CreatureBipedController(CreatureGaitController):
 
     # ------------------------------------------------------------------ timing
     def _measure_gait(self) -> None:
-        """The planned gait's clock, with a double support between the swings: swing the clip's (at most
-        ``max_swing`` sqrt(L/g)), double support ``double_support`` sqrt(L/g), legs half a cycle apart."""
+        """The clock of a walk: the clip's median swing, at most ``max_swing`` sqrt(L/g), then a double
+        support of ``double_support`` sqrt(L/g); the legs half a cycle apart."""
         super()._measure_gait()
         t0 = 1.0 / self.omega0
-        swing = min(self.swing_frac * self.period, self.biped.max_swing * t0)
-        swing = max(swing, self.bal.min_swing_s)
-        self.period = 2.0 * (swing + self.biped.double_support * t0)
+        swing = max(min(self.swing_frac * self.period, self.biped.max_swing * t0), self.bal.min_swing_s)
+        self._swing_s, self._step_s = swing, swing + self.biped.double_support * t0
+        self.period = 2.0 * self._step_s
         self.swing_frac = swing / self.period
-        if self.v_des > 0:  # a stride of at most stride_fraction x the leg length
-            self.v_des = min(self.v_des, self.bal.stride_fraction * self.leg_height / self.period)
 
-    def _support_shift(self, t: float, centroid: FloatArray, com_path: FloatArray) -> FloatArray:
-        """Over the stance sole while the other leg swings; in double support, from the sole that carried
-        the last swing to the one that carries the next (quintic ease); standing, from between the feet
-        to the first stance sole."""
-        n = len(self.legs)
-        if n != 2:
-            return super()._support_shift(t, centroid, com_path)
-        com_path = self._com_path(t)
-        feet = [self._planted[i][0:2] for i in range(n)]
-        first = self.leg_order[0]
-        if t < self._t_walk:  # standing: from between the feet over the first stance sole
+    def _measure_reach(self) -> None:
+        """The legs' reach as the planned gait measures it; the clock kept, the speed held so a stance
+        sweeps at most 2 x reach."""
+        super()._measure_reach()
+        self.period = 2.0 * self._step_s
+        self.swing_frac = self._swing_s / self.period
+        if self.v_des > 0 and math.isfinite(self.reach):
+            self.v_des = min(self.v_des, 2.0 * self.reach / (self.period - self._swing_s))
+
+    # ------------------------------------------------------------------ balance: the capture point
+    def _body_velocity(self, data: mujoco.MjData) -> FloatArray:
+        """The centre of mass's horizontal velocity (m/s, world): a bird's swinging leg is a third of it."""
+        com = data.subtree_com[self.root_body][0:2].copy()
+        prev, self._com_prev = self._com_prev, com
+        return np.zeros(2) if prev is None else (com - prev) / self._dt_plan
+
+    def _plan_root(self, t: float, data: mujoco.MjData, feet: FloatArray, swinging: list[int]) -> FloatArray:
+        """Walking, the root goes where its pendulum takes it (the stance leg holds its height and
+        attitude, the steps catch it); standing, it stays over the middle of its feet."""
+        if t < self._t_walk:  # standing: moving over the first stance sole
             s = (t - self._t_start) / max(self._t_walk - self._t_start, 1e-6)
-            start, end = 0.5 * (feet[0] + feet[1]), feet[1 - first]
-        else:
-            u = ((t - self._t_walk) / self.period) % 1.0  # leg `first` swings in [0, swing_frac)
-            half = 0.5
-            if u < self.swing_frac:
-                return self._track_com(feet[1 - first], com_path)
-            if half <= u < half + self.swing_frac:
-                return self._track_com(feet[first], com_path)
-            if u < half:  # `first` has landed: over it before the other lifts
-                s = (u - self.swing_frac) / (half - self.swing_frac)
-                start, end = feet[1 - first], feet[first]
-            else:
-                s = (u - half - self.swing_frac) / (half - self.swing_frac)
-                start, end = feet[first], feet[1 - first]
-        target = start + smootherstep(s) * (end - start)
-        return self._track_com(target, com_path)
+            return self._origin + smootherstep(s) * self._pre_shift
+        return data.qpos[0:2].copy()
 
-    def _track_com(self, target: FloatArray, com_path: FloatArray) -> FloatArray:
-        """The shift that puts the centre of mass on ``target`` (m, world xy), with an integral of the
-        measured centre of mass's error (rate ``com_integral`` sqrt(g/L)): the stance leg's PD sags
-        under the body's weight, and a few centimetres are the sole's half width."""
-        data = self._data
+    def _landing(self, t: float, i: int, data: mujoco.MjData) -> FloatArray:
+        """Where leg ``i``'s swing ends: at the capture point its stance foot will have let the centre of
+        mass reach by touch-down, xi_T = p + (xi - p) e^(w t_left) (xi = c + v/w, w = sqrt(g/h)), less
+        the offsets of a steady walk at the wanted speed v_d with steps of T s and feet W apart:
+        v_d T / (e^(wT) - 1) behind it, W / (e^(wT) + 1) out to the leg's side. At most
+        ``max_placement`` L from the stance foot."""
+        s = max(self._phase(t, i), 0.0)
+        w = self._omega_com
+        stance = self._planted[1 - i][0:2] if len(self.legs) == 2 else self._planted[i][0:2]
         com = data.subtree_com[self.root_body][0:2]
-        v_target = (target - self._com_target) / self._dt_plan if self._com_target is not None else np.zeros(2)
-        self._com_target = target.copy()
-        self._com_vel_target += min(1.0, self._dt_plan / 0.1) * (v_target - self._com_vel_target)
-        self._com_int += self.biped.com_integral * self.omega0 * self._dt_plan * (target - com)
-        return self.bal.com_shift * (target - com_path) + self._com_int
-
-    def _plan(self, t: float, data: mujoco.MjData) -> FloatArray:
-        self._data = data
-        return super()._plan(t, data)
-
-    def _velocity_error(self, t: float) -> FloatArray:
-        """Against the planned centre of mass's velocity (its moves over the stance sole are no error)."""
-        return self._v_filt - self._com_vel_target
+        xi = com + self._v_filt / w
+        t_left = (1.0 - s) * self._swing_s
+        xi_t = stance + (xi - stance) * math.exp(w * t_left)
+        grow = math.exp(w * self._step_s)
+        side = np.array([-self._dir[1], self._dir[0]]) * self._side[i]
+        p = xi_t - self._speed_at(t) * self._step_s / (grow - 1.0) * self._dir + self._width / (grow + 1.0) * side
+        step = p - stance
+        cap = self.bal.max_placement * self.leg_height
+        size = float(np.linalg.norm(step))
+        if size > cap:
+            p = stance + step * (cap / size)
+        return np.array([p[0], p[1], self.site_ground[i]])
 
     def reset(self, data: mujoco.MjData, frame: float | None = None, t: float = 0.0) -> None:
-        self._com_int = np.zeros(2)
-        self._com_target: FloatArray | None = None
-        self._com_vel_target = np.zeros(2)
+        self._com_prev: FloatArray | None = None
+        g = -float(self.model.opt.gravity[2])
+        self._omega_com = math.sqrt(g / max(self.neutral_height + float(self.neutral_com[2]), 1e-3))
+        across = self.neutral_feet[:, 1] - self.neutral_feet[:, 1].mean()
+        self._side = np.sign(across)  # each leg's side (heading frame: +1 left)
+        self._width = float(np.ptp(self.neutral_feet[:, 1]))
+        self._pre_shift = np.zeros(2)
         super().reset(data, frame, t)
-
-    def _com_path(self, t: float) -> FloatArray:
-        """Where the centre of mass is on the path (m, world xy): the path plus the centre of mass's
-        offset from the root in the last planned pose (a swinging leg moves it: a bird's leg is a
-        third of its mass)."""
-        d = self.ik_data
-        d.qpos[:] = self._ik_q
-        mujoco.mj_kinematics(self.model, d)
-        mujoco.mj_comPos(self.model, d)
-        return self._root_path(t) + (d.subtree_com[self.root_body] - d.xpos[self.root_body])[0:2]
+        # before the first lift the body moves sideways over its first stance sole (pre_shift of the way):
+        # from between the feet, the first swing would fall toward the lifted leg
+        self._t_walk = t + max(self.bal.settle_s, self.biped.start_s / self.omega0)
+        stance = 1 - self.leg_order[0]
+        side = np.array([-self._dir[1], self._dir[0]])
+        mid = 0.5 * (self._planted[0][0:2] + self._planted[1][0:2])
+        self._pre_shift = self.biped.pre_shift * float((self._planted[stance][0:2] - mid) @ side) * side
+        self._com_prev = None  # the reset posed the body: measure from here
+        self._v_filt = np.zeros(2)
 
     def _ankles(self) -> None:
         """Per leg: the actuators of its sole's joint (the ankle) and the sole's half length and width (m)."""

@@ -377,16 +377,33 @@ class CreatureGaitController(CreatureBalanceController):
     def _plan(self, t: float, data: mujoco.MjData) -> FloatArray:
         """The target pose (qpos) at time ``t``: root from the path and the support shift, feet from the
         gait, legs by IK."""
-        n = len(self.legs)
         # the body's velocity, low-passed over a quarter swing, for the foot placement: a landing point
         # that jumps with every bounce makes the swing leg's IK target jump
         a_v = min(1.0, self._dt_plan / max(0.25 * self.swing_frac * self.period, 1e-6))
-        self._v_filt += a_v * (data.qvel[0:2] - self._v_filt)
+        self._v_filt += a_v * (self._body_velocity(data) - self._v_filt)
         if self.bal.path_follow_s > 0 and t > self._t_start:
             # the planned path drifts after the body (time constant path_follow_s): a body that lags or
             # strays is walked on from where it is, not pulled back by its stance legs like a spring
             lag = data.qpos[0:2] - (self._root_path(t) + self._shift)
             self._origin += min(1.0, self._dt_plan / self.bal.path_follow_s) * lag
+        feet, swinging = self._plan_feet(t, data)
+        q = self.neutral_q.copy()
+        q[0:2] = self._plan_root(t, data, feet, swinging)
+        q[2] = self.neutral_height + self._z_offset
+        q[3:7] = Rotation.from_matrix(self._heading_rot() @ self.neutral_att).as_quat(scalar_first=True)
+        q[self._leg_q] = self._ik_q[self._leg_q]
+        self._solve_ik(q, feet)
+        self._feet_target = feet
+        return q
+
+    def _body_velocity(self, data: mujoco.MjData) -> FloatArray:
+        """The body's horizontal velocity (m/s, world) the foot placement reads: the root's."""
+        return data.qvel[0:2]
+
+    def _plan_feet(self, t: float, data: mujoco.MjData) -> tuple[FloatArray, list[int]]:
+        """Each foot's target (m, world) at time ``t`` and the legs in swing: a stance foot where it
+        landed, a swinging one on its way from lift-off to :meth:`_landing`, lifted on a sine."""
+        n = len(self.legs)
         feet = np.zeros((n, 3))
         swinging = []
         for i in range(n):
@@ -406,6 +423,12 @@ class CreatureGaitController(CreatureBalanceController):
                 feet[i] = p0 + e * (p1 - p0)
                 feet[i, 2] = self.site_ground[i] + self.bal.step_height * self.leg_height * math.sin(math.pi * s)
                 swinging.append(i)
+        return feet, swinging
+
+    def _plan_root(self, t: float, data: mujoco.MjData, feet: FloatArray, swinging: list[int]) -> FloatArray:
+        """The root's target (m, world xy): on the path, shifted by :meth:`_support_shift` toward the feet
+        that carry the next swing."""
+        n = len(self.legs)
         # the centre of mass over the feet that carry the next swing
         nxt = self._next_swing(t)
         support = [i for i in range(n) if i != nxt] or list(range(n))
@@ -415,14 +438,7 @@ class CreatureGaitController(CreatureBalanceController):
         want = self._support_shift(t, centroid, com_path)
         a = min(1.0, self._dt_plan / max(self.bal.shift_time_s, 1e-6))
         self._shift += a * (want - self._shift)
-        q = self.neutral_q.copy()
-        q[0:2] = path + self._shift
-        q[2] = self.neutral_height + self._z_offset
-        q[3:7] = Rotation.from_matrix(self._heading_rot() @ self.neutral_att).as_quat(scalar_first=True)
-        q[self._leg_q] = self._ik_q[self._leg_q]
-        self._solve_ik(q, feet)
-        self._feet_target = feet
-        return q
+        return path + self._shift
 
     def _next_swing(self, t: float) -> int:
         """The leg swinging now, or the next to lift off."""

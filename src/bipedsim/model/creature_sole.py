@@ -37,6 +37,36 @@ FloatArray = npt.NDArray[np.float64]
 
 #: bodies on at most this many legs stand on soles (on more legs the support spans the feet)
 SOLE_MAX_LEGS = 2
+#: a two-legged creature's legs weigh at most this share of its mass together (a human's two legs: 32 %
+#: of the body, the paper's mass table 2 x 10.8 of 67 kg; a bird's thin legs less)
+BIPED_LEG_SHARE = 0.32
+#: a two-legged creature's leg joints turn this much (rad) further than the clip shows plus the profile's
+#: margin: a step that catches the body sideways needs the hip and knee out of the clip's plane
+BIPED_RANGE_EXTRA = float(__import__("os").environ.get("BRX", "0.5"))
+
+
+def lighten_legs(bodies: list[BodyPlan], legs: list) -> float:
+    """Scale the masses of a two-legged creature's leg bodies so its legs weigh at most BIPED_LEG_SHARE
+    of the whole; returns the factor (1: unchanged, or more than SOLE_MAX_LEGS legs).
+
+    Capsules sized from bone lengths (radius 0.18 x length) make a bird's long, thin legs the heaviest
+    part of it: the shared flamingo's came to 60 % of its mass, its 55 cm tarsus alone 19 kg, so that
+    swinging one leg (30 % of the body) pushed the body off its foot."""
+    if not legs or len(legs) > SOLE_MAX_LEGS:
+        return 1.0
+    leg_bodies = {b for leg in legs for b in leg.bodies}
+    on_legs = sum(g.mass for b in bodies if b.name in leg_bodies for g in b.geoms)
+    rest = sum(g.mass for b in bodies if b.name not in leg_bodies for g in b.geoms)
+    if on_legs <= 0:
+        return 1.0
+    f = min(1.0, BIPED_LEG_SHARE * rest / ((1.0 - BIPED_LEG_SHARE) * on_legs))
+    for b in bodies:
+        if b.name in leg_bodies:
+            for g in b.geoms:
+                g.mass *= f
+            for j in b.joints:  # a biped catches itself sideways: room beyond what the clip shows
+                j.range = [j.range[0], float(min(np.pi, j.range[1] + BIPED_RANGE_EXTRA))]
+    return f
 
 
 def foot_segment(bodies: list[BodyPlan], feet: tuple[str, ...]) -> str:
@@ -145,4 +175,4 @@ def add_soles(bodies: list[BodyPlan], legs: list, moving: SourcePoints, rest: So
     return soles
 
 
-__all__ = ["SOLE_MAX_LEGS", "add_soles", "foot_segment"]
+__all__ = ["BIPED_LEG_SHARE", "SOLE_MAX_LEGS", "add_soles", "foot_segment", "lighten_legs"]

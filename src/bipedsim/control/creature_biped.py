@@ -23,7 +23,7 @@ Every length is scaled by the standing root height L and every time by sqrt(L/g)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -43,13 +43,30 @@ class BipedGaitConfig:
     """Timing of the two-legged planned gait, in units of sqrt(L/g) (L: the standing root height)."""
 
     #: double support between the swings
-    double_support: float = field(default=0.3, metadata={"min": 0.0})
+    double_support: float = field(default=0.15, metadata={"min": 0.0})
     #: longest swing (the clip's median swing otherwise)
     max_swing: float = field(default=1.0, metadata={"gt": 0.0})
     #: before the first step: the body moves this share of the way over its first stance sole, in
     #: ``start_s`` sqrt(L/g) s (or the planned gait's settle_s, the longer)
-    pre_shift: float = field(default=0.6, metadata={"min": 0.0, "max": 1.0})
+    pre_shift: float = field(default=0.3, metadata={"min": 0.0, "max": 1.0})
     start_s: float = field(default=3.0, metadata={"min": 0.0})
+    #: share of the swing at which the swing foot is over its landing point (then it comes down)
+    swing_arrive: float = field(default=1.0, metadata={"gt": 0.0, "max": 1.0})
+    #: a swing foot lands at least this share of the neutral stance's width out from the stance foot
+    min_width: float = field(default=0.0, metadata={"min": 0.0})
+    #: the swing foot lands this x (v - v_d) / w further along the walk (v: the centre of mass's speed)
+    speed_feedback: float = field(default=0.0, metadata={"min": 0.0})
+    # ---- the planned gait's settings that differ on two legs (CreatureBalanceConfig's, for bipeds)
+    #: root height as a fraction of the clip's: bent legs reach sideways (straight ones cannot follow
+    #: the body off their foot)
+    height_fraction: float = field(default=0.85, metadata={"gt": 0.0})
+    #: the IK's null-space pull toward the neutral leg pose: small, or it keeps feet off their targets
+    #: (at 1.0 a stance foot missed by 4 cm with the root 10 cm to its side)
+    posture_pull: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
+    #: swing-foot lift as a fraction of the root height
+    step_height: float = field(default=0.08, metadata={"min": 0.0})
+    #: walking speed as a fraction of the clip's, at most
+    speed_fraction: float = field(default=0.65, metadata={"min": 0.0})
     #: a stance ankle's torque at most this x body weight x the sole's half size (0: no cap)
     ankle_cap: float = field(default=1.0, metadata={"min": 0.0})
 
@@ -67,6 +84,10 @@ class CreatureBipedController(CreatureGaitController):
                  cfg: CreatureControlConfig | None = None, balance: CreatureBalanceConfig | None = None,
                  biped: BipedGaitConfig | None = None) -> None:
         self.biped = biped or BipedGaitConfig()
+        self.swing_arrive = self.biped.swing_arrive
+        b = self.biped
+        balance = replace(balance or CreatureBalanceConfig(), height_fraction=b.height_fraction,
+                          posture_pull=b.posture_pull, step_height=b.step_height, speed_fraction=b.speed_fraction)
         soles = plan.extra.get("soles", {})
         self._sole_names = [soles.get(leg.root) for leg in creature_legs(plan)]
         super().__init__(model, plan, clip, cfg, balance)
@@ -163,7 +184,14 @@ class CreatureBipedController(CreatureGaitController):
         xi_t = stance + (xi - stance) * math.exp(w * t_left)
         grow = math.exp(w * self._step_s)
         side = np.array([-self._dir[1], self._dir[0]]) * self._side[i]
-        p = xi_t - self._speed_at(t) * self._step_s / (grow - 1.0) * self._dir + self._width / (grow + 1.0) * side
+        v_d = self._speed_at(t)
+        p = xi_t - v_d * self._step_s / (grow - 1.0) * self._dir + self._width / (grow + 1.0) * side
+        # SIMBICON's c_v along the walk: a body faster than wanted steps further ahead to brake
+        p += self.biped.speed_feedback / w * (float(self._v_filt @ self._dir) - v_d) * self._dir
+        # never across the stance foot: at least min_width x the stance's width out to the leg's side
+        out = float((p - stance) @ side)
+        if out < self.biped.min_width * self._width:
+            p += (self.biped.min_width * self._width - out) * side
         step = p - stance
         cap = self.bal.max_placement * self.leg_height
         size = float(np.linalg.norm(step))

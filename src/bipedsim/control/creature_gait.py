@@ -74,6 +74,9 @@ def smoothstep(s: float) -> float:
 class CreatureGaitController(CreatureBalanceController):
     """The planned, quasi-static gait for any legged creature (see the module text)."""
 
+    #: share of its swing at which a swinging foot is over its landing point (it comes down after)
+    swing_arrive: float = 1.0
+
     def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
                  cfg: CreatureControlConfig | None = None, balance: CreatureBalanceConfig | None = None) -> None:
         super().__init__(model, plan, clip, cfg, balance)
@@ -419,7 +422,7 @@ class CreatureGaitController(CreatureBalanceController):
                 if self._lift[i] is None:
                     self._lift[i] = self._planted[i].copy()
                 p0, p1 = self._lift[i], self._landing(t, i, data)
-                e = smoothstep(s)
+                e = smoothstep(s / self.swing_arrive)
                 feet[i] = p0 + e * (p1 - p0)
                 feet[i, 2] = self.site_ground[i] + self.bal.step_height * self.leg_height * math.sin(math.pi * s)
                 swinging.append(i)

@@ -42,7 +42,7 @@ SOLE_MAX_LEGS = 2
 BIPED_LEG_SHARE = 0.32
 #: a two-legged creature's leg joints turn this much (rad) further than the clip shows plus the profile's
 #: margin: a step that catches the body sideways needs the hip and knee out of the clip's plane
-BIPED_RANGE_EXTRA = float(__import__("os").environ.get("BRX", "0.5"))
+BIPED_RANGE_EXTRA = 0.5
 
 
 def lighten_legs(bodies: list[BodyPlan], legs: list) -> float:

@@ -45,7 +45,7 @@ class BipedGaitConfig:
     #: double support between the swings
     double_support: float = field(default=0.15, metadata={"min": 0.0})
     #: longest swing (the clip's median swing otherwise)
-    max_swing: float = field(default=1.0, metadata={"gt": 0.0})
+    max_swing: float = field(default=0.8, metadata={"gt": 0.0})
     #: before the first step: the body moves this share of the way over its first stance sole, in
     #: ``start_s`` sqrt(L/g) s (or the planned gait's settle_s, the longer)
     pre_shift: float = field(default=0.3, metadata={"min": 0.0, "max": 1.0})
@@ -56,6 +56,8 @@ class BipedGaitConfig:
     min_width: float = field(default=0.0, metadata={"min": 0.0})
     #: the swing foot lands this x (v - v_d) / w further along the walk (v: the centre of mass's speed)
     speed_feedback: float = field(default=0.0, metadata={"min": 0.0})
+    #: the swing foot lands this x the cycle-averaged sideways velocity / w further out to that side
+    drift_feedback: float = field(default=0.0, metadata={"min": 0.0})
     # ---- the planned gait's settings that differ on two legs (CreatureBalanceConfig's, for bipeds)
     #: root height as a fraction of the clip's: bent legs reach sideways (straight ones cannot follow
     #: the body off their foot)
@@ -67,8 +69,10 @@ class BipedGaitConfig:
     step_height: float = field(default=0.08, metadata={"min": 0.0})
     #: walking speed as a fraction of the clip's, at most
     speed_fraction: float = field(default=0.65, metadata={"min": 0.0})
+    #: the stance legs' body PD (root velocity toward the wanted one) natural frequency, x sqrt(g/L)
+    body_freq: float = field(default=1.5, metadata={"min": 0.0})
     #: a stance ankle's torque at most this x body weight x the sole's half size (0: no cap)
-    ankle_cap: float = field(default=1.0, metadata={"min": 0.0})
+    ankle_cap: float = field(default=2.0, metadata={"min": 0.0})
 
 
 def smootherstep(s: float) -> float:
@@ -87,7 +91,8 @@ class CreatureBipedController(CreatureGaitController):
         self.swing_arrive = self.biped.swing_arrive
         b = self.biped
         balance = replace(balance or CreatureBalanceConfig(), height_fraction=b.height_fraction,
-                          posture_pull=b.posture_pull, step_height=b.step_height, speed_fraction=b.speed_fraction)
+                          posture_pull=b.posture_pull, step_height=b.step_height, speed_fraction=b.speed_fraction,
+                          body_freq=b.body_freq)
         soles = plan.extra.get("soles", {})
         self._sole_names = [soles.get(leg.root) for leg in creature_legs(plan)]
         super().__init__(model, plan, clip, cfg, balance)
@@ -156,10 +161,13 @@ class CreatureBipedController(CreatureGaitController):
 
     # ------------------------------------------------------------------ balance: the capture point
     def _body_velocity(self, data: mujoco.MjData) -> FloatArray:
-        """The centre of mass's horizontal velocity (m/s, world): a bird's swinging leg is a third of it."""
+        """The centre of mass's horizontal velocity (m/s, world): a bird's swinging leg is a third of it.
+        Also keeps its average over a gait cycle (``_v_cycle``, a first-order filter)."""
         com = data.subtree_com[self.root_body][0:2].copy()
         prev, self._com_prev = self._com_prev, com
-        return np.zeros(2) if prev is None else (com - prev) / self._dt_plan
+        v = np.zeros(2) if prev is None else (com - prev) / self._dt_plan
+        self._v_cycle += min(1.0, self._dt_plan / self.period) * (v - self._v_cycle)
+        return v
 
     def _plan_root(self, t: float, data: mujoco.MjData, feet: FloatArray, swinging: list[int]) -> FloatArray:
         """Walking, the root goes where its pendulum takes it (the stance leg holds its height and
@@ -186,8 +194,11 @@ class CreatureBipedController(CreatureGaitController):
         side = np.array([-self._dir[1], self._dir[0]]) * self._side[i]
         v_d = self._speed_at(t)
         p = xi_t - v_d * self._step_s / (grow - 1.0) * self._dir + self._width / (grow + 1.0) * side
-        # SIMBICON's c_v along the walk: a body faster than wanted steps further ahead to brake
-        p += self.biped.speed_feedback / w * (float(self._v_filt @ self._dir) - v_d) * self._dir
+        # SIMBICON's c_v on the velocity averaged over a cycle (the sway cancelled): a body faster than
+        # wanted steps further ahead to brake, one drifting sideways steps out to that side
+        left = np.array([-self._dir[1], self._dir[0]])
+        p += self.biped.speed_feedback / w * (float(self._v_cycle @ self._dir) - v_d) * self._dir
+        p += self.biped.drift_feedback / w * float(self._v_cycle @ left) * left
         # never across the stance foot: at least min_width x the stance's width out to the leg's side
         out = float((p - stance) @ side)
         if out < self.biped.min_width * self._width:
@@ -207,6 +218,7 @@ class CreatureBipedController(CreatureGaitController):
         self._side = np.sign(across)  # each leg's side (heading frame: +1 left)
         self._width = float(np.ptp(self.neutral_feet[:, 1]))
         self._pre_shift = np.zeros(2)
+        self._v_cycle = np.zeros(2)
         super().reset(data, frame, t)
         # before the first lift the body moves sideways over its first stance sole (pre_shift of the way):
         # from between the feet, the first swing would fall toward the lifted leg
@@ -216,6 +228,7 @@ class CreatureBipedController(CreatureGaitController):
         mid = 0.5 * (self._planted[0][0:2] + self._planted[1][0:2])
         self._pre_shift = self.biped.pre_shift * float((self._planted[stance][0:2] - mid) @ side) * side
         self._com_prev = None  # the reset posed the body: measure from here
+        self._v_cycle = np.zeros(2)
         self._v_filt = np.zeros(2)
 
     def _ankles(self) -> None:

@@ -13,6 +13,7 @@ from bipedsim.control.creature_balance import geom_bottom
 from bipedsim.control.creature_biped import CreatureBipedController, smootherstep
 from bipedsim.control.creature_gait import CreatureGaitController
 from bipedsim.data import HORSE_WALK
+from bipedsim.model.creature_sole import BIPED_LEG_SHARE
 from bipedsim.model.gait import creature_motion
 from bipedsim.motion.bvh import read_bvh
 from bipedsim.sim.runner import load_scenario
@@ -108,3 +109,45 @@ def test_smootherstep_is_level_at_both_ends() -> None:
     assert smootherstep(0.0) == 0.0 and smootherstep(1.0) == 1.0 and smootherstep(0.5) == pytest.approx(0.5)
     for s in (0.0, 1.0 - h):
         assert (smootherstep(s + h) - smootherstep(s)) / h == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_two_legged_creature_has_light_legs(flamingo) -> None:
+    """Capsules from bone lengths made the flamingo's legs 60 % of its mass; a biped's legs weigh at most
+    BIPED_LEG_SHARE of it (a quadruped's are left as built)."""
+    m = flamingo.built.model
+    legs = {m.body(b).id for leg in flamingo.controller().legs for b in leg.bodies}
+    share = sum(m.body_mass[b] for b in legs) / sum(m.body_mass)
+    assert share == pytest.approx(BIPED_LEG_SHARE, abs=0.01)
+
+
+def test_the_swing_lands_at_the_steady_walks_capture_offset(flamingo) -> None:
+    """At rest over the stance sole (v = 0, wanted speed 0), the swing foot's landing is the stance
+    foot plus the steady walk's sideways offset W / (e^(wT) + 1), out to the swinging leg's side."""
+    m = flamingo.built.model
+    d = mujoco.MjData(m)
+    ctrl = flamingo.controller()
+    d.qpos[:] = flamingo.clip.qpos[ctrl.start_frame()]
+    ctrl.reset(d, None, 0.0)
+    ctrl.v_des = 0.0
+    i = ctrl.leg_order[0]
+    stance = ctrl._planted[1 - i]
+    d.subtree_com[ctrl.root_body][0:2] = stance[0:2]
+    ctrl._v_filt[:] = 0.0
+    got = ctrl._landing(ctrl._t_walk, i, d)
+    w, step = ctrl._omega_com, ctrl._step_s
+    left = np.array([-ctrl._dir[1], ctrl._dir[0]])
+    want = stance[0:2] + ctrl._side[i] * ctrl._width / (np.exp(w * step) + 1.0) * left
+    np.testing.assert_allclose(got[0:2], want, atol=1e-9)
+
+
+@pytest.mark.slow
+def test_the_flamingo_walks_20_s_at_half_its_clip_speed(flamingo) -> None:
+    """Issue 20's flamingo: 20 s without a fall, without support or flags, at >= 50 % of its clip's
+    speed (its travel rebuilt from its feet: about 0.49 m/s)."""
+    from bipedsim.sim.rollout import RolloutSpec
+    from bipedsim.sim.runner import run_scenario
+
+    out, ctrl = run_scenario(flamingo, RolloutSpec(seconds=20.0))
+    assert out.outcome == "no_fall"
+    assert ctrl.clip_speed > 0.4
+    assert out.mean_speed_mps >= 0.5 * ctrl.clip_speed

@@ -19,5 +19,6 @@ from bipedsim.control.reference import ClipSource, GaitSource, Hinges, PoseSourc
 from bipedsim.control.simbicon import SimbiconController
 
 __all__ = ["CONTROLLERS", "BipedGaitConfig", "ClipSource", "Controller", "ControllerConfig", "CreatureBalanceConfig",
-           "CreatureBalanceController", "CreatureBipedController", "CreatureControlConfig", "CreatureController", "CreatureGaitController",
-           "GaitFSM", "GaitSource", "Hinges", "PoseSource", "SimbiconController", "load_controller"]
+           "CreatureBalanceController", "CreatureBipedController", "CreatureControlConfig", "CreatureController",
+           "CreatureGaitController", "GaitFSM", "GaitSource", "Hinges", "PoseSource", "SimbiconController",
+           "load_controller"]

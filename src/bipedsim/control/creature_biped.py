@@ -1,23 +1,29 @@
-"""The planned gait for a creature on two legs (a bird, a bred biped): the quasi-static planned gait of
-:mod:`~bipedsim.control.creature_gait`, changed where two legs differ from four.
+"""The planned gait for a creature on two legs (a bird, a bred biped), chosen by leg count
+(:data:`~bipedsim.control.creature_gait.GAITS_BY_LEGS`): the planned gait of
+:mod:`~bipedsim.control.creature_gait` where two legs need the same, a dynamic walk where they differ.
 
-On four legs three feet stay down while one swings: the body rests on a support polygon. On two legs
-the support while a leg swings is the other foot alone, so
+On four legs three feet stay down while one swings: the quasi-static plan rests the body on a support
+polygon. On two legs the support while a leg swings is one foot, so the body is an inverted pendulum
+and its steps must catch it (SIMBICON's foot placement, here by the capture point):
 
 - **feet are soles** (:mod:`bipedsim.model.creature_sole`: a flat box under each foot spanning its toes,
   measured from the skeleton): the IK places each sole's bottom centre, **flat** (its normal vertical,
   its toes along the sole's own heading in the clip), not a toe tip;
-- **the centre of mass moves over the stance sole** before the other leg lifts: a double support of
-  ``double_support`` sqrt(L/g) s between the swings, in which the centre of mass's sideways target
-  moves from the foot that carried the last swing to the one that carries the next with a quintic
-  ease (zero velocity and acceleration at both ends: the pendulum's ZMP, c - c''/w^2, stays between the
-  feet); during the swing it stays over the stance sole;
-- **the swing** lasts the clip's median swing time, at most ``max_swing`` sqrt(L/g) s;
-- everything else -- the swing foot's placement with the inverted-pendulum correction on the velocity
-  error (SIMBICON's c_v, sagittal and coronal), the stance legs' virtual wrench (gravity, root position
-  and attitude through J^T), the legs' reach, the speed -- is the planned gait's.
+- **the root is free**: walking, the IK's root is where the body is (the stance leg holds the root's
+  height and attitude; the stance legs' virtual wrench adds gravity compensation and a velocity PD toward
+  the wanted speed), so the body moves like a pendulum over its stance foot;
+- **the swing foot lands at the capture point** its stance foot p lets the centre of mass reach by
+  touch-down, xi_T = p + (xi - p) e^(w t_left), xi = c + v/w, w = sqrt(g/h) (h: the centre of mass's
+  height), less the offsets of a steady walk at the wanted speed v_d with steps of T s and feet W
+  apart: v_d T / (e^(wT) - 1) behind it and W / (e^(wT) + 1) out to the leg's side;
+- **before the first step** the body moves ``pre_shift`` of the way over its first stance sole;
+- **a stance ankle's torque** is held to ``ankle_cap`` x the body's weight x the sole's half size;
+- **the clock**: the clip's median swing, at most ``max_swing`` sqrt(L/g), and a double support of
+  ``double_support`` sqrt(L/g); the speed the planned gait's, held by the legs' reach.
 
-Every length is scaled by the standing root height L and every time by sqrt(L/g): no per-clip settings.
+Every length is scaled by the standing root height L and every time by sqrt(L/g) (:class:`BipedGaitConfig`,
+which also holds the planned gait's settings that differ on two legs): no per-clip settings, no joint
+names.
 """
 
 from __future__ import annotations
@@ -50,14 +56,6 @@ class BipedGaitConfig:
     #: ``start_s`` sqrt(L/g) s (or the planned gait's settle_s, the longer)
     pre_shift: float = field(default=0.3, metadata={"min": 0.0, "max": 1.0})
     start_s: float = field(default=3.0, metadata={"min": 0.0})
-    #: share of the swing at which the swing foot is over its landing point (then it comes down)
-    swing_arrive: float = field(default=1.0, metadata={"gt": 0.0, "max": 1.0})
-    #: a swing foot lands at least this share of the neutral stance's width out from the stance foot
-    min_width: float = field(default=0.0, metadata={"min": 0.0})
-    #: the swing foot lands this x (v - v_d) / w further along the walk (v: the centre of mass's speed)
-    speed_feedback: float = field(default=0.0, metadata={"min": 0.0})
-    #: the swing foot lands this x the cycle-averaged sideways velocity / w further out to that side
-    drift_feedback: float = field(default=0.0, metadata={"min": 0.0})
     # ---- the planned gait's settings that differ on two legs (CreatureBalanceConfig's, for bipeds)
     #: root height as a fraction of the clip's: bent legs reach sideways (straight ones cannot follow
     #: the body off their foot)
@@ -88,7 +86,6 @@ class CreatureBipedController(CreatureGaitController):
                  cfg: CreatureControlConfig | None = None, balance: CreatureBalanceConfig | None = None,
                  biped: BipedGaitConfig | None = None) -> None:
         self.biped = biped or BipedGaitConfig()
-        self.swing_arrive = self.biped.swing_arrive
         b = self.biped
         balance = replace(balance or CreatureBalanceConfig(), height_fraction=b.height_fraction,
                           posture_pull=b.posture_pull, step_height=b.step_height, speed_fraction=b.speed_fraction,
@@ -161,13 +158,10 @@ class CreatureBipedController(CreatureGaitController):
 
     # ------------------------------------------------------------------ balance: the capture point
     def _body_velocity(self, data: mujoco.MjData) -> FloatArray:
-        """The centre of mass's horizontal velocity (m/s, world): a bird's swinging leg is a third of it.
-        Also keeps its average over a gait cycle (``_v_cycle``, a first-order filter)."""
+        """The centre of mass's horizontal velocity (m/s, world): a swinging leg moves it against the root."""
         com = data.subtree_com[self.root_body][0:2].copy()
         prev, self._com_prev = self._com_prev, com
-        v = np.zeros(2) if prev is None else (com - prev) / self._dt_plan
-        self._v_cycle += min(1.0, self._dt_plan / self.period) * (v - self._v_cycle)
-        return v
+        return np.zeros(2) if prev is None else (com - prev) / self._dt_plan
 
     def _plan_root(self, t: float, data: mujoco.MjData, feet: FloatArray, swinging: list[int]) -> FloatArray:
         """Walking, the root goes where its pendulum takes it (the stance leg holds its height and
@@ -194,15 +188,6 @@ class CreatureBipedController(CreatureGaitController):
         side = np.array([-self._dir[1], self._dir[0]]) * self._side[i]
         v_d = self._speed_at(t)
         p = xi_t - v_d * self._step_s / (grow - 1.0) * self._dir + self._width / (grow + 1.0) * side
-        # SIMBICON's c_v on the velocity averaged over a cycle (the sway cancelled): a body faster than
-        # wanted steps further ahead to brake, one drifting sideways steps out to that side
-        left = np.array([-self._dir[1], self._dir[0]])
-        p += self.biped.speed_feedback / w * (float(self._v_cycle @ self._dir) - v_d) * self._dir
-        p += self.biped.drift_feedback / w * float(self._v_cycle @ left) * left
-        # never across the stance foot: at least min_width x the stance's width out to the leg's side
-        out = float((p - stance) @ side)
-        if out < self.biped.min_width * self._width:
-            p += (self.biped.min_width * self._width - out) * side
         step = p - stance
         cap = self.bal.max_placement * self.leg_height
         size = float(np.linalg.norm(step))
@@ -218,7 +203,6 @@ class CreatureBipedController(CreatureGaitController):
         self._side = np.sign(across)  # each leg's side (heading frame: +1 left)
         self._width = float(np.ptp(self.neutral_feet[:, 1]))
         self._pre_shift = np.zeros(2)
-        self._v_cycle = np.zeros(2)
         super().reset(data, frame, t)
         # before the first lift the body moves sideways over its first stance sole (pre_shift of the way):
         # from between the feet, the first swing would fall toward the lifted leg
@@ -228,7 +212,6 @@ class CreatureBipedController(CreatureGaitController):
         mid = 0.5 * (self._planted[0][0:2] + self._planted[1][0:2])
         self._pre_shift = self.biped.pre_shift * float((self._planted[stance][0:2] - mid) @ side) * side
         self._com_prev = None  # the reset posed the body: measure from here
-        self._v_cycle = np.zeros(2)
         self._v_filt = np.zeros(2)
 
     def _ankles(self) -> None:
@@ -242,7 +225,8 @@ class CreatureBipedController(CreatureGaitController):
             body = int(m.site_bodyid[self._site_ids[i]]) if name else -1
             k = ball_of.get(body)
             self._ankle_acts.append(None if k is None else self.acts[k])
-            box = [g for g in range(m.ngeom) if m.geom_bodyid[g] == body and m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
+            box = [g for g in range(m.ngeom)
+                   if m.geom_bodyid[g] == body and m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX]
             self._sole_half.append(float(min(m.geom_size[box[0]][0:2])) if box else 0.0)
 
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, dt: float) -> FloatArray:

@@ -74,9 +74,6 @@ def smoothstep(s: float) -> float:
 class CreatureGaitController(CreatureBalanceController):
     """The planned, quasi-static gait for any legged creature (see the module text)."""
 
-    #: share of its swing at which a swinging foot is over its landing point (it comes down after)
-    swing_arrive: float = 1.0
-
     def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
                  cfg: CreatureControlConfig | None = None, balance: CreatureBalanceConfig | None = None) -> None:
         super().__init__(model, plan, clip, cfg, balance)
@@ -122,21 +119,6 @@ class CreatureGaitController(CreatureBalanceController):
         clip, (a, b) = self.clip, self.loop
         return np.array([float(np.median(clip.qpos[a:b, 2] + rel[:, i, 2] - self.ref_low[a:b, i]))
                          if np.all(np.isfinite(self.ref_low[a:b, i])) else 0.0 for i in range(len(self.legs))])
-
-    def _support_shift(self, t: float, centroid: FloatArray, com_path: FloatArray) -> FloatArray:
-        """The centre of mass's wanted shift (m, world xy) from its path toward ``centroid``, the feet that
-        carry the next swing (sideways only, by ``lateral_only``): none on two legs (a line of two feet is
-        no support polygon)."""
-        if len(self.legs) <= 2:
-            return np.zeros(2)
-        want = self.bal.com_shift * (centroid - com_path)
-        side = np.array([-self._dir[1], self._dir[0]])
-        return (1.0 - self.bal.lateral_only) * want + self.bal.lateral_only * float(want @ side) * side
-
-    def _velocity_error(self, t: float) -> FloatArray:
-        """The body's horizontal velocity error (m/s, world) the swing foot's placement corrects: its
-        low-passed velocity less the path's."""
-        return self._v_filt - self._speed_at(t) * self._dir
 
     def _foot_attitude(self, i: int) -> FloatArray | None:
         """The world orientation leg ``i``'s foot site is aimed at by the IK; None: its position only."""
@@ -365,7 +347,8 @@ class CreatureGaitController(CreatureBalanceController):
         ahead = self._speed_at(t_land) * stance_t / 2.0 * self._dir
         p = self._foot_home(t_land, i)
         p[0:2] += ahead
-        shift = self.bal.step_placement / self.omega0 * self._velocity_error(t)
+        dv = self._v_filt - self._speed_at(t) * self._dir
+        shift = self.bal.step_placement / self.omega0 * dv
         cap = self.bal.max_placement * self.leg_height
         size = float(np.linalg.norm(shift))
         if size > cap:
@@ -422,15 +405,16 @@ class CreatureGaitController(CreatureBalanceController):
                 if self._lift[i] is None:
                     self._lift[i] = self._planted[i].copy()
                 p0, p1 = self._lift[i], self._landing(t, i, data)
-                e = smoothstep(s / self.swing_arrive)
+                e = smoothstep(s)
                 feet[i] = p0 + e * (p1 - p0)
                 feet[i, 2] = self.site_ground[i] + self.bal.step_height * self.leg_height * math.sin(math.pi * s)
                 swinging.append(i)
         return feet, swinging
 
     def _plan_root(self, t: float, data: mujoco.MjData, feet: FloatArray, swinging: list[int]) -> FloatArray:
-        """The root's target (m, world xy): on the path, shifted by :meth:`_support_shift` toward the feet
-        that carry the next swing."""
+        """The root's target (m, world xy): on the path, its centre of mass shifted toward the feet that
+        carry the next swing (sideways only, by ``lateral_only``; not on two legs: a line of two feet is
+        no support polygon)."""
         n = len(self.legs)
         # the centre of mass over the feet that carry the next swing
         nxt = self._next_swing(t)
@@ -438,7 +422,9 @@ class CreatureGaitController(CreatureBalanceController):
         centroid = np.mean([self._planted[i][0:2] if i not in swinging else feet[i, 0:2] for i in support], axis=0)
         path = self._root_path(t)
         com_path = path + (self._heading_rot() @ self.neutral_com)[0:2]
-        want = self._support_shift(t, centroid, com_path)
+        want = self.bal.com_shift * (centroid - com_path) if n > 2 else np.zeros(2)
+        side = np.array([-self._dir[1], self._dir[0]])
+        want = (1.0 - self.bal.lateral_only) * want + self.bal.lateral_only * float(want @ side) * side
         a = min(1.0, self._dt_plan / max(self.bal.shift_time_s, 1e-6))
         self._shift += a * (want - self._shift)
         return path + self._shift

@@ -204,6 +204,8 @@ class CreatureBipedController(CreatureGaitController):
         self._width = float(np.ptp(self.neutral_feet[:, 1]))
         self._pre_shift = np.zeros(2)
         super().reset(data, frame, t)
+        if self.cfg.support:  # held by its root: no walk
+            return
         # before the first lift the body moves sideways over its first stance sole (pre_shift of the way):
         # from between the feet, the first swing would fall toward the lifted leg
         self._t_walk = t + max(self.bal.settle_s, self.biped.start_s / self.omega0)

@@ -100,6 +100,13 @@ class CreatureBipedController(CreatureGaitController):
         base = super()._foot_sites()
         return [self.model.site(s).id if s else base[i] for i, s in enumerate(self._sole_names)]
 
+    def _held_feet(self, i: int) -> tuple[str, ...]:
+        """A sole is kept flat by its own joint (the ankle): the IK turns it; toes below it stay held."""
+        if not self._sole_names[i]:
+            return super()._held_feet(i)
+        seg = self.model.body(int(self.model.site_bodyid[self.model.site(self._sole_names[i]).id])).name
+        return tuple(f for f in self.legs[i].feet if f != seg)
+
     def _site_heights(self, rel: FloatArray) -> FloatArray:
         """A sole site lies on the floor when its foot stands."""
         base = super()._site_heights(rel)

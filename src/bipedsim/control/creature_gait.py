@@ -88,7 +88,8 @@ class CreatureGaitController(CreatureBalanceController):
         # foot bent to reach is a foot folded under the load, and past its joint range)
         self.ik_dofs = []
         for i, leg in enumerate(self.legs):
-            foot_dofs = {int(model.body_dofadr[model.body(f).id]) + k for f in leg.feet for k in range(3)
+            held = self._held_feet(i)
+            foot_dofs = {int(model.body_dofadr[model.body(f).id]) + k for f in held for k in range(3)
                          if model.body_dofnum[model.body(f).id]}
             self.ik_dofs.append(np.array([v for v in self.leg_dofs[i] if v not in foot_dofs], dtype=np.int64))
         self._measure_gait()
@@ -112,6 +113,10 @@ class CreatureGaitController(CreatureBalanceController):
     def _foot_sites(self) -> list[int]:
         """The site each leg's foot is placed by: its first foot's touch site."""
         return [s[0] for s in self.leg_sites]
+
+    def _held_feet(self, i: int) -> tuple[str, ...]:
+        """The bodies of leg ``i`` whose own joints the IK leaves at the neutral pose: its feet."""
+        return self.legs[i].feet
 
     def _site_heights(self, rel: FloatArray) -> FloatArray:
         """Each foot site's height (m) when its foot stands: the median over the loop of the site above

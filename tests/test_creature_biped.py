@@ -21,8 +21,9 @@ from bipedsim.sim.runner import load_scenario
 FLAMINGO = SHARED_BVH / "animal" / "truebones_flamingo_walk_inplace.bvh"
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def flamingo():
+    """A fresh scenario per test: a controller changes its model's damping until ``restore_model``."""
     if not FLAMINGO.is_file():
         pytest.skip(f"shared BVH file not found: {FLAMINGO}")
     return load_scenario(bvh=FLAMINGO)

@@ -87,7 +87,7 @@ class CreatureGaitController(CreatureBalanceController):
         # IK turns the joints above the feet: a paw's or toe's own joint is held at its neutral pose (a
         # foot bent to reach is a foot folded under the load, and past its joint range)
         self.ik_dofs = []
-        for i, leg in enumerate(self.legs):
+        for i in range(len(self.legs)):
             held = self._held_feet(i)
             foot_dofs = {int(model.body_dofadr[model.body(f).id]) + k for f in held for k in range(3)
                          if model.body_dofnum[model.body(f).id]}

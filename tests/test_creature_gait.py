@@ -173,8 +173,8 @@ def test_the_horse_walks_20_s_at_half_its_clip_speed() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 20 not met yet: the bred child and the flamingo (a biped on "
-                   "line feet: the planned gait is quasi-static) still fall")
+@pytest.mark.xfail(strict=True, reason="issue 20 not met yet: the bred child still falls (the flamingo walks: "
+                   "tests/test_creature_biped.py)")
 def test_issue_20_every_creature_walks_20_s() -> None:
     import tempfile
 

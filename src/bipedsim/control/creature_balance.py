@@ -158,7 +158,7 @@ FLIGHT_FRACTION = 0.1
 
 
 def geom_bottom(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> float:
-    """The lowest point (m, world z) of geom ``g`` as posed in ``data`` (spheres and capsules exactly,
+    """The lowest point (m, world z) of geom ``g`` as posed in ``data`` (spheres, capsules and boxes exactly,
     other shapes by their bounding sphere)."""
     z = float(data.geom_xpos[g][2])
     kind = model.geom_type[g]
@@ -166,6 +166,8 @@ def geom_bottom(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> float:
         return z - float(model.geom_size[g][0])
     if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:  # axis along the geom's local z, half-length size[1]
         return z - float(model.geom_size[g][0]) - abs(float(data.geom_xmat[g][8])) * float(model.geom_size[g][1])
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:  # its lowest corner: half sizes along the axes' vertical parts
+        return z - float(np.abs(data.geom_xmat[g][6:9]) @ model.geom_size[g])
     return z - float(model.geom_rbound[g])
 
 

@@ -44,6 +44,7 @@ from bipedsim.control.creature_balance import (
     geom_bottom,
 )
 from bipedsim.model.clip import ReferenceClip
+from bipedsim.model.creature import creature_legs
 from bipedsim.model.plan import BodyPlanSet
 
 #: a clip whose root travels slower than this (m/s, mean over the loop) walks in place
@@ -77,7 +78,7 @@ class CreatureGaitController(CreatureBalanceController):
                  cfg: CreatureControlConfig | None = None, balance: CreatureBalanceConfig | None = None) -> None:
         super().__init__(model, plan, clip, cfg, balance)
         self.ik_data = mujoco.MjData(model)
-        self._site_ids = [s[0] for s in self.leg_sites]
+        self._site_ids = self._foot_sites()
         ball_ids = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL]
         leg_dofs = set(np.concatenate(self.leg_dofs).tolist()) if self.legs else set()
         #: (qpos address, range less a 5 % margin) of each limited leg ball joint
@@ -86,8 +87,9 @@ class CreatureGaitController(CreatureBalanceController):
         # IK turns the joints above the feet: a paw's or toe's own joint is held at its neutral pose (a
         # foot bent to reach is a foot folded under the load, and past its joint range)
         self.ik_dofs = []
-        for i, leg in enumerate(self.legs):
-            foot_dofs = {int(model.body_dofadr[model.body(f).id]) + k for f in leg.feet for k in range(3)
+        for i in range(len(self.legs)):
+            held = self._held_feet(i)
+            foot_dofs = {int(model.body_dofadr[model.body(f).id]) + k for f in held for k in range(3)
                          if model.body_dofnum[model.body(f).id]}
             self.ik_dofs.append(np.array([v for v in self.leg_dofs[i] if v not in foot_dofs], dtype=np.int64))
         self._measure_gait()
@@ -106,6 +108,26 @@ class CreatureGaitController(CreatureBalanceController):
                 self.fwd = fwd / np.linalg.norm(fwd)
                 self._neutral_stance()
         self._measure_reach()
+
+    # ------------------------------------------------------------------ hooks (control/creature_biped.py)
+    def _foot_sites(self) -> list[int]:
+        """The site each leg's foot is placed by: its first foot's touch site."""
+        return [s[0] for s in self.leg_sites]
+
+    def _held_feet(self, i: int) -> tuple[str, ...]:
+        """The bodies of leg ``i`` whose own joints the IK leaves at the neutral pose: its feet."""
+        return self.legs[i].feet
+
+    def _site_heights(self, rel: FloatArray) -> FloatArray:
+        """Each foot site's height (m) when its foot stands: the median over the loop of the site above
+        its leg's lowest point (``rel``: (frames, legs, 3) sites relative to the root, heading frame)."""
+        clip, (a, b) = self.clip, self.loop
+        return np.array([float(np.median(clip.qpos[a:b, 2] + rel[:, i, 2] - self.ref_low[a:b, i]))
+                         if np.all(np.isfinite(self.ref_low[a:b, i])) else 0.0 for i in range(len(self.legs))])
+
+    def _foot_attitude(self, i: int) -> FloatArray | None:
+        """The world orientation leg ``i``'s foot site is aimed at by the IK; None: its position only."""
+        return None
 
     # ------------------------------------------------------------------ measured on the built body
     def _reach_error(self, shift: float, lift: float) -> FloatArray:
@@ -250,9 +272,7 @@ class CreatureGaitController(CreatureBalanceController):
         hip = np.array([d.xpos[model.body(leg.root).id] - root for leg in self.legs]).reshape(n, 3)
         self._hips = hip
         foot = rel.mean(axis=0)
-        self.site_ground = np.array([float(np.median(clip.qpos[a:b, 2] + rel[:, i, 2]
-                                                     - self.ref_low[a:b, i]))
-                                     if np.all(np.isfinite(self.ref_low[a:b, i])) else 0.0 for i in range(n)])
+        self.site_ground = self._site_heights(rel)
         # pairs of legs (left and right: each hip the nearest to the other's mirror image across the
         # hips' mid-line) stand symmetric about their hips' centre, at least stance_width x their hips'
         # half spacing apart, level with each other
@@ -348,16 +368,33 @@ class CreatureGaitController(CreatureBalanceController):
     def _plan(self, t: float, data: mujoco.MjData) -> FloatArray:
         """The target pose (qpos) at time ``t``: root from the path and the support shift, feet from the
         gait, legs by IK."""
-        n = len(self.legs)
         # the body's velocity, low-passed over a quarter swing, for the foot placement: a landing point
         # that jumps with every bounce makes the swing leg's IK target jump
         a_v = min(1.0, self._dt_plan / max(0.25 * self.swing_frac * self.period, 1e-6))
-        self._v_filt += a_v * (data.qvel[0:2] - self._v_filt)
+        self._v_filt += a_v * (self._body_velocity(data) - self._v_filt)
         if self.bal.path_follow_s > 0 and t > self._t_start:
             # the planned path drifts after the body (time constant path_follow_s): a body that lags or
             # strays is walked on from where it is, not pulled back by its stance legs like a spring
             lag = data.qpos[0:2] - (self._root_path(t) + self._shift)
             self._origin += min(1.0, self._dt_plan / self.bal.path_follow_s) * lag
+        feet, swinging = self._plan_feet(t, data)
+        q = self.neutral_q.copy()
+        q[0:2] = self._plan_root(t, data, feet, swinging)
+        q[2] = self.neutral_height + self._z_offset
+        q[3:7] = Rotation.from_matrix(self._heading_rot() @ self.neutral_att).as_quat(scalar_first=True)
+        q[self._leg_q] = self._ik_q[self._leg_q]
+        self._solve_ik(q, feet)
+        self._feet_target = feet
+        return q
+
+    def _body_velocity(self, data: mujoco.MjData) -> FloatArray:
+        """The body's horizontal velocity (m/s, world) the foot placement reads: the root's."""
+        return data.qvel[0:2]
+
+    def _plan_feet(self, t: float, data: mujoco.MjData) -> tuple[FloatArray, list[int]]:
+        """Each foot's target (m, world) at time ``t`` and the legs in swing: a stance foot where it
+        landed, a swinging one on its way from lift-off to :meth:`_landing`, lifted on a sine."""
+        n = len(self.legs)
         feet = np.zeros((n, 3))
         swinging = []
         for i in range(n):
@@ -377,6 +414,13 @@ class CreatureGaitController(CreatureBalanceController):
                 feet[i] = p0 + e * (p1 - p0)
                 feet[i, 2] = self.site_ground[i] + self.bal.step_height * self.leg_height * math.sin(math.pi * s)
                 swinging.append(i)
+        return feet, swinging
+
+    def _plan_root(self, t: float, data: mujoco.MjData, feet: FloatArray, swinging: list[int]) -> FloatArray:
+        """The root's target (m, world xy): on the path, its centre of mass shifted toward the feet that
+        carry the next swing (sideways only, by ``lateral_only``; not on two legs: a line of two feet is
+        no support polygon)."""
+        n = len(self.legs)
         # the centre of mass over the feet that carry the next swing
         nxt = self._next_swing(t)
         support = [i for i in range(n) if i != nxt] or list(range(n))
@@ -388,14 +432,7 @@ class CreatureGaitController(CreatureBalanceController):
         want = (1.0 - self.bal.lateral_only) * want + self.bal.lateral_only * float(want @ side) * side
         a = min(1.0, self._dt_plan / max(self.bal.shift_time_s, 1e-6))
         self._shift += a * (want - self._shift)
-        q = self.neutral_q.copy()
-        q[0:2] = path + self._shift
-        q[2] = self.neutral_height + self._z_offset
-        q[3:7] = Rotation.from_matrix(self._heading_rot() @ self.neutral_att).as_quat(scalar_first=True)
-        q[self._leg_q] = self._ik_q[self._leg_q]
-        self._solve_ik(q, feet)
-        self._feet_target = feet
-        return q
+        return path + self._shift
 
     def _next_swing(self, t: float) -> int:
         """The leg swinging now, or the next to lift off."""
@@ -416,7 +453,7 @@ class CreatureGaitController(CreatureBalanceController):
         least squares over the leg's DOFs, pulled toward the neutral leg pose in the null space."""
         m, d = self.model, self.ik_data
         lam2 = (damping * self.leg_height) ** 2
-        jac = np.zeros((3, m.nv))
+        jac, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
         for _ in range(iters):
             d.qpos[:] = q
             mujoco.mj_kinematics(m, d)
@@ -426,9 +463,15 @@ class CreatureGaitController(CreatureBalanceController):
             mujoco.mj_differentiatePos(m, diff, 1.0, q, self.neutral_q)
             for i, dofs in enumerate(self.ik_dofs):
                 err = feet[i] - d.site_xpos[self._site_ids[i]]
-                mujoco.mj_jacSite(m, d, jac, None, self._site_ids[i])
+                mujoco.mj_jacSite(m, d, jac, jacr, self._site_ids[i])
                 j = jac[:, dofs]
-                inv = np.linalg.solve(j @ j.T + lam2 * np.eye(3), np.eye(3))
+                att = self._foot_attitude(i)
+                if att is not None:  # the foot's attitude too, its radians weighed as leg_height m
+                    cur = d.site_xmat[self._site_ids[i]].reshape(3, 3)
+                    rot = Rotation.from_matrix(att @ cur.T).as_rotvec()
+                    err = np.concatenate([err, self.leg_height * rot])
+                    j = np.vstack([j, self.leg_height * jacr[:, dofs]])
+                inv = np.linalg.solve(j @ j.T + lam2 * np.eye(len(err)), np.eye(len(err)))
                 step = j.T @ inv @ err
                 null = diff[dofs] - j.T @ inv @ (j @ diff[dofs])
                 dq[dofs] = step + self.bal.posture_pull * null
@@ -590,6 +633,10 @@ class CreatureGaitController(CreatureBalanceController):
         return out
 
 
+#: the planned gait's controller by number of legs, where one differs (``control/creature_biped.py``: two)
+GAITS_BY_LEGS: dict[int, type[CreatureGaitController]] = {}
+
+
 @register("creature")
 def make_creature_controller(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
                              cfg: CreatureControlConfig | None = None,
@@ -599,7 +646,8 @@ def make_creature_controller(model: mujoco.MjModel, plan: BodyPlanSet, clip: Ref
     balance = balance or CreatureBalanceConfig()
     if balance.gait == "clip":
         return CreatureBalanceController(model, plan, clip, cfg, balance)
-    return CreatureGaitController(model, plan, clip, cfg, balance)
+    gait = GAITS_BY_LEGS.get(len(creature_legs(plan)), CreatureGaitController)
+    return gait(model, plan, clip, cfg, balance)
 
 
-__all__ = ["CreatureGaitController", "make_creature_controller"]
+__all__ = ["GAITS_BY_LEGS", "CreatureGaitController", "make_creature_controller"]

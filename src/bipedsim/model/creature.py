@@ -26,6 +26,7 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
 from bipedsim.model.creature_kind import MIN_LEG_JOINTS
+from bipedsim.model.creature_sole import add_soles, lighten_legs
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
 from bipedsim.model.profile import CreatureProfile
 from bipedsim.model.source import SourcePoints, motion_points, rest_points
@@ -58,20 +59,24 @@ def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float
     ranges = _ball_ranges(tree, moving, profile)
     feet = _feet(tree, moving)
     bodies = [_body(tree, j, ranges.get(j), j in feet, profile, size) for j in tree.kept]
+    legs = creature_legs(BodyPlanSet(name=name, profile="creature", bodies=bodies, heading_yaw=0.0, source_names=[],
+                                     sim={}))
+    lighten_legs(bodies, legs)  # two legs: at most a human's share of the mass (model/creature_sole.py)
     mass_of = {j: sum(g.mass for g in b.geoms) for j, b in zip(tree.kept, bodies)}
     target = total_mass if total_mass is not None else profile.total_mass
     scale = _scale_masses(bodies, mass_of, target)
     masses = {j: m * scale for j, m in mass_of.items()}
-    legs = creature_legs(BodyPlanSet(name=name, profile="creature", bodies=bodies, heading_yaw=0.0, source_names=[],
-                                     sim={}))
     _set_motors(bodies, tree, masses, profile, size, _leg_loads(bodies, tree, legs, sum(masses.values())))
     lift = _stand_on_floor(bodies)
+    body_source = {tree.names[j]: {sk.names[k] for k in range(sk.num_joints) if tree.body_of[k] == j}
+                   for j in tree.kept}
+    soles = add_soles(bodies, legs, moving, rest, body_source)  # two legs: flat feet (model/creature_sole.py)
     markers = {sk.names[j]: ["body", tree.names[j]] for j in tree.kept}
     return BodyPlanSet(name=name, profile="creature", bodies=bodies, heading_yaw=0.0,
                        source_names=list(sk.names), sim=asdict(profile.sim),
                        extra={"markers": markers, "merged": [sk.names[j] for j in range(sk.num_joints)
                                                              if tree.body_of[j] != j],
-                              "size_m": size, "rest_lift": lift})
+                              "size_m": size, "rest_lift": lift, "soles": soles})
 
 
 def _extent(rest: SourcePoints) -> float:

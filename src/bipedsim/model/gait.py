@@ -29,6 +29,7 @@ import yaml
 from scipy.ndimage import minimum_filter1d
 
 from bipedsim.errors import ConfigError
+from bipedsim.model.creature_kind import detect_body_kind
 from bipedsim.motion.conventions import foot_joints
 from bipedsim.motion.motion import Motion
 
@@ -191,11 +192,12 @@ HAND_DOUBLE_SUPPORT = 0.15
 IN_PLACE_SPEED_FRACTION = 0.05
 
 
-def in_place(motion: Motion) -> bool:
+def in_place(motion: Motion, feet: list[int] | None = None) -> bool:
     """Whether ``motion`` (project frame: m, Z up) steps without travelling: its root (the travelling
     joint, :meth:`Motion.travel`) moves less than :data:`IN_PLACE_SPEED_FRACTION` of the speed its
-    feet swing at (a treadmill walk, a game animation exported in place)."""
-    feet = foot_joints(motion.skeleton.names)
+    feet swing at (a treadmill walk, a game animation exported in place). ``feet``: the foot joints'
+    indices (default: a human skeleton's, by name)."""
+    feet = foot_joints(motion.skeleton.names) if feet is None else feet
     if len(feet) < 2 or motion.num_frames < 3:
         return False
     dt = motion.frame_time
@@ -207,15 +209,15 @@ def in_place(motion: Motion) -> bool:
     return swing > 0 and travel < IN_PLACE_SPEED_FRACTION * swing
 
 
-def reconstruct_root(motion: Motion) -> Motion:
+def reconstruct_root(motion: Motion, feet: list[int] | None = None) -> Motion:
     """The motion with its horizontal root travel rebuilt from its feet: on every frame the root moves
     opposite to the horizontal velocity of the lowest foot joint (the one bearing the weight: a stance
     foot does not slide), integrated from the first frame. Speed cannot tell stance from swing here (in
     place, a stance foot moves back as fast as a swing foot moves forward); height can. ``motion`` in the
     project frame (m, Z up); the vertical stays as it is. Measured on shared walks with their translation
     removed: the rebuilt travel is 86-98 % of the original's (a rolling foot's lowest joint changes from
-    heel to toe), the path within 0.16-0.5 m of it."""
-    feet = foot_joints(motion.skeleton.names)
+    heel to toe), the path within 0.16-0.5 m of it. ``feet`` as for :func:`in_place`."""
+    feet = foot_joints(motion.skeleton.names) if feet is None else feet
     dt = motion.frame_time
     pos = smooth(motion.fk()[0][:, feet], dt)
     vel = np.gradient(pos[..., :2], dt, axis=0)  # (T, F, 2)
@@ -225,6 +227,23 @@ def reconstruct_root(motion: Motion) -> Motion:
     root = motion.root_translation.copy()
     root[:, :2] += path
     return motion.copy(root_translation=root)
+
+
+def creature_motion(motion: Motion, notes: list[str] | None = None) -> Motion:
+    """A creature's motion (project frame) with, for a walk in place (:func:`in_place`, its feet measured
+    from the skeleton: :func:`~bipedsim.model.creature_kind.detect_body_kind`), its root travel rebuilt
+    from the stance feet (:func:`reconstruct_root`): a bird walking on a treadmill slides its stance foot
+    back as fast as it would walk. What was done is appended to ``notes``."""
+    notes = notes if notes is not None else []
+    names = list(motion.skeleton.names)
+    feet = sorted({names.index(f.split("/")[0]) for _, fs in detect_body_kind(motion).legs for f in fs})
+    if not in_place(motion, feet):
+        return motion
+    out = reconstruct_root(motion, feet)
+    root = out.travel()[:, :2]
+    notes.append(f"walks in place: root travel rebuilt from the stance feet "
+                 f"({np.linalg.norm(root[-1] - root[0]):.2f} m in {out.duration:.2f} s)")
+    return out
 
 
 def humanoid_motion(motion: Motion, notes: list[str] | None = None) -> Motion:

@@ -19,7 +19,7 @@ from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature_kind import AUTO, resolve_profile
 from bipedsim.model.feasible import feasible_clip, infeasible_because, measure
-from bipedsim.model.gait import humanoid_motion
+from bipedsim.model.gait import creature_motion, humanoid_motion
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout
@@ -96,6 +96,8 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
         profile = resolve_profile(motion, profile, support=support, source=str(bvh))
         if profile == "humanoid":  # a rest pose that is no standing body re-posed (model.gait)
             motion = humanoid_motion(raw, info.notes)
+        elif not support:  # a creature walking in place: its travel rebuilt from its feet (model.gait)
+            motion = creature_motion(motion, info.notes)
     if profile == "creature" and config is not None:
         raise ConfigError("a controller YAML configures the humanoid's balance controller; a creature is "
                           "tracked by its own (give --support for root support)", key="config")

@@ -92,6 +92,11 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
         raw, info = read_bvh(bvh, scale=scale, up=up, positions=positions)
         motion = raw.to_project_frame()
         profile = resolve_profile(motion, profile, support=support, source=str(bvh))
+        if profile == "creature" and info.unit_source == "guessed" and info.upright:
+            # the unit was guessed from a human's height: a creature's is from its largest extent (a
+            # bred dog x horse, its head up, was read as a 1.3 m human in inches: 2.54 x too large)
+            raw, info = read_bvh(bvh, up=up, positions=positions, upright=False)
+            motion = raw.to_project_frame()
         if profile == "humanoid":  # a rest pose that is no standing body re-posed (model.gait)
             motion = humanoid_motion(raw, info.notes)
     if profile == "creature" and config is not None:

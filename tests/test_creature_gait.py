@@ -188,3 +188,50 @@ def test_issue_20_every_creature_walks_20_s() -> None:
         assert out.outcome == "no_fall", path
         if ctrl.clip_speed >= 0.1:
             assert out.mean_speed_mps >= 0.5 * ctrl.clip_speed, path
+
+
+def _creature_yaml(tmp_path: Path, text: str) -> Path:
+    p = tmp_path / "creature.yaml"
+    p.write_text(text)
+    return p
+
+
+def test_creature_settings_come_from_the_controller_yaml(tmp_path: Path) -> None:
+    """The ``creature:`` section of a controller YAML reaches the creature controller (layered over the
+    dataclass defaults, the one source of them) and is recorded with the outcome; the shipped
+    default.yaml restates those defaults."""
+    from bipedsim.control.config import ControllerConfig, load_controller
+    from bipedsim.control.creature_config import CreatureControlConfig
+
+    assert load_controller(Path(__file__).resolve().parent.parent / "controllers" / "default.yaml").creature \
+        == CreatureControlConfig() == ControllerConfig().creature
+    p = _creature_yaml(tmp_path, "creature:\n  balance: {speed_fraction: 0.3, step_height: 0.1}\n")
+    sc = load_scenario(p, bvh=HORSE_WALK)
+    c = sc.controller()
+    assert isinstance(c, CreatureGaitController)
+    assert (c.bal.speed_fraction, c.bal.step_height) == (0.3, 0.1)
+    assert c.bal.swing_share == CreatureBalanceConfig().swing_share  # the rest: the defaults
+    assert c.v_des <= 0.3 * c.clip_speed + 1e-9
+    assert sc.controller_config()["balance"]["speed_fraction"] == 0.3
+    sc = load_scenario(_creature_yaml(tmp_path, "creature: {support: true}\n"), bvh=HORSE_WALK)
+    assert sc.creature_cfg.support and sc.fall_criteria() == sc.fall_criteria().for_body("creature", support=True)
+
+
+@pytest.mark.parametrize("text, key, words", [
+    ("creature:\n  balance: {speed_fractoin: 0.5}\n", "creature.balance.speed_fractoin",
+     "unknown key; allowed keys here: attitude_freq, body_freq"),
+    ("creature:\n  balance: {swing_share: 2}\n", "creature.balance.swing_share", "must be <= 1.0"),
+    ("creature:\n  balance: {gait: trot}\n", "creature.balance.gait", "must be one of ['planned', 'clip']"),
+    ("creature: {wings: 2}\n", "creature.wings", "balance, loop, support, support_kd, support_kp"),
+])
+def test_bad_creature_settings_are_refused(tmp_path: Path, text: str, key: str, words: str, capsys) -> None:
+    from bipedsim.cli import main
+    from bipedsim.control.config import load_controller
+    from bipedsim.errors import ConfigError
+
+    p = _creature_yaml(tmp_path, text)
+    with pytest.raises(ConfigError) as exc:
+        load_controller(p)
+    assert str(p) in str(exc.value) and key in str(exc.value) and words in str(exc.value)
+    assert main(["run", str(p), "--bvh", str(HORSE_WALK), "--seconds", "0.1", "--out", str(tmp_path / "o")]) == 2
+    assert key in capsys.readouterr().err

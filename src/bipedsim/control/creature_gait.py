@@ -596,7 +596,7 @@ def make_creature_controller(model: mujoco.MjModel, plan: BodyPlanSet, clip: Ref
                              balance: CreatureBalanceConfig | None = None) -> CreatureBalanceController:
     """The creature's controller: the planned gait (``gait: planned``, the default) or the clip-timed
     balance of :class:`~bipedsim.control.creature_balance.CreatureBalanceController` (``gait: clip``)."""
-    balance = balance or CreatureBalanceConfig()
+    balance = balance or (cfg or CreatureControlConfig()).balance
     if balance.gait == "clip":
         return CreatureBalanceController(model, plan, clip, cfg, balance)
     return CreatureGaitController(model, plan, clip, cfg, balance)

@@ -78,7 +78,8 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
                   events: str | os.PathLike[str] | None = None) -> Scenario:
     """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
     retargeted onto it (``auto``: the kind measured from the skeleton, :func:`resolve_profile`). A
-    controller YAML configures the humanoid's controller; ``support`` (root support) is a creature's."""
+    controller YAML configures the humanoid's controller, its ``creature:`` section a creature's;
+    ``support`` (root support, or the section's ``support``) is a creature's."""
     from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
     from bipedsim.motion.bvh import read_bvh
 
@@ -99,9 +100,6 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
             motion = raw.to_project_frame()
         if profile == "humanoid":  # a rest pose that is no standing body re-posed (model.gait)
             motion = humanoid_motion(raw, info.notes)
-    if profile == "creature" and config is not None:
-        raise ConfigError("a controller YAML configures the humanoid's balance controller; a creature is "
-                          "tracked by its own (give --support for root support)", key="config")
     if profile != "creature" and support:
         raise ConfigError("root support holds a creature's root; it needs the creature profile", key="support")
     if profile == "creature" and bvh is None:
@@ -128,7 +126,7 @@ def load_scenario(config: str | os.PathLike[str] | None = None, bvh: str | os.Pa
             extra["feasible"] = why
     return Scenario(built=built, clip=clip, cfg=cfg, source_path=src,
                     config_path=None if config is None else str(config), motion=motion, bvh_info=info,
-                    extra=extra, creature_cfg=CreatureControlConfig(support=support))
+                    extra=extra, creature_cfg=replace(cfg.creature, support=support or cfg.creature.support))
 
 
 def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, before_step: list | None = None,

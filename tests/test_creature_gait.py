@@ -235,3 +235,48 @@ def test_bad_creature_settings_are_refused(tmp_path: Path, text: str, key: str, 
     assert str(p) in str(exc.value) and key in str(exc.value) and words in str(exc.value)
     assert main(["run", str(p), "--bvh", str(HORSE_WALK), "--seconds", "0.1", "--out", str(tmp_path / "o")]) == 2
     assert key in capsys.readouterr().err
+
+
+def test_zmp_limited_keeps_the_zero_moment_point_over_the_feet() -> None:
+    """The horizontal virtual force is only scaled down (never turned), and the zero-moment point it
+    implies, com_xy - h f / weight, lies inside the feet's polygon; a force whose point is inside is
+    kept; fewer than three feet leave it as it is."""
+    from scipy.spatial import Delaunay
+
+    from bipedsim.control.creature_gait import zmp_limited
+
+    feet = np.array([[0.3, 0.1, 0.0], [0.3, -0.1, 0.0], [-0.3, 0.1, 0.0], [-0.3, -0.1, 0.0]])
+    com, weight = np.array([0.05, 0.0, 0.5]), 100.0
+    rng = np.random.default_rng(0)
+    hull = Delaunay(feet[:, 0:2])
+    for _ in range(200):
+        f = rng.normal(0.0, 80.0, 2)
+        g = zmp_limited(f, com, feet, weight)
+        scale = float(g @ f / (f @ f))
+        assert -1e-12 <= scale <= 1.0 + 1e-12 and np.allclose(g, scale * f)
+        zmp = com[0:2] - com[2] * g / weight
+        assert hull.find_simplex(zmp + 1e-9 * (com[0:2] - zmp)) >= 0
+        if hull.find_simplex(com[0:2] - com[2] * f / weight) >= 0:
+            assert np.allclose(g, f)
+    small = np.array([10.0, 0.0])  # zmp 5 cm behind the centre of mass: inside
+    assert np.allclose(zmp_limited(small, com, feet, weight), small)
+    assert np.allclose(zmp_limited(np.array([0.0, 40.0]), com, feet, weight), [0.0, 20.0])  # edge at y = -0.1
+    assert np.allclose(zmp_limited(np.array([0.0, 40.0]), com, feet[:2], weight), [0.0, 40.0])
+
+
+def test_centred_sweep_stays_inside_each_legs_reach() -> None:
+    """With ``centre_sweep`` each leg's reach ahead and behind is measured apart; the sweep is the
+    narrowest leg's interval and each foot's neutral place moves so its sweep (+-reach) lies inside its
+    own interval: every foot still reaches +-reach from its new place. Without it the sweep is the
+    shortest reach of any leg in either direction (the horse: its left hind leg reaches 0.2 x its root
+    height ahead, farther behind)."""
+    from bipedsim.control import creature_gait as cg
+
+    _, plain = _gait(HORSE_WALK)
+    _, c = _gait(HORSE_WALK, centre_sweep=True)
+    tol = cg.REACH_TOL * c.leg_height
+    assert c.reach >= plain.reach
+    assert np.isclose(c.reach, float((c.reach_ahead + c.reach_behind).min()) / 2)
+    moved = c.neutral_feet[:, 0] - plain.neutral_feet[:, 0]
+    assert np.all(moved + c.reach <= c.reach_ahead + 1e-9) and np.all(moved - c.reach >= -c.reach_behind - 1e-9)
+    assert c._reach_error(c.reach, 0.0).max() <= tol and c._reach_error(-c.reach, 0.0).max() <= tol

@@ -61,6 +61,14 @@ class CreatureBalanceConfig:
     lateral_only: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
     #: swing-foot placement of the planned gait per (m/s) of velocity error, in units of sqrt(L/g) s
     step_placement: float = field(default=1.0, metadata={"min": 0.0})
+    #: the body's horizontal virtual force held to what the planned support can carry: the zero-moment
+    #: point it implies (the centre of mass's ground point less height x force / weight) stays inside
+    #: the stance feet's polygon (a force that stops a pushed body faster tips it over the feet)
+    zmp_limit: bool = False
+    #: each foot's stance sweep centred in the reach of its own leg (ahead and behind measured apart,
+    #: a hind leg that reaches little ahead steps further back), the sweep the narrowest leg's; off:
+    #: the sweep is +-(the shortest reach of any leg in either direction)
+    centre_sweep: bool = False
     #: the planned gait's body PD (root position and velocity) natural frequency, x sqrt(g/L)
     body_freq: float = field(default=2.0, metadata={"min": 0.0})
     #: a swinging leg's joint stiffness as a share of its stance stiffness (damping x its square root)

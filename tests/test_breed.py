@@ -259,3 +259,26 @@ def test_rest_alignment_keeps_every_point_where_it_was() -> None:
         da = ra[h.skeleton.index(low)] - ra[h.skeleton.index(top)]
         db = rb[q.skeleton.index(low)] - rb[q.skeleton.index(top)]
         assert np.dot(da, db) / np.linalg.norm(da) / np.linalg.norm(db) > 0.999
+
+
+def test_bred_child_is_read_back_at_its_parents_size_and_speed(tmp_path: Path) -> None:
+    """Issue 20: the child of the shared dog and the horse travels as its first parent does (its root
+    translation is the dog's, in metres, on the dog's bones). Written in centimetres and read back
+    without flags, its head up made it 'upright' by its extents and its unit was guessed from a human's
+    height: inches, the whole child 2.54 x too large (1.37 m root height, 2.83 m/s). A body measured as
+    a creature has its unit guessed from its largest extent: centimetres, the dog's size and speed."""
+    from bipedsim.breed.files import breed_files
+    from bipedsim.sim.runner import load_scenario
+
+    need_shared()
+    dog_path = SHARED_BVH / "animal" / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
+    out = tmp_path / "child.bvh"
+    breed_files(dog_path, HORSE_WALK, out, mutations=0)
+    sc = load_scenario(bvh=out)
+    assert (sc.profile, sc.bvh_info.unit_name) == ("creature", "cm")
+    dog = load_bvh(dog_path).to_project_frame()
+    child = sc.motion
+    np.testing.assert_allclose(child.root_translation[:, :2], dog.root_translation[:, :2], atol=1e-4)
+    # the child's root stands at about the dog's height (the blend lifts the horse's neck, not the hips)
+    ratio = np.median(child.root_translation[:, 2]) / np.median(dog.root_translation[:, 2])
+    assert 0.7 < ratio < 1.3

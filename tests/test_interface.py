@@ -115,7 +115,6 @@ def test_humanoid_controller_is_the_simbicon_one(walk) -> None:
 
 @pytest.mark.parametrize("kwargs,words", [
     ({"profile": "creature"}, "needs a motion"),
-    ({"profile": "creature", "bvh": HORSE_WALK, "config": "x.yaml"}, "configures the humanoid"),
     ({"support": True}, "needs the creature profile"),
     ({"profile": "bird"}, "unknown body profile"),
 ])

@@ -248,8 +248,6 @@ FLAG_CASES = [
     (["run", "--speed", "nan"], ["--speed"]),
     (["render", "RUN", "--fps", "inf"], ["--fps"]),
     (["render", "RUN", "--cam-distance", "0"], ["--cam-distance"]),
-    (["run", str(Path(__file__).resolve().parent.parent / "controllers" / "default.yaml"), "--profile", "creature",
-      "--bvh", WALK], ["config", "configures the humanoid"]),
     (["run", "--profile", "creature", "--bvh", WALK, "--push", "100:0:0.1:s2.5", "--seconds", "3"],
      ["push.state", "no gait states"]),
 ]

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from bipedsim import config
+from bipedsim.control.creature_config import CreatureControlConfig
 from bipedsim.errors import ConfigError
 from bipedsim.model.feasible import FeasibleConfig
 
@@ -346,6 +347,9 @@ class ControllerConfig:
     #: the reference made feasible for the built body before tracking (model/feasible.py)
     reference: FeasibleConfig = field(default_factory=FeasibleConfig)
     pose_gait: PoseGait = field(default_factory=PoseGait)
+    #: a creature's controller (control/creature_gait.py): used instead of the sections above when the
+    #: body is a creature
+    creature: CreatureControlConfig = field(default_factory=CreatureControlConfig)
 
     def validate(self) -> None:
         from bipedsim.model.profile import JOINT_GROUPS

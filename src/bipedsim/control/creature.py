@@ -16,26 +16,14 @@ torque are reported in :meth:`CreatureController.metrics`. It acts through ``qfr
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import mujoco
 import numpy as np
 
 from bipedsim.control.base import Controller, FloatArray
+from bipedsim.control.creature_config import CreatureControlConfig
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
-
-
-@dataclass(frozen=True)
-class CreatureControlConfig:
-    """Gains of the root support (per kg of body mass: N/m, N*s/m for the position; the rotation's
-    are a tenth of these, N*m/rad and N*m*s/rad per kg) and whether the clip loops."""
-
-    support: bool = False
-    support_kp: float = field(default=20.0, metadata={"min": 0.0})
-    support_kd: float = field(default=2.0, metadata={"min": 0.0})
-    loop: bool = True
 
 
 def quat_error_rotvecs(q: FloatArray, qd: FloatArray) -> FloatArray:

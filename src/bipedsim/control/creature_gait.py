@@ -32,6 +32,7 @@ import math
 
 import mujoco
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray, register
@@ -64,6 +65,28 @@ def _heading(r: FloatArray, fwd: FloatArray) -> float:
     """The heading (rad about world Z) of body axis ``fwd`` (root frame) under root rotation ``r``."""
     d = r @ fwd
     return math.atan2(d[1], d[0])
+
+
+def zmp_limited(force_h: FloatArray, com: FloatArray, feet: FloatArray, weight: float) -> FloatArray:
+    """The horizontal force ``force_h`` (N, world) on a body of ``weight`` (N) with its centre of mass
+    at ``com`` (m, world), scaled down (never turned) so the zero-moment point it implies,
+    com_xy - h force_h / weight (h: the centre of mass's height over the feet), stays inside the convex
+    hull of ``feet`` (k, 3; m, world). Fewer than three feet, or feet in a line, leave it as it is."""
+    if len(feet) < 3:
+        return force_h
+    try:
+        hull = ConvexHull(feet[:, 0:2])
+    except QhullError:
+        return force_h
+    h = float(com[2] - feet[:, 2].mean())
+    u = -h * np.asarray(force_h) / weight
+    alpha = 1.0
+    for nx, ny, off in hull.equations:  # n . x + off <= 0 inside
+        inside = -(nx * com[0] + ny * com[1] + off)
+        out = nx * u[0] + ny * u[1]
+        if out > 1e-12:
+            alpha = min(alpha, max(inside, 0.0) / out)
+    return alpha * np.asarray(force_h)
 
 
 def smoothstep(s: float) -> float:
@@ -144,35 +167,54 @@ class CreatureGaitController(CreatureBalanceController):
         return np.linalg.norm(got - feet, axis=1)
 
     def _measure_reach(self) -> None:
-        """The stride the legs reach by IK inside their joint ranges, measured
-        on the built body from the neutral stance; the gait plan is held to them (a clip's joint ranges
-        can leave a leg too little room for the planned step: the horse's hind hooves missed by 22 cm).
+        """The stride the legs reach by IK inside their joint ranges, measured on the built body from
+        the neutral stance; the gait plan is held to it (a clip's joint ranges can leave a leg too
+        little room for the planned step: the horse's hind hooves missed by 22 cm).
 
-        - ``self.reach``: the largest distance (m) every foot reaches both ahead of and behind its
-          neutral place on the floor (within REACH_TOL x the root height), in steps of REACH_STEP;
+        - ``self.reach_ahead`` / ``self.reach_behind`` (n,): how far (m) each foot reaches ahead of and
+          behind its neutral place on the floor (within REACH_TOL x the root height at every step of
+          REACH_STEP up to there; without ``centre_sweep`` the measure stops at the first miss of any
+          foot, so these are lower bounds);
+        - ``self.reach``: half the stance's sweep: the shortest of them all, or with ``centre_sweep``
+          half the narrowest leg's interval, each foot's neutral place then moved the least that puts
+          the sweep inside its own interval;
         - the stance's sweep, speed x stance time, is at most 2 x reach: the cycle is shortened, and
-          where the shortest swing does not allow that, the speed lowered."""
+          where the shortest swing does not allow that, the speed lowered (and held to the longest
+          stride, ``stride_fraction`` x the root height per cycle)."""
         n, b_ = len(self.legs), self.bal
         L = self.leg_height
         self.reach = math.inf
+        self.reach_ahead = self.reach_behind = np.zeros(n)
         if n == 0 or self.cfg.support:
             return
         tol = REACH_TOL * L
         saved = self._ik_q.copy()
-        self.reach = 0.0
+        reach = np.zeros((2, n))  # ahead, behind
+        going = np.ones((2, n), dtype=bool)
         for k in range(1, int(b_.stride_fraction / REACH_STEP) + 1):
             s = k * REACH_STEP * L
-            if max(self._reach_error(s, 0.0).max(), self._reach_error(-s, 0.0).max()) > tol:
+            for side, sign in enumerate((1.0, -1.0)):
+                if going[side].any():
+                    going[side] &= self._reach_error(sign * s, 0.0) <= tol
+                    reach[side, going[side]] = s
+            if not going.any() or not (b_.centre_sweep or going.all()):
                 break
-            self.reach = s
         self._ik_q[:] = saved
+        self.reach_ahead, self.reach_behind = reach
+        if b_.centre_sweep:
+            self.reach = float((reach[0] + reach[1]).min()) / 2.0
+            self.neutral_feet[:, 0] += np.clip(0.0, self.reach - reach[1], reach[0] - self.reach)
+        else:
+            self.reach = float(reach.min())
         if self.v_des > 0:
             stance = 1.0 - self.swing_frac
             self.period = min(self.period, max(2.0 * self.reach, 1e-6) / (stance * self.v_des))
             shortest = b_.min_swing_s / self.swing_frac
             if self.period < shortest:
+                # the shortest cycle: the speed held to the reach and to the longest stride
                 self.period = shortest
-                self.v_des = 2.0 * self.reach / (stance * shortest)
+                self.v_des = min(self.v_des, 2.0 * self.reach / (stance * shortest),
+                                 b_.stride_fraction * self.leg_height / shortest)
 
     # ------------------------------------------------------------------ measured from the clip
     def _measure_gait(self) -> None:
@@ -550,6 +592,9 @@ class CreatureGaitController(CreatureBalanceController):
         v_d = np.array([*(self._speed_at(t) * self._dir), 0.0])
         force = m * (w * w * (target[0:3] - data.qpos[0:3]) + 2 * b.damping_ratio * w * (v_d - data.qvel[0:3]))
         force[2] += m * b.gravity_comp * g
+        if b.zmp_limit:
+            support = np.array([self._planted[i] for i in range(len(self.legs)) if self._phase(t, i) < 0])
+            force[0:2] = zmp_limited(force[0:2], data.subtree_com[self.root_body], support, m * g)
         r = data.xmat[self.root_body].reshape(3, 3)
         r_d = Rotation.from_quat(target[3:7], scalar_first=True).as_matrix()
         err = Rotation.from_matrix(r_d @ r.T).as_rotvec()
@@ -643,7 +688,7 @@ def make_creature_controller(model: mujoco.MjModel, plan: BodyPlanSet, clip: Ref
                              balance: CreatureBalanceConfig | None = None) -> CreatureBalanceController:
     """The creature's controller: the planned gait (``gait: planned``, the default) or the clip-timed
     balance of :class:`~bipedsim.control.creature_balance.CreatureBalanceController` (``gait: clip``)."""
-    balance = balance or CreatureBalanceConfig()
+    balance = balance or (cfg or CreatureControlConfig()).balance
     if balance.gait == "clip":
         return CreatureBalanceController(model, plan, clip, cfg, balance)
     gait = GAITS_BY_LEGS.get(len(creature_legs(plan)), CreatureGaitController)

@@ -516,7 +516,8 @@ def _choose_reading(sk: Skeleton, frame_time: float, data: FloatArray, mode_opti
 
 
 def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
-             up: str | None = None, positions: str | None = None) -> tuple[Motion, BVHInfo]:
+             up: str | None = None, positions: str | None = None,
+             upright: bool | None = None) -> tuple[Motion, BVHInfo]:
     """Read a BVH file in its own units and axes.
 
     Args:
@@ -526,6 +527,9 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
         up: the file's up axis, ``"y"`` or ``"z"``; guessed when omitted.
         positions: ``"absolute"`` (position channels replace the OFFSET) or ``"offset"`` (added to it)
             for every joint with position channels; decided per joint when omitted.
+        upright: whether the body is a human-like upright one for the unit guess (its height in a
+            human's range) or not (its largest extent in a creature's); measured from the body's
+            extents when omitted (:func:`~bipedsim.motion.conventions.guess_unit`).
 
     The up axis and the position-channel modes are chosen together: every combination is read and
     scored for a plausible body (:func:`~bipedsim.motion.conventions.score_reading`: the hip at about a
@@ -563,7 +567,7 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
     info.up_reason = up_reason if up is None else "given by the caller"
     info.reading_note = note
     pos_s, pts = _sample_points(motion)
-    ug = guess_unit(pts, info.up)
+    ug = guess_unit(pts, info.up, upright)
     info.upright = ug.upright
     if scale is None:
         info.unit_name, info.unit_scale, info.unit_source, info.unit_reason = ug.name, ug.scale, "guessed", ug.reason

@@ -118,15 +118,18 @@ def body_extent(positions: npt.NDArray[np.float64], up: str) -> tuple[float, flo
     return float(np.median(span[:, u])), float(np.median(h))
 
 
-def guess_unit(positions: npt.NDArray[np.float64], up: str) -> UnitGuess:
+def guess_unit(positions: npt.NDArray[np.float64], up: str, upright: bool | None = None) -> UnitGuess:
     """Guess metres per file unit from the body's size (median over the given frames).
 
     An upright body (vertical extent >= ``UPRIGHT_RATIO`` x horizontal) is taken as human-like and its
     height must land in ``HUMAN_HEIGHT_RANGE_M``; any other body's largest extent must land in
     ``CREATURE_SIZE_RANGE_M``. Units are tried in ``UNIT_GUESS_ORDER``; the first that fits wins.
+    ``upright``: whether the body is a human-like upright one, when known otherwise (None: by the
+    extents; the ratio alone takes a quadruped with its head up for an upright body).
     """
     vert, horiz = body_extent(positions, up)
-    upright = vert >= UPRIGHT_RATIO * horiz
+    if upright is None:
+        upright = vert >= UPRIGHT_RATIO * horiz
     size = vert if upright else max(vert, horiz)
     lo, hi = HUMAN_HEIGHT_RANGE_M if upright else CREATURE_SIZE_RANGE_M
     what = "height" if upright else "size"

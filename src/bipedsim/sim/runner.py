@@ -79,8 +79,9 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
                   events: str | os.PathLike[str] | None = None) -> Scenario:
     """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
     retargeted onto it (``auto``: the kind measured from the skeleton, :func:`resolve_profile`). A
-    controller YAML (or its settings, a :class:`ControllerConfig`) configures the humanoid's controller
-    and how its reference is prepared (``reference:``); ``support`` (root support) is a creature's."""
+    controller YAML (or its settings, a :class:`ControllerConfig`) configures the humanoid's controller and
+    how its reference is prepared (``reference:``), its ``creature:`` section a creature's controller;
+    ``support`` (root support, or the section's ``support``) is a creature's."""
     from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
     from bipedsim.motion.bvh import read_bvh
 
@@ -89,23 +90,27 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
         raise ConfigError(f"unknown body profile {profile!r}; profiles: {', '.join(PROFILES)}", key="profile")
     if bvh is None and profile == AUTO:
         profile = "humanoid"  # the built-in walk
+    cfg = config if isinstance(config, ControllerConfig) else load_controller(config)
     motion = info = None
     if bvh is not None:
         raw, info = read_bvh(bvh, scale=scale, up=up, positions=positions)
         motion = raw.to_project_frame()
         profile = resolve_profile(motion, profile, support=support, source=str(bvh))
+        if profile == "creature" and info.unit_source == "guessed" and info.upright:
+            # the unit was guessed from a human's height: a creature's is from its largest extent (a
+            # bred dog x horse, its head up, was read as a 1.3 m human in inches: 2.54 x too large)
+            raw, info = read_bvh(bvh, up=up, positions=positions, upright=False)
+            motion = raw.to_project_frame()
+        if profile == "creature":
+            support = support or cfg.creature.support
         if profile == "humanoid":  # a rest pose that is no standing body re-posed (model.gait)
             motion = humanoid_motion(raw, info.notes)
         elif not support:  # a creature walking in place: its travel rebuilt from its feet (model.gait)
             motion = creature_motion(motion, info.notes)
-    if profile == "creature" and config is not None:
-        raise ConfigError("a controller YAML configures the humanoid's balance controller; a creature is "
-                          "tracked by its own (give --support for root support)", key="config")
     if profile != "creature" and support:
         raise ConfigError("root support holds a creature's root; it needs the creature profile", key="support")
     if profile == "creature" and bvh is None:
         raise ConfigError("the creature profile needs a motion: give a BVH (--bvh FILE)", key="profile")
-    cfg = config if isinstance(config, ControllerConfig) else load_controller(config)
     if bvh is None:
         raw, info = read_bvh(BUILTIN_WALK)
         motion = raw.to_project_frame()
@@ -127,7 +132,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
             extra["feasible"] = why
     config_path = None if config is None or isinstance(config, ControllerConfig) else str(config)
     return Scenario(built=built, clip=clip, cfg=cfg, source_path=src, config_path=config_path, motion=motion,
-                    bvh_info=info, extra=extra, creature_cfg=CreatureControlConfig(support=support))
+                    bvh_info=info, extra=extra, creature_cfg=replace(cfg.creature, support=support))
 
 
 def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, before_step: list | None = None,

@@ -387,8 +387,8 @@ def _write_best(tune: Tune, path: Path, values: dict[str, float], number: int, s
              f"{b['survived']}/{b['rollouts']} (start {s['survived']}/{s['rollouts']}).",
              "tuned: " + ", ".join(f"{k} {s['parameters'][k]:g} -> {v:.4g}" for k, v in values.items()) + "."]
     if tune.spec.profile == "creature":
-        lines.append("These are a creature controller's settings (CreatureControlConfig); `bipedsim run` takes "
-                     "only --support for a creature.")
+        lines.append("These are a creature controller's settings (CreatureControlConfig): under `creature:` in a "
+                     "controller file, bipedsim run FILE --bvh REFERENCE uses them.")
     else:
         lines.append("A complete controller file: bipedsim run best.yaml [--bvh REFERENCE].")
     header = "".join(f"# {line}\n" for line in lines)

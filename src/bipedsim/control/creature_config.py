@@ -1,0 +1,99 @@
+"""The creature controller's settings (one source of defaults), read from the ``creature:`` section of a
+controller YAML (:func:`~bipedsim.control.config.load_controller`): root support and the legged
+balance's dimensionless gains (scaled by the body's mass, size and gravity in the controllers).
+
+Kept apart from the controllers so the YAML loader can import them without importing the controllers."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class CreatureBalanceConfig:
+    """Dimensionless gains of the creature balance (scaled by mass, size and gravity)."""
+
+    #: height and attitude PD: natural frequency as a multiple of sqrt(g/L); damping ratio
+    height_freq: float = field(default=1.0, metadata={"gt": 0.0})
+    attitude_freq: float = field(default=2.0, metadata={"gt": 0.0})
+    damping_ratio: float = field(default=1.0, metadata={"min": 0.0})
+    #: share of the body weight carried by the virtual force (the rest by PD tracking)
+    gravity_comp: float = field(default=0.5, metadata={"min": 0.0, "max": 1.5})
+    #: speed control: horizontal force m x speed_gain x sqrt(g/L) x (v_d - v)
+    speed_gain: float = field(default=0.5, metadata={"min": 0.0})
+    #: swing-foot placement per (m/s) of velocity error, in units of sqrt(L/g) s
+    placement: float = field(default=4.0, metadata={"min": 0.0})
+    #: largest placement shift, as a fraction of the standing root height
+    max_placement: float = field(default=1.0, metadata={"min": 0.0})
+    friction: float = field(default=0.8, metadata={"gt": 0.0})
+    #: longest wait (s) of the clip's clock for a foot that should have landed
+    max_wait_s: float = field(default=0.1, metadata={"min": 0.0})
+    #: PD on the velocity error kd (qdot_ref - qdot) instead of damping kd qdot alone
+    velocity_feedforward: bool = True
+    #: window (s) over which the clip's root velocity is averaged for the speed target
+    velocity_window_s: float = field(default=0.5, metadata={"gt": 0.0})
+    # ---- the planned gait (``gait: planned``, control/creature_gait.py); ``clip`` tracks the clip's timing
+    gait: str = field(default="planned", metadata={"choices": ("planned", "clip")})
+    #: walking speed as a fraction of the clip's mean root speed, at most (the legs' measured reach may
+    #: lower it, control/creature_gait.py)
+    speed_fraction: float = field(default=0.8, metadata={"min": 0.0})
+    #: the legs' swings in one cycle, summed, as a share of the cycle (each leg swings share/n)
+    swing_share: float = field(default=0.8, metadata={"gt": 0.0, "max": 1.0})
+    #: footfall pattern: ``sequence`` (one leg after another in the clip's order, swing_share/n each) or
+    #: ``clip`` (the clip's own phases and swing share, e.g. a trot's diagonal pairs)
+    phases: str = field(default="sequence", metadata={"choices": ("sequence", "clip")})
+    #: largest swing as a share of the cycle
+    max_swing_fraction: float = field(default=0.45, metadata={"gt": 0.0, "max": 0.9})
+    #: longest stride as a fraction of the standing root height
+    stride_fraction: float = field(default=0.8, metadata={"gt": 0.0})
+    #: shortest swing (s)
+    min_swing_s: float = field(default=0.12, metadata={"gt": 0.0})
+    #: root height as a fraction of the clip's median
+    height_fraction: float = field(default=1.0, metadata={"gt": 0.0})
+    #: each foot at least this multiple of its hip's lateral offset from the hips' mid-line
+    stance_width: float = field(default=2.0, metadata={"min": 0.0})
+    #: swing-foot lift as a fraction of the standing root height
+    step_height: float = field(default=0.12, metadata={"min": 0.0})
+    #: share of the way the centre of mass moves toward the next support's centroid; time constant (s)
+    com_shift: float = field(default=1.0, metadata={"min": 0.0})
+    shift_time_s: float = field(default=0.1, metadata={"min": 0.0})
+    #: 1: the centre of mass shifts only sideways (across the walking direction), 0: also along it
+    lateral_only: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
+    #: swing-foot placement of the planned gait per (m/s) of velocity error, in units of sqrt(L/g) s
+    step_placement: float = field(default=1.0, metadata={"min": 0.0})
+    #: the body's horizontal virtual force held to what the planned support can carry: the zero-moment
+    #: point it implies (the centre of mass's ground point less height x force / weight) stays inside
+    #: the stance feet's polygon (a force that stops a pushed body faster tips it over the feet)
+    zmp_limit: bool = False
+    #: each foot's stance sweep centred in the reach of its own leg (ahead and behind measured apart,
+    #: a hind leg that reaches little ahead steps further back), the sweep the narrowest leg's; off:
+    #: the sweep is +-(the shortest reach of any leg in either direction)
+    centre_sweep: bool = False
+    #: the planned gait's body PD (root position and velocity) natural frequency, x sqrt(g/L)
+    body_freq: float = field(default=2.0, metadata={"min": 0.0})
+    #: a swinging leg's joint stiffness as a share of its stance stiffness (damping x its square root)
+    swing_stiffness: float = field(default=0.25, metadata={"gt": 0.0, "max": 1.0})
+    #: time constant (s) with which the planned path follows the body (0: a rigid path)
+    path_follow_s: float = field(default=0.2, metadata={"min": 0.0})
+    #: IK's null-space pull toward the neutral leg pose (per iteration)
+    posture_pull: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
+    #: standing time before the first step (s), speed ramp (s), re-planning period (s)
+    settle_s: float = field(default=0.5, metadata={"min": 0.0})
+    speed_ramp_s: float = field(default=1.0, metadata={"gt": 0.0})
+    plan_dt_s: float = field(default=0.01, metadata={"gt": 0.0})
+
+
+@dataclass(frozen=True)
+class CreatureControlConfig:
+    """Gains of the root support (per kg of body mass: N/m, N*s/m for the position; the rotation's
+    are a tenth of these, N*m/rad and N*m*s/rad per kg) and whether the clip loops."""
+
+    support: bool = False
+    support_kp: float = field(default=20.0, metadata={"min": 0.0})
+    support_kd: float = field(default=2.0, metadata={"min": 0.0})
+    loop: bool = True
+    #: the legged balance (control/creature_balance.py, control/creature_gait.py)
+    balance: CreatureBalanceConfig = field(default_factory=CreatureBalanceConfig)
+
+
+__all__ = ["CreatureBalanceConfig", "CreatureControlConfig"]

@@ -280,3 +280,24 @@ def test_centred_sweep_stays_inside_each_legs_reach() -> None:
     moved = c.neutral_feet[:, 0] - plain.neutral_feet[:, 0]
     assert np.all(moved + c.reach <= c.reach_ahead + 1e-9) and np.all(moved - c.reach >= -c.reach_behind - 1e-9)
     assert c._reach_error(c.reach, 0.0).max() <= tol and c._reach_error(-c.reach, 0.0).max() <= tol
+
+
+def test_a_seeds_initial_noise_reaches_a_creature_that_starts_standing() -> None:
+    """The planned gait's reset poses the body standing (velocities zeroed); the seed's initial noise is
+    added to the velocities it starts from, so seeds give different creature rollouts (as for humanoids)
+    and seed 0 (no noise) stays the noiseless run."""
+    from bipedsim.sim.rollout import RolloutSpec
+    from bipedsim.sim.runner import run_scenario
+
+    sc = load_scenario(bvh=HORSE_WALK)
+    starts = {}
+    for seed in (0, 1):
+        rec = []
+
+        def first(t, data, ctrl, rec=rec):  # noqa: ANN001 - a rollout hook
+            if not rec:
+                rec.append(data.qvel.copy())
+
+        run_scenario(sc, RolloutSpec(seconds=0.05, seed=seed, init_noise=0.05), hooks=[first])
+        starts[seed] = rec[0]
+    assert np.abs(starts[1] - starts[0]).max() > 0.01

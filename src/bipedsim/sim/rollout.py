@@ -319,13 +319,15 @@ Hook = Callable[[float, mujoco.MjData, Controller], None]
 
 def rollout(model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller,
             spec: RolloutSpec, *, initial_qpos: FloatArray | None = None, initial_qvel: FloatArray | None = None,
+            qvel_noise: FloatArray | None = None,
             hooks: list[Hook] | None = None, before_step: list[Hook] | None = None,
             progress: Callable[[float], None] | None = None, pushes: list[Any] | None = None,
             nominal_com: tuple[FloatArray, FloatArray] | None = None,
             record_com: bool = False) -> tuple[Outcome, Controller]:
     """Run one rollout of any body under ``ctrl``. The model's state starts at ``initial_qpos``/
-    ``initial_qvel`` (the reference's pose at its start when given by the caller). Returns the outcome
-    and the controller."""
+    ``initial_qvel`` (the reference's pose at its start when given by the caller; ``qvel_noise``, the
+    seed's noise already in it, is added again when the controller's reset re-poses the body and sets
+    its velocities, as a creature's standing start does). Returns the outcome and the controller."""
     t0 = time.perf_counter()
     data = mujoco.MjData(model)
     if initial_qpos is not None:
@@ -336,6 +338,9 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller,
     mj_warnings = MujocoWarnings().start()
     try:
         ctrl.reset(data, spec.start_frame)
+        if qvel_noise is not None and initial_qvel is not None and not np.array_equal(data.qvel, initial_qvel):
+            data.qvel[:] += qvel_noise  # the reset set the velocities: the seed's noise on those
+            mujoco.mj_forward(model, data)
         fall = spec.fall or FallCriteria.for_body(plan.profile)
         falls = FallDetector(model, plan, fall, data, root=ctrl.root_body)
         dt = model.opt.timestep

@@ -151,9 +151,10 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
                    else spec.start_frame, fall=spec.fall or sc.fall_criteria())
     qpos0 = sc.clip.qpos[frame].copy()
     qvel0 = sc.clip.qvel[frame].copy() if ctrl.starts_moving else np.zeros(sc.built.model.nv)
+    noise = None
     if spec.seed and spec.init_noise > 0:
-        rng = np.random.default_rng(spec.seed)
-        qvel0 = qvel0 + rng.normal(scale=spec.init_noise, size=qvel0.shape)
+        noise = np.random.default_rng(spec.seed).normal(scale=spec.init_noise, size=qvel0.shape)
+        qvel0 = qvel0 + noise
     nominal = None
     if pushes:
         # the same rollout without pushes, for the centre-of-mass deviation (cached per scenario)
@@ -162,11 +163,11 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
         cache = sc.extra.setdefault("nominal_com", {})
         if key not in cache:
             o, _ = rollout(sc.built.model, sc.built.plan, sc.controller(), spec, initial_qpos=qpos0,
-                           initial_qvel=qvel0, record_com=True)
+                           initial_qvel=qvel0, qvel_noise=noise, record_com=True)
             cache[key] = o.extra["com_series"]
         nominal = cache[key]
     out, ctrl = rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=qpos0, initial_qvel=qvel0,
-                        hooks=hooks, before_step=before_step, progress=progress, pushes=pushes,
+                        qvel_noise=noise, hooks=hooks, before_step=before_step, progress=progress, pushes=pushes,
                         nominal_com=nominal)
     out.config = {"profile": sc.profile, "controller": sc.controller_config(), "controller_file": sc.config_path,
                   "reference": sc.source_path, "model": sc.built.plan.name, "model_hash": sc.built.hash,

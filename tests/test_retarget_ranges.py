@@ -114,8 +114,8 @@ def test_toe_stem_rule_finds_suffixed_toes_below_the_ankle_only() -> None:
         return Skeleton(names=tuple(names), parents=np.array(parents), offsets=off,
                         channels=tuple(("Zrotation", "Xrotation", "Yrotation") for _ in names))
 
-    for left, right in (("LeftToeJoint", "RightToeJoint"), ("LeftToe_jnt", "RightToe_jnt"), ("LeftToe_End", "RightToe_End"),
-                        ("LeftToeBase", "RightToeBase")):
+    for left, right in (("LeftToeJoint", "RightToeJoint"), ("LeftToe_jnt", "RightToe_jnt"),
+                        ("LeftToe_End", "RightToe_End"), ("LeftToeBase", "RightToeBase")):
         hm = recognise_humanoid(skel(left, right))
         assert (hm.legs["left"]["toe"], hm.legs["right"]["toe"]) == (left, right)
     hm = recognise_humanoid(skel("LeftHeel", "RightHeel", extra="ToeTarget"))

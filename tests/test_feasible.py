@@ -174,3 +174,47 @@ def test_infeasible_because_names_each_measure() -> None:
     why = infeasible_because({**ok, "legs_out_of_range": 0.2, "max_extension": 0.999, "stance_low_max": 0.05},
                              FeasibleConfig())
     assert len(why) == 3 and "20%" in why[0] and "0.999" in why[1] and "5.0 cm" in why[2]
+
+
+def test_a_solve_stalled_on_a_straight_knee_is_restarted_bent_and_reaches() -> None:
+    """From a straight knee the IK sees no first-order way to bring the foot nearer the hip (games105's
+    first frame stalled 3.6 cm short with the leg at full length); the restart with the knee bent
+    reaches a target within the leg's length."""
+    import mujoco
+
+    from bipedsim.model.feasible import IK_REACH_TOL, solve_leg, solve_reaching
+
+    sc = _scenario(None)
+    model = sc.built.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = sc.clip.qpos[0]
+    leg = _Leg.of(model, "right")
+    q0 = np.clip(np.zeros(len(leg.qadr)), leg.lo, leg.hi)  # the leg straight down
+    data.qpos[leg.qadr] = q0
+    mujoco.mj_kinematics(model, data)
+    hip = data.xpos[leg.thigh].copy()
+    target = data.xpos[leg.foot].copy()
+    target = hip + 0.9 * (target - hip)  # 10 % nearer the hip, straight below it: reachable
+    sole = data.geom_xmat[leg.foot_geom].reshape(3, 3).copy()
+    toe = sole if leg.toe_geom is None else data.geom_xmat[leg.toe_geom].reshape(3, 3).copy()
+    solve_leg(model, data, leg, q0, q0, target, sole, toe)
+    stalled = float(np.linalg.norm(data.xpos[leg.foot] - target))
+    q = solve_reaching(model, data, leg, q0, q0, target, sole, toe)
+    reached = float(np.linalg.norm(data.xpos[leg.foot] - target))
+    assert stalled > IK_REACH_TOL  # the plain solve stalls: the case the restart is for
+    assert reached < 0.2 * stalled and reached < 0.01
+    assert np.all(q >= leg.lo - 1e-9) and np.all(q <= leg.hi + 1e-9)
+
+
+@pytest.mark.slow
+def test_no_feasible_leg_reaches_past_its_limit_on_any_shared_walk() -> None:
+    """Every shared walk's feasible legs stay within ``max_extension`` (+ the measure's 0.005 tolerance)
+    of their length: no frame at full extension, where a stance leg has no knee left to push with."""
+    need_shared()
+    limit = FeasibleConfig().max_extension + 0.005
+    walks = [p for p in sorted((SHARED_BVH / "human").glob("*.bvh")) if "wave" not in p.name]
+    assert len(walks) >= 7
+    for path in walks:
+        sc = runner.load_scenario(None, path)  # the default: 'auto' re-solves every shared capture
+        assert sc.extra.get("feasible"), path.name
+        assert measure(sc.clip, sc.built.model)["max_extension"] <= limit, path.name

@@ -155,7 +155,7 @@ def test_run_prints_what_it_found_and_the_clip_speed(tmp_path: Path, capsys) -> 
 
 #: The walks the default controller tracks 20 s at >= 70 % of their speed today (docs/controller.md, *Speed
 #: deficit*); the others are strict expected failures, so a walk that starts to pass flags its marker.
-TRACKED = {"cmu_02_01_walk__holden31_crlf", "cmu_02_02_walk__19joint_Hip_Abdomen"}
+TRACKED = {"cmu_02_01_walk__holden31_crlf", "cmu_02_02_walk__19joint_Hip_Abdomen", "games105_walk60__metres_crlf"}
 _NOT_YET = pytest.mark.xfail(strict=True, reason="issue 19 not met yet for this walk (docs/controller.md, "
                              "Feasible reference / Speed deficit); strict: passing flags the marker for removal")
 

@@ -60,3 +60,63 @@ def test_head_found_by_the_last_word_of_its_name() -> None:
     hm = recognise_humanoid(motion.skeleton)
     assert hm.head == "torso_head"
     assert hm.chest == "lowerback_torso"
+
+
+#: the toe joint per shared human file (hand-read from the files; None: the skeleton has no toe joint)
+SHARED_TOES = {
+    "bandai2_walk_exhausted_001": ("Toes_L", "Toes_R"),
+    "cmu_02_01_walk__holden31_crlf": ("LeftToeBase", "RightToeBase"),
+    "cmu_02_02_walk__19joint_Hip_Abdomen": (None, None),
+    "cmu_02_02_walk__daz43": (None, None),
+    "cmu_12_03_walk__cgspeed_mb31": ("LeftToeBase", "RightToeBase"),
+    "cmu_131_01_start_walk_stop__max31_mixedEOL": ("LeftToe", "RightToe"),
+    "cmu_141_16_wave_hello__holden31_crlf": ("LeftToeBase", "RightToeBase"),
+    "games105_walk60__metres_crlf": ("lToeJoint", "rToeJoint"),
+    "makehuman_walk1__zup_decimetre": ("Toe_L", "Toe_R"),
+    "fairmotion_pfnn_hierarchy__crlf_metres_static": ("LeftToeBase", "RightToeBase"),
+}
+
+
+def test_toes_recognised_on_every_shared_human_layout() -> None:
+    """Every shared humanoid's toe joints, games105's ``lToeJoint`` included (a toe word with a suffix):
+    a body without toe segments loses the trailing foot's push-off (docs/controller.md)."""
+    need_shared()
+    from bipedsim.model.naming import recognise_humanoid
+    from bipedsim.motion.bvh import read_bvh
+
+    found = 0
+    for stem, want in SHARED_TOES.items():
+        path = next(SHARED_BVH.glob(f"*/{stem}.bvh"), None)
+        if path is None:
+            continue
+        hm = recognise_humanoid(read_bvh(path)[0].skeleton)
+        assert (hm.legs["left"]["toe"], hm.legs["right"]["toe"]) == want, stem
+        found += 1
+    assert found >= 8
+
+
+def test_toe_stem_rule_finds_suffixed_toes_below_the_ankle_only() -> None:
+    from bipedsim.model.naming import recognise_humanoid
+    from bipedsim.motion.skeleton import Skeleton
+
+    def skel(toe_l: str, toe_r: str, extra: str | None = None) -> Skeleton:
+        names = ["Hips", "LeftUpLeg", "LeftLeg", "LeftFoot", toe_l, "RightUpLeg", "RightLeg", "RightFoot", toe_r,
+                 "Spine", "Head"]
+        parents = [-1, 0, 1, 2, 3, 0, 5, 6, 7, 0, 9]
+        if extra:  # a toe-like name that is not below an ankle
+            names.append(extra)
+            parents.append(9)
+        off = np.zeros((len(names), 3))
+        off[[1, 5], 0] = [0.1, -0.1]
+        off[[2, 3, 6, 7], 1] = -0.4
+        off[[4, 8], 2] = 0.1
+        off[[9, 10], 1] = 0.3
+        return Skeleton(names=tuple(names), parents=np.array(parents), offsets=off,
+                        channels=tuple(("Zrotation", "Xrotation", "Yrotation") for _ in names))
+
+    for left, right in (("LeftToeJoint", "RightToeJoint"), ("LeftToe_jnt", "RightToe_jnt"),
+                        ("LeftToe_End", "RightToe_End"), ("LeftToeBase", "RightToeBase")):
+        hm = recognise_humanoid(skel(left, right))
+        assert (hm.legs["left"]["toe"], hm.legs["right"]["toe"]) == (left, right)
+    hm = recognise_humanoid(skel("LeftHeel", "RightHeel", extra="ToeTarget"))
+    assert hm.legs["left"]["toe"] is None and hm.legs["right"]["toe"] is None

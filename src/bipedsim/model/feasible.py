@@ -78,6 +78,13 @@ FLAT_SHARE = 1.0 / 3.0
 W_POS, W_TILT, W_YAW, W_TOE, W_REG = 1.0, 0.3, 0.1, 0.1, 0.01
 #: IK iterations per frame at most, and the step (rad) below which it stops.
 IK_ITERS, IK_TOL = 30, 1e-7
+#: A solve that leaves the foot farther than this (m) from its target is restarted with the knee bent
+#: :data:`KNEE_ESCAPE` (rad) off its straight end: from a straight knee, bending moves the foot only to
+#: second order toward the hip, so the solver stalls there with the leg at full length (games105's
+#: first frame, 3.6 cm short, the leg 1.000 of its length).
+IK_REACH_TOL, KNEE_ESCAPE = 0.005, 0.3
+#: A knee within this (rad) of its straight end counts as straight (the restart's case).
+KNEE_STRAIGHT = 1e-3
 
 
 @dataclass
@@ -96,6 +103,7 @@ class _Leg:
     hi: FloatArray
     length: float  #: thigh + shin (m)
     toe_dofs: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, bool))
+    knee_dofs: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, bool))
 
     @staticmethod
     def of(model: mujoco.MjModel, side: str) -> _Leg:
@@ -117,7 +125,8 @@ class _Leg:
         return _Leg(side, thigh, foot, toe, int(geom[foot]), None if toe is None else geom[toe],
                     np.array([model.jnt_qposadr[j] for j in jids]), np.array([model.jnt_dofadr[j] for j in jids]),
                     model.jnt_range[jids, 0].copy(), model.jnt_range[jids, 1].copy(), length,
-                    np.array([model.jnt_bodyid[j] == toe for j in jids]))
+                    np.array([model.jnt_bodyid[j] == toe for j in jids]),
+                    np.array([model.jnt_bodyid[j] == shin for j in jids]))
 
 
 def _runs(flags: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
@@ -441,6 +450,29 @@ def solve_leg(model: mujoco.MjModel, data: mujoco.MjData, leg: _Leg, q0: FloatAr
     return q
 
 
+def solve_reaching(model: mujoco.MjModel, data: mujoco.MjData, leg: _Leg, q0: FloatArray, q_clip: FloatArray,
+                   ankle: FloatArray, r_sole: FloatArray, r_toe: FloatArray) -> FloatArray:
+    """:func:`solve_leg`, restarted with the knee bent (:data:`KNEE_ESCAPE`) where it ended with the knee
+    straight and the foot more than :data:`IK_REACH_TOL` off its target; the solution nearer the target
+    is kept."""
+    q = solve_leg(model, data, leg, q0, q_clip, ankle, r_sole, r_toe)
+    if not leg.knee_dofs.any():
+        return q
+    lo, hi = leg.lo[leg.knee_dofs], leg.hi[leg.knee_dofs]
+    straight = np.where(np.abs(lo) <= np.abs(hi), lo, hi)  # the end of the range nearer 0: a straight knee
+    miss = float(np.linalg.norm(data.xpos[leg.foot] - ankle))
+    if miss <= IK_REACH_TOL or np.any(np.abs(q[leg.knee_dofs] - straight) > KNEE_STRAIGHT):
+        return q
+    bent = q.copy()
+    bent[leg.knee_dofs] = np.clip(straight + np.sign(lo + hi) * KNEE_ESCAPE, lo, hi)
+    q2 = solve_leg(model, data, leg, bent, q_clip, ankle, r_sole, r_toe)
+    if float(np.linalg.norm(data.xpos[leg.foot] - ankle)) < miss:
+        return q2
+    data.qpos[leg.qadr] = q
+    mujoco.mj_kinematics(model, data)
+    return q
+
+
 def feasible_clip(clip: ReferenceClip, model: mujoco.MjModel, cfg: FeasibleConfig | None = None) -> ReferenceClip:
     """The clip with its lower body made feasible for ``model`` (module docstring); the upper body,
     contacts, events and timing are kept. ``cfg.blend`` mixes the clip's legs (0) and the feasible ones."""
@@ -466,7 +498,7 @@ def feasible_clip(clip: ReferenceClip, model: mujoco.MjModel, cfg: FeasibleConfi
         data.qpos[:] = qpos[t]
         for s, leg in legs.items():
             f = feet[s]
-            q = solve_leg(model, data, leg, prev[s], clip.qpos[t, leg.qadr], f.ankle[t], f.sole[t], f.toe[t])
+            q = solve_reaching(model, data, leg, prev[s], clip.qpos[t, leg.qadr], f.ankle[t], f.sole[t], f.toe[t])
             solved[s][t] = prev[s] = q
     w = cfg.blend
     out = clip.qpos.copy()

@@ -34,6 +34,8 @@ ARM_ROLES: dict[str, list[list[str]]] = {
     "elbow": [["forearm", "elbow", "lowarm", "loarm", "lowerarm", "larm"]],
     "wrist": [["hand", "wrist"]],
 }
+#: a joint below the ankle whose base begins with this is a toe when no name is a toe word exactly
+TOE_STEM = "toe"
 HEAD_WORDS = ["head"]
 NECK_WORDS = ["neck"]
 
@@ -167,6 +169,18 @@ def _find_first(sk: Skeleton, side: str, words: list[str], under: int | None = N
     return min(cands, key=lambda j: (depth[j], j))
 
 
+def _find_toe(sk: Skeleton, side: str, ankle: int) -> int | None:
+    """The toe below ``ankle``: a joint named by a toe word, else the shallowest whose base begins with
+    ``toe`` -- the word with a suffix, as in ``lToeJoint`` (games105), ``RightToe_End`` or ``Toe0``."""
+    toe = _find_first(sk, side, LEG_ROLES["toe"][0], under=ankle)
+    if toe is not None:
+        return toe
+    cands = [j for j in range(sk.num_joints) if j != ankle and ankle in _ancestors(sk, j)
+             and split_name(sk.names[j])[0] in (side, "") and split_name(sk.names[j])[1].startswith(TOE_STEM)]
+    depth = sk.depth()
+    return min(cands, key=lambda j: (depth[j], j)) if cands else None
+
+
 def _find_by_last_word(sk: Skeleton, words: list[str]) -> int | None:
     """The shallowest joint whose name's last word (split at separators) is one of ``words``: joints
     named for the bone from their parent (games105's ``torso_head``, ``lowerback_torso``)."""
@@ -231,7 +245,7 @@ def recognise_humanoid(sk: Skeleton, mapping: MapFile | None = None) -> Humanoid
                 f"{side.capitalize()}Foot, {side[0]}Thigh/{side[0]}Shin, thigh.{side[0].upper()}); "
                 f"the humanoid profile needs two legs -- give a mapping YAML with --map, or use the "
                 f"creature profile")
-        toe = idx[given["toe"]] if "toe" in given else _find_first(sk, side, LEG_ROLES["toe"][0], under=ankle)
+        toe = idx[given["toe"]] if "toe" in given else _find_toe(sk, side, ankle)
         legs[side] = {"thigh": sk.names[thigh], "knee": sk.names[knee], "ankle": sk.names[ankle],
                       "toe": None if toe is None else sk.names[toe]}
         wrist = idx[given["wrist"]] if "wrist" in given else _find_first(sk, side, ARM_ROLES["wrist"][0])

@@ -88,3 +88,19 @@ def test_rebased_limbs_rest_straight_so_the_walk_stays_within_the_knee_range() -
             lo, hi = b.model.jnt_range[h.jid[k]]
             q = clip.qpos[:, h.qadr[k]]
             assert q.min() > lo - 0.05 and q.max() < hi + 0.05, (name, q.min(), q.max(), lo, hi)
+
+
+def test_info_reads_a_creature_as_run_builds_it() -> None:
+    """``bipedsim info`` and ``bipedsim run`` agree on a creature's unit: the flamingo (an upright bird
+    whose unit is guessed) is read from its largest extent in both, not as an inch-sized human in info
+    and a centimetre bird in run; info names the body kind it measured."""
+    from bipedsim.sim.runner import load_scenario
+
+    need_shared()
+    path = SHARED_BVH / "animal" / "truebones_flamingo_walk_inplace.bvh"
+    d = describe_bvh(path)
+    sc = load_scenario(bvh=path)
+    assert d["body"] == sc.profile == "creature"
+    assert d["unit_name"] == sc.bvh_info.unit_name and d["unit_scale"] == sc.bvh_info.unit_scale
+    human = describe_bvh(SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
+    assert human["body"] == "humanoid"

@@ -20,13 +20,18 @@ Humanoid = two legs, an upright trunk above the hips, arms, human proportions; e
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from bipedsim.errors import ModelError
 from bipedsim.model.source import motion_points
 from bipedsim.motion.motion import Motion
+
+if TYPE_CHECKING:
+    from bipedsim.motion.bvh import BVHInfo
 
 #: the ``--profile`` value that measures the body kind from the skeleton
 AUTO = "auto"
@@ -177,4 +182,22 @@ def resolve_profile(motion: Motion, profile: str | None = AUTO, *, support: bool
     return kind.kind
 
 
-__all__ = ["AUTO", "BodyKind", "detect_body_kind", "resolve_profile"]
+def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = None, up: str | None = None,
+                  positions: str | None = None, profile: str | None = AUTO,
+                  support: bool = False) -> tuple[Motion, BVHInfo, Motion, str]:
+    """A BVH file read for the body it will build: the raw motion and what reading found, the motion in
+    the project frame, and the body kind (:func:`resolve_profile`). A creature's unit, when guessed, is
+    guessed from its largest extent, not a standing human's height: a bred dog x horse with its head up
+    had been read as a 1.3 m human in inches (2.54 x too large)."""
+    from bipedsim.motion.bvh import read_bvh
+
+    raw, info = read_bvh(path, scale=scale, up=up, positions=positions)
+    motion = raw.to_project_frame()
+    profile = resolve_profile(motion, profile, support=support, source=str(path))
+    if profile == "creature" and info.unit_source == "guessed" and info.upright:
+        raw, info = read_bvh(path, up=up, positions=positions, upright=False)
+        motion = raw.to_project_frame()
+    return raw, info, motion, profile
+
+
+__all__ = ["AUTO", "BodyKind", "detect_body_kind", "read_for_body", "resolve_profile"]

@@ -19,13 +19,21 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
     ``duration_s`` (s), ``joint_names``, and the root's horizontal travel in the project frame:
     ``root_path_m`` (m, along the path), ``root_displacement_m`` (m, first frame to last) and
     ``root_speed_mps`` (m/s, path over duration). ``scale`` (metres per file unit or a unit name) and
-    ``up`` (``"y"`` or ``"z"``) override the guesses."""
-    motion, info = read_bvh(path, scale=scale, up=up, positions=positions)
-    m = motion.to_project_frame()
+    ``up`` (``"y"`` or ``"z"``) override the guesses. It is read as ``bipedsim run`` reads it for the
+    body it builds (``body``: the kind measured from the skeleton, None where none can be told)."""
+    from bipedsim.errors import ModelError
+    from bipedsim.model.creature_kind import read_for_body
+
+    try:
+        _, info, m, body = read_for_body(path, scale=scale, up=up, positions=positions)
+    except ModelError:  # no body kind can be told: the file as read, its body unknown
+        motion, info = read_bvh(path, scale=scale, up=up, positions=positions)
+        m, body = motion.to_project_frame(), None
     root = m.travel()[:, list(horizontal_axes(m.up))]
     path_len = float(np.linalg.norm(np.diff(root, axis=0), axis=1).sum()) if m.num_frames > 1 else 0.0
     d = info.to_dict()
     d.update({
+        "body": body,
         "duration_s": m.duration,
         "joint_names": list(m.skeleton.names),
         "root_path_m": path_len,
@@ -56,6 +64,7 @@ def format_description(d: dict[str, Any]) -> str:
          if d.get("standing_height_m") else
          f"height      {d['height_m']:.3f} m ({'upright' if d['upright'] else 'not upright: largest extent'})"),
         f"up axis     {str(d['up']).upper()} ({d['up_source']}: {d['up_reason']})",
+        f"body        {d.get('body') or 'unknown (fewer than two legs found: give --profile to run it)'}",
         *([f"reading     {d['reading_note']}"] if d.get("reading_note") else []),
         f"root        path {d['root_path_m']:.3f} m, net {d['root_displacement_m']:.3f} m, "
         f"speed {d['root_speed_mps']:.3f} m/s",

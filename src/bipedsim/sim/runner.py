@@ -17,7 +17,7 @@ from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
-from bipedsim.model.creature_kind import AUTO, resolve_profile
+from bipedsim.model.creature_kind import AUTO, read_for_body, resolve_profile
 from bipedsim.model.feasible import feasible_clip, infeasible_because, measure
 from bipedsim.model.gait import creature_motion, humanoid_motion
 from bipedsim.model.retarget import retarget
@@ -93,14 +93,8 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     cfg = config if isinstance(config, ControllerConfig) else load_controller(config)
     motion = info = None
     if bvh is not None:
-        raw, info = read_bvh(bvh, scale=scale, up=up, positions=positions)
-        motion = raw.to_project_frame()
-        profile = resolve_profile(motion, profile, support=support, source=str(bvh))
-        if profile == "creature" and info.unit_source == "guessed" and info.upright:
-            # the unit was guessed from a human's height: a creature's is from its largest extent (a
-            # bred dog x horse, its head up, was read as a 1.3 m human in inches: 2.54 x too large)
-            raw, info = read_bvh(bvh, up=up, positions=positions, upright=False)
-            motion = raw.to_project_frame()
+        raw, info, motion, profile = read_for_body(bvh, scale=scale, up=up, positions=positions,
+                                                   profile=profile, support=support)
         if profile == "creature":
             support = support or cfg.creature.support
         if profile == "humanoid":  # a rest pose that is no standing body re-posed (model.gait)

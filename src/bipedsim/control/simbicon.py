@@ -235,6 +235,7 @@ class SimbiconController(Controller):
         self._tlo_l, self._thi_l = self.tlo.tolist(), self.thi.tolist()
         self._r_heading = np.eye(3)
         self.course = CourseTracker(source.course())
+        self._course_from: tuple[float, float] | None = None  #: the COM's place on the course at reset
         self._course_on = cfg.balance.enabled and cfg.balance.course.enabled
         self._rate_f = 0.0  #: the course offset's rate, low-passed (m/s)
         cc = cfg.balance.course
@@ -324,6 +325,8 @@ class SimbiconController(Controller):
         self.state.heading_target = self.heading_target
         ref_pose, seg = self.source.course_start(self.frame)
         self.course.reset(ref_pose, (float(data.qpos[0]), float(data.qpos[1]), self.heading_target), seg)
+        cx, cy, _ = data.subtree_com[self.pelvis].tolist()
+        self._course_from = self.course.locate(cx, cy)
         self._rate_f = 0.0
         self.last_strike_time, self.last_strike_frame = t, self.frame
         self.clock = self.last_strike_clock = t
@@ -343,6 +346,16 @@ class SimbiconController(Controller):
 
     def reference_speed(self) -> float:
         return float(self.source.speed())
+
+    def course_progress(self, data: mujoco.MjData) -> tuple[float, float] | None:
+        """The centre of mass's progress (m) along the reference's course since :meth:`reset` (arc
+        length between the nearest course points, whole loops counted) and its lateral offset (m,
+        positive left) from the course now; None for a walk in place."""
+        cx, cy, _ = data.subtree_com[self.pelvis].tolist()
+        now = self.course.locate(cx, cy)
+        if now is None or self._course_from is None:
+            return None
+        return now[0] - self._course_from[0], now[1]
 
     def actuator_torques(self) -> FloatArray:
         """Torques per actuator (``data.ctrl`` holds servo targets for servo joints, not torques)."""

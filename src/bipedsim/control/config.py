@@ -182,6 +182,12 @@ class BalanceConfig:
     torso_kp: float = field(default=1000.0, metadata={"min": 0.0})
     roll_kp: float | None = field(default=None, metadata={"min": 0.0})  #: null: torso_kp
     torso_kd: float = field(default=100.0, metadata={"min": 0.0})
+    #: the yaw of the frame the balance law works in (feedback axes, the COM's d and v, the swing thigh's
+    #: and the feet's world targets, the torso's yaw target): ``pelvis``: the pelvis's heading now;
+    #: ``course``: the course law's heading target plus the reference pelvis's own yaw about its course at
+    #: this frame (``reference.yaw_offset``), so a pelvis twisting within each step does not turn where the
+    #: feet land (docs/controller.md, *Heading and course*)
+    heading_frame: str = field(default="pelvis", metadata={"choices": ("pelvis", "course")})
     heading_kp: float = field(default=300.0, metadata={"min": 0.0})
     swing_hip_world: bool = True
     #: ankles aim the feet at the reference's world (heading-frame) orientation, so a foot lands and

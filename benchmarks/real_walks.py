@@ -75,8 +75,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     rows = Rows(args.csv, FIELDS, args.resume, key=lambda r: r["file"])
     done = rows.done
-    print(f"{'file':46s} {'outcome':8s} {'fall s':>6s} {'m/s':>5s} {'clip':>5s} {'ratio':>5s} {'course':>6s} {'off m':>6s} {'loop':>5s} "
-          f"{'RMSE':>6s} {'strk':>4s} {'wall s':>6s}")
+    print(f"{'file':46s} {'outcome':8s} {'fall s':>6s} {'m/s':>5s} {'clip':>5s} {'ratio':>5s} {'course':>6s} "
+          f"{'off m':>6s} {'loop':>5s} {'RMSE':>6s} {'strk':>4s} {'wall s':>6s}")
     ok = 0
     for p in files:
         row: dict[str, object] = (dict(done[p.name]) if p.name in done

@@ -188,6 +188,8 @@ class BalanceConfig:
     #: this frame (``reference.yaw_offset``), so a pelvis twisting within each step does not turn where the
     #: feet land (docs/controller.md, *Heading and course*)
     heading_frame: str = field(default="pelvis", metadata={"choices": ("pelvis", "course")})
+    #: rad: how far the ``course`` frame follows the pelvis's yaw off the course frame (0: not at all)
+    course_frame_follow: float = field(default=0.3, metadata={"min": 0.0, "max": 3.15})
     heading_kp: float = field(default=300.0, metadata={"min": 0.0})
     swing_hip_world: bool = True
     #: ankles aim the feet at the reference's world (heading-frame) orientation, so a foot lands and

@@ -563,9 +563,13 @@ class SimbiconController(Controller):
         vx, vy, _ = data.subtree_linvel[self.pelvis].tolist()
         if self._frame_course:
             # the frame: the course's heading (turned by the course law) plus the reference pelvis's
-            # own twist about its course at this frame
+            # own twist about its course at this frame, following the pelvis's yaw up to +-follow
             place = self._steer(cx, cy, vx, vy, self._course_on)
             heading = self.heading_target + self.source.yaw_offset(self.frame)
+            follow = self.cfg.balance.course_frame_follow
+            if follow > 0.0:
+                dev = math.remainder(math.atan2(pm[3], pm[0]) - heading, 2.0 * math.pi)
+                heading += follow if dev > follow else -follow if dev < -follow else dev
             c, s = math.cos(heading), math.sin(heading)
             rh = self._r_heading
             rh[0, 0], rh[0, 1], rh[1, 0], rh[1, 1] = c, -s, s, c
@@ -664,7 +668,8 @@ class SimbiconController(Controller):
         v1 = min(max(ang[1] * sign_b[1], tlo[i1]), thi[i1])
         q_d[i0], q_d[i1] = v0, v1
         if self._frame_course:
-            # in the course frame the twist is the world target's too: it sets the yaw the foot lands at
+            # in the course frame the twist is the world target's too: it sets the yaw the foot lands
+            # at, which a joint-space twist would take from the pelvis's yaw of the moment
             q_d[i2] = min(max(ang[2] * sign_b[2], tlo[i2]), thi[i2])
         qb = q[sl_b].tolist() if isinstance(sl_b, slice) else [float(q[i]) for i in idx_b]
         tb = [kp[i0] * (v0 - qb[0]), kp[i1] * (v1 - qb[1]), kp[i2] * (float(q_d[i2]) - qb[2])]

@@ -2,7 +2,10 @@
 ``../shared/data/bvh/human/`` converted, retargeted and tracked for ``--seconds`` (default 20) with the
 default controller (or ``--config``). Per file: outcome, fall time, achieved mean speed against the
 clip's own average horizontal speed (the baseline: the ratio is the acceptance measure, >= 0.7), the
-reference loop's speed, tracking RMSE and foot strikes; a file that cannot be tracked (no gait cycle:
+the COM's progress along the reference's own course over the run (``course_ratio``: against the clip's
+speed; ``off_m``: its offset across the course at the end, a walk crabbing off its line walks a
+displacement ratio well above its course ratio), the reference loop's speed, tracking RMSE and foot
+strikes; a file that cannot be tracked (no gait cycle:
 not a walk) is listed as refused with the reason. A table on stdout and, with ``--csv``, a CSV written
 row by row (``--resume`` keeps the rows already there).
 
@@ -28,7 +31,8 @@ from bipedsim.sim import runner
 from bipedsim.sim.rollout import RolloutSpec
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh"
-FIELDS = ["file", "outcome", "fall_time_s", "speed_mps", "clip_speed_mps", "speed_ratio", "loop_speed_mps",
+FIELDS = ["file", "outcome", "fall_time_s", "speed_mps", "clip_speed_mps", "speed_ratio", "course_ratio", "off_m",
+          "loop_speed_mps",
           "rmse_rad", "strikes", "wall_s", "reason"]
 
 
@@ -48,6 +52,8 @@ def run_one(path: Path, seconds: float, config: str | None, feasible: bool = Fal
             "fall_time_s": "" if out.fall_time_s is None else round(out.fall_time_s, 2),
             "speed_mps": round(out.mean_speed_mps, 3), "clip_speed_mps": round(cv, 3),
             "speed_ratio": round(out.mean_speed_mps / cv, 2) if cv > 0 else "",
+            "course_ratio": round(out.course_speed_mps / cv, 2) if cv > 0 and out.course_speed_mps is not None else "",
+            "off_m": "" if out.course_offset_m is None else round(out.course_offset_m, 2),
             "loop_speed_mps": round(out.reference_speed_mps, 3), "rmse_rad": round(out.tracking_rmse_rad, 3),
             "strikes": out.foot_strikes, "wall_s": round(time.perf_counter() - t0, 1),
             "reason": out.fall_reason or ""}
@@ -69,8 +75,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     rows = Rows(args.csv, FIELDS, args.resume, key=lambda r: r["file"])
     done = rows.done
-    print(f"{'file':46s} {'outcome':8s} {'fall s':>6s} {'m/s':>5s} {'clip':>5s} {'ratio':>5s} {'loop':>5s} "
-          f"{'RMSE':>6s} {'strk':>4s} {'wall s':>6s}")
+    print(f"{'file':46s} {'outcome':8s} {'fall s':>6s} {'m/s':>5s} {'clip':>5s} {'ratio':>5s} {'course':>6s} "
+          f"{'off m':>6s} {'loop':>5s} {'RMSE':>6s} {'strk':>4s} {'wall s':>6s}")
     ok = 0
     for p in files:
         row: dict[str, object] = (dict(done[p.name]) if p.name in done
@@ -82,7 +88,8 @@ def main(argv: list[str] | None = None) -> int:
             ok += 1
         print(f"{p.name[:46]:46s} {row['outcome']!s:8s} {row.get('fall_time_s', '')!s:>6s} "
               f"{row.get('speed_mps', '')!s:>5s} {row.get('clip_speed_mps', '')!s:>5s} "
-              f"{row.get('speed_ratio', '')!s:>5s} {row.get('loop_speed_mps', '')!s:>5s} "
+              f"{row.get('speed_ratio', '')!s:>5s} {row.get('course_ratio', '')!s:>6s} {row.get('off_m', '')!s:>6s} "
+              f"{row.get('loop_speed_mps', '')!s:>5s} "
               f"{row.get('rmse_rad', '')!s:>6s} {row.get('strikes', '')!s:>4s} {row.get('wall_s', '')!s:>6s}"
               + (f"  {row['reason']}" if row.get("reason") and row["outcome"] == "refused" else ""))
     rows.close()

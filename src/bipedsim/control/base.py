@@ -99,6 +99,11 @@ class Controller(ABC):
         """The root body's heading: its yaw about world Z (rad)."""
         return heading_of(data.xmat[self.root_body].reshape(3, 3))
 
+    def course_progress(self, data: mujoco.MjData) -> tuple[float, float] | None:
+        """(progress m along the reference's own course since reset, lateral offset m from it now,
+        positive left), or None where the controller has no course (a walk in place, key poses)."""
+        return None
+
     def set_external_force(self, active: bool, t: float) -> None:  # noqa: B027 - optional hook
         """Told whether an external force (a push) acts now; a controller may react (fade, sec. 4.4)."""
 

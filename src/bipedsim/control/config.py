@@ -183,6 +183,16 @@ class BalanceConfig:
     torso_kp: float = field(default=1000.0, metadata={"min": 0.0})
     roll_kp: float | None = field(default=None, metadata={"min": 0.0})  #: null: torso_kp
     torso_kd: float = field(default=100.0, metadata={"min": 0.0})
+    #: the yaw of the frame the balance law works in (feedback axes, the COM's d and v, the swing thigh's
+    #: and the feet's world targets, the torso's yaw target): ``pelvis``: the pelvis's heading now;
+    #: ``course``: the course law's heading target plus the reference pelvis's own yaw about its course at
+    #: this frame (``reference.yaw_offset``), and the swing hip's twist from the world target, so a pelvis
+    #: twisting within each step does not turn where the feet land. Opt-in: the shared 02_01/02_02 walks
+    #: hold their course with it, but the falling walks fall sooner and the built-in walk crabs 20 m off in
+    #: 60 s (docs/controller.md, *Progress along the course*)
+    heading_frame: str = field(default="pelvis", metadata={"choices": ("pelvis", "course")})
+    #: rad: how far the ``course`` frame follows the pelvis's yaw off the course frame (0: not at all)
+    course_frame_follow: float = field(default=0.3, metadata={"min": 0.0, "max": 3.15})
     heading_kp: float = field(default=300.0, metadata={"min": 0.0})
     swing_hip_world: bool = True
     #: ankles aim the feet at the reference's world (heading-frame) orientation, so a foot lands and

@@ -152,7 +152,12 @@ class CourseTracker:
         self.cycle_inv = self.cycle.inverse()
         self.moving = course.travel >= MIN_CYCLE_TRAVEL
         self.to_course = _Rigid.of(0.0, 0.0, 0.0)  #: world -> the current cycle's course coordinates
+        self.origin = self.to_course  #: world -> the first cycle's course coordinates, as laid at reset
         self.seg = 0
+        #: arc length (m) of the course from its first point to each point, and of one whole cycle
+        self.arc = [0.0]
+        for v in self.ll:
+            self.arc.append(self.arc[-1] + math.sqrt(v))
 
     def reset(self, ref_pose: tuple[float, float, float], body_pose: tuple[float, float, float], seg: int) -> None:
         """``ref_pose``: the reference's root (x, y) (m) and pelvis heading (rad) at the start frame, in
@@ -161,8 +166,46 @@ class CourseTracker:
         (rx, ry, rh), (bx, by, bh) = ref_pose, body_pose
         # course -> world: turn by bh - rh, then move the reference's root onto the body's
         tx, ty = _Rigid.of(bh - rh, 0.0, 0.0).apply(rx, ry)
-        self.to_course = _Rigid.of(bh - rh, bx - tx, by - ty).inverse()
+        self.to_course = self.origin = _Rigid.of(bh - rh, bx - tx, by - ty).inverse()
         self.seg = min(max(seg, 0), self.n_seg - 1)
+
+    #: cycles :meth:`locate` follows the course at most (a 20 s walk crosses about 20)
+    MAX_CYCLES = 100_000
+
+    def locate(self, cx: float, cy: float) -> tuple[float, float] | None:
+        """Where a point (cx, cy) (world, m) lies along the course as laid at :meth:`reset`: (arc length
+        m from the course's first point, counting whole cycles, negative before it; lateral offset m,
+        positive left), by the nearest point of the course -- searched over whole cycles, from the first
+        one on, independent of :meth:`update`. None for a course that does not move (a walk in place)."""
+        if not self.moving:
+            return None
+        q = self.origin
+        px, py = q.c * cx - q.s * cy + q.tx, q.s * cx + q.c * cy + q.ty
+        length, loops, direction = self.arc[-1], 0, 0
+        best = (0.0, 0.0)
+        for _ in range(self.MAX_CYCLES):
+            best_d, best_i, best_u = math.inf, 0, 0.0
+            for i in range(self.n_seg):
+                ex, ey = px - self.xs[i], py - self.ys[i]
+                u = (ex * self.dx[i] + ey * self.dy[i]) / self.ll[i] if self.ll[i] > 0.0 else 0.0
+                u = 0.0 if u < 0.0 else 1.0 if u > 1.0 else u
+                fx, fy = ex - u * self.dx[i], ey - u * self.dy[i]
+                d = fx * fx + fy * fy
+                if d < best_d:
+                    best_d, best_i, best_u = d, i, u
+            i, u = best_i, best_u
+            ex, ey = px - self.xs[i], py - self.ys[i]
+            best = (loops * length + self.arc[i] + u * (self.arc[i + 1] - self.arc[i]),
+                    ex * self.nx[i] + ey * self.ny[i])
+            if i == self.n_seg - 1 and u >= 1.0 and direction >= 0:  # beyond this cycle's end: the next
+                px, py = self.cycle_inv.apply(px, py)
+                loops, direction = loops + 1, 1
+            elif i == 0 and u <= 0.0 and direction <= 0:  # before its start: the previous one
+                px, py = self.cycle.apply(px, py)
+                loops, direction = loops - 1, -1
+            else:
+                break
+        return best
 
     def update(self, cx: float, cy: float, vx: float, vy: float) -> tuple[float, float, float]:
         """(lateral offset m, lateral velocity m/s, course heading rad) of a centre of mass at (cx, cy)
@@ -295,6 +338,11 @@ class GaitSource:
         """The reference's course: for a source without a path of its own, straight ahead from the
         start (a 1 m segment repeated, heading 0)."""
         return Course(xy=((0.0, 0.0), (1.0, 0.0)), heading=(0.0, 0.0), cycle=(0.0, 1.0, 0.0))
+
+    def yaw_offset(self, f: float) -> float:
+        """The reference pelvis's heading at frame ``f`` less its course's heading there (rad): the
+        yaw the pelvis swings through within a cycle (0 for a source without a path)."""
+        return 0.0
 
     def course_start(self, f: float) -> tuple[tuple[float, float, float], int]:
         """Where the reference is at frame ``f`` in its course's coordinates (the first cycle): root
@@ -500,9 +548,17 @@ class ClipSource(GaitSource):
         self._step = float(np.mean(np.diff(np.append(steps, self.b)))) * self.frame_time
         self._heading = heading
         self._course = clip_course(com[:, :2], np.unwrap(heading), clip.qpos[:, :2], int(self.a), int(self.b))
+        # the pelvis's yaw about its course per frame (frames outside the loop: the loop's nearest end's)
+        a, b = int(self.a), int(self.b)
+        off = np.unwrap(heading)[a:b + 1] - np.asarray(self._course.heading)
+        off = (off + np.pi) % (2.0 * np.pi) - np.pi
+        self._yaw_off = np.concatenate([np.full(a, off[0]), off, np.full(n - b - 1, off[-1])]).reshape(-1, 1)
 
     def course(self) -> Course:
         return self._course
+
+    def yaw_offset(self, f: float) -> float:
+        return float(self._interp(self._yaw_off, f)[0])
 
     def course_start(self, f: float) -> tuple[tuple[float, float, float], int]:
         w = self.wrap(f)

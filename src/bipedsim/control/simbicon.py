@@ -235,7 +235,9 @@ class SimbiconController(Controller):
         self._tlo_l, self._thi_l = self.tlo.tolist(), self.thi.tolist()
         self._r_heading = np.eye(3)
         self.course = CourseTracker(source.course())
+        self._course_from: tuple[float, float] | None = None  #: the COM's place on the course at reset
         self._course_on = cfg.balance.enabled and cfg.balance.course.enabled
+        self._frame_course = cfg.balance.heading_frame == "course"
         self._rate_f = 0.0  #: the course offset's rate, low-passed (m/s)
         cc = cfg.balance.course
         self._course_gains = (cc.deadband, cc.rate_filter, cc.steer_gain, cc.steer_damping, cc.max_turn,
@@ -324,6 +326,8 @@ class SimbiconController(Controller):
         self.state.heading_target = self.heading_target
         ref_pose, seg = self.source.course_start(self.frame)
         self.course.reset(ref_pose, (float(data.qpos[0]), float(data.qpos[1]), self.heading_target), seg)
+        cx, cy, _ = data.subtree_com[self.pelvis].tolist()
+        self._course_from = self.course.locate(cx, cy)
         self._rate_f = 0.0
         self.last_strike_time, self.last_strike_frame = t, self.frame
         self.clock = self.last_strike_clock = t
@@ -343,6 +347,16 @@ class SimbiconController(Controller):
 
     def reference_speed(self) -> float:
         return float(self.source.speed())
+
+    def course_progress(self, data: mujoco.MjData) -> tuple[float, float] | None:
+        """The centre of mass's progress (m) along the reference's course since :meth:`reset` (arc
+        length between the nearest course points, whole loops counted) and its lateral offset (m,
+        positive left) from the course now; None for a walk in place."""
+        cx, cy, _ = data.subtree_com[self.pelvis].tolist()
+        now = self.course.locate(cx, cy)
+        if now is None or self._course_from is None:
+            return None
+        return now[0] - self._course_from[0], now[1]
 
     def actuator_torques(self) -> FloatArray:
         """Torques per actuator (``data.ctrl`` holds servo targets for servo joints, not torques)."""
@@ -544,14 +558,27 @@ class SimbiconController(Controller):
         stance, swing = fsm.stance, fsm.swing
         r_p = data.xmat[self.pelvis].reshape(3, 3)
         pm = data.xmat[self.pelvis].tolist()
-        heading = math.atan2(pm[3], pm[0])
-        c, s = math.cos(heading), math.sin(heading)
-        ry = self._ry
-        ry[0, 0], ry[0, 1], ry[1, 0], ry[1, 1] = c, -s, s, c
         mujoco.mj_subtreeVel(self.model, data)
         cx, cy, _ = data.subtree_com[self.pelvis].tolist()
         vx, vy, _ = data.subtree_linvel[self.pelvis].tolist()
-        place = self._steer(cx, cy, vx, vy) if self._course_on else 0.0
+        if self._frame_course:
+            # the frame: the course's heading (turned by the course law) plus the reference pelvis's
+            # own twist about its course at this frame, following the pelvis's yaw up to +-follow
+            place = self._steer(cx, cy, vx, vy, self._course_on)
+            heading = self.heading_target + self.source.yaw_offset(self.frame)
+            follow = self.cfg.balance.course_frame_follow
+            if follow > 0.0:
+                dev = math.remainder(math.atan2(pm[3], pm[0]) - heading, 2.0 * math.pi)
+                heading += follow if dev > follow else -follow if dev < -follow else dev
+            c, s = math.cos(heading), math.sin(heading)
+            rh = self._r_heading
+            rh[0, 0], rh[0, 1], rh[1, 0], rh[1, 1] = c, -s, s, c
+        else:
+            heading = math.atan2(pm[3], pm[0])
+            c, s = math.cos(heading), math.sin(heading)
+            place = self._steer(cx, cy, vx, vy) if self._course_on else 0.0
+        ry = self._ry
+        ry[0, 0], ry[0, 1], ry[1, 0], ry[1, 1] = c, -s, s, c
         tau_torso = self._torso_torque(r_p, pm, data.qvel[3:6].tolist(), c, s)
         ax, ay, _ = data.xpos[self.foot_body[stance]].tolist()
         fs, fc, vh0, vh1 = self._feedback(cx - ax, cy - ay, vx, vy, c, s, place)
@@ -640,6 +667,10 @@ class SimbiconController(Controller):
         v0 = min(max(ang[0] * sign_b[0], tlo[i0]), thi[i0])
         v1 = min(max(ang[1] * sign_b[1], tlo[i1]), thi[i1])
         q_d[i0], q_d[i1] = v0, v1
+        if self._frame_course:
+            # in the course frame the twist is the world target's too: it sets the yaw the foot lands
+            # at, which a joint-space twist would take from the pelvis's yaw of the moment
+            q_d[i2] = min(max(ang[2] * sign_b[2], tlo[i2]), thi[i2])
         qb = q[sl_b].tolist() if isinstance(sl_b, slice) else [float(q[i]) for i in idx_b]
         tb = [kp[i0] * (v0 - qb[0]), kp[i1] * (v1 - qb[1]), kp[i2] * (float(q_d[i2]) - qb[2])]
         if self._swing_vel_on:
@@ -752,11 +783,12 @@ class SimbiconController(Controller):
         self.state.gamma = gamma
         self.state.tau_torso = tau_torso
 
-    def _steer(self, cx: float, cy: float, vx: float, vy: float) -> float:
+    def _steer(self, cx: float, cy: float, vx: float, vy: float, steer: bool = True) -> float:
         """Course control (``balance.course``): the COM at (cx, cy) m moving at (vx, vy) m/s (world) is
         placed on the reference's course; the torso law's heading target becomes the course's heading
         turned back toward it, ``h_ref + clamp(-k_y e - k_v e_dot, +-max_turn)``. Returns the swing
-        hip's coronal placement angle (rad), ``clamp(k_p e + k_d e_dot, +-max_placement)``."""
+        hip's coronal placement angle (rad), ``clamp(k_p e + k_d e_dot, +-max_placement)``. ``steer``
+        false: the target is the course's heading, unturned, and no placement."""
         band, tau, ky, kv, max_turn, kp, kd, max_place = self._course_gains
         offset, rate, h_ref = self.course.update(cx, cy, vx, vy)
         self.state.course_offset = offset
@@ -766,11 +798,11 @@ class SimbiconController(Controller):
         # inside the band the law is silent (damping included): the balance law keeps the walk's sway
         offset = beyond(offset, band)
         rate = self._rate_f if offset != 0.0 else 0.0
-        h_t = h_ref + course_turn(offset, rate, ky, kv, max_turn)
+        h_t = h_ref + course_turn(offset, rate, ky, kv, max_turn) if steer else h_ref
         self.heading_target = self.state.heading_target = h_t
         rh, ch, sh = self._r_heading, math.cos(h_t), math.sin(h_t)
         rh[0, 0], rh[0, 1], rh[1, 0], rh[1, 1] = ch, -sh, sh, ch
-        if kp == 0.0 and kd == 0.0:
+        if (kp == 0.0 and kd == 0.0) or not steer:
             return 0.0
         # a foot placed further out on the side the body should leave pushes it back toward the course
         return feedback_angle(0.0, kp, kd, offset, rate, max_place)

@@ -275,8 +275,10 @@ def outcome_line(out: Outcome, sc: Scenario) -> str:
         f"peak {e.get('support_force_max_n', 0):.0f} N")
     cv = out.extra.get("clip_speed_mps")
     clip_v = f", whole clip {cv:.2f} m/s" if cv is not None else ""
+    course = "" if out.course_speed_mps is None else (
+        f", {out.course_speed_mps:.2f} m/s along the reference's course, {out.course_offset_m:+.2f} m off it")
     return (f"{out.outcome}{fall}: {body}{out.sim_seconds:.2f} s simulated in {out.wall_seconds:.1f} s, "
-            f"{out.foot_strikes} foot strikes, {out.distance_m:.2f} m at {out.mean_speed_mps:.2f} m/s "
+            f"{out.foot_strikes} foot strikes, {out.distance_m:.2f} m at {out.mean_speed_mps:.2f} m/s{course} "
             f"(reference loop {out.reference_speed_mps:.2f} m/s{clip_v}), "
             f"tracking RMSE {out.tracking_rmse_rad:.3f} rad{sup}")
 

@@ -92,6 +92,11 @@ class Outcome:
     mean_resync_ratio: float | None
     config: dict[str, Any] = field(default_factory=dict)
     seed: int = 0
+    #: the COM's progress (m) along the reference's own course over the run, over ``sim_seconds``
+    #: (``mean_speed_mps`` counts displacement in any direction); None without a course (in place)
+    course_speed_mps: float | None = None
+    #: the COM's lateral offset (m, positive left) from the reference's course at the end
+    course_offset_m: float | None = None
     versions: dict[str, str] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -286,12 +291,15 @@ def _push_schedule(model: mujoco.MjModel, pushes: list[Any] | None, ctrl: Contro
 
 def _outcome(ctrl: Controller, spec: RolloutSpec, schedule: Any, verdict: tuple[str, float | None, str | None],
              step: int, dt: float, dist: float, rmse: float, series: tuple[FloatArray, FloatArray, FloatArray],
-             nominal_com: tuple[FloatArray, FloatArray] | None, record_com: bool) -> Outcome:
+             nominal_com: tuple[FloatArray, FloatArray] | None, record_com: bool,
+             course: tuple[float, float] | None = None) -> Outcome:
     """The rollout's verdict and metrics once the loop has ended at physics step ``step`` (its index)
-    having moved the root ``dist`` m; ``series``: time, tracking error and COM per control period."""
+    having moved the root ``dist`` m; ``series``: time, tracking error and COM per control period;
+    ``course``: the COM's (progress, offset) on the reference's course (m), or None."""
     outcome, fall_t, reason = verdict
     sim_s = (step + 1) * dt
     dist = dist if outcome != "diverged" else 0.0
+    course = course if outcome != "diverged" else None
     metrics = ctrl.metrics()
     strikes = ctrl.foot_strikes()
     extra: dict[str, Any] = {k: v for k, v in metrics.items() if k not in ("resyncs", "mean_resync_ratio")}
@@ -310,7 +318,9 @@ def _outcome(ctrl: Controller, spec: RolloutSpec, schedule: Any, verdict: tuple[
                    foot_strikes=len(strikes), distance_m=dist, mean_speed_mps=dist / sim_s if sim_s > 0 else 0.0,
                    reference_speed_mps=ctrl.reference_speed(), tracking_rmse_rad=rmse, wall_seconds=0.0,
                    steps=step + 1, resyncs=int(metrics.get("resyncs", 0)),
-                   mean_resync_ratio=metrics.get("mean_resync_ratio"), seed=spec.seed, extra=extra)
+                   mean_resync_ratio=metrics.get("mean_resync_ratio"), seed=spec.seed, extra=extra,
+                   course_speed_mps=course[0] / sim_s if course is not None and sim_s > 0 else None,
+                   course_offset_m=course[1] if course is not None else None)
 
 
 #: A hook called after every control step: (t, data, controller) -> None. Pushes and recorders use it.
@@ -405,7 +415,7 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller,
         series = (series_t[:n_series], series_err[:n_series], series_com[:n_series])
         result = _outcome(ctrl, spec, schedule, (outcome, fall_t, reason), step, dt,
                           float(np.linalg.norm(data.qpos[0:2] - start_xy)), float(np.sqrt(err2 / max(n_err, 1))),
-                          series, nominal_com, record_com)
+                          series, nominal_com, record_com, ctrl.course_progress(data))
         result.wall_seconds = time.perf_counter() - t0
         return result, ctrl
     finally:

@@ -660,6 +660,22 @@ class CreatureGaitController(CreatureBalanceController):
         self.torque[order] = np.clip(tau_all[order], -lim, lim)
         return self.torque
 
+    def contact_state(self, data: mujoco.MjData, t: float) -> tuple[list[bool], list[bool], list[float]]:
+        """Per leg at time ``t``: planned in stance, touching the floor, and the stance progress in
+        [0, 1) (-1 while swinging or before the first step): what the contact measures read
+        (:class:`~bipedsim.sim.contacts.StanceContacts`)."""
+        n = len(self.legs)
+        planned = [self._phase(t, i) < 0 for i in range(n)]
+        down = self._feet_down(data)
+        prog = []
+        for i in range(n):
+            if t < self._t_walk or not planned[i]:
+                prog.append(-1.0)
+                continue
+            p = ((t - self._t_walk) / self.period - self.offsets[i]) % 1.0
+            prog.append((p - self.swing_frac) / max(1.0 - self.swing_frac, 1e-9))
+        return planned, down, prog
+
     def heading(self, data: mujoco.MjData) -> float:
         """The body's heading (rad about world Z): its forward axis, measured from the clip (the root
         frame's x axis points backward in the dog's skeleton), so a push at 90 deg is to its left."""

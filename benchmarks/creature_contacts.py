@@ -1,0 +1,57 @@
+"""Do a creature's planned stance feet touch the floor? Per leg of the planned gait: the share of its
+planned stance time in floor contact (1 = no chatter), by tenth of the stance (late landings start
+low), contact switches per stance (bouncing) and the share of its swing time on the floor (scuffing).
+
+    python benchmarks/creature_contacts.py [--seconds 6] [--animals ../shared/data/bvh/animal]
+
+Clips: the shared dog, the shipped horse and the child bred from them (as in benchmarks/creatures.py),
+each one rollout through the one rollout loop with :class:`bipedsim.sim.contacts.StanceContacts` as a
+hook, counted from 1 s on.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+from bipedsim.breed.files import breed_files
+from bipedsim.data import HORSE_WALK
+from bipedsim.sim.contacts import StanceContacts
+from bipedsim.sim.rollout import RolloutSpec
+from bipedsim.sim.runner import load_scenario, run_scenario
+
+REPO = Path(__file__).resolve().parent.parent
+ANIMALS = REPO.parent / "shared" / "data" / "bvh" / "animal"
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--seconds", type=float, default=6.0)
+    ap.add_argument("--animals", type=Path, default=ANIMALS)
+    args = ap.parse_args()
+    dog = args.animals / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
+    clips = [("horse_walk (shipped)", HORSE_WALK)]
+    if dog.is_file():
+        child = Path(tempfile.mkdtemp(prefix="bipedsim-contacts-")) / "dog_x_horse.bvh"
+        breed_files(dog, HORSE_WALK, child, mutations=0)
+        clips = [("dog", dog)] + clips + [("child of dog x horse", child)]
+    print(f"{args.seconds:g} s per rollout, counted from 1 s\n")
+    print("| clip | leg | stance in contact | by tenth of stance | switches / stance | swing on floor |")
+    print("|---|---|---|---|---|---|")
+    for name, path in clips:
+        sc = load_scenario(bvh=path)
+        hook = StanceContacts()
+        out, ctrl = run_scenario(sc, RolloutSpec(seconds=args.seconds), hooks=[hook])
+        s = hook.summary()
+        for i, leg in enumerate(getattr(ctrl, "legs", [])):
+            dec = " ".join(f"{x:.2f}" for x in s["by_decile"][i])
+            print(f"| {name} | {leg.root} | {s['stance_share'][i]:.2f} | {dec} | {s['switches'][i]:.1f} "
+                  f"| {s['swing_share'][i]:.2f} |", flush=True)
+        if out.fall_time_s is not None:
+            print(f"| {name} | falls at {out.fall_time_s:.2f} s | | | | |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -13,6 +13,7 @@ from bipedsim.control.creature_balance import geom_bottom
 from bipedsim.control.creature_biped import CreatureBipedController, smootherstep
 from bipedsim.control.creature_gait import CreatureGaitController
 from bipedsim.data import HORSE_WALK
+from bipedsim.errors import BipedsimError
 from bipedsim.model.creature_sole import BIPED_LEG_SHARE
 from bipedsim.model.gait import creature_motion
 from bipedsim.motion.bvh import read_bvh
@@ -153,3 +154,22 @@ def test_the_flamingo_walks_20_s_at_half_its_clip_speed(flamingo) -> None:
     assert out.outcome == "no_fall"
     assert ctrl.clip_speed > 0.15
     assert out.mean_speed_mps >= 0.5 * ctrl.clip_speed
+
+
+def test_the_two_legged_gait_takes_its_settings_from_the_controller_yaml(tmp_path) -> None:
+    """``creature: {biped: ...}`` in a controller YAML reaches the two-legged gait (its own timing and the
+    balance settings it replaces on two legs); the rest stay the dataclass defaults."""
+    from bipedsim.control.creature_config import BipedGaitConfig
+
+    if not FLAMINGO.is_file():
+        pytest.skip(f"shared BVH file not found: {FLAMINGO}")
+    p = tmp_path / "bird.yaml"
+    p.write_text("creature:\n  biped: {speed_fraction: 0.3, start_s: 2.0}\n")
+    c = load_scenario(p, bvh=FLAMINGO).controller()
+    assert isinstance(c, CreatureBipedController)
+    assert (c.biped.speed_fraction, c.biped.start_s, c.bal.speed_fraction) == (0.3, 2.0, 0.3)
+    assert c.biped.max_swing == BipedGaitConfig().max_swing
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("creature:\n  biped: {speed_fractoin: 0.3}\n")
+    with pytest.raises(BipedsimError, match="speed_fractoin"):
+        load_scenario(bad, bvh=FLAMINGO)

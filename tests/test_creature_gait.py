@@ -222,7 +222,7 @@ def test_creature_settings_come_from_the_controller_yaml(tmp_path: Path) -> None
      "unknown key; allowed keys here: attitude_freq, body_freq"),
     ("creature:\n  balance: {swing_share: 2}\n", "creature.balance.swing_share", "must be <= 1.0"),
     ("creature:\n  balance: {gait: trot}\n", "creature.balance.gait", "must be one of ['planned', 'clip']"),
-    ("creature: {wings: 2}\n", "creature.wings", "balance, loop, support, support_kd, support_kp"),
+    ("creature: {wings: 2}\n", "creature.wings", "balance, biped, loop, support, support_kd, support_kp"),
 ])
 def test_bad_creature_settings_are_refused(tmp_path: Path, text: str, key: str, words: str, capsys) -> None:
     from bipedsim.cli import main

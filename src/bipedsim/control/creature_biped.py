@@ -29,7 +29,7 @@ names.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import mujoco
 import numpy as np
@@ -38,39 +38,11 @@ from scipy.spatial.transform import Rotation
 from bipedsim.control.base import FloatArray
 from bipedsim.control.creature import CreatureControlConfig
 from bipedsim.control.creature_balance import CreatureBalanceConfig, _rz
+from bipedsim.control.creature_config import BipedGaitConfig
 from bipedsim.control.creature_gait import GAITS_BY_LEGS, CreatureGaitController, _heading
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature import creature_legs
 from bipedsim.model.plan import BodyPlanSet
-
-
-@dataclass(frozen=True)
-class BipedGaitConfig:
-    """Timing of the two-legged planned gait, in units of sqrt(L/g) (L: the standing root height)."""
-
-    #: double support between the swings
-    double_support: float = field(default=0.15, metadata={"min": 0.0})
-    #: longest swing (the clip's median swing otherwise)
-    max_swing: float = field(default=0.8, metadata={"gt": 0.0})
-    #: before the first step: the body moves this share of the way over its first stance sole, in
-    #: ``start_s`` sqrt(L/g) s (or the planned gait's settle_s, the longer)
-    pre_shift: float = field(default=0.3, metadata={"min": 0.0, "max": 1.0})
-    start_s: float = field(default=3.0, metadata={"min": 0.0})
-    # ---- the planned gait's settings that differ on two legs (CreatureBalanceConfig's, for bipeds)
-    #: root height as a fraction of the clip's: bent legs reach sideways (straight ones cannot follow
-    #: the body off their foot)
-    height_fraction: float = field(default=0.85, metadata={"gt": 0.0})
-    #: the IK's null-space pull toward the neutral leg pose: small, or it keeps feet off their targets
-    #: (at 1.0 a stance foot missed by 4 cm with the root 10 cm to its side)
-    posture_pull: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
-    #: swing-foot lift as a fraction of the root height
-    step_height: float = field(default=0.08, metadata={"min": 0.0})
-    #: walking speed as a fraction of the clip's, at most
-    speed_fraction: float = field(default=0.65, metadata={"min": 0.0})
-    #: the stance legs' body PD (root velocity toward the wanted one) natural frequency, x sqrt(g/L)
-    body_freq: float = field(default=1.5, metadata={"min": 0.0})
-    #: a stance ankle's torque at most this x body weight x the sole's half size (0: no cap)
-    ankle_cap: float = field(default=2.0, metadata={"min": 0.0})
 
 
 def smootherstep(s: float) -> float:
@@ -85,7 +57,7 @@ class CreatureBipedController(CreatureGaitController):
     def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
                  cfg: CreatureControlConfig | None = None, balance: CreatureBalanceConfig | None = None,
                  biped: BipedGaitConfig | None = None) -> None:
-        self.biped = biped or BipedGaitConfig()
+        self.biped = biped or (cfg or CreatureControlConfig()).biped
         b = self.biped
         balance = replace(balance or CreatureBalanceConfig(), height_fraction=b.height_fraction,
                           posture_pull=b.posture_pull, step_height=b.step_height, speed_fraction=b.speed_fraction,

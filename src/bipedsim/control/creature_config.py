@@ -84,6 +84,35 @@ class CreatureBalanceConfig:
 
 
 @dataclass(frozen=True)
+class BipedGaitConfig:
+    """Timing of the two-legged planned gait, in units of sqrt(L/g) (L: the standing root height)."""
+
+    #: double support between the swings
+    double_support: float = field(default=0.15, metadata={"min": 0.0})
+    #: longest swing (the clip's median swing otherwise)
+    max_swing: float = field(default=0.8, metadata={"gt": 0.0})
+    #: before the first step: the body moves this share of the way over its first stance sole, in
+    #: ``start_s`` sqrt(L/g) s (or the planned gait's settle_s, the longer)
+    pre_shift: float = field(default=0.3, metadata={"min": 0.0, "max": 1.0})
+    start_s: float = field(default=3.0, metadata={"min": 0.0})
+    # ---- the planned gait's settings that differ on two legs (CreatureBalanceConfig's, for bipeds)
+    #: root height as a fraction of the clip's: bent legs reach sideways (straight ones cannot follow
+    #: the body off their foot)
+    height_fraction: float = field(default=0.85, metadata={"gt": 0.0})
+    #: the IK's null-space pull toward the neutral leg pose: small, or it keeps feet off their targets
+    #: (at 1.0 a stance foot missed by 4 cm with the root 10 cm to its side)
+    posture_pull: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
+    #: swing-foot lift as a fraction of the root height
+    step_height: float = field(default=0.08, metadata={"min": 0.0})
+    #: walking speed as a fraction of the clip's, at most
+    speed_fraction: float = field(default=0.65, metadata={"min": 0.0})
+    #: the stance legs' body PD (root velocity toward the wanted one) natural frequency, x sqrt(g/L)
+    body_freq: float = field(default=1.5, metadata={"min": 0.0})
+    #: a stance ankle's torque at most this x body weight x the sole's half size (0: no cap)
+    ankle_cap: float = field(default=2.0, metadata={"min": 0.0})
+
+
+@dataclass(frozen=True)
 class CreatureControlConfig:
     """Gains of the root support (per kg of body mass: N/m, N*s/m for the position; the rotation's
     are a tenth of these, N*m/rad and N*m*s/rad per kg) and whether the clip loops."""
@@ -94,6 +123,9 @@ class CreatureControlConfig:
     loop: bool = True
     #: the legged balance (control/creature_balance.py, control/creature_gait.py)
     balance: CreatureBalanceConfig = field(default_factory=CreatureBalanceConfig)
+    #: a two-legged creature's gait (control/creature_biped.py): its timing, and the settings of
+    #: ``balance`` that it replaces on two legs
+    biped: BipedGaitConfig = field(default_factory=BipedGaitConfig)
 
 
-__all__ = ["CreatureBalanceConfig", "CreatureControlConfig"]
+__all__ = ["BipedGaitConfig", "CreatureBalanceConfig", "CreatureControlConfig"]

@@ -17,6 +17,7 @@ import yaml
 from bipedsim.cli import main
 from bipedsim.control.config import load_controller
 from bipedsim.errors import BipedsimError, ConfigError
+from bipedsim.sim.runner import load_scenario
 from bipedsim.tune import Objective, load_tune, run_tune
 from bipedsim.tune import cmaes as tune_cmaes
 from bipedsim.tune.objective import DEVIATION_CAP, TERMS, Cadence, GaitMeter, push_terms, walk_terms
@@ -78,7 +79,8 @@ def with_(base: dict, **changes: object) -> dict:
     ({"experiment": {"seconds": 2.5, "body": "tail", "grid": TINY["experiment"]["grid"]}}, "experiment.body",
      "unknown body 'tail'"),
     ({"profile": "creature"}, "reference", "the creature profile needs a motion"),
-    ({"profile": "creature", "reference": str(HORSE)}, "controller", "a controller file configures the humanoid"),
+    ({"profile": "creature", "reference": str(HORSE), "controller": "nowhere.yaml"}, "controller",
+     "no such controller file"),
     ({"support": True}, "support", "needs profile: creature"),
 ])
 def test_tune_file_errors_name_the_file_and_key(tmp_path: Path, changes: dict, key: str, text: str) -> None:
@@ -380,8 +382,24 @@ def test_a_creature_tune_tunes_its_controller_settings(tmp_path: Path) -> None:
         load_tune(write_tune(tmp_path, with_(data, support=False), name="unsupported.yaml"))
     summary = run_tune(load_tune(p), tmp_path / "o", progress=False)
     assert summary["profile"] == "creature" and summary["evaluated"] == 2
-    best = yaml.safe_load((tmp_path / "o" / "best.yaml").read_text())
+    best = yaml.safe_load((tmp_path / "o" / "best.yaml").read_text())["creature"]
     assert best["support"] is True and 5.0 <= best["support_kp"] <= 40.0
+    # best.yaml is a controller file: its creature: section is what `bipedsim run best.yaml --bvh` uses
+    sc = load_scenario(tmp_path / "o" / "best.yaml", bvh=HORSE)
+    assert sc.creature_cfg.support is True and sc.creature_cfg.support_kp == best["support_kp"]
+
+
+def test_a_creature_tune_starts_from_a_controller_files_creature_section(tmp_path: Path) -> None:
+    """A creature tune's ``controller:`` is a controller file; its ``creature:`` section is the start, and
+    the planned gait's own settings (``balance.*``) are tunable keys."""
+    ctl = tmp_path / "slow.yaml"
+    ctl.write_text("creature:\n  balance: {speed_fraction: 0.5}\n")
+    data = {"name": "horse", "reference": str(HORSE), "profile": "creature", "controller": str(ctl),
+            "parameters": {"balance.step_height": [0.08, 0.16]}, "evaluations": 2, "popsize": 2, "seed": 0,
+            "experiment": {"seconds": 2.0, "after": 0.5, "grid": {"magnitude": [0], "direction": [0],
+                                                                   "start": [1.0]}}}
+    tune = load_tune(write_tune(tmp_path, data))
+    assert tune.start["balance"]["speed_fraction"] == 0.5 and tune.start["support"] is False
 
 
 def test_ray_backend_without_ray_is_a_clear_error(tmp_path: Path, monkeypatch) -> None:

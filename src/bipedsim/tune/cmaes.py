@@ -386,9 +386,10 @@ def _write_best(tune: Tune, path: Path, values: dict[str, float], number: int, s
              f"score {b['score']:.4g} (start {s['score']:.4g}; lower is better); pushes survived "
              f"{b['survived']}/{b['rollouts']} (start {s['survived']}/{s['rollouts']}).",
              "tuned: " + ", ".join(f"{k} {s['parameters'][k]:g} -> {v:.4g}" for k, v in values.items()) + "."]
-    if tune.spec.profile == "creature":
-        lines.append("These are a creature controller's settings (CreatureControlConfig): under `creature:` in a "
-                     "controller file, bipedsim run FILE --bvh REFERENCE uses them.")
+    if tune.spec.profile == "creature":  # a creature's settings are a controller file's creature: section
+        data = {"creature": data}
+        lines.append("A controller file whose creature: section holds the creature's settings: "
+                     "bipedsim run best.yaml --bvh REFERENCE.")
     else:
         lines.append("A complete controller file: bipedsim run best.yaml [--bvh REFERENCE].")
     header = "".join(f"# {line}\n" for line in lines)

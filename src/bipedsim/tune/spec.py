@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -144,13 +144,13 @@ def set_dotted(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
 
 
 def _start_settings(spec: TuneSpec, ctl_path: str | None, path: Path) -> dict[str, Any]:
-    """The start controller's settings as a mapping (the humanoid's from its file over the defaults)."""
-    if spec.profile == "creature":
-        if ctl_path is not None:
-            raise ConfigError("a controller file configures the humanoid's balance controller; a creature's "
-                              "settings start from their defaults (give support: true for root support)",
-                              path=path, key="controller")
-        return config.to_dict(CreatureControlConfig(support=spec.support))
+    """The start controller's settings as a mapping, from its file over the defaults (a creature's: the
+    file's ``creature:`` section)."""
+    if spec.profile == "creature":  # its settings: a controller file's creature: section, or the defaults
+        if ctl_path is not None and not Path(ctl_path).is_file():
+            raise ConfigError(f"no such controller file {ctl_path}", path=path, key="controller")
+        start = CreatureControlConfig() if ctl_path is None else load_controller(ctl_path).creature
+        return config.to_dict(replace(start, support=spec.support or start.support))
     if spec.support:
         raise ConfigError("root support holds a creature's root; it needs profile: creature", path=path,
                           key="support")

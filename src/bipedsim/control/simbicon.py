@@ -238,6 +238,7 @@ class SimbiconController(Controller):
         self._course_from: tuple[float, float] | None = None  #: the COM's place on the course at reset
         self._course_on = cfg.balance.enabled and cfg.balance.course.enabled
         self._frame_course = cfg.balance.heading_frame == "course"
+        self._frame_follow = cfg.balance.course_frame_follow
         self._rate_f = 0.0  #: the course offset's rate, low-passed (m/s)
         cc = cfg.balance.course
         self._course_gains = (cc.deadband, cc.rate_filter, cc.steer_gain, cc.steer_damping, cc.max_turn,
@@ -566,7 +567,7 @@ class SimbiconController(Controller):
             # own twist about its course at this frame, following the pelvis's yaw up to +-follow
             place = self._steer(cx, cy, vx, vy, self._course_on)
             heading = self.heading_target + self.source.yaw_offset(self.frame)
-            follow = self.cfg.balance.course_frame_follow
+            follow = self._frame_follow
             if follow > 0.0:
                 dev = math.remainder(math.atan2(pm[3], pm[0]) - heading, 2.0 * math.pi)
                 heading += follow if dev > follow else -follow if dev < -follow else dev

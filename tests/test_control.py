@@ -474,7 +474,8 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     """The shared CMU 02_01 walk (1.20 m/s) on its feasible reference walks 20 s at about half its speed
     without velocity tuning (the swing-hip feedback c_v (v - v_mean) shortens every step of a slow body
     and the gait clock keeps the step time, so it stays slow); with the default virtual force it walks
-    20 s at >= 70 % of its speed (measured at seed 0: 0.49 -> 0.78)."""
+    20 s at >= 70 % of its speed (measured at seed 0: 0.49 -> 0.78; with the stance foot's yaw limit,
+    ``balance.stance_yaw_limit``, 0.63 -> 0.79)."""
     from dataclasses import replace
 
     from bipedsim.control.reference import clip_speed
@@ -486,7 +487,7 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     assert out.outcome == "no_fall" and out.mean_speed_mps >= 0.7 * v_clip, (out.fall_time_s, out.mean_speed_mps)
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, velocity=replace(sc.cfg.balance.velocity, kv_sagittal=0.0)))
     out0, _ = run_scenario(replace(sc, cfg=off), RolloutSpec(seconds=20.0))
-    assert out0.outcome == "no_fall" and out0.mean_speed_mps < 0.62 * v_clip, out0.mean_speed_mps
+    assert out0.outcome == "no_fall" and out0.mean_speed_mps < 0.67 * v_clip, out0.mean_speed_mps
 
 
 def test_froude_scheduled_cd_lets_a_fast_capture_stride_out() -> None:

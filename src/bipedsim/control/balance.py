@@ -63,6 +63,13 @@ def course_turn(offset: float, rate: float, gain: float, damping: float, max_tur
     return max_turn if turn > max_turn else -max_turn if turn < -max_turn else turn
 
 
+def yaw_within(heading: float, anchor: float, limit: float) -> float:
+    """``heading`` (rad) moved to within +-``limit`` rad of ``anchor`` (unchanged when it already is); the
+    result differs from ``anchor`` by the wrapped difference, so it may leave [-pi, pi]."""
+    dev = math.remainder(heading - anchor, 2.0 * math.pi)
+    return anchor + (limit if dev > limit else -limit if dev < -limit else dev)
+
+
 def stance_share(force_stance: float, force_swing: float) -> float:
     """gamma_f: the share of the vertical ground reaction force carried by the stance foot (A)."""
     total = force_stance + force_swing

@@ -194,6 +194,16 @@ class BalanceConfig:
     #: rad: how far the ``course`` frame follows the pelvis's yaw off the course frame (0: not at all)
     course_frame_follow: float = field(default=0.3, metadata={"min": 0.0, "max": 3.15})
     heading_kp: float = field(default=300.0, metadata={"min": 0.0})
+    #: rad: the torso law's yaw target kept within this of the stance foot's yaw plus the reference pelvis's
+    #: own yaw from that foot (null: no limit). The ankles have no yaw hinge, so the stance hip's yaw torque
+    #: goes down the leg to the sole, which holds only a few tens of N m by friction (on its edge, as the
+    #: one-hinge ankle leaves it, on one contact point: none); asked to turn the pelvis back against its
+    #: feet, the stance foot spins instead and the hip's twist limit drags the pelvis round with it (Bandai,
+    #: CMU 12_03: 300-650 N m, the stance foot turning 100-130 degrees in one stance, then a sideways fall).
+    #: With it the pelvis turns with its feet and the course law steers by where they land: 3 seeds x 7
+    #: shared walks 275 s -> 319 s walked, Bandai and 12_03 from 2-9 s to 8-19 s (docs/controller.md,
+    #: "The stance foot spins")
+    stance_yaw_limit: float | None = field(default=0.35, metadata={"gt": 0.0})
     swing_hip_world: bool = True
     #: ankles aim the feet at the reference's world (heading-frame) orientation, so a foot lands and
     #: stays flat whatever the leg's tilt

@@ -38,6 +38,7 @@ from bipedsim.control.balance import (
     stance_share,
     world_to_hinges3,
     yaw_matrix,
+    yaw_within,
 )
 from bipedsim.control.base import Controller, register
 from bipedsim.control.config import ControllerConfig
@@ -234,6 +235,8 @@ class SimbiconController(Controller):
         self._kp_l, self._kd_l = self.kp.tolist(), self.kd.tolist()
         self._tlo_l, self._thi_l = self.tlo.tolist(), self.thi.tolist()
         self._r_heading = np.eye(3)
+        self._r_torso = np.eye(3)  #: scratch: the torso law's heading when the stance foot's yaw limits it
+        self._stance_yaw_limit = cfg.balance.stance_yaw_limit
         self.course = CourseTracker(source.course())
         self._course_from: tuple[float, float] | None = None  #: the COM's place on the course at reset
         self._course_on = cfg.balance.enabled and cfg.balance.course.enabled
@@ -580,7 +583,7 @@ class SimbiconController(Controller):
             place = self._steer(cx, cy, vx, vy) if self._course_on else 0.0
         ry = self._ry
         ry[0, 0], ry[0, 1], ry[1, 0], ry[1, 1] = c, -s, s, c
-        tau_torso = self._torso_torque(r_p, pm, data.qvel[3:6].tolist(), c, s)
+        tau_torso = self._torso_torque(r_p, pm, data.qvel[3:6].tolist(), c, s, self._torso_heading(data, forces))
         ax, ay, _ = data.xpos[self.foot_body[stance]].tolist()
         fs, fc, vh0, vh1 = self._feedback(cx - ax, cy - ay, vx, vy, c, s, place)
         if self._ik_on:
@@ -596,16 +599,39 @@ class SimbiconController(Controller):
         if self._vel_on:  # last: the feet's world targets above set the ankle torques outright
             self._virtual_force(data, tau, forces, c, s, vh0, vh1)
 
-    def _torso_torque(self, r_p: FloatArray, pm: list[float], omega_body: list[float], c: float, s: float
-                      ) -> tuple[float, float, float]:
+    def _torso_heading(self, data: mujoco.MjData, forces: dict[str, float]) -> FloatArray:
+        """The torso law's heading rotation: the heading target's (``_r_heading``), its yaw kept within
+        ``balance.stance_yaw_limit`` of the loaded stance foot's yaw less the reference foot's own yaw
+        from its pelvis (the pelvis's yaw over that foot as the reference has it)."""
+        lim, stance = self._stance_yaw_limit, self.fsm.stance
+        if lim is None or forces[stance] <= 0.0:
+            return self._r_heading
+        f_ref = self.source.foot_target(self.frame, self.fsm.state, stance)
+        if f_ref is None:
+            return self._r_heading
+        rh, fm = self._r_heading, data.xmat[self.foot_body[stance]]
+        h = math.atan2(float(rh[1, 0]), float(rh[0, 0]))
+        anchor = math.atan2(float(fm[3]), float(fm[0])) - math.atan2(float(f_ref[1, 0]), float(f_ref[0, 0]))
+        h_t = yaw_within(h, anchor, lim)
+        if h_t == h:
+            return rh
+        r, ch, sh = self._r_torso, math.cos(h_t), math.sin(h_t)
+        r[0, 0], r[0, 1], r[1, 0], r[1, 1] = ch, -sh, sh, ch
+        return r
+
+    def _torso_torque(self, r_p: FloatArray, pm: list[float], omega_body: list[float], c: float, s: float,
+                      r_heading: FloatArray | None = None) -> tuple[float, float, float]:
         """The torso law: world torque (N*m) turning the pelvis (rotation ``r_p``, ``pm`` its 9 entries
         row by row, angular velocity ``omega_body`` rad/s in its own frame) toward the reference's pitch
-        and roll under the heading target; PD per heading-frame axis (roll about forward x with
+        and roll under the heading rotation ``r_heading`` (:meth:`_torso_heading`; None: the heading
+        target's); PD per heading-frame axis (roll about forward x with
         ``roll_kp``, pitch about lateral y with ``torso_kp``, yaw with ``heading_kp``); ``c``, ``s``:
         cos and sin of the pelvis's heading. (ndarray.dot, not @: on 3x3s the matmul ufunc's dispatch
         costs twice the product.)"""
         b = self.cfg.balance
-        w0, w1, w2 = _rotvec3(self._r_heading.dot(self.source.pelvis_target(self.frame, self.fsm.state)).dot(r_p.T))
+        if r_heading is None:
+            r_heading = self._r_heading
+        w0, w1, w2 = _rotvec3(r_heading.dot(self.source.pelvis_target(self.frame, self.fsm.state)).dot(r_p.T))
         e0, e1 = c * w0 + s * w1, -s * w0 + c * w1
         p00, p01, p02, p10, p11, p12, p20, p21, p22 = pm
         x, y, z = omega_body

@@ -69,6 +69,11 @@ class CreatureBalanceConfig:
     #: a hind leg that reaches little ahead steps further back), the sweep the narrowest leg's; off:
     #: the sweep is +-(the shortest reach of any leg in either direction)
     centre_sweep: bool = False
+    #: the legs' IK is solved for a root attitude at most this far (rad, its tilt: roll and pitch) from
+    #: the real one (0: for the planned attitude). Posed for the upright plan, a body rolled onto one
+    #: side has its low side's feet driven into the floor (thrown up) and its high side's held off it;
+    #: the limit bounds the legs' attitude correction like a saturated spring (more than two legs)
+    ik_tilt_limit: float = field(default=0.1, metadata={"min": 0.0})
     #: the planned gait's body PD (root position and velocity) natural frequency, x sqrt(g/L)
     body_freq: float = field(default=2.0, metadata={"min": 0.0})
     #: a swinging leg's joint stiffness as a share of its stance stiffness (damping x its square root)

@@ -425,9 +425,28 @@ class CreatureGaitController(CreatureBalanceController):
         q[2] = self.neutral_height + self._z_offset
         q[3:7] = Rotation.from_matrix(self._heading_rot() @ self.neutral_att).as_quat(scalar_first=True)
         q[self._leg_q] = self._ik_q[self._leg_q]
-        self._solve_ik(q, feet)
+        q_ik = q.copy()
+        q_ik[3:7] = self._ik_attitude(data, q[3:7]) if t > self._t_start else q[3:7]
+        self._solve_ik(q_ik, feet)
+        q[self._leg_q] = q_ik[self._leg_q]
         self._feet_target = feet
         return q
+
+    def _ik_attitude(self, data: mujoco.MjData, planned: FloatArray) -> FloatArray:
+        """The root attitude (quaternion) the legs are solved for: the ``planned`` one turned toward the
+        real root's until its tilt (roll and pitch; heading kept) is within ``ik_tilt_limit`` rad of it.
+        Posed for an upright plan, a body rolled onto one side has its low side's feet driven into the
+        floor (the body thrown up) and its high side's held off it. Off on two legs (capture steps)."""
+        lim = self.bal.ik_tilt_limit
+        if lim <= 0 or len(self.legs) <= 2:
+            return planned
+        plan = Rotation.from_quat(planned, scalar_first=True)
+        err = (Rotation.from_quat(data.qpos[3:7], scalar_first=True) * plan.inv()).as_rotvec()
+        err[2] = 0.0
+        size = float(np.linalg.norm(err))
+        if size <= lim:
+            return planned
+        return (Rotation.from_rotvec(err * (1.0 - lim / size)) * plan).as_quat(scalar_first=True)
 
     def _body_velocity(self, data: mujoco.MjData) -> FloatArray:
         """The body's horizontal velocity (m/s, world) the foot placement reads: the root's."""

@@ -69,6 +69,20 @@ class CreatureBalanceConfig:
     #: a hind leg that reaches little ahead steps further back), the sweep the narrowest leg's; off:
     #: the sweep is +-(the shortest reach of any leg in either direction)
     centre_sweep: bool = False
+    #: a push's catch (more than two legs): while the centre of mass's capture point c + v / w (w =
+    #: sqrt(g / h)) lies out to one side beyond that side's outermost stance foot by more than
+    #: ``capture_margin`` x the stance's half-width, that side's leg that would lift soonest starts its
+    #: swing now (the gait's clock moved on to it; the legs between keep their feet down); a swinging
+    #: leg on that side lands further out by ``capture_step`` x the distance of the capture point beyond
+    #: its landing point, at most its outward reach measured by IK on the built body (0: off; a walk
+    #: whose capture point stays between its feet is untouched)
+    capture_step: float = field(default=2.0, metadata={"min": 0.0})
+    capture_margin: float = field(default=0.0, metadata={"min": 0.0})
+    #: the legs' IK is solved for a root attitude at most this far (rad, its tilt: roll and pitch) from
+    #: the real one (0: for the planned attitude). Posed for the upright plan, a body rolled onto one
+    #: side has its low side's feet driven into the floor (thrown up) and its high side's held off it;
+    #: the limit bounds the legs' attitude correction like a saturated spring (more than two legs)
+    ik_tilt_limit: float = field(default=0.1, metadata={"min": 0.0})
     #: the planned gait's body PD (root position and velocity) natural frequency, x sqrt(g/L)
     body_freq: float = field(default=2.0, metadata={"min": 0.0})
     #: a swinging leg's joint stiffness as a share of its stance stiffness (damping x its square root)

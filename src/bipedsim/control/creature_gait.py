@@ -131,6 +131,13 @@ class CreatureGaitController(CreatureBalanceController):
                 self.fwd = fwd / np.linalg.norm(fwd)
                 self._neutral_stance()
         self._measure_reach()
+        #: each leg's side (+1 left, -1 right of the stance's mid-line, heading frame)
+        across = self.neutral_feet[:, 1] - self.neutral_feet[:, 1].mean() if len(self.legs) else np.zeros(0)
+        self.leg_side = np.sign(across)
+        self.half_width = float(np.abs(across).max()) if len(self.legs) else 0.0
+        self.reach_out = np.zeros(len(self.legs))
+        if self.bal.capture_step > 0 and len(self.legs) > 2 and not self.cfg.support:
+            self._measure_reach_out()
 
     # ------------------------------------------------------------------ hooks (control/creature_biped.py)
     def _foot_sites(self) -> list[int]:
@@ -153,13 +160,15 @@ class CreatureGaitController(CreatureBalanceController):
         return None
 
     # ------------------------------------------------------------------ measured on the built body
-    def _reach_error(self, shift: float, lift: float) -> FloatArray:
+    def _reach_error(self, shift: float, lift: float, out: float = 0.0) -> FloatArray:
         """Each leg's IK miss (m) with every foot ``shift`` (m) ahead of its neutral place (behind when
-        negative) and ``lift`` (m) above the floor, the body in its neutral pose."""
+        negative), ``out`` (m) further out to its side and ``lift`` (m) above the floor, the body in its
+        neutral pose."""
         n = len(self.legs)
         q = self.neutral_q.copy()
         root = q[0:3]
-        feet = np.column_stack([root[0] + self.neutral_feet[:, 0] + shift, root[1] + self.neutral_feet[:, 1],
+        across = self.leg_side * out if out else 0.0
+        feet = np.column_stack([root[0] + self.neutral_feet[:, 0] + shift, root[1] + self.neutral_feet[:, 1] + across,
                                 self.site_ground + lift])
         self._solve_ik(q, feet, iters=REACH_IK_ITERS)
         mujoco.mj_kinematics(self.model, self.ik_data)
@@ -215,6 +224,20 @@ class CreatureGaitController(CreatureBalanceController):
                 self.period = shortest
                 self.v_des = min(self.v_des, 2.0 * self.reach / (stance * shortest),
                                  b_.stride_fraction * self.leg_height / shortest)
+
+    def _measure_reach_out(self) -> None:
+        """``self.reach_out`` (n,): how far (m) each foot reaches out to its side of its neutral place
+        (within REACH_TOL x the root height at every step of REACH_STEP up to there), by IK inside the
+        joint ranges: the furthest a capture step (``capture_step``) puts it."""
+        L = self.leg_height
+        saved = self._ik_q.copy()
+        going = np.ones(len(self.legs), dtype=bool)
+        for k in range(1, int(self.bal.max_placement / REACH_STEP) + 1):
+            going &= self._reach_error(0.0, 0.0, out=k * REACH_STEP * L) <= REACH_TOL * L
+            if not going.any():
+                break
+            self.reach_out[going] = k * REACH_STEP * L
+        self._ik_q[:] = saved
 
     # ------------------------------------------------------------------ measured from the clip
     def _measure_gait(self) -> None:
@@ -401,7 +424,44 @@ class CreatureGaitController(CreatureBalanceController):
         if size > cap:
             shift *= cap / size
         p[0:2] += shift
+        if self.bal.capture_step > 0 and self.reach_out[i] > 0:
+            # a swinging foot on the side the capture point went out to lands further out
+            side = np.array([-self._dir[1], self._dir[0]])
+            beyond = self.leg_side[i] * float((self._xi - p[0:2]) @ side)
+            if beyond > 0:
+                p[0:2] += self.leg_side[i] * min(self.bal.capture_step * beyond, float(self.reach_out[i])) * side
         return p
+
+    def _catch(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> None:
+        """The centre of mass's capture point ``self._xi`` (m, world xy), c + v / w (w = sqrt(g / h), h its
+        height over the feet), and the catch: while it lies out to one side beyond that side's outermost
+        stance foot (by ``capture_margin`` x the stance's half-width) and no leg of that side swings, the
+        gait's clock moves on to that side's leg that lifts soonest (the legs between keep their feet
+        where they are; the planned path is held where it was)."""
+        mujoco.mj_subtreeVel(model, data)
+        com, v = data.subtree_com[self.root_body], data.subtree_linvel[self.root_body]
+        g = -float(model.opt.gravity[2])
+        w = math.sqrt(g / max(float(com[2] - self.site_ground.mean()), 1e-3))
+        self._xi = com[0:2] + v[0:2] / w
+        if t < self._t_walk:
+            return
+        n = len(self.legs)
+        side = np.array([-self._dir[1], self._dir[0]])
+        xi = float(self._xi @ side)
+        for s in (1.0, -1.0):
+            legs = [i for i in range(n) if self.leg_side[i] == s]
+            if not legs or any(self._phase(t, i) >= 0 for i in legs):
+                continue
+            edge = max(s * float(self._planted[i][0:2] @ side) for i in legs)
+            if s * xi <= edge + self.bal.capture_margin * self.half_width:
+                continue
+            wait = {i: (self.offsets[i] - (t - self._t_walk) / self.period) % 1.0 * self.period for i in legs}
+            i = min(wait, key=wait.get)
+            before = self._root_path(t)
+            self._t_walk -= wait[i] + 1e-9
+            self._origin -= self._root_path(t) - before
+            self.catches += 1
+            return
 
     def _speed_at(self, t: float) -> float:
         tw = max(t - self._t_walk, 0.0)
@@ -425,9 +485,28 @@ class CreatureGaitController(CreatureBalanceController):
         q[2] = self.neutral_height + self._z_offset
         q[3:7] = Rotation.from_matrix(self._heading_rot() @ self.neutral_att).as_quat(scalar_first=True)
         q[self._leg_q] = self._ik_q[self._leg_q]
-        self._solve_ik(q, feet)
+        q_ik = q.copy()
+        q_ik[3:7] = self._ik_attitude(data, q[3:7]) if t > self._t_start else q[3:7]
+        self._solve_ik(q_ik, feet)
+        q[self._leg_q] = q_ik[self._leg_q]
         self._feet_target = feet
         return q
+
+    def _ik_attitude(self, data: mujoco.MjData, planned: FloatArray) -> FloatArray:
+        """The root attitude (quaternion) the legs are solved for: the ``planned`` one turned toward the
+        real root's until its tilt (roll and pitch; heading kept) is within ``ik_tilt_limit`` rad of it.
+        Posed for an upright plan, a body rolled onto one side has its low side's feet driven into the
+        floor (the body thrown up) and its high side's held off it. Off on two legs (capture steps)."""
+        lim = self.bal.ik_tilt_limit
+        if lim <= 0 or len(self.legs) <= 2:
+            return planned
+        plan = Rotation.from_quat(planned, scalar_first=True)
+        err = (Rotation.from_quat(data.qpos[3:7], scalar_first=True) * plan.inv()).as_rotvec()
+        err[2] = 0.0
+        size = float(np.linalg.norm(err))
+        if size <= lim:
+            return planned
+        return (Rotation.from_rotvec(err * (1.0 - lim / size)) * plan).as_quat(scalar_first=True)
 
     def _body_velocity(self, data: mujoco.MjData) -> FloatArray:
         """The body's horizontal velocity (m/s, world) the foot placement reads: the root's."""
@@ -550,6 +629,8 @@ class CreatureGaitController(CreatureBalanceController):
         self._t_start = t
         self._shift = np.zeros(2)
         self._v_filt = np.zeros(2)
+        self._xi = np.zeros(2)
+        self.catches = 0  # steps started by the catch (capture_step)
         self._dt_plan = self.bal.plan_dt_s
         self._lift: list[FloatArray | None] = [None] * n
         self._planted = [self._foot_home(t, i) for i in range(n)]
@@ -617,6 +698,8 @@ class CreatureGaitController(CreatureBalanceController):
         if self.cfg.support:
             return super().__call__(model, data, t, dt)
         down = self._feet_down(data)
+        if self.bal.capture_step > 0 and len(self.legs) > 2:
+            self._catch(model, data, t)
         if t >= self._next_plan - 1e-9:
             prev = self._target
             self._target = self._plan(t, data)

@@ -393,7 +393,7 @@ def test_the_walking_dog_survives_lateral_pushes_of_30_percent_of_its_weight() -
     sc = load_scenario(bvh=_clip(DOG))
     survived = {}
     for direction in (90.0, 270.0):
-        outs = [run_scenario(sc, RolloutSpec(seconds=12.0), pushes=[Push(34.2, direction, 0.2, start=5.0 + 0.05 * k)])[0]
-                for k in range(12)]
+        pushes = [Push(34.2, direction, 0.2, start=5.0 + 0.05 * k) for k in range(12)]
+        outs = [run_scenario(sc, RolloutSpec(seconds=12.0), pushes=[p])[0] for p in pushes]
         survived[direction] = sum(o.outcome == "no_fall" for o in outs)
     assert survived[90.0] >= 6 and survived[270.0] >= 6, survived

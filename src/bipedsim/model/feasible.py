@@ -531,6 +531,14 @@ def infeasible_because(measured: dict[str, float], cfg: FeasibleConfig) -> list[
     return why
 
 
+def sole_heights(model: mujoco.MjModel, qpos: FloatArray) -> dict[str, FloatArray]:
+    """Per side, the lowest point (m; 0 = on the floor) of the foot's sole and toe boxes on each frame
+    of ``qpos`` (T, nq): what :func:`measure` reads for the stance feet's distance from the floor."""
+    legs = {s: _Leg.of(model, s) for s in SIDES}
+    kin = _kinematics(model, qpos, legs)
+    return {s: kin[s]["low"] for s in SIDES}
+
+
 def measure(clip: ReferenceClip, model: mujoco.MjModel) -> dict[str, float]:
     """How feasible a clip's legs are for ``model`` (the properties :func:`feasible_clip` builds):
 

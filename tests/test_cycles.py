@@ -1,11 +1,21 @@
-"""Cycles of a clip (issue 19): the loop chosen by pose and velocity match at its seam and by steady
-travel; the seam blended."""
+"""Cycles of a clip (issue 19): the loop chosen by pose and velocity match at its seam, by steady
+travel and by being a walk (strikes alternating, steps alike, stance feet on the floor); the seam
+blended."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
+from conftest import IN_PLACE_SPEED, shared_params
 
-from bipedsim.control.reference import CYCLE_COST_TOLERANCE, best_cycle, blend_seam
+from bipedsim.control.reference import (
+    CYCLE_COST_TOLERANCE,
+    CYCLE_STANCE_FLOAT_M,
+    CYCLE_STEADY_SPEED,
+    CYCLE_STEP_BALANCE,
+    best_cycle,
+    blend_seam,
+)
 
 
 def _walk(n: int = 600, dt: float = 0.01) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -34,6 +44,77 @@ def test_the_walking_part_is_looped_not_the_start_and_stop() -> None:
 def test_no_loop_without_a_left_strike_between() -> None:
     q, qd, root = _walk()
     assert best_cycle(q, qd, root, [100, 200], [250], 0.01) is None
+
+
+def test_a_loop_whose_strikes_do_not_alternate_is_no_walk() -> None:
+    """Two left strikes in a row (a shuffle) make no gait cycle: of the right loops the one whose strikes
+    alternate is played, though a longer loop matches as well at its seam."""
+    q, qd, root = _walk()
+    right, left = [100, 200, 300], [150, 160, 250]
+    c = best_cycle(q, qd, root, right, left, 0.01)
+    assert c is not None and (c.a, c.b) == (200, 300) and c.alternates
+    # with no alternating loop at all the others are still scored (a clip that loops is better than none)
+    c = best_cycle(q, qd, root, [100, 200], [150, 160], 0.01)
+    assert c is not None and (c.a, c.b) == (100, 200) and not c.alternates
+
+
+def test_a_loop_with_a_step_much_shorter_than_the_other_is_left() -> None:
+    """A left strike 10 frames after the right one (a start: both feet set down) is no half cycle."""
+    q, qd, root = _walk()
+    c = best_cycle(q, qd, root, [100, 200, 300], [110, 250], 0.01)
+    assert c is not None and (c.a, c.b) == (200, 300)
+    assert c.step_balance == pytest.approx(1.0)
+
+
+def test_a_loop_over_the_speed_ramp_is_left() -> None:
+    """Steps that travel at different speeds (the start's ramp) cost: the steady loop is played."""
+    q, qd, root = _walk()
+    right, left = [0, 100, 200, 300, 400, 500, 599], [50, 150, 250, 350, 450, 550]
+    c = best_cycle(q, qd, root, right, left, 0.01)
+    assert c is not None and c.steady >= CYCLE_STEADY_SPEED
+    # a loop from the clip's first frame: its first step is the ramp's slowest
+    first = best_cycle(q, qd, root, [0, 100], [50], 0.01)
+    assert first is not None and first.steady < CYCLE_STEADY_SPEED
+    assert first.cost > c.cost + 1.0 - first.steady / CYCLE_STEADY_SPEED - 1e-9
+
+
+def test_a_loop_whose_stance_feet_float_above_the_floor_is_left() -> None:
+    """Stance feet 20 cm above the floor over frames 100-300 (a crouch, a floor not under the walk):
+    the loop played lies after them."""
+    q, qd, root = _walk()
+    right, left = [0, 100, 200, 300, 400, 500, 599], [50, 150, 250, 350, 450, 550]
+    low = np.zeros((600, 2))
+    low[100:300] = 0.20
+    low[::2, 0] = np.nan  # swing frames
+    c = best_cycle(q, qd, root, right, left, 0.01, stance_low=low)
+    assert c is not None and c.a >= 300 and c.stance_float <= CYCLE_STANCE_FLOAT_M
+    assert best_cycle(q, qd, root, right, left, 0.01).a == 100  # the same clip unmeasured
+
+
+@pytest.mark.parametrize("path", shared_params("human"))
+def test_the_cycle_of_every_shared_walk_is_a_steady_walk(path) -> None:
+    """Every shared human clip that travels loops a walk: strikes alternating, steps alike in time and
+    speed, stance feet on the floor, faster than the whole clip's average (a start-walk-stop clip
+    loops its walking part, not its start or stop), with no standing frame in it."""
+    from bipedsim.control.reference import clip_cycle, clip_speed
+    from bipedsim.model.gait import smooth
+    from bipedsim.sim.runner import load_scenario
+
+    sc = load_scenario(None, path)
+    clip = sc.clip
+    root = clip.qpos[:, :2]
+    travel = float(np.linalg.norm(root[-1] - root[0])) / clip.duration
+    if travel < IN_PLACE_SPEED:
+        pytest.skip(f"{path.name} does not travel ({travel:.2f} m/s from its start to its end)")
+    c = clip_cycle(clip, sc.built.model, sc.built.plan)
+    assert c is not None
+    assert c.alternates and c.step_balance >= CYCLE_STEP_BALANCE and c.steady >= CYCLE_STEADY_SPEED, c
+    assert c.stance_float <= CYCLE_STANCE_FLOAT_M, c
+    dt = clip.frame_time
+    loop_v = float(np.linalg.norm(root[c.b] - root[c.a])) / ((c.b - c.a) * dt)
+    assert loop_v >= 0.95 * clip_speed(clip), (loop_v, clip_speed(clip))
+    v = np.linalg.norm(np.gradient(smooth(root, dt, 0.5), dt, axis=0), axis=1)[c.a:c.b + 1]
+    assert v.min() >= 0.5 * loop_v, (v.min(), loop_v)
 
 
 def test_seam_blend_makes_the_loop_continuous_and_keeps_the_rest() -> None:

@@ -307,6 +307,14 @@ def test_hot_path_rotation_helpers_match_scipy() -> None:
     assert np.allclose(_hinge_angles_small(m, [(0.0, 1.0, 0.0), (1.0, 0.0, 0.0)]), [a, b])
     # the same rotation about the opposite axes is the opposite angles
     assert np.allclose(_hinge_angles_small(m, [(0.0, -1.0, 0.0), (-1.0, 0.0, 0.0)]), [-a, -b])
+    # two hinges off x, y, z (a flexion axis along the shin's, then roll about x), in their own basis
+    from bipedsim.model.retarget import hinge_basis
+
+    flex = np.array([0.0, np.cos(0.2), np.sin(0.2)])
+    axes = [flex, np.array([-1.0, 0.0, 0.0])]
+    basis = hinge_basis(axes)[2]
+    m = Rotation.from_rotvec(axes[0] * a).as_matrix() @ Rotation.from_rotvec(axes[1] * b).as_matrix()
+    assert np.allclose(_hinge_angles_small(m, [tuple(x) for x in axes], basis), [a, b], atol=1e-12)
 
 
 def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:

@@ -47,6 +47,7 @@ from bipedsim.control.reference import SIDES, ClipSource, CourseTracker, GaitSou
 from bipedsim.errors import ConfigError, ModelError
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
+from bipedsim.model.retarget import hinge_basis
 
 FloatArray = npt.NDArray[np.float64]
 #: the shortest nominal swing state (s) a phase-timed push assumes when the reference's step is
@@ -258,7 +259,8 @@ class SimbiconController(Controller):
                               self.hip[s][2], self.hip[s][3].tolist(), self.hinges.dadr[self.hip[s][0]].tolist())
                           for s in SIDES}
         self._ankle_fast = {s: (self.ankle[s][0].tolist(), [tuple((a / np.linalg.norm(a)).tolist())
-                                                             for a in self.ankle[s][1]])
+                                                             for a in self.ankle[s][1]],
+                                None if len(self.ankle[s][1]) < 2 else hinge_basis(self.ankle[s][1])[2])
                             for s in SIDES}
         mod = cfg.modulation
         self._sync_on = mod.sync.enabled
@@ -766,9 +768,9 @@ class SimbiconController(Controller):
                 continue
             if tilt is not None and side == self.fsm.stance:
                 r_f = tilt.dot(r_f)
-            idx, axes = self._ankle_fast[side]
+            idx, axes, basis = self._ankle_fast[side]
             local = data.xmat[self.shin_body[side]].reshape(3, 3).T.dot(ry.dot(r_f))
-            ang = _hinge_angles_small(local, axes)
+            ang = _hinge_angles_small(local, axes, basis)
             for k, i in enumerate(idx):
                 v = min(max(ang[k], tlo[i]), thi[i])
                 q_d[i] = v
@@ -872,8 +874,11 @@ _ACTUATOR_FIELDS = ("actuator_ctrlrange", "actuator_gaintype", "actuator_biastyp
                     "actuator_biasprm", "actuator_ctrllimited", "actuator_forcelimited", "actuator_forcerange")
 
 
-def _hinge_angles_small(local: FloatArray, axes: list[tuple[float, float, float]]) -> tuple[float, ...]:
-    """Angles of 1 or 2 hinges (unit axes, applied in order) best reproducing a local rotation matrix."""
+def _hinge_angles_small(local: FloatArray, axes: list[tuple[float, float, float]],
+                        basis: FloatArray | None = None) -> tuple[float, ...]:
+    """Angles of 1 or 2 hinges (unit axes, applied in order) best reproducing a local rotation matrix.
+    Two hinges off x, y and z (a flexion axis along a bone's) take their ``basis``
+    (:func:`bipedsim.model.retarget.hinge_basis`: the first axis, the second, their cross product)."""
     if len(axes) == 1:
         x, y, z = axes[0]
         m00, m01, m02, m10, m11, m12, m20, m21, m22 = local.ravel().tolist()
@@ -882,6 +887,9 @@ def _hinge_angles_small(local: FloatArray, axes: list[tuple[float, float, float]
         aw = x * (m21 - m12) + y * (m02 - m20) + z * (m10 - m01)
         ama = x * (m00 * x + m01 * y + m02 * z) + y * (m10 * x + m11 * y + m12 * z) + z * (m20 * x + m21 * y + m22 * z)
         return (math.atan2(aw, m00 + m11 + m22 - ama),)
+    if basis is not None:  # the rotation in the hinges' own basis: about its x, then its y
+        a, b, _ = euler_from_matrix(basis.T.dot(local).dot(basis), (0, 1, 2))
+        return a, b
     order = tuple(int(np.argmax(np.abs(x))) for x in axes)
     signs = [1.0 if x[k] > 0 else -1.0 for x, k in zip(axes, order)]
     third = next(k for k in range(3) if k not in order)

@@ -125,7 +125,8 @@ MIN_PLANE_BEND = 0.05
 
 
 def _flat_frame(moving: SourcePoints, joint: str, points: list[str], forward: FloatArray,
-                hinge_plane: tuple[str, str, str] | None = None, hinge_axis: FloatArray | None = None) -> FloatArray:
+                hinge_plane: tuple[str, str, str] | None = None, hinge_axis: FloatArray | None = None,
+                hinge_world: FloatArray | None = None) -> FloatArray:
     """Axes (columns, body coordinates) of a foot segment's sole. The sole must be level when the
     motion has the segment flat on the floor (all ``points`` at their lowest level and ``joint``
     still), not in the rest pose, which need not stand flat-footed.
@@ -138,7 +139,9 @@ def _flat_frame(moving: SourcePoints, joint: str, points: list[str], forward: Fl
     rest frame turned so that its normal is vertical on the mean flat frame (pitch and roll, at
     most MAX_SOLE_PITCH). Without ``hinge_plane`` (or where the leg is too straight to define its
     plane) only the pitch is corrected. Identity when the correction is under FLAT_MIN_TILT or the
-    motion never shows the segment flat (one-frame files)."""
+    motion never shows the segment flat (one-frame files). ``hinge_world`` (T, 3): where the motion
+    puts ``hinge_axis`` on each frame, given when the segment's roll is not the leg plane's (a 2-DOF
+    ankle rolls the foot as the capture does: :meth:`_HumanoidBuilder._foot_hinge_world`)."""
     eye = np.eye(3)
     flat = _flat_frames(moving, joint, points)
     if flat is None:
@@ -151,7 +154,9 @@ def _flat_frame(moving: SourcePoints, joint: str, points: list[str], forward: Fl
     if np.linalg.norm(lateral_rest) < 1e-6:
         return eye
     plane = None
-    if hinge_plane is not None and hinge_axis is not None:
+    if hinge_world is not None and hinge_axis is not None:
+        plane = hinge_world[flat] / np.linalg.norm(hinge_world[flat], axis=1, keepdims=True), bone
+    elif hinge_plane is not None and hinge_axis is not None:
         plane = _leg_plane_normals(moving, flat, hinge_plane, bone)
     if plane is None:
         normal, y_rest = _pitch_normals(bone, lateral_rest), lateral_rest
@@ -592,6 +597,35 @@ class _HumanoidBuilder:
                              torque=spec.torque)
         return spec
 
+    def _ankle_hinges(self, side: str, shin_bone: FloatArray, sole_normal: FloatArray) -> list[JointPlan]:
+        """The ankle's hinges: flexion, and with a 2-DOF ankle the roll hinge, about the sole's long
+        axis (the sole's normal x the flexion axis, on the side of the profile's x): the rotation two
+        hinges cannot give, about their cross product, is then a turn about the sole's normal, so the
+        retargeted sole lies as the captured one does (about the body's x, it would tilt the sole
+        by the foot's yaw on the shin x the sole's pitch in the body, 5-7 degrees on Bandai)."""
+        joints = self._group_hinges(f"{side}_ankle", "ankle", shin_bone, side == "right", spec=self._ankle_spec())
+        if len(joints) == 2:
+            flex, given = np.asarray(joints[0].axis), np.asarray(joints[1].axis)
+            roll = np.cross(sole_normal, flex)
+            if np.linalg.norm(roll) > 1e-6:
+                roll = roll / np.linalg.norm(roll) * (1.0 if roll @ given >= 0 else -1.0)
+                joints[1].axis = [float(v) for v in roll]
+        return joints
+
+    def _foot_hinge_world(self, ankle: str, front: str, rest_bone: FloatArray,
+                          axis: FloatArray) -> FloatArray | None:
+        """With a 2-DOF ankle, the world direction (T, 3) of the foot's hinge ``axis`` (rest pose) on
+        each frame, as the retarget's ``aim`` fit turns the foot (the ankle joint's captured rotation,
+        turned so ``rest_bone`` points at ``front``; the two hinges reproduce its sole to a few degrees);
+        None for a 1-DOF ankle, whose foot rolls with the leg's plane, or without captured rotations."""
+        if not self.profile.ankle_2dof or self.moving.rotations is None:
+            return None
+        from bipedsim.model.retarget import _min_rotation
+
+        ref = self.moving.rotation(ankle)
+        g = _min_rotation(np.einsum("tij,j->ti", ref, rest_bone), self.moving[front] - self.moving[ankle]) @ ref
+        return np.einsum("tij,j->ti", g, np.asarray(axis, dtype=float))
+
     def _add_foot(self, side: str, shin_bone: FloatArray, knee_axis: FloatArray) -> tuple[FloatArray, float]:
         """The foot: a box from ``heel_length`` behind the ankle to the toe joint (or, without one, the
         toe tip), its sole at the lowest rest-pose point of the foot chain in the frame where the foot
@@ -610,7 +644,8 @@ class _HumanoidBuilder:
             q[tip] = q[front_name]
         front = q[front_name]
         _check_bone(front - q[an], an, front_name, f"{side} foot")
-        rf = _flat_frame(self.moving, an, [an, front_name], front - q[an], (th, kn, an), knee_axis)
+        hw = self._foot_hinge_world(an, front_name, front - q[an], knee_axis)
+        rf = _flat_frame(self.moving, an, [an, front_name], front - q[an], (th, kn, an), knee_axis, hw)
         front_f = rf.T @ (front - q[an])
         tip_f = rf.T @ (q[tip] - q[an])
         sole = min(-0.03, tip_f[2], front_f[2])
@@ -624,7 +659,7 @@ class _HumanoidBuilder:
         self.bodies.append(BodyPlan(
             name=f"{side}_foot", parent=f"{side}_shin", pos=list(q[an]), source=an, segment="foot",
             is_foot=True,
-            joints=self._group_hinges(f"{side}_ankle", "ankle", shin_bone, side == "right", spec=self._ankle_spec()),
+            joints=self._ankle_hinges(side, shin_bone, rf[:, 2]),
             geoms=[geom], sites=[site],
             fit=FitPlan(method="aim", origin=an, points=[front_name], ref=f"bvh:{an}",
                         rest_vectors=[list(front - q[an])])))
@@ -645,7 +680,8 @@ class _HumanoidBuilder:
             tip_vec = np.array([0.03, 0.0, 0.0])
             rt = foot_frame
         else:
-            rt = _flat_frame(self.moving, toe, [toe, tip], tip_vec, (th, kn, an), knee_axis)
+            hw = self._foot_hinge_world(an, toe, q[toe] - q[an], knee_axis)
+            rt = _flat_frame(self.moving, toe, [toe, tip], tip_vec, (th, kn, an), knee_axis, hw)
         # the sole's depth below the toe joint (foot frame), carried into the toe's frame
         sole_t = sole - (foot_frame.T @ (q[toe] - q[an]))[2]
         tip_t = rt.T @ (q[tip] - q[toe])

@@ -223,29 +223,63 @@ _FIT_METHODS: dict[str, Callable[[FitPlan, SourcePoints, FloatArray, FloatArray,
 }
 
 
+#: Largest |cos| between two hinge axes of one joint still taken as perpendicular (about 0.06 deg off).
+HINGE_ORTHO_TOL = 1e-3
+
+
+def hinge_basis(axes: list[FloatArray]) -> tuple[str, FloatArray, FloatArray | None]:
+    """How a set of 2 or 3 hinge axes (applied in order) splits a rotation: an intrinsic Euler
+    sequence, the sign of each hinge's angle against that sequence's, and the basis (3, 3; columns)
+    the rotation is expressed in first -- None when every axis lies along x, y or z (the sequence's
+    letters are then those axes). Other axes must be mutually perpendicular: the basis is then the
+    first axis, the second, and their cross product (the third hinge, if any, along it or against it),
+    and the sequence XYZ."""
+    units = [np.asarray(a, dtype=float) / np.linalg.norm(a) for a in axes]
+    letters, signs = [], []
+    for a in units:
+        k = int(np.argmax(np.abs(a)))
+        letters.append("xyz"[k])
+        signs.append(float(np.sign(a[k])))
+    aligned = all(np.isclose(abs(np.asarray(a, dtype=float)[int(np.argmax(np.abs(a)))]), 1.0) for a in axes)
+    if aligned and len(set(letters)) == len(letters):
+        seq = "".join(letters)
+        if len(seq) == 2:
+            seq += next(c for c in "xyz" if c not in seq)
+        return seq, np.array(signs), None
+    for i in range(len(units)):
+        for j in range(i + 1, len(units)):
+            if abs(float(units[i] @ units[j])) > HINGE_ORTHO_TOL:
+                raise ModelError(f"hinge axes {np.round(axes[i], 4).tolist()} and {np.round(axes[j], 4).tolist()} "
+                                 f"of one joint are not perpendicular (angle "
+                                 f"{np.degrees(np.arccos(np.clip(units[i] @ units[j], -1, 1))):.2f} deg): "
+                                 "a hinge set splits a rotation only on perpendicular axes")
+    e1 = units[0]
+    e2 = units[1] - (units[1] @ e1) * e1
+    e2 /= np.linalg.norm(e2)
+    e3 = np.cross(e1, e2)
+    sgn = [1.0, 1.0] + ([float(np.sign(units[2] @ e3))] if len(units) == 3 else [])
+    return "xyz", np.array(sgn), np.stack([e1, e2, e3], axis=1)
+
+
 def _hinge_angles(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
-    """(T, k) hinge angles reproducing local rotations (T, 3, 3) with hinges on ``axes`` in order."""
+    """(T, k) hinge angles reproducing local rotations (T, 3, 3) with hinges on ``axes`` in order
+    (1 axis: the rotation's twist about it; 2: the best the pair reproduces, the third Euler angle
+    dropped; 3: exact). Axes along x, y or z take the Euler sequence of their letters; other axes
+    must be perpendicular (:func:`hinge_basis`)."""
     if len(axes) == 1:
         q = Rotation.from_matrix(local).as_quat()  # x y z w
         a = axes[0] / np.linalg.norm(axes[0])
         ang = 2.0 * np.arctan2(q[:, :3] @ a, q[:, 3])
         return ((ang + np.pi) % (2 * np.pi) - np.pi)[:, None]
-    letters, signs = [], []
-    for a in axes:
-        k = int(np.argmax(np.abs(a)))
-        if not np.isclose(abs(a[k]), 1.0):
-            raise ModelError("hinge sets need axes along x, y or z")
-        letters.append("xyz"[k])
-        signs.append(np.sign(a[k]))
-    seq = "".join(letters)
-    if len(seq) == 2:
-        seq += next(c for c in "xyz" if c not in seq)
+    seq, signs, basis = hinge_basis(axes)
+    if basis is not None:  # a rotation about basis @ e_i is basis R_i basis^T
+        local = np.einsum("ji,tjk,kl->til", basis, local, basis)
     import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         eul = Rotation.from_matrix(local).as_euler(seq.upper())
-    return eul[:, :len(axes)] * np.array(signs)
+    return eul[:, :len(axes)] * signs[:len(axes)]
 
 
 def _in_range_euler(ang: FloatArray, ranges: FloatArray, signs: FloatArray) -> FloatArray:
@@ -340,7 +374,7 @@ def _pose_qpos(model: mujoco.MjModel, plan: BodyPlanSet, pts: SourcePoints, g: d
         ang = _hinge_angles(local, [np.asarray(j.axis) for j in b.joints])
         if len(b.joints) == 3:
             ang = _in_range_euler(ang, np.array([j.range for j in b.joints], dtype=float),
-                                  np.array([np.sign(j.axis[int(np.argmax(np.abs(j.axis)))]) for j in b.joints]))
+                                  hinge_basis([np.asarray(j.axis) for j in b.joints])[1])
         for k, j in enumerate(b.joints):
             jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j.name)
             qpos[:, model.jnt_qposadr[jid]] = ang[:, k]

@@ -69,6 +69,14 @@ class CreatureBalanceConfig:
     #: a hind leg that reaches little ahead steps further back), the sweep the narrowest leg's; off:
     #: the sweep is +-(the shortest reach of any leg in either direction)
     centre_sweep: bool = False
+    #: the sweeps are centred as by ``centre_sweep`` where that widens the stance's sweep (its reach) at
+    #: least this many times, measured on the built body's legs: legs whose reach ahead and behind is
+    #: lopsided (the bred child's hind legs: 0.07 m ahead, 0.25 m behind; 2.0 times), not legs whose
+    #: centring gains little (the horse's: 1.1 times, at a speed it falls at); 0: only ``centre_sweep``
+    centre_sweep_gain: float = field(default=1.5, metadata={"min": 0.0})
+    #: with the sweeps centred (by either setting), the horizontal virtual force held as by ``zmp_limit``:
+    #: the centred feet's centroid stands off the centre of mass (the child's by 2.8 cm, behind it)
+    centre_sweep_zmp: bool = True
     #: a push's catch (more than two legs): while the centre of mass's capture point c + v / w (w =
     #: sqrt(g / h)) lies out to one side beyond that side's outermost stance foot by more than
     #: ``capture_margin`` x the stance's half-width, that side's leg that would lift soonest starts its

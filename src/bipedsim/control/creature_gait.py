@@ -130,6 +130,7 @@ class CreatureGaitController(CreatureBalanceController):
                 fwd = att.T @ _rz(theta) @ att @ self.fwd
                 self.fwd = fwd / np.linalg.norm(fwd)
                 self._neutral_stance()
+        self._wave_order()
         self._measure_reach()
         #: each leg's side (+1 left, -1 right of the stance's mid-line, heading frame)
         across = self.neutral_feet[:, 1] - self.neutral_feet[:, 1].mean() if len(self.legs) else np.zeros(0)
@@ -244,6 +245,20 @@ class CreatureGaitController(CreatureBalanceController):
             self.reach_out[going] = k * REACH_STEP * L
         self._ik_q[:] = saved
 
+    def _wave_order(self) -> None:
+        """Where the clip lifts none of the legs (its contact labels empty: a bred child's blended feet
+        never stand still), the sequence gait's footfall order is the wave the walking quadrupeds'
+        clips show (the dog's and the horse's alike): one side's legs from the hindmost forward, then
+        the other side's (``footfall_fallback: wave``; ``legs``: the legs' own order)."""
+        n = len(self.legs)
+        if (self.bal.footfall_fallback != "wave" or n <= 2 or self._clip_lifts.any()
+                or self.bal.phases == "clip"):
+            return
+        side = self._hips[:, 1] - self._hips[:, 1].mean()
+        self.leg_order = sorted(range(n), key=lambda i: (bool(side[i] > 0), float(self._hips[i, 0])))
+        for rank, i in enumerate(self.leg_order):
+            self.offsets[i] = rank / n
+
     # ------------------------------------------------------------------ measured from the clip
     def _measure_gait(self) -> None:
         """Forward axis (root frame), desired speed, leg order, swing time and cycle period."""
@@ -268,10 +283,12 @@ class CreatureGaitController(CreatureBalanceController):
         # lift-off phase of each leg in the clip (first swing frame after a stance frame)
         starts = []
         swing_times, strides = [], []
+        self._clip_lifts = np.zeros(n, dtype=bool)
         for i in range(n):
             down = np.array([self._ref_down(f, i) for f in range(a, b)])
             lifts = np.flatnonzero(down[:-1] & ~down[1:])
             lands = np.flatnonzero(~down[:-1] & down[1:])
+            self._clip_lifts[i] = len(lifts) > 0
             starts.append(float(lifts[0]) if len(lifts) else float(i * (b - a) / max(n, 1)))
             strides.extend(np.diff(lifts) * clip.frame_time)
             for lf in lifts:

@@ -44,7 +44,7 @@ class CreatureBalanceConfig:
     phases: str = field(default="sequence", metadata={"choices": ("sequence", "clip")})
     #: the sequence's order where the clip lifts no leg (its contact labels empty): ``wave`` (one
     #: side's legs from the hindmost forward, then the other side's: the walk the dog's and the horse's
-    #: clips show) or ``legs`` (the legs' own order: fore left, fore right, hind left, hind right)
+    #: clips show) or ``legs`` (the legs' own order, as the skeleton lists them)
     footfall_fallback: str = field(default="wave", metadata={"choices": ("wave", "legs")})
     #: largest swing as a share of the cycle
     max_swing_fraction: float = field(default=0.45, metadata={"gt": 0.0, "max": 0.9})

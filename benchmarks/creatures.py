@@ -1,7 +1,7 @@
 """Every creature clip walked in physics without support: outcome, fall time and speed against the
 clip's own, for the creature balance controller and, as the baseline, PD tracking alone.
 
-    python benchmarks/creatures.py [--seconds 20] [--seeds 3] [--animals ../shared/data/bvh/animal]
+    python benchmarks/creatures.py [--seconds 20] [--seeds 3] [--animals ../shared/data/bvh/animal] [--only WORD ...]
 
 The controller is the registered creature controller (the planned gait, ``gait: planned``); two
 baselines from the clip's start frame: the clip-timed balance controller (``gait: clip``, the controller
@@ -98,6 +98,8 @@ def main() -> int:
     ap.add_argument("--seconds", type=float, default=20.0)
     ap.add_argument("--seeds", type=int, default=3, help="seeds per clip for the goal count (default 3)")
     ap.add_argument("--animals", type=Path, default=ANIMALS)
+    ap.add_argument("--only", nargs="+", metavar="WORD",
+                    help="only the clips whose row name contains one of these words (e.g. child horse)")
     args = ap.parse_args()
     clips = [(p.stem, p) for p in sorted(args.animals.glob("*.bvh"))] + [("horse_walk (shipped)", HORSE_WALK)]
     dog = args.animals / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
@@ -110,6 +112,8 @@ def main() -> int:
     print("| clip | body | outcome | fall | speed sim / clip | clip-timed balance (gait: clip) | baseline (PD only) "
           f"| survival ratio | seeds at goal (of {args.seeds}) |")
     print("|---|---|---|---|---|---|---|---|---|")
+    if args.only:
+        clips = [(name, path) for name, path in clips if any(w.lower() in name.lower() for w in args.only)]
     for name, path in clips:
         print(row(name, path, args.seconds, max(1, args.seeds)), flush=True)
     return 0

@@ -42,6 +42,10 @@ class CreatureBalanceConfig:
     #: footfall pattern: ``sequence`` (one leg after another in the clip's order, swing_share/n each) or
     #: ``clip`` (the clip's own phases and swing share, e.g. a trot's diagonal pairs)
     phases: str = field(default="sequence", metadata={"choices": ("sequence", "clip")})
+    #: the sequence's order where the clip lifts no leg (its contact labels empty): ``wave`` (one
+    #: side's legs from the hindmost forward, then the other side's: the walk the dog's and the horse's
+    #: clips show) or ``legs`` (the legs' own order, as the skeleton lists them)
+    footfall_fallback: str = field(default="wave", metadata={"choices": ("wave", "legs")})
     #: largest swing as a share of the cycle
     max_swing_fraction: float = field(default=0.45, metadata={"gt": 0.0, "max": 0.9})
     #: longest stride as a fraction of the standing root height
@@ -69,6 +73,14 @@ class CreatureBalanceConfig:
     #: a hind leg that reaches little ahead steps further back), the sweep the narrowest leg's; off:
     #: the sweep is +-(the shortest reach of any leg in either direction)
     centre_sweep: bool = False
+    #: the sweeps are centred as by ``centre_sweep`` where that widens the stance's sweep (its reach) at
+    #: least this many times, measured on the built body's legs: legs whose reach ahead and behind is
+    #: lopsided (the bred child's hind legs: 0.07 m ahead, 0.25 m behind; 2.0 times), not legs whose
+    #: centring gains little (the horse's: 1.1 times, at a speed it falls at); 0: only ``centre_sweep``
+    centre_sweep_gain: float = field(default=1.5, metadata={"min": 0.0})
+    #: with the sweeps centred (by either setting), the horizontal virtual force held as by ``zmp_limit``:
+    #: the centred feet's centroid stands off the centre of mass (the child's by 2.8 cm, behind it)
+    centre_sweep_zmp: bool = True
     #: a push's catch (more than two legs): while the centre of mass's capture point c + v / w (w =
     #: sqrt(g / h)) lies out to one side beyond that side's outermost stance foot by more than
     #: ``capture_margin`` x the stance's half-width, that side's leg that would lift soonest starts its

@@ -130,6 +130,7 @@ class CreatureGaitController(CreatureBalanceController):
                 fwd = att.T @ _rz(theta) @ att @ self.fwd
                 self.fwd = fwd / np.linalg.norm(fwd)
                 self._neutral_stance()
+        self._wave_order()
         self._measure_reach()
         #: each leg's side (+1 left, -1 right of the stance's mid-line, heading frame)
         across = self.neutral_feet[:, 1] - self.neutral_feet[:, 1].mean() if len(self.legs) else np.zeros(0)
@@ -182,11 +183,13 @@ class CreatureGaitController(CreatureBalanceController):
 
         - ``self.reach_ahead`` / ``self.reach_behind`` (n,): how far (m) each foot reaches ahead of and
           behind its neutral place on the floor (within REACH_TOL x the root height at every step of
-          REACH_STEP up to there; without ``centre_sweep`` the measure stops at the first miss of any
-          foot, so these are lower bounds);
-        - ``self.reach``: half the stance's sweep: the shortest of them all, or with ``centre_sweep``
-          half the narrowest leg's interval, each foot's neutral place then moved the least that puts
-          the sweep inside its own interval;
+          REACH_STEP up to there), each leg measured to its own first miss;
+        - ``self.centred``: whether the sweeps are centred: with ``centre_sweep``, or where centring
+          widens the sweep at least ``centre_sweep_gain`` times (legs whose reach ahead and behind are
+          lopsided: a hind leg that reaches far back but little ahead);
+        - ``self.reach``: half the stance's sweep: the shortest of them all (the symmetric sweep), or
+          centred half the narrowest leg's interval, each foot's neutral place then moved the least that
+          puts the sweep inside its own interval;
         - the stance's sweep, speed x stance time, is at most 2 x reach: the cycle is shortened, and
           where the shortest swing does not allow that, the speed lowered (and held to the longest
           stride, ``stride_fraction`` x the root height per cycle)."""
@@ -194,6 +197,7 @@ class CreatureGaitController(CreatureBalanceController):
         L = self.leg_height
         self.reach = math.inf
         self.reach_ahead = self.reach_behind = np.zeros(n)
+        self.centred = False
         if n == 0 or self.cfg.support:
             return
         tol = REACH_TOL * L
@@ -206,15 +210,17 @@ class CreatureGaitController(CreatureBalanceController):
                 if going[side].any():
                     going[side] &= self._reach_error(sign * s, 0.0) <= tol
                     reach[side, going[side]] = s
-            if not going.any() or not (b_.centre_sweep or going.all()):
+            if not going.any():
                 break
         self._ik_q[:] = saved
         self.reach_ahead, self.reach_behind = reach
-        if b_.centre_sweep:
-            self.reach = float((reach[0] + reach[1]).min()) / 2.0
+        symmetric, centred = float(reach.min()), float((reach[0] + reach[1]).min()) / 2.0
+        self.centred = b_.centre_sweep or (b_.centre_sweep_gain > 0 and centred >= b_.centre_sweep_gain * symmetric)
+        if self.centred:
+            self.reach = centred
             self.neutral_feet[:, 0] += np.clip(0.0, self.reach - reach[1], reach[0] - self.reach)
         else:
-            self.reach = float(reach.min())
+            self.reach = symmetric
         if self.v_des > 0:
             stance = 1.0 - self.swing_frac
             self.period = min(self.period, max(2.0 * self.reach, 1e-6) / (stance * self.v_des))
@@ -238,6 +244,20 @@ class CreatureGaitController(CreatureBalanceController):
                 break
             self.reach_out[going] = k * REACH_STEP * L
         self._ik_q[:] = saved
+
+    def _wave_order(self) -> None:
+        """Where the clip lifts none of the legs (its contact labels empty: a bred child's blended feet
+        never stand still), the sequence gait's footfall order is the wave the walking quadrupeds'
+        clips show (the dog's and the horse's alike): one side's legs from the hindmost forward, then
+        the other side's (``footfall_fallback: wave``; ``legs``: the legs' own order)."""
+        n = len(self.legs)
+        if (self.bal.footfall_fallback != "wave" or n <= 2 or self._clip_lifts.any()
+                or self.bal.phases == "clip"):
+            return
+        side = self._hips[:, 1] - self._hips[:, 1].mean()
+        self.leg_order = sorted(range(n), key=lambda i: (bool(side[i] > 0), float(self._hips[i, 0])))
+        for rank, i in enumerate(self.leg_order):
+            self.offsets[i] = rank / n
 
     # ------------------------------------------------------------------ measured from the clip
     def _measure_gait(self) -> None:
@@ -263,10 +283,12 @@ class CreatureGaitController(CreatureBalanceController):
         # lift-off phase of each leg in the clip (first swing frame after a stance frame)
         starts = []
         swing_times, strides = [], []
+        self._clip_lifts = np.zeros(n, dtype=bool)
         for i in range(n):
             down = np.array([self._ref_down(f, i) for f in range(a, b)])
             lifts = np.flatnonzero(down[:-1] & ~down[1:])
             lands = np.flatnonzero(~down[:-1] & down[1:])
+            self._clip_lifts[i] = len(lifts) > 0
             starts.append(float(lifts[0]) if len(lifts) else float(i * (b - a) / max(n, 1)))
             strides.extend(np.diff(lifts) * clip.frame_time)
             for lf in lifts:
@@ -673,7 +695,7 @@ class CreatureGaitController(CreatureBalanceController):
         v_d = np.array([*(self._speed_at(t) * self._dir), 0.0])
         force = m * (w * w * (target[0:3] - data.qpos[0:3]) + 2 * b.damping_ratio * w * (v_d - data.qvel[0:3]))
         force[2] += m * b.gravity_comp * g
-        if b.zmp_limit:
+        if b.zmp_limit or (self.centred and b.centre_sweep_zmp):
             support = np.array([self._planted[i] for i in range(len(self.legs)) if self._phase(t, i) < 0])
             force[0:2] = zmp_limited(force[0:2], data.subtree_com[self.root_body], support, m * g)
         r = data.xmat[self.root_body].reshape(3, 3)

@@ -52,12 +52,18 @@ class CreatureBalanceConfig:
     stride_fraction: float = field(default=0.8, metadata={"gt": 0.0})
     #: shortest swing (s)
     min_swing_s: float = field(default=0.12, metadata={"gt": 0.0})
+    #: the shortest swing scaled with the leg: at least this x sqrt(L/g) s (L: the standing root height;
+    #: ``min_swing_s`` then the floor; 0: ``min_swing_s`` alone)
+    min_swing_froude: float = field(default=0.0, metadata={"min": 0.0})
     #: root height as a fraction of the clip's median
     height_fraction: float = field(default=1.0, metadata={"gt": 0.0})
     #: each foot at least this multiple of its hip's lateral offset from the hips' mid-line
     stance_width: float = field(default=2.0, metadata={"min": 0.0})
     #: swing-foot lift as a fraction of the standing root height
     step_height: float = field(default=0.12, metadata={"min": 0.0})
+    #: a stance foot's target this fraction of the standing root height below the floor: its leg
+    #: presses it down (at 0 a foot the body's bounce lifts is held in the air, not pushed back down)
+    stance_press: float = field(default=0.0, metadata={"min": 0.0})
     #: share of the way the centre of mass moves toward the next support's centroid; time constant (s)
     com_shift: float = field(default=1.0, metadata={"min": 0.0})
     shift_time_s: float = field(default=0.1, metadata={"min": 0.0})

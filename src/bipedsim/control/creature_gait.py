@@ -224,7 +224,7 @@ class CreatureGaitController(CreatureBalanceController):
         if self.v_des > 0:
             stance = 1.0 - self.swing_frac
             self.period = min(self.period, max(2.0 * self.reach, 1e-6) / (stance * self.v_des))
-            shortest = b_.min_swing_s / self.swing_frac
+            shortest = self._min_swing() / self.swing_frac
             if self.period < shortest:
                 # the shortest cycle: the speed held to the reach and to the longest stride
                 self.period = shortest
@@ -312,7 +312,13 @@ class CreatureGaitController(CreatureBalanceController):
                 self.offsets[i] = rank / max(n, 1)
         if self.v_des > 0:  # a stride of at most stride_fraction x the leg length
             period = min(period, b_.stride_fraction * self.leg_height / self.v_des)
-        self.period = max(period, b_.min_swing_s / self.swing_frac)
+        self.period = max(period, self._min_swing() / self.swing_frac)
+
+    def _min_swing(self) -> float:
+        """The shortest swing (s): ``min_swing_froude`` sqrt(L/g) (L: the standing root height), at least
+        ``min_swing_s`` (``min_swing_froude`` 0: ``min_swing_s`` alone)."""
+        g = -float(self.model.opt.gravity[2]) or 9.81
+        return max(self.bal.min_swing_s, self.bal.min_swing_froude * math.sqrt(self.leg_height / g))
 
     def _neutral_stance(self) -> None:
         """The neutral pose: root height and attitude, non-leg joints, and each foot's position relative
@@ -549,6 +555,7 @@ class CreatureGaitController(CreatureBalanceController):
                     self._planted[i] = np.array([p[0], p[1], self.site_ground[i]])
                     self._lift[i] = None
                 feet[i] = self._planted[i]
+                feet[i, 2] -= self.bal.stance_press * self.leg_height
             else:
                 if self._lift[i] is None:
                     self._lift[i] = self._planted[i].copy()

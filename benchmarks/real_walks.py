@@ -60,7 +60,10 @@ def run_one(path: Path, seconds: float, config: str | None, feasible: bool = Fal
     cv = clip_speed(sc.clip)
     falls = [o for o in outs if o.outcome != "no_fall"]
     first = min(falls, key=lambda o: o.fall_time_s or 0.0) if falls else outs[0]
-    med = lambda xs: float(np.median(xs))  # noqa: E731
+
+    def med(xs: list[float]) -> float:
+        return float(np.median(xs))
+
     courses = [o.course_speed_mps for o in outs if o.course_speed_mps is not None]
     offsets = [o.course_offset_m for o in outs if o.course_offset_m is not None]
     ok = sum(o.outcome == "no_fall" and cv > 0 and o.mean_speed_mps >= 0.7 * cv for o in outs)

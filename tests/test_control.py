@@ -458,7 +458,7 @@ def test_torso_law_on_the_running_method(scenario) -> None:
 
 
 def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push() -> None:
-    """balance.velocity.filter_s: the virtual force compares the COM velocity low-passed over 0.5 s (the
+    """balance.velocity.filter_s: the virtual force compares the COM velocity low-passed over 0.75 s (the
     default), so a push's transient is left to the balance law. Measured: 200 N x 0.2 s forward-left
     in the right-stance swing (the 200 N grid's 45 degrees, state 4) with 50 N per m/s on the raw
     velocity the walk falls at 4.2 s; the default (90 N per m/s, low-passed) recovers."""
@@ -493,6 +493,7 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
     v_clip = clip_speed(sc.clip)
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, velocity=replace(sc.cfg.balance.velocity, kv_sagittal=0.0)))
+
     def runs(cfg: object) -> tuple[list[str], list[float]]:
         outs = [run_scenario(replace(sc, cfg=cfg), RolloutSpec(seconds=20.0, seed=s, init_noise=0.02 if s else 0.0))[0]
                 for s in (0, 1, 2)]
@@ -500,7 +501,7 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
 
     outcomes, ratios = runs(sc.cfg)
     assert outcomes == ["no_fall"] * 3 and float(np.median(ratios)) >= 0.7, (outcomes, ratios)
-    outcomes, ratios = runs(off)  # slower (and without the push on, two of the three noisy starts fall late)
+    outcomes, ratios = runs(off)  # slower (measured: 0.63, 0.60, 0.64; the noisy starts fall at 17.0 and 19.8 s)
     assert float(np.median(ratios)) < 0.67, (outcomes, ratios)
 
 

@@ -207,14 +207,13 @@ class BalanceConfig:
     stance_yaw_limit: float | None = field(default=0.35, metadata={"gt": 0.0})
     #: in the ``pelvis`` frame, the torso law's yaw target is the course law's heading target plus the
     #: reference pelvis's own twist about its course at this frame (``reference.yaw_offset``; the
-    #: ``course`` frame has it already), so the pelvis twists within each step as the capture's does and
-    #: the heading frame the balance law measures and places feet in stays the reference's (a capture's
-    #: pelvis twists +-4-22 degrees per step; with the target on the course alone Bandai's pelvis turned
-    #: +10 -> +21 degrees in its first stance while the reference's turned +10 -> -9, and the 30 degrees
-    #: read as 0.6 m/s of sideways velocity the COM did not have). Off: 7 shared walks x seeds 0-8
-    #: 808.7 s / 33 runs at >= 70 % -> 877.6 s / 37 with it, but seeds 0-2 alone 309.8 s / 12 -> 291.0 s /
-    #: 12 (docs/controller.md, "Bandai: the roll is forced, the yaw comes first"). The built-in walk's
-    #: pelvis does not twist (yaw_offset 0): unchanged
+    #: ``course`` frame has it already), so the heading frame the balance law measures d and v and places
+    #: the feet in is the one the reference's own quantities are expressed in (a capture's pelvis twists
+    #: +-4-22 degrees per step). Over 2-20 s CMU 02_01's pelvis then stays 3 degrees off the reference's
+    #: yaw on average instead of 37 (its crab). Off: 7 shared walks x seeds 0-8 808.7 s / 33 runs at >= 70 %
+    #: -> 877.6 s / 37 with it, but seeds 0-2 alone 309.8 s / 12 -> 291.0 s / 12 (docs/controller.md,
+    #: "Bandai: the sole's roll is forced, the pelvis's yaw comes first"). The built-in walk's pelvis does
+    #: not twist (yaw_offset 0): unchanged
     torso_twist: bool = False
     swing_hip_world: bool = True
     #: ankles aim the feet at the reference's world (heading-frame) orientation, so a foot lands and

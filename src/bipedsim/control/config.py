@@ -205,6 +205,16 @@ class BalanceConfig:
     #: shared walks 275 s -> 319 s walked, Bandai and 12_03 from 2-9 s to 8-19 s (docs/controller.md,
     #: "The stance foot spins")
     stance_yaw_limit: float | None = field(default=0.35, metadata={"gt": 0.0})
+    #: in the ``pelvis`` frame, the torso law's yaw target is the course law's heading target plus the
+    #: reference pelvis's own twist about its course at this frame (``reference.yaw_offset``; the
+    #: ``course`` frame has it already), so the heading frame the balance law measures d and v and places
+    #: the feet in is the one the reference's own quantities are expressed in (a capture's pelvis twists
+    #: +-4-22 degrees per step). Over 2-20 s CMU 02_01's pelvis then stays 3 degrees off the reference's
+    #: yaw on average instead of 37 (its crab). Off: 7 shared walks x seeds 0-8 808.7 s / 33 runs at >= 70 %
+    #: -> 877.6 s / 37 with it, but seeds 0-2 alone 309.8 s / 12 -> 291.0 s / 12 (docs/controller.md,
+    #: "Bandai: the sole's roll is forced, the pelvis's yaw comes first"). The built-in walk's pelvis does
+    #: not twist (yaw_offset 0): unchanged
+    torso_twist: bool = False
     swing_hip_world: bool = True
     #: ankles aim the feet at the reference's world (heading-frame) orientation, so a foot lands and
     #: stays flat whatever the leg's tilt

@@ -238,6 +238,8 @@ class SimbiconController(Controller):
         self._r_heading = np.eye(3)
         self._r_torso = np.eye(3)  #: scratch: the torso law's heading when the stance foot's yaw limits it
         self._stance_yaw_limit = cfg.balance.stance_yaw_limit
+        self._torso_twist = cfg.balance.torso_twist
+        self._r_twist = np.eye(3)  #: scratch: the torso's yaw target turned by the reference's twist
         self.course = CourseTracker(source.course())
         self._course_from: tuple[float, float] | None = None  #: the COM's place on the course at reset
         self._course_on = cfg.balance.enabled and cfg.balance.course.enabled
@@ -585,7 +587,8 @@ class SimbiconController(Controller):
             place = self._steer(cx, cy, vx, vy) if self._course_on else 0.0
         ry = self._ry
         ry[0, 0], ry[0, 1], ry[1, 0], ry[1, 1] = c, -s, s, c
-        tau_torso = self._torso_torque(r_p, pm, data.qvel[3:6].tolist(), c, s, self._torso_heading(data, forces))
+        tau_torso = self._torso_torque(r_p, pm, data.qvel[3:6].tolist(), c, s,
+                                       self._torso_heading(data, forces, self._torso_target()))
         ax, ay, _ = data.xpos[self.foot_body[stance]].tolist()
         fs, fc, vh0, vh1 = self._feedback(cx - ax, cy - ay, vx, vy, c, s, place)
         if self._ik_on:
@@ -601,17 +604,31 @@ class SimbiconController(Controller):
         if self._vel_on:  # last: the feet's world targets above set the ankle torques outright
             self._virtual_force(data, tau, forces, c, s, vh0, vh1)
 
-    def _torso_heading(self, data: mujoco.MjData, forces: dict[str, float]) -> FloatArray:
-        """The torso law's heading rotation: the heading target's (``_r_heading``), its yaw kept within
-        ``balance.stance_yaw_limit`` of the loaded stance foot's yaw less the reference foot's own yaw
-        from its pelvis (the pelvis's yaw over that foot as the reference has it)."""
-        lim, stance = self._stance_yaw_limit, self.fsm.stance
-        if lim is None or forces[stance] <= 0.0:
+    def _torso_target(self) -> FloatArray:
+        """The torso law's heading rotation before the stance foot's limit: the heading target's
+        (``_r_heading``), with ``balance.torso_twist`` (pelvis frame) turned by the reference pelvis's own
+        twist about its course at this frame (the course frame has that twist in ``_r_heading``)."""
+        if not self._torso_twist or self._frame_course:
             return self._r_heading
+        h_t = self.heading_target + self.source.yaw_offset(self.frame)
+        r, ch, sh = self._r_twist, math.cos(h_t), math.sin(h_t)
+        r[0, 0], r[0, 1], r[1, 0], r[1, 1] = ch, -sh, sh, ch
+        return r
+
+    def _torso_heading(self, data: mujoco.MjData, forces: dict[str, float], base: FloatArray | None = None
+                       ) -> FloatArray:
+        """The torso law's heading rotation: ``base``'s (the heading target's, ``_r_heading``, when None;
+        with ``balance.torso_twist`` the target turned by the reference pelvis's twist), its yaw kept
+        within ``balance.stance_yaw_limit`` of the loaded stance foot's yaw less the reference foot's own
+        yaw from its pelvis (the pelvis's yaw over that foot as the reference has it)."""
+        lim, stance = self._stance_yaw_limit, self.fsm.stance
+        rh = self._r_heading if base is None else base
+        if lim is None or forces[stance] <= 0.0:
+            return rh
         f_ref = self.source.foot_target(self.frame, self.fsm.state, stance)
         if f_ref is None:
-            return self._r_heading
-        rh, fm = self._r_heading, data.xmat[self.foot_body[stance]]
+            return rh
+        fm = data.xmat[self.foot_body[stance]]
         h = math.atan2(float(rh[1, 0]), float(rh[0, 0]))
         anchor = math.atan2(float(fm[3]), float(fm[0])) - math.atan2(float(f_ref[1, 0]), float(f_ref[0, 0]))
         h_t = yaw_within(h, anchor, lim)

@@ -2,6 +2,7 @@
 clip's own, for the creature balance controller and, as the baseline, PD tracking alone.
 
     python benchmarks/creatures.py [--seconds 20] [--seeds 3] [--animals ../shared/data/bvh/animal] [--only WORD ...]
+                                   [--config CONTROLLER.yaml]
 
 The controller is the registered creature controller (the planned gait, ``gait: planned``); two
 baselines from the clip's start frame: the clip-timed balance controller (``gait: clip``, the controller
@@ -73,9 +74,9 @@ def over_seeds(sc, first, v_clip: float, seconds: float, seeds: int) -> str:
             + (f", falls at {', '.join(falls)} s" if falls else ""))
 
 
-def row(name: str, path: Path, seconds: float, seeds: int = 1) -> str:
+def row(name: str, path: Path, seconds: float, seeds: int = 1, config: Path | None = None) -> str:
     try:
-        sc = load_scenario(bvh=path)
+        sc = load_scenario(config, bvh=path)
         out, ctrl = run_scenario(sc, RolloutSpec(seconds=seconds))
     except Exception as exc:  # noqa: BLE001 - a benchmark reports and goes on
         return f"| {name} | refused: {exc} | | | | | | | |"
@@ -100,6 +101,8 @@ def main() -> int:
     ap.add_argument("--animals", type=Path, default=ANIMALS)
     ap.add_argument("--only", nargs="+", metavar="WORD",
                     help="only the clips whose row name contains one of these words (e.g. child horse)")
+    ap.add_argument("--config", type=Path, default=None,
+                    help="a controller YAML (its creature: section) instead of the defaults")
     args = ap.parse_args()
     clips = [(p.stem, p) for p in sorted(args.animals.glob("*.bvh"))] + [("horse_walk (shipped)", HORSE_WALK)]
     dog = args.animals / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
@@ -115,7 +118,7 @@ def main() -> int:
     if args.only:
         clips = [(name, path) for name, path in clips if any(w.lower() in name.lower() for w in args.only)]
     for name, path in clips:
-        print(row(name, path, args.seconds, max(1, args.seeds)), flush=True)
+        print(row(name, path, args.seconds, max(1, args.seeds), args.config), flush=True)
     return 0
 
 

@@ -34,7 +34,7 @@ from bipedsim.control.creature_balance import CreatureBalanceConfig
 from bipedsim.control.creature_gait import make_creature_controller
 from bipedsim.data import HORSE_WALK
 from bipedsim.sim.rollout import RolloutSpec, rollout
-from bipedsim.sim.runner import load_scenario, run_scenario
+from bipedsim.sim.runner import load_scenario, run_scenario, run_seeds
 
 REPO = Path(__file__).resolve().parent.parent
 ANIMALS = REPO.parent / "shared" / "data" / "bvh" / "animal"
@@ -65,8 +65,7 @@ def baseline(sc, seconds: float, balance: CreatureBalanceConfig | None = None):
 
 def over_seeds(sc, first, v_clip: float, seconds: float, seeds: int) -> str:
     """Of seeds 0..seeds-1 (seed 0 is ``first``), how many walk the whole time at >= 50 % of the clip."""
-    outs = [first] + [run_scenario(sc, RolloutSpec(seconds=seconds, seed=s, init_noise=0.05))[0]
-                      for s in range(1, seeds)]
+    outs = [first] + run_seeds(sc, seconds, seeds, start=1)
     ratios = [o.mean_speed_mps / v_clip if v_clip >= IN_PLACE_MPS else 1.0 for o in outs]
     ok = sum(o.fall_time_s is None and r >= 0.5 for o, r in zip(outs, ratios))
     falls = [f"{o.fall_time_s:.1f}" for o in outs if o.fall_time_s is not None]

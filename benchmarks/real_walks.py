@@ -36,7 +36,6 @@ from bipedsim.control.config import load_controller
 from bipedsim.control.reference import clip_speed
 from bipedsim.errors import BipedsimError
 from bipedsim.sim import runner
-from bipedsim.sim.rollout import RolloutSpec
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh"
 FIELDS = ["file", "outcome", "fall_time_s", "speed_mps", "clip_speed_mps", "speed_ratio", "course_ratio", "off_m",
@@ -52,8 +51,7 @@ def run_one(path: Path, seconds: float, config: str | None, feasible: bool = Fal
         if feasible:  # as `reference: {feasible: true}` in the config
             cfg = replace(cfg, reference=replace(cfg.reference, feasible=True))
         sc = runner.load_scenario(cfg, path)
-        outs = [runner.run_scenario(sc, RolloutSpec(seconds=seconds, seed=s, init_noise=0.02 if s else 0.0))[0]
-                for s in range(max(1, seeds))]
+        outs = runner.run_seeds(sc, seconds, max(1, seeds))
     except BipedsimError as exc:
         return {"file": path.name, "outcome": "refused", "reason": str(exc)[:200],
                 "wall_s": round(time.perf_counter() - t0, 1)}

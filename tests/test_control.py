@@ -25,7 +25,7 @@ from bipedsim.control.simbicon import SimbiconController as Controller
 from bipedsim.control.simbicon import gait_source
 from bipedsim.errors import ConfigError
 from bipedsim.sim.rollout import RolloutSpec
-from bipedsim.sim.runner import load_scenario, run_scenario
+from bipedsim.sim.runner import load_scenario, run_scenario, run_seeds
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -234,6 +234,22 @@ def test_same_seed_same_result(scenario) -> None:
     a, _ = run_scenario(scenario, RolloutSpec(seconds=2.0, seed=3, init_noise=0.05))
     b, _ = run_scenario(scenario, RolloutSpec(seconds=2.0, seed=3, init_noise=0.05))
     assert a.distance_m == b.distance_m and a.tracking_rmse_rad == b.tracking_rmse_rad
+
+
+def test_run_seeds_is_seed_0_clean_then_noisy_seeds(scenario) -> None:
+    """run_seeds: seed 0 is the plain run (no noise), seeds 1.. add the body kind's initial noise, each
+    the run that seed gives alone; fewer than one seed is refused."""
+    from bipedsim.sim.runner import SEED_NOISE
+
+    outs = run_seeds(scenario, 2.0, 3)
+    plain, _ = run_scenario(scenario, RolloutSpec(seconds=2.0))
+    two, _ = run_scenario(scenario, RolloutSpec(seconds=2.0, seed=2, init_noise=SEED_NOISE["humanoid"]))
+    assert [o.config["init_noise"] for o in outs] == [0.0, SEED_NOISE["humanoid"], SEED_NOISE["humanoid"]]
+    assert outs[0].distance_m == plain.distance_m and outs[2].distance_m == two.distance_m
+    assert outs[1].distance_m != outs[2].distance_m != outs[0].distance_m
+    assert [o.distance_m for o in run_seeds(scenario, 2.0, 3, start=2)] == [two.distance_m]
+    with pytest.raises(ValueError, match="at least 1"):
+        run_seeds(scenario, 2.0, 0)
 
 
 # ---------------------------------------------------------------------- configuration
@@ -495,8 +511,7 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, velocity=replace(sc.cfg.balance.velocity, kv_sagittal=0.0)))
 
     def runs(cfg: object) -> tuple[list[str], list[float]]:
-        outs = [run_scenario(replace(sc, cfg=cfg), RolloutSpec(seconds=20.0, seed=s, init_noise=0.02 if s else 0.0))[0]
-                for s in (0, 1, 2)]
+        outs = run_seeds(replace(sc, cfg=cfg), 20.0, 3)
         return [o.outcome for o in outs], [o.mean_speed_mps / v_clip for o in outs]
 
     outcomes, ratios = runs(sc.cfg)

@@ -170,11 +170,10 @@ def test_shared_walk_tracked_20s_at_70_percent_of_its_speed(name: str) -> None:
     import numpy as np
 
     from bipedsim.control.reference import clip_speed
-    from bipedsim.sim.rollout import RolloutSpec
-    from bipedsim.sim.runner import load_scenario, run_scenario
+    from bipedsim.sim.runner import load_scenario, run_seeds
 
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / f"{name}.bvh")
-    outs = [run_scenario(sc, RolloutSpec(seconds=20.0, seed=s, init_noise=0.02 if s else 0.0))[0] for s in (0, 1, 2)]
+    outs = run_seeds(sc, 20.0, 3)
     assert all(o.outcome == "no_fall" for o in outs), [(o.fall_time_s, o.fall_reason) for o in outs]
     assert float(np.median([o.mean_speed_mps for o in outs])) >= 0.7 * clip_speed(sc.clip)

@@ -172,10 +172,29 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
     return out, ctrl
 
 
+#: the initial velocity noise (rad/s, m/s; standard deviation) of seeds 1.. in :func:`run_seeds`:
+#: a human walk's (the shared walks' yardstick, docs/controller.md) and a creature's
+SEED_NOISE = {"humanoid": 0.02, "creature": 0.05}
+
+
+def run_seeds(sc: Scenario, seconds: float, seeds: int = 3, noise: float | None = None,
+              start: int = 0) -> list[Outcome]:
+    """Rollouts of seeds ``start`` .. ``seeds`` - 1: seed 0 from the reference's own start, each later seed with
+    ``noise`` (default: :data:`SEED_NOISE` for the body's kind) of Gaussian noise added to the initial
+    velocities. A walk's single outcome is chaotic (the same walk falls or not on a few mrad/s), so its
+    measures are counted or taken as medians over these runs."""
+    if seeds < 1:
+        raise ValueError(f"seeds: need at least 1, got {seeds}")
+    sd = SEED_NOISE.get(sc.profile, SEED_NOISE["humanoid"]) if noise is None else noise
+    return [run_scenario(sc, RolloutSpec(seconds=seconds, seed=s, init_noise=sd if s else 0.0))[0]
+            for s in range(start, seeds)]
+
+
 def write_outcome(out: Outcome, folder: str | os.PathLike[str]) -> Path:
     path = Path(folder) / "outcome.json"
     atomic_write_json(path, out.to_dict())
     return path
 
 
-__all__ = ["AUTO", "PROFILES", "resolve_profile", "Scenario", "load_scenario", "run_scenario", "write_outcome"]
+__all__ = ["AUTO", "PROFILES", "SEED_NOISE", "resolve_profile", "Scenario", "load_scenario", "run_scenario",
+           "run_seeds", "write_outcome"]

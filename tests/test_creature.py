@@ -267,3 +267,26 @@ def test_run_a_dog_without_flags_and_sweep_it(tmp_path: Path) -> None:
     summary = run_sweep(load_experiment(exp), tmp_path / "sweep", progress=False)
     assert summary["rollouts"] == 2 and summary["outcomes"].get("fall", 0) >= 1  # 5 kN knocks it over
     assert (tmp_path / "sweep" / "push_polar.png").stat().st_size > 0
+
+
+def test_a_human_run_as_a_creature_keeps_its_unit_and_folds_a_static_root() -> None:
+    """``--profile creature`` on a human walk reads it as the human it is: CMU 12_03 (unit guessed)
+    keeps the humanoid reading's size and speed, not a creature's guess from its largest extent (0.16 m/s
+    instead of 0.82 before); and Bandai's static ``joint_Root`` at the floor is folded into the hips
+    (built as a bone it touched the floor at once and the clip read as standing still)."""
+    from bipedsim.model.creature_kind import read_for_body
+
+    need_shared()
+    walk = SHARED_BVH / "human" / "cmu_12_03_walk__cgspeed_mb31.bvh"
+    _, info_h, m_h, kind_h = read_for_body(walk)
+    _, info_c, m_c, kind_c = read_for_body(walk, profile="creature")
+    assert (kind_h, kind_c) == ("humanoid", "creature")
+    assert info_c.unit_scale == pytest.approx(info_h.unit_scale)
+    assert np.allclose(m_c.root_translation, m_h.root_translation)
+    bandai = SHARED_BVH / "human" / "bandai2_walk_exhausted_001.bvh"
+    raw, _, m_b, _ = read_for_body(bandai, profile="creature")
+    assert raw.skeleton.names[0] != "joint_Root" and "joint_Root" not in raw.skeleton.names
+    travel = np.linalg.norm(m_b.root_translation[-1, :2] - m_b.root_translation[0, :2])
+    assert travel > 5.0  # the 9 m walk travels; a static floor root would read 0
+    _, _, m_bh, _ = read_for_body(bandai)  # the humanoid path is left as it was
+    assert m_bh.skeleton.num_joints == m_b.skeleton.num_joints + 1

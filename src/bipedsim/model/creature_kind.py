@@ -190,13 +190,24 @@ def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = N
     guessed from its largest extent, not a standing human's height: a bred dog x horse with its head up
     had been read as a 1.3 m human in inches (2.54 x too large)."""
     from bipedsim.motion.bvh import read_bvh
+    from bipedsim.motion.reroot import fold_static_root
 
     raw, info = read_bvh(path, scale=scale, up=up, positions=positions)
     motion = raw.to_project_frame()
+    forced = profile not in (None, AUTO)
     profile = resolve_profile(motion, profile, support=support, source=str(path))
-    if profile == "creature" and info.unit_source == "guessed" and info.upright:
+    # the unit follows what the skeleton is, not the controller asked for: a human walk run with
+    # --profile creature keeps a human's unit (its largest extent would read CMU's inches as cm)
+    shaped = profile == "creature" and (not forced or detect_body_kind(motion).kind == "creature")
+    if shaped and info.unit_source == "guessed" and info.upright:
         raw, info = read_bvh(path, up=up, positions=positions, upright=False)
         motion = raw.to_project_frame()
+    if profile == "creature":
+        # a static root at the floor with the body's translation on its one child (a game-data layout):
+        # the creature is built from every joint, so the floor joint is folded away, not built as a bone
+        raw, folded = fold_static_root(raw)
+        if folded is not None:
+            motion = raw.to_project_frame()
     return raw, info, motion, profile
 
 

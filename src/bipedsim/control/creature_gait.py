@@ -596,7 +596,9 @@ class CreatureGaitController(CreatureBalanceController):
         if not b.com_shift_dynamic or not math.isfinite(self.period) or self.period <= 0:
             return b.com_shift
         g = -float(self.model.opt.gravity[2])
-        h = max(float(self.neutral_com[2] - self.neutral_feet[:, 2].mean()), 1e-3) if len(self.legs) else self.leg_height
+        h = self.leg_height  # the centre of mass's height over the feet
+        if len(self.legs):
+            h = max(float(self.neutral_com[2] - self.neutral_feet[:, 2].mean()), 1e-3)
         w = 2.0 * math.pi / self.period
         return b.com_shift / (1.0 + w * w * h / g)
 

@@ -173,7 +173,7 @@ def test_the_horse_walks_20_s_at_half_its_clip_speed() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 20 not met yet: the bred child walks 20 s but at 46-48 % of its "
+@pytest.mark.xfail(strict=True, reason="issue 20 not met yet: the bred child walks 20 s but at 49 % of its "
                    "clip's speed (its front legs' reach; the flamingo: tests/test_creature_biped.py)")
 def test_issue_20_every_creature_walks_20_s() -> None:
     import tempfile

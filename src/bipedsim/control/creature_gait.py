@@ -590,8 +590,9 @@ class CreatureGaitController(CreatureBalanceController):
         The supports' centroid sways once per cycle; a centre of mass at height h over the feet swaying by
         a at w = 2 pi / period needs its centre of pressure to sway by a (1 + w^2 h / g) (x'' = g / h (x -
         p)), so with the pressure held to the support's own sway the centre of mass follows 1 / (1 + w^2
-        h / g) of it. The horse's 0.6 s cycle at 0.71 m: 0.11 (shifted all the way, it rocked +-0.05 rad
-        onto the swinging leg's corner); a slow walk follows nearly all of it."""
+        h / g) of it. The horse's 0.6 s cycle at 0.71 m: 0.11 (shifted all the way, its centre of mass
+        left the triangle of its three stance feet while a right leg swung); a slow walk follows nearly
+        all of it."""
         b = self.bal
         if not b.com_shift_dynamic or not math.isfinite(self.period) or self.period <= 0:
             return b.com_shift

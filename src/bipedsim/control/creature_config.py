@@ -67,6 +67,12 @@ class CreatureBalanceConfig:
     #: share of the way the centre of mass moves toward the next support's centroid; time constant (s)
     com_shift: float = field(default=1.0, metadata={"min": 0.0})
     shift_time_s: float = field(default=0.1, metadata={"min": 0.0})
+    #: the shift scaled by what an inverted pendulum follows at the gait's frequency: the supports'
+    #: centroid sways once per cycle (period P), and a centre of mass at height h swaying by a at 2 pi / P
+    #: needs its centre of pressure to sway by a (1 + (2 pi / P)^2 h / g); the shift is com_shift /
+    #: (1 + (2 pi / P)^2 h / g) of the way (the horse 0.11, the dog 0.23; a slow quasi-static walk nearly
+    #: all of it). Off: com_shift of the way at any cycle
+    com_shift_dynamic: bool = True
     #: 1: the centre of mass shifts only sideways (across the walking direction), 0: also along it
     lateral_only: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
     #: swing-foot placement of the planned gait per (m/s) of velocity error, in units of sqrt(L/g) s

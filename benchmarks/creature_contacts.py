@@ -3,6 +3,10 @@ planned stance time in floor contact (1 = no chatter), by tenth of the stance (l
 low), contact switches per stance (bouncing) and the share of its swing time on the floor (scuffing).
 
     python benchmarks/creature_contacts.py [--seconds 6] [--animals ../shared/data/bvh/animal]
+                                           [--config CONTROLLER.yaml]
+
+A second table gives each body's support: the share of the counted time with no leg on the floor
+(bouncing) and with exactly one (rocking onto one foot).
 
 Clips: the shared dog, the shipped horse and the child bred from them (as in benchmarks/creatures.py),
 each one rollout through the one rollout loop with :class:`bipedsim.sim.contacts.StanceContacts` as a
@@ -29,6 +33,8 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--seconds", type=float, default=6.0)
     ap.add_argument("--animals", type=Path, default=ANIMALS)
+    ap.add_argument("--config", type=Path, default=None,
+                    help="a controller YAML (its creature: section) instead of the defaults")
     args = ap.parse_args()
     dog = args.animals / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
     clips = [("horse_walk (shipped)", HORSE_WALK)]
@@ -39,8 +45,9 @@ def main() -> int:
     print(f"{args.seconds:g} s per rollout, counted from 1 s\n")
     print("| clip | leg | stance in contact | by tenth of stance | switches / stance | swing on floor |")
     print("|---|---|---|---|---|---|")
+    support = []
     for name, path in clips:
-        sc = load_scenario(bvh=path)
+        sc = load_scenario(args.config, bvh=path)
         hook = StanceContacts()
         out, ctrl = run_scenario(sc, RolloutSpec(seconds=args.seconds), hooks=[hook])
         s = hook.summary()
@@ -50,6 +57,11 @@ def main() -> int:
                   f"| {s['swing_share'][i]:.2f} |", flush=True)
         if out.fall_time_s is not None:
             print(f"| {name} | falls at {out.fall_time_s:.2f} s | | | | |")
+        down = s["legs_down"]
+        if down:
+            support.append(f"| {name} | {down[0]:.3f} | {down[1]:.2f} |")
+    print("\n| clip | no leg down | one leg down |\n|---|---|---|")
+    print("\n".join(support))
     return 0
 
 

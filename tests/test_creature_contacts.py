@@ -37,6 +37,8 @@ def test_summary_counts_shares_switches_and_deciles():
     assert s["swing_share"][0] == pytest.approx(0.2)
     assert s["switches"][0] == pytest.approx(1.0)  # one stance (no start seen: counted as one)
     assert s["by_decile"][0][:5] == [0.0] * 5 and s["by_decile"][0][5:] == [1.0] * 5
+    # legs down per step: leg 1 always, leg 0 on steps 5-10 (6 of 15 steps two legs, 9 one, none zero)
+    assert s["legs_down"] == pytest.approx([0.0, 9 / 15, 6 / 15])
 
 
 def test_hook_ignores_controllers_without_contact_state():

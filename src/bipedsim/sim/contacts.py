@@ -9,7 +9,9 @@ reports:
 - ``stance_share``: the share of a leg's planned stance time its foot is on the floor (1: no chatter);
 - ``swing_share``: the share of its swing time it is on the floor (scuffing);
 - ``by_decile``: the stance share in each tenth of the stance (late landings show as a low start);
-- ``switches``: contact changes per stance (a foot bouncing on and off the floor).
+- ``switches``: contact changes per stance (a foot bouncing on and off the floor);
+- ``legs_down``: the share of the counted steps with 0, 1, ..., n legs on the floor (a body that
+  bounces shows time with no leg down, a rocking one long spells on one leg).
 """
 
 from __future__ import annotations
@@ -39,9 +41,9 @@ class StanceContacts:
 
     def summary(self) -> dict[str, list[float] | list[list[float]]]:
         """Per leg: ``stance_share``, ``swing_share``, ``switches`` (per stance) and ``by_decile``
-        (10 shares per leg); empty lists before any step was counted."""
+        (10 shares per leg); ``legs_down`` (n + 1 shares); empty lists before any step was counted."""
         if not self.planned:
-            return {"stance_share": [], "swing_share": [], "switches": [], "by_decile": []}
+            return {"stance_share": [], "swing_share": [], "switches": [], "by_decile": [], "legs_down": []}
         st, dn = np.array(self.planned), np.array(self.down)
         prog = np.array(self.progress)
         n_st = np.maximum(st.sum(axis=0), 1)
@@ -55,7 +57,9 @@ class StanceContacts:
             m = st[:, i] & (prog[:, i] >= 0)
             b = np.minimum((prog[m, i] * 10).astype(int), 9)
             deciles.append([float(dn[m, i][b == k].mean()) if np.any(b == k) else float("nan") for k in range(10)])
-        return {"stance_share": stance, "swing_share": swing, "switches": switches, "by_decile": deciles}
+        counts = np.bincount(dn.sum(axis=1), minlength=st.shape[1] + 1) / len(dn)
+        return {"stance_share": stance, "swing_share": swing, "switches": switches, "by_decile": deciles,
+                "legs_down": counts.tolist()}
 
 
 __all__ = ["StanceContacts"]

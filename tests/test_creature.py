@@ -23,8 +23,8 @@ from bipedsim.errors import ModelError
 from bipedsim.model.creature import creature_legs, trunk_bodies
 from bipedsim.model.creature_kind import detect_body_kind
 from bipedsim.motion.bvh import load_bvh, read_bvh
-from bipedsim.sim.rollout import FallCriteria, FallDetector
-from bipedsim.sim.runner import load_scenario, resolve_profile
+from bipedsim.sim.rollout import FallCriteria, FallDetector, RolloutSpec
+from bipedsim.sim.runner import load_scenario, resolve_profile, run_scenario
 
 DOG = SHARED_BVH / "animal" / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
 FLAMINGO = SHARED_BVH / "animal" / "truebones_flamingo_walk_inplace.bvh"
@@ -290,3 +290,45 @@ def test_a_human_run_as_a_creature_keeps_its_unit_and_folds_a_static_root() -> N
     assert travel > 5.0  # the 9 m walk travels; a static floor root would read 0
     _, _, m_bh, _ = read_for_body(bandai)  # the humanoid path is left as it was
     assert m_bh.skeleton.num_joints == m_b.skeleton.num_joints + 1
+
+
+def _small_dog(tmp_path: Path) -> Path:
+    """The shared dog at 1/2.54 of its size (its file read as centimetres: a 0.7 kg, 19 cm tall dog)."""
+    from bipedsim.motion.bvh import write_bvh
+
+    m, _ = read_bvh(DOG)
+    path = tmp_path / "small_dog.bvh"
+    write_bvh(m.scaled(1.0 / 2.54), path, precision=6)
+    return path
+
+
+def test_joint_damping_and_armature_are_held_to_the_bodys_own_scale(tmp_path: Path) -> None:
+    """The profile's absolute joint damping and armature are capped at a share of M s^2 sqrt(g/s) and
+    M s^2 (model.creature.DAMPING_SHARE, ARMATURE_SHARE): the small dog's are capped, the shared dog's
+    (a 0.017 and 0.0011 share) are the profile's own."""
+    from bipedsim.model.creature import ARMATURE_SHARE, DAMPING_SHARE
+
+    need_shared()
+    for path, capped in ((DOG, False), (_small_dog(tmp_path), True)):
+        sc = load_scenario(bvh=path)
+        model = sc.built.model
+        mass, size = float(model.body_subtreemass[1]), sc.built.plan.extra["size_m"]
+        balls = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL]
+        dofs = [int(model.jnt_dofadr[j]) for j in balls]
+        arm = model.dof_armature[dofs]
+        if capped:
+            assert np.allclose(arm, ARMATURE_SHARE * mass * size * size)
+            assert sc.built.plan.sim["joint_damping"] == pytest.approx(
+                DAMPING_SHARE * mass * size * size * np.sqrt(9.8 / size))
+        else:
+            assert np.allclose(arm, 0.01) and sc.built.plan.sim["joint_damping"] == 0.5
+
+
+@pytest.mark.slow
+def test_a_small_dog_walks(tmp_path: Path) -> None:
+    """The shared dog at 1/2.54 of its size walks 20 s at >= 50 % of its clip's speed (with the
+    profile's absolute damping, 1.1 times its own scale on every joint, it fell at 2.7 s)."""
+    need_shared()
+    sc = load_scenario(bvh=_small_dog(tmp_path))
+    out, ctrl = run_scenario(sc, RolloutSpec(seconds=20.0))
+    assert out.outcome == "no_fall" and out.mean_speed_mps >= 0.5 * ctrl.clip_speed

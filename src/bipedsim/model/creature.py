@@ -18,7 +18,8 @@ Rules:
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+import math
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -41,6 +42,28 @@ FOOT_HEIGHT_FRACTION = 0.25
 GRAVITY = 9.81
 #: A bone shorter than this (m) cannot carry a capsule: the body gets a small sphere instead.
 MIN_CAPSULE_M = 1e-3
+
+
+#: The joints' passive damping and rotor inertia (the profile's ``sim.joint_damping``, ``sim.armature``:
+#: absolute values) at most these shares of the body's own scales, M s^2 sqrt(g/s) (N m s) and M s^2
+#: (kg m^2), M its mass, s its size: a 0.7 kg dog (the shared dog at 1/2.54 of its size) had 1.1 times
+#: its own scale of damping on every joint and fell at 2.7 s; the shared dog has 0.017 and 0.0011, the
+#: horse 0.0004, the flamingo 0.089 and 0.007 (unchanged by the caps).
+DAMPING_SHARE = 0.1
+ARMATURE_SHARE = 0.01
+
+
+def _sized_sim(profile: CreatureProfile, mass: float, size: float) -> CreatureProfile:
+    """``profile`` with its joint damping and armature held to :data:`DAMPING_SHARE` and
+    :data:`ARMATURE_SHARE` of the body's own scales (a small creature's legs are not swung through
+    syrup sized for a dog's)."""
+    sim = profile.sim
+    g = abs(float(sim.gravity)) or GRAVITY
+    damping = min(sim.joint_damping, DAMPING_SHARE * mass * size * size * math.sqrt(g / max(size, 1e-9)))
+    armature = min(sim.armature, ARMATURE_SHARE * mass * size * size)
+    if damping == sim.joint_damping and armature == sim.armature:
+        return profile
+    return replace(profile, sim=replace(sim, joint_damping=damping, armature=armature))
 
 
 def _safe(name: str) -> str:
@@ -66,6 +89,7 @@ def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float
     target = total_mass if total_mass is not None else profile.total_mass
     scale = _scale_masses(bodies, mass_of, target)
     masses = {j: m * scale for j, m in mass_of.items()}
+    profile = _sized_sim(profile, sum(masses.values()), size)
     _set_motors(bodies, tree, masses, profile, size, _leg_loads(bodies, tree, legs, sum(masses.values())))
     lift = _stand_on_floor(bodies)
     body_source = {tree.names[j]: {sk.names[k] for k in range(sk.num_joints) if tree.body_of[k] == j}

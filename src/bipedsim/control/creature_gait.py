@@ -409,7 +409,7 @@ class CreatureGaitController(CreatureBalanceController):
             if n:
                 foot[:, 0:2] += com[0:2] - foot[:, 0:2].mean(axis=0)
             self.neutral_q = q
-        self.neutral_feet = foot  # (n, 3) relative to the root, heading frame (z unused)
+        self.neutral_feet = foot  # (n, 3) relative to the root, heading frame (z: the clip's mean, for shift_share)
         self.neutral_com = com
 
     # ------------------------------------------------------------------ planning
@@ -577,7 +577,7 @@ class CreatureGaitController(CreatureBalanceController):
         centroid = np.mean([self._planted[i][0:2] if i not in swinging else feet[i, 0:2] for i in support], axis=0)
         path = self._root_path(t)
         com_path = path + (self._heading_rot() @ self.neutral_com)[0:2]
-        want = self.shift_share() * (centroid - com_path) if n > 2 else np.zeros(2)
+        want = self._shift_share * (centroid - com_path) if n > 2 else np.zeros(2)
         side = np.array([-self._dir[1], self._dir[0]])
         want = (1.0 - self.bal.lateral_only) * want + self.bal.lateral_only * float(want @ side) * side
         a = min(1.0, self._dt_plan / max(self.bal.shift_time_s, 1e-6))
@@ -676,6 +676,7 @@ class CreatureGaitController(CreatureBalanceController):
         self._t_walk = t + self.bal.settle_s
         self._t_start = t
         self._shift = np.zeros(2)
+        self._shift_share = self.shift_share()  # constant over a walk: the period and stance are fixed
         self._v_filt = np.zeros(2)
         self._xi = np.zeros(2)
         self.catches = 0  # steps started by the catch (capture_step)

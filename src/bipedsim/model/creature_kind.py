@@ -100,9 +100,16 @@ def detect_body_kind(motion: Motion) -> BodyKind:
     sk = motion.skeleton
     n = sk.num_joints
     pts = motion_points(motion).positions  # (T, n + ends, 3)
+    # a static root above the joint that carries the travel (a game export's joint at the floor or
+    # anywhere) is no part of the body: its height, trunk and arms are measured without it
+    body = np.ones(pts.shape[1], dtype=bool)
+    j = motion.travel_joint()
+    while j > 0:
+        j = int(sk.parents[j])
+        body[j] = False
     z = pts[:, :, 2]
-    rel = z - z.min(axis=1, keepdims=True)
-    height = float(np.median(rel.max(axis=1))) or 1e-9
+    rel = z - z[:, body].min(axis=1, keepdims=True)
+    height = float(np.median(rel[:, body].max(axis=1))) or 1e-9
     parents = np.asarray(sk.parents)
     tips = _subtree_tips(parents, list(sk.end_site_parents), n)
     all_tips = sorted(set().union(*tips)) if n else []
@@ -130,10 +137,11 @@ def detect_body_kind(motion: Motion) -> BodyKind:
             in_leg[j] = True
             stack.extend(int(c) for c in np.flatnonzero(parents == j) if c != j)
     hips = pts[:, list(legs), :].mean(axis=1) if legs else pts[:, 0, :]
-    upper = pts[:, :n][:, ~in_leg] if (~in_leg).any() else pts[:, :1]
+    trunk = ~in_leg & body[:n]
+    upper = pts[:, :n][:, trunk] if trunk.any() else pts[:, :1]
     d = upper.mean(axis=1) - hips
     tilt = float(np.median(np.arctan2(np.linalg.norm(d[:, :2], axis=1), d[:, 2])))
-    hip_frac = float(np.median((hips[:, 2] - z.min(axis=1)) / np.maximum(rel.max(axis=1), 1e-9)))
+    hip_frac = float(np.median((hips[:, 2] - z[:, body].min(axis=1)) / np.maximum(rel[:, body].max(axis=1), 1e-9)))
     axis = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
     arms = 0
     for t in all_tips:
@@ -202,12 +210,11 @@ def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = N
     if shaped and info.unit_source == "guessed" and info.upright:
         raw, info = read_bvh(path, up=up, positions=positions, upright=False)
         motion = raw.to_project_frame()
-    if profile == "creature":
-        # a static root at the floor with the body's translation on its one child (a game-data layout):
-        # the creature is built from every joint, so the floor joint is folded away, not built as a bone
-        raw, folded = fold_static_root(raw)
-        if folded is not None:
-            motion = raw.to_project_frame()
+    # a static root at the floor with the body's translation on its one child (a game-data layout):
+    # the floor joint is folded away, not built as a bone
+    raw, folded = fold_static_root(raw)
+    if folded is not None:
+        motion = raw.to_project_frame()
     return raw, info, motion, profile
 
 

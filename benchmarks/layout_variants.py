@@ -6,7 +6,7 @@ file is written rather than on the motion in it:
 
     python benchmarks/layout_variants.py /tmp/variants ../shared/data/bvh/human/cmu_02_01_walk__holden31_crlf.bvh
     python benchmarks/real_walks.py --files /tmp/variants/*.bvh        # humans
-    python benchmarks/creatures.py --files /tmp/variants/*.bvh         # creatures
+    python benchmarks/creatures.py --animals /tmp/variants             # creatures (every BVH in the folder)
 
 Variants (each one change from the file as read):
 - ``30fps``, ``60fps``, ``120fps``: resampled (slerp / linear), skipped at the file's own rate;
@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bipedsim.errors import BipedsimError
 from bipedsim.motion.bvh import read_bvh, write_bvh
 from bipedsim.motion.motion import Motion
 from bipedsim.motion.reroot import add_static_root
@@ -81,7 +82,11 @@ def main(argv: list[str] | None = None) -> int:
             if args.only and name not in args.only:
                 continue
             p = out / f"{Path(f).stem}__{name}.bvh"
-            write_bvh(make(), p)
+            try:
+                write_bvh(make(), p)
+            except BipedsimError as exc:  # e.g. no left/right pairs to mirror
+                print(f"{p}  skipped: {exc}")
+                continue
             print(f"{p}  ({info.unit_scale:g} m per unit, {m.up} up, {1 / m.frame_time:.0f} fps as read)")
     return 0
 

@@ -1,0 +1,65 @@
+"""The same walk written in other layouts (benchmarks/layout_variants.py) is read as the same body: a probe
+for the files users bring that we do not have. Units, up axis and a static root under the body must not
+change what is built or tracked; a walk in place gets its travel back."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import SHARED_BVH, need_shared
+
+from bipedsim.model.creature_kind import detect_body_kind, read_for_body
+from bipedsim.motion.bvh import read_bvh, write_bvh
+from bipedsim.motion.reroot import add_static_root
+
+WALKS = ("cmu_02_01_walk__holden31_crlf", "cmu_02_02_walk__19joint_Hip_Abdomen", "cmu_02_02_walk__daz43",
+         "games105_walk60__metres_crlf")
+
+
+@pytest.mark.parametrize("name", WALKS)
+def test_a_static_root_at_the_floor_changes_nothing(name: str, tmp_path: Path) -> None:
+    """A human walk put under a static root joint at the origin (a game export's layout): the origin is far
+    from the walking body, which had tilted the measured trunk to 85 deg (CMU 02_01 was built as a 0.25 m
+    creature). Now the root is no part of the measure and is folded away: the same kind, unit and body."""
+    need_shared()
+    src = SHARED_BVH / "human" / f"{name}.bvh"
+    m, info = read_bvh(src)
+    path = tmp_path / "static_root.bvh"
+    write_bvh(add_static_root(m), path)
+    raw0, info0, motion0, kind0 = read_for_body(src)
+    raw1, info1, motion1, kind1 = read_for_body(path)
+    assert kind0 == kind1 == "humanoid", detect_body_kind(motion1).describe()
+    assert info1.unit_scale == pytest.approx(info0.unit_scale) and info1.up == info0.up
+    assert motion1.skeleton.names == motion0.skeleton.names  # folded: no floor joint left
+    np.testing.assert_allclose(motion1.fk()[0], motion0.fk()[0], atol=1e-4)
+
+
+@pytest.mark.parametrize("name", WALKS + ("cmu_12_03_walk__cgspeed_mb31", "bandai2_walk_exhausted_001"))
+def test_in_place_travel_rebuilt_from_rolling_feet(name: str) -> None:
+    """Every shared steady walk with its translation removed: the rebuilt travel is within 10 % of the
+    original's and its speed within a step follows the original's (the lowest foot joint alone had rebuilt
+    CMU 02_02's 19-joint walk at 71 % of its travel, 0.9 m/s off on average)."""
+    from bipedsim.model.gait import humanoid_motion, in_place, reconstruct_root, smooth
+
+    need_shared()
+    m = humanoid_motion(read_bvh(SHARED_BVH / "human" / f"{name}.bvh")[0])
+    tj = m.travel_joint()
+    flat = m.copy()
+    if tj == 0:
+        flat.root_translation = m.root_translation.copy()
+        flat.root_translation[:, :2] = m.root_translation[0, :2]
+    else:
+        flat.translations = m.translations.copy()  # type: ignore[union-attr]
+        flat.translations[:, tj, :2] = m.translations[0, tj, :2]  # type: ignore[index]
+    assert in_place(flat)
+    rebuilt = reconstruct_root(flat)
+    a = m.travel()[:, :2] - m.travel()[0, :2]
+    b = rebuilt.travel()[:, :2] - rebuilt.travel()[0, :2]
+    assert 0.9 < np.linalg.norm(b[-1]) / np.linalg.norm(a[-1]) < 1.1
+    dt = m.frame_time
+    va = np.gradient(smooth(a, dt, 0.1), dt, axis=0)
+    vb = np.gradient(smooth(b, dt, 0.1), dt, axis=0)
+    speed = float(np.linalg.norm(va, axis=1).mean())
+    assert np.sqrt(np.mean(np.sum((va - vb) ** 2, axis=1))) < 0.25 * speed

@@ -59,16 +59,14 @@ def _sole_error(path, two: bool) -> tuple[float, float, float]:
     (the same boxes carried by the fitted foot orientations) over the clip and over the frames where
     the capture has the foot flat, and the soles' mean tilt off level on those frames."""
     from bipedsim.model import build_model
-    from bipedsim.model.gait import humanoid_motion
+    from bipedsim.model.gait import read_for_build
     from bipedsim.model.humanoid import _flat_frames
     from bipedsim.model.naming import recognise_humanoid
     from bipedsim.model.profile import load_profile
     from bipedsim.model.retarget import fit_orientations, retarget
     from bipedsim.model.source import motion_points
-    from bipedsim.sim.runner import read_for_body
 
-    raw, info, _, _ = read_for_body(path, profile="auto")
-    motion = humanoid_motion(raw, info.notes)
+    _, _, motion, _ = read_for_build(path, profile="auto")
     b = build_model(motion, replace(load_profile("humanoid"), ankle_2dof=two), name="x")
     clip = retarget(motion, b.model, plan=b.plan, xml=b.xml)
     pts = motion_points(motion[clip.trimmed_frames:])

@@ -9,11 +9,11 @@ from typing import Any
 
 from bipedsim.io import check_output_file
 from bipedsim.model.build import build_model, check_total_mass
-from bipedsim.model.creature_kind import AUTO, resolve_profile
-from bipedsim.model.gait import humanoid_motion
+from bipedsim.model.creature_kind import AUTO
+from bipedsim.model.gait import read_for_build
 from bipedsim.model.naming import load_map
+from bipedsim.model.profile import HumanoidProfile, load_profile
 from bipedsim.model.retarget import retarget
-from bipedsim.motion.bvh import read_bvh
 
 PathLike = str | os.PathLike[str]
 
@@ -35,12 +35,12 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = AUTO, profi
     s, ...) with ``source``, ``output``, ``unit``, ``up`` and, with ``clip``, the clip's frames,
     trimmed frames and foot strikes."""
     check_total_mass(mass)
-    raw, info = read_bvh(input, scale=scale, up=up, positions=positions)
-    motion = raw.to_project_frame()
-    if profile == AUTO and not profile_file:
-        profile = "humanoid" if map else resolve_profile(motion, source=str(input))
-    if profile_file is None and profile == "humanoid":  # a rest pose that is no standing body re-posed
-        motion = humanoid_motion(raw, info.notes)
+    if profile_file is not None:  # the profile file says which kind it builds
+        kind = "humanoid" if isinstance(load_profile(profile_file), HumanoidProfile) else "creature"
+    else:
+        kind = "humanoid" if map and profile == AUTO else profile
+    # read as `bipedsim run` reads it (model.gait.read_for_build): unit, static root, rest pose, in place
+    _, info, motion, profile = read_for_build(input, scale=scale, up=up, positions=positions, profile=kind)
     check_output_file(output, "-o")
     if clip:
         check_output_file(clip, "--clip")

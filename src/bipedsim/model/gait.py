@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -33,6 +34,9 @@ from bipedsim.errors import ConfigError
 from bipedsim.model.creature_kind import detect_body_kind
 from bipedsim.motion.conventions import foot_joints
 from bipedsim.motion.motion import Motion
+
+if TYPE_CHECKING:
+    from bipedsim.motion.bvh import BVHInfo
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -324,3 +328,23 @@ def humanoid_motion(motion: Motion, notes: list[str] | None = None) -> Motion:
         notes.append(f"walks in place: root travel rebuilt from the stance feet "
                      f"({np.linalg.norm(root[-1] - root[0]):.2f} m in {standing.duration:.2f} s)")
     return standing
+
+
+def read_for_build(path: str | os.PathLike[str], *, scale: float | str | None = None, up: str | None = None,
+                   positions: str | None = None, profile: str | None = "auto", support: bool = False,
+                   creature_support: bool = False) -> tuple[Motion, BVHInfo, Motion, str]:
+    """A BVH file read as every command builds a body from it -- one way through for ``run``, sweeps,
+    suites, tunes and ``convert``: :func:`~bipedsim.model.creature_kind.read_for_body` (reading, body kind,
+    unit, a static floor root folded), then for a humanoid :func:`humanoid_motion` (a standing rest pose,
+    the travel of a walk in place), for a creature without root support (``support``, or
+    ``creature_support`` from its controller) :func:`creature_motion`. Returns the raw motion, what
+    reading found (its ``notes`` extended), the motion to build from (project frame) and the body kind."""
+    from bipedsim.model.creature_kind import read_for_body
+
+    raw, info, motion, kind = read_for_body(path, scale=scale, up=up, positions=positions, profile=profile,
+                                            support=support)
+    if kind == "humanoid":
+        motion = humanoid_motion(raw, info.notes)
+    elif not (support or creature_support):
+        motion = creature_motion(motion, info.notes)
+    return raw, info, motion, kind

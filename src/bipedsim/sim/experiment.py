@@ -299,11 +299,10 @@ def check_experiment(exp: Experiment, path: str | os.PathLike[str], prefix: str 
 def _body_names(reference: str | None, profile: str = "auto") -> set[str]:
     from bipedsim.data import BUILTIN_WALK
     from bipedsim.model.build import build_model
-    from bipedsim.motion.bvh import load_bvh
-    from bipedsim.sim.runner import resolve_profile
+    from bipedsim.model.gait import read_for_build
 
-    motion = load_bvh(reference or BUILTIN_WALK)
-    built = build_model(motion, resolve_profile(motion.to_project_frame(), profile, source=str(reference)))
+    _, _, motion, kind = read_for_build(reference or BUILTIN_WALK, profile=profile)  # as the rollouts read it
+    built = build_model(motion, kind)
     return {built.model.body(i).name for i in range(1, built.model.nbody)}
 
 

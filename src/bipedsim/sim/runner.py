@@ -17,9 +17,9 @@ from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
-from bipedsim.model.creature_kind import AUTO, read_for_body, resolve_profile
+from bipedsim.model.creature_kind import AUTO, resolve_profile
 from bipedsim.model.feasible import feasible_clip, infeasible_because, measure
-from bipedsim.model.gait import creature_motion, humanoid_motion
+from bipedsim.model.gait import read_for_build
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout
@@ -93,14 +93,10 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     cfg = config if isinstance(config, ControllerConfig) else load_controller(config)
     motion = info = None
     if bvh is not None:
-        raw, info, motion, profile = read_for_body(bvh, scale=scale, up=up, positions=positions,
-                                                   profile=profile, support=support)
+        raw, info, motion, profile = read_for_build(bvh, scale=scale, up=up, positions=positions, profile=profile,
+                                                    support=support, creature_support=cfg.creature.support)
         if profile == "creature":
             support = support or cfg.creature.support
-        if profile == "humanoid":  # a rest pose that is no standing body re-posed (model.gait)
-            motion = humanoid_motion(raw, info.notes)
-        elif not support:  # a creature walking in place: its travel rebuilt from its feet (model.gait)
-            motion = creature_motion(motion, info.notes)
     if profile != "creature" and support:
         raise ConfigError("root support holds a creature's root; it needs the creature profile", key="support")
     if profile == "creature" and bvh is None:

@@ -158,4 +158,5 @@ def test_humanoid_of_implausible_height_is_refused_not_built(tmp_path: Path,
     assert main(["convert", str(BUILTIN_WALK), "-o", str(out), "--scale", "0.002"]) == 2
     err = capsys.readouterr().err
     assert "stands 0.48 m tall" in err and "probably misread" in err and not out.exists()
+    assert f"{BUILTIN_WALK}: the humanoid built" in err  # which file: a sweep or a tune reads several
     assert main(["convert", str(BUILTIN_WALK), "-o", str(out), "--scale", "0.002", "--profile", "creature"]) == 0

@@ -54,13 +54,25 @@ def check_total_mass(mass: float | None, flag: str = "--mass") -> None:
 
 
 def build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfile | CreatureProfile = "humanoid",
-                *, total_mass: float | None = None, mapping: Any = None, name: str | None = None) -> BuiltModel:
+                *, total_mass: float | None = None, mapping: Any = None, name: str | None = None,
+                source: str | os.PathLike[str] | None = None) -> BuiltModel:
     """Build a body for a motion's skeleton. ``motion`` in the project frame (metres, Z up).
 
     ``profile``: ``"humanoid"``, ``"creature"``, a profile YAML path, or a loaded profile.
     ``total_mass`` (kg) scales every segment. ``mapping``: a :class:`~bipedsim.model.naming.MapFile`
-    (humanoid only).
+    (humanoid only). ``source``: the file the motion came from, named in any error (a sweep or a tune
+    reads several).
     """
+    try:
+        return _build_model(motion, profile, total_mass=total_mass, mapping=mapping, name=name)
+    except ModelError as exc:
+        if source is None or str(source) in str(exc):
+            raise
+        raise ModelError(f"{source}: {exc}") from None
+
+
+def _build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfile | CreatureProfile,
+                 *, total_mass: float | None, mapping: Any, name: str | None) -> BuiltModel:
     if total_mass is not None and not (math.isfinite(total_mass) and total_mass > 0):
         raise ModelError(f"total mass must be a finite number > 0 kg, got {total_mass}")
     prof = profile if isinstance(profile, HumanoidProfile | CreatureProfile) else load_profile(profile)

@@ -45,7 +45,8 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = AUTO, profi
     if clip:
         check_output_file(clip, "--clip")
     mapping = load_map(map, motion.skeleton) if map else None
-    built = build_model(motion, profile_file or profile, total_mass=mass, mapping=mapping, name=Path(output).stem)
+    built = build_model(motion, profile_file or profile, total_mass=mass, mapping=mapping, name=Path(output).stem,
+                        source=input)
     built.write(output)
     summary = built.summary()
     summary.update({"source": str(input), "output": str(output),

@@ -302,7 +302,7 @@ def _body_names(reference: str | None, profile: str = "auto") -> set[str]:
     from bipedsim.model.gait import read_for_build
 
     _, _, motion, kind = read_for_build(reference or BUILTIN_WALK, profile=profile)  # as the rollouts read it
-    built = build_model(motion, kind)
+    built = build_model(motion, kind, source=reference or BUILTIN_WALK)
     return {built.model.body(i).name for i in range(1, built.model.nbody)}
 
 

@@ -109,7 +109,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
             built = build_model(motion, "humanoid", total_mass=mass, name="humanoid")
         src = str(BUILTIN_WALK)
     else:
-        built = build_model(motion, profile, total_mass=mass, name=Path(bvh).stem)
+        built = build_model(motion, profile, total_mass=mass, name=Path(bvh).stem, source=bvh)
         src = str(bvh)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)
     extra: dict[str, Any] = {}

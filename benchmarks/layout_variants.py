@@ -7,6 +7,8 @@ file is written rather than on the motion in it:
     python benchmarks/layout_variants.py /tmp/variants ../shared/data/bvh/human/cmu_02_01_walk__holden31_crlf.bvh
     python benchmarks/real_walks.py --files /tmp/variants/*.bvh        # humans
     python benchmarks/creatures.py --animals /tmp/variants             # creatures (every BVH in the folder)
+    python benchmarks/layout_variants.py /tmp/variants --run           # the tracked shared walks: each variant's
+                                                                       # speed ratio against its original's (~2 min)
 
 Variants (each one change from the file as read):
 - ``30fps``, ``60fps``, ``120fps``: resampled (slerp / linear), skipped at the file's own rate;
@@ -35,6 +37,10 @@ from bipedsim.motion.motion import Motion
 from bipedsim.motion.reroot import add_static_root
 
 UNITS = {"metres": 1.0, "cm": 0.01, "inch": 0.0254}
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh"
+#: the shared walks the default controller tracks (tests/test_gait.py's TRACKED)
+TRACKED = ("cmu_02_01_walk__holden31_crlf", "cmu_02_02_walk__19joint_Hip_Abdomen", "cmu_02_02_walk__daz43",
+           "games105_walk60__metres_crlf")
 
 
 def _in_place(m: Motion) -> Motion:
@@ -68,18 +74,14 @@ def variants(m: Motion) -> dict[str, Callable[[], Motion]]:
     return out
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("out", help="folder for the variant files (made if missing)")
-    ap.add_argument("files", nargs="+", help="BVH files")
-    ap.add_argument("--only", nargs="*", default=None, help="only these variants (default: all)")
-    args = ap.parse_args(argv)
-    out = Path(args.out)
+def write_variants(out: Path, files: list[str], only: list[str] | None = None) -> list[tuple[str, str, Path]]:
+    """Every variant of every file written into ``out``: (source file, variant, path) per file written."""
     out.mkdir(parents=True, exist_ok=True)
-    for f in args.files:
+    done = []
+    for f in files:
         m, info = read_bvh(f)
         for name, make in variants(m).items():
-            if args.only and name not in args.only:
+            if only and name not in only:
                 continue
             p = out / f"{Path(f).stem}__{name}.bvh"
             try:
@@ -88,6 +90,41 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{p}  skipped: {exc}")
                 continue
             print(f"{p}  ({info.unit_scale:g} m per unit, {m.up} up, {1 / m.frame_time:.0f} fps as read)")
+            done.append((f, name, p))
+    return done
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("out", help="folder for the variant files (made if missing)")
+    ap.add_argument("files", nargs="*", help="BVH files (default with --run: the shared human walks the default "
+                    "controller tracks)")
+    ap.add_argument("--only", nargs="*", default=None, help="only these variants (default: all)")
+    ap.add_argument("--run", action="store_true",
+                    help="also walk every variant and its original (benchmarks/real_walks.py) and print each "
+                         "variant's speed against the original's")
+    ap.add_argument("--seeds", type=int, default=3, help="with --run: seeds per file (medians; default 3)")
+    ap.add_argument("--seconds", type=float, default=20.0, help="with --run: simulated seconds (default 20)")
+    args = ap.parse_args(argv)
+    files = args.files or ([str(SHARED / "human" / f"{n}.bvh") for n in TRACKED] if args.run else [])
+    if not files:
+        ap.error("give BVH files (or --run for the shared walks)")
+    done = write_variants(Path(args.out), files, args.only)
+    if not args.run:
+        return 0
+    from real_walks import run_one  # benchmarks/real_walks.py
+
+    print(f"\n{'file':40s} {'variant':12s} {'outcome':8s} {'ratio':>5s} {'runs':>5s} {'vs original':>11s}")
+    base: dict[str, dict[str, object]] = {}
+    for f, name, p in [(f, "(original)", Path(f)) for f in files] + done:
+        row = run_one(p, args.seconds, None, seeds=args.seeds)
+        if name == "(original)":
+            base[f] = row
+        b = base[f].get("speed_ratio")
+        r = row.get("speed_ratio")
+        vs = f"{float(r) / float(b):.2f}" if r not in ("", None) and b not in ("", None) else ""  # type: ignore[arg-type]
+        out = row["outcome"] if row["outcome"] == "no_fall" else f"{row['outcome']} {row.get('fall_time_s')}"
+        print(f"{Path(f).stem[:40]:40s} {name:12s} {out!s:8s} {r!s:>5s} {row.get('runs_ok', '')!s:>5s} {vs:>11s}")
     return 0
 
 

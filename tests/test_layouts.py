@@ -63,3 +63,28 @@ def test_in_place_travel_rebuilt_from_rolling_feet(name: str) -> None:
     vb = np.gradient(smooth(b, dt, 0.1), dt, axis=0)
     speed = float(np.linalg.norm(va, axis=1).mean())
     assert np.sqrt(np.mean(np.sum((va - vb) ** 2, axis=1))) < 0.25 * speed
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["cmu_02_02_walk__19joint_Hip_Abdomen", "cmu_02_02_walk__daz43"])
+def test_a_walk_in_place_is_tracked(name: str, tmp_path: Path) -> None:
+    """The CMU 02_02 walks written in place (a game export's layout) walk 20 s on seeds 0-2 at >= 60 % of
+    the rebuilt clip's speed (0.69 and 0.71 by the median; they fell at 1.0 and 1.3 s with the travel
+    rebuilt from the lowest foot joint alone; docs/controller.md, *The same walks in other layouts*)."""
+    import sys
+
+    from bipedsim.control.reference import clip_speed
+    from bipedsim.sim.runner import load_scenario, run_seeds
+
+    need_shared()
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from layout_variants import _in_place  # the probe's own variant
+
+    m, _ = read_bvh(SHARED_BVH / "human" / f"{name}.bvh")
+    path = tmp_path / "in_place.bvh"
+    write_bvh(_in_place(m), path)
+    sc = load_scenario(None, path)
+    assert any("walks in place" in n for n in sc.bvh_info.notes)
+    outs = run_seeds(sc, 20.0, 3)
+    assert all(o.outcome == "no_fall" for o in outs), [(o.outcome, o.fall_time_s) for o in outs]
+    assert np.median([o.mean_speed_mps for o in outs]) >= 0.6 * clip_speed(sc.clip)

@@ -88,3 +88,22 @@ def test_a_walk_in_place_is_tracked(name: str, tmp_path: Path) -> None:
     outs = run_seeds(sc, 20.0, 3)
     assert all(o.outcome == "no_fall" for o in outs), [(o.outcome, o.fall_time_s) for o in outs]
     assert np.median([o.mean_speed_mps for o in outs]) >= 0.6 * clip_speed(sc.clip)
+
+
+def test_an_experiment_reads_a_file_as_run_does(tmp_path: Path) -> None:
+    """An experiment naming the Bandai walk is accepted: its body-name check had built the body from the
+    file's identity pose (no standing body: 'stands 0.38 m tall') instead of the standing rest pose
+    `bipedsim run` uses (model.gait.read_for_build); and a build error names its file."""
+    from bipedsim.errors import ModelError
+    from bipedsim.model.build import build_model
+    from bipedsim.motion.bvh import load_bvh
+    from bipedsim.sim.experiment import load_experiment
+
+    need_shared()
+    bandai = SHARED_BVH / "human" / "bandai2_walk_exhausted_001.bvh"
+    exp = tmp_path / "e.yaml"
+    exp.write_text(f"name: e\nreference: {bandai}\nseconds: 2\nafter: 1.0\nbody: torso\n"
+                   "runs:\n  - {magnitude: 100, direction: 90, duration: 0.2, start: 1.0}\n")
+    assert load_experiment(exp).spec.reference is not None
+    with pytest.raises(ModelError, match="bandai2_walk_exhausted_001.bvh: the humanoid built from this motion stands"):
+        build_model(load_bvh(bandai), "humanoid", source=bandai)

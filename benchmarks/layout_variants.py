@@ -19,7 +19,8 @@ Variants (each one change from the file as read):
   of many game exports);
 - ``in_place``: the travelling joint's horizontal translation held at its first frame (a walk in place,
   as game-animation exports often are);
-- ``mirrored``: left and right exchanged.
+- ``mirrored``: left and right exchanged;
+- ``turning``: bent into a steady 15 deg/s turn (the root's heading and its steps turned with time).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import BipedsimError
 from bipedsim.motion.bvh import read_bvh, write_bvh
@@ -57,6 +59,31 @@ def _in_place(m: Motion) -> Motion:
     return out
 
 
+def _turning(m: Motion, deg_per_s: float = 15.0) -> Motion:
+    """The walk bent into a steady turn: every frame's root turned about the up axis by ``deg_per_s`` x
+    its time, the root's horizontal steps turned alike (the stance feet slip a little: the capture's own
+    step, turned)."""
+    if m.travel_joint() != 0:
+        raise BipedsimError("a turn is made on a root that carries the travel")
+    u = "xyz".index(m.up)
+    h = [i for i in range(3) if i != u]
+    ang = np.radians(deg_per_s) * np.arange(m.num_frames) * m.frame_time
+    axis = np.zeros(3)
+    axis[u] = 1.0
+    turn = Rotation.from_rotvec(ang[:, None] * axis)
+    step = np.diff(m.root_translation, axis=0)
+    step = turn[1:].apply(step)
+    root = m.root_translation.copy()
+    root[1:, h] = m.root_translation[0, h] + np.cumsum(step[:, h], axis=0)
+    rots = m.rotations.copy()
+    rots[:, 0] = (turn * Rotation.from_quat(m.rotations[:, 0])).as_quat()
+    tr = None
+    if m.translations is not None:
+        tr = m.translations.copy()
+        tr[:, 0] = root
+    return m.copy(root_translation=root, rotations=rots, translations=tr)
+
+
 def variants(m: Motion) -> dict[str, Callable[[], Motion]]:
     """The layouts of ``m`` (as read), by name; each made only when called."""
     out: dict[str, Callable[[], Motion]] = {}
@@ -71,6 +98,7 @@ def variants(m: Motion) -> dict[str, Callable[[], Motion]]:
     out["static_root"] = lambda: add_static_root(m)
     out["in_place"] = lambda: _in_place(m)
     out["mirrored"] = lambda: m.mirrored()
+    out["turning"] = lambda: _turning(m)
     return out
 
 

@@ -20,7 +20,9 @@ Variants (each one change from the file as read):
 - ``in_place``: the travelling joint's horizontal translation held at its first frame (a walk in place,
   as game-animation exports often are);
 - ``mirrored``: left and right exchanged;
-- ``turning``: bent into a steady 15 deg/s turn (the root's heading and its steps turned with time).
+- ``turning``: bent into a steady 15 deg/s turn (the root's heading and its steps turned with time);
+- ``cycle``: one gait cycle (the loop ``bipedsim run`` plays, both strikes' frames kept) in place, as a
+  game animation's walk cycle is exported.
 """
 
 from __future__ import annotations
@@ -84,7 +86,21 @@ def _turning(m: Motion, deg_per_s: float = 15.0) -> Motion:
     return m.copy(root_translation=root, rotations=rots, translations=tr)
 
 
-def variants(m: Motion) -> dict[str, Callable[[], Motion]]:
+def _cycle(path: str, m: Motion) -> Motion:
+    """One gait cycle of the walk (the loop ``bipedsim run`` plays, right strike to right strike, both
+    frames kept), in place: a game animation's walk cycle."""
+    from bipedsim.control.reference import clip_cycle
+    from bipedsim.sim.runner import load_scenario
+
+    sc = load_scenario(None, path)
+    c = clip_cycle(sc.clip, sc.built.model, sc.built.plan)
+    if c is None:
+        raise BipedsimError("no gait cycle to cut")
+    t = sc.clip.trimmed_frames
+    return _in_place(m[c.a + t:c.b + t + 1])
+
+
+def variants(m: Motion, path: str | None = None) -> dict[str, Callable[[], Motion]]:
     """The layouts of ``m`` (as read), by name; each made only when called."""
     out: dict[str, Callable[[], Motion]] = {}
     fps = 1.0 / m.frame_time
@@ -99,6 +115,8 @@ def variants(m: Motion) -> dict[str, Callable[[], Motion]]:
     out["in_place"] = lambda: _in_place(m)
     out["mirrored"] = lambda: m.mirrored()
     out["turning"] = lambda: _turning(m)
+    if path is not None:
+        out["cycle"] = lambda: _cycle(path, m)
     return out
 
 
@@ -108,7 +126,7 @@ def write_variants(out: Path, files: list[str], only: list[str] | None = None) -
     done = []
     for f in files:
         m, info = read_bvh(f)
-        for name, make in variants(m).items():
+        for name, make in variants(m, f).items():
             if only and name not in only:
                 continue
             p = out / f"{Path(f).stem}__{name}.bvh"

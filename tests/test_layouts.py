@@ -107,3 +107,54 @@ def test_an_experiment_reads_a_file_as_run_does(tmp_path: Path) -> None:
     assert load_experiment(exp).spec.reference is not None
     with pytest.raises(ModelError, match="bandai2_walk_exhausted_001.bvh: the humanoid built from this motion stands"):
         build_model(load_bvh(bandai), "humanoid", source=bandai)
+
+
+def _variant(name: str, kind: str, tmp_path: Path) -> Path:
+    """The probe's ``kind`` variant of a shared human walk, written to ``tmp_path``."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from layout_variants import variants
+
+    src = SHARED_BVH / "human" / f"{name}.bvh"
+    m, _ = read_bvh(src)
+    path = tmp_path / f"{kind}.bvh"
+    write_bvh(variants(m, str(src))[kind](), path)
+    return path
+
+
+def test_a_walk_cycle_is_repeated_seamlessly(tmp_path: Path) -> None:
+    """One gait cycle cut from a shared walk and put in place (a game animation's walk cycle: one strike
+    per foot) is recognised as a loop and repeated with its seam closed; it had been refused ("1 right and
+    1 left foot strikes"). A clip that is no loop is left as it is."""
+    from bipedsim.model.gait import LOOP_REPEAT_S, repeat_loop
+
+    need_shared()
+    path = _variant("cmu_02_02_walk__daz43", "cycle", tmp_path)
+    m = read_bvh(path)[0].to_project_frame()
+    notes: list[str] = []
+    out = repeat_loop(m, notes)
+    assert notes and "a loop" in notes[0] and out.duration >= LOOP_REPEAT_S
+    period = m.num_frames - 1
+    pos = out.fk()[0]
+    rel = pos - pos[:, :1]
+    step = np.linalg.norm(np.diff(rel, axis=0), axis=-1).max(axis=1)
+    joins = [k * period - 1 for k in range(1, out.num_frames // period)]
+    assert step[joins].max() < 2.0 * np.median(step), (step[joins], np.median(step))  # no jump at a join
+    for name in ("cmu_02_02_walk__daz43", "cmu_131_01_start_walk_stop__max31_mixedEOL"):
+        full = read_bvh(SHARED_BVH / "human" / f"{name}.bvh")[0].to_project_frame()
+        assert repeat_loop(full) is full
+
+
+def test_a_one_cycle_game_walk_is_not_refused() -> None:
+    """MakeHuman's walk1 (shared: 14 frames, one cycle in place, decimetres, Z up) now loops: its strikes
+    repeat and a gait cycle is found (its cycle is 0.54 s at 24 fps: a walk played about twice as fast as
+    a human walks, which the body does not keep up with)."""
+    from bipedsim.sim.runner import load_scenario
+
+    path = SHARED_BVH / "odd" / "makehuman_walk1__zup_decimetre.bvh"
+    if not path.exists():
+        pytest.skip(f"shared BVH file not found: {path}")
+    sc = load_scenario(None, path)
+    assert any("a loop" in n for n in sc.bvh_info.notes) and any("walks in place" in n for n in sc.bvh_info.notes)
+    assert len(sc.clip.events["right"]["strike"]) >= 3 and len(sc.clip.events["left"]["strike"]) >= 3

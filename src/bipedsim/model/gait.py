@@ -33,7 +33,7 @@ from scipy.spatial.transform import Rotation
 from bipedsim.errors import ConfigError
 from bipedsim.model.creature_kind import detect_body_kind
 from bipedsim.motion.conventions import foot_joints
-from bipedsim.motion.motion import Motion
+from bipedsim.motion.motion import Motion, canonical_quat
 
 if TYPE_CHECKING:
     from bipedsim.motion.bvh import BVHInfo
@@ -311,13 +311,86 @@ def creature_motion(motion: Motion, notes: list[str] | None = None) -> Motion:
     return out
 
 
+#: A clip is one loop of a cycle (a game animation's walk cycle) when its last pose is within this multiple
+#: of its median pose change over :data:`LOOP_STRIDE_S` of its first pose (relative to the root: the pose,
+#: not the travel), and it moves at both ends (a clip from a stand to a stand has like ends too)...
+LOOP_SEAM_FRACTION = 1.5
+#: ...the stride (s) over which pose changes are compared (a rate of its own: any frame rate alike)...
+LOOP_STRIDE_S = 1.0 / 30.0
+#: ...and such a clip shorter than this (s) is repeated to at least this long, so that its strikes
+#: can loop (two right strikes with a left between) and its travel can be measured.
+LOOP_REPEAT_S = 3.0
+
+
+def repeat_loop(motion: Motion, notes: list[str] | None = None) -> Motion:
+    """A short clip that is itself one loop of a cycle, repeated to :data:`LOOP_REPEAT_S` (else the
+    clip unchanged). The cut shared walks (one gait cycle, both strikes' frames kept) close within
+    0.04-0.08 m against pose changes of 0.04-0.16 m per 1/30 s. The last frame is taken as the next
+    loop's first and the pose it misses it by is spread over the loop (loop closure). Each copy is shifted
+    by the loop's horizontal travel (a cycle exported with its root motion walks on; one exported in
+    place stays, and its travel is rebuilt from its feet afterwards); a turn over the loop is not
+    repeated. What was done is appended to ``notes``."""
+    n = motion.num_frames
+    dt = motion.frame_time
+    k = max(1, int(round(LOOP_STRIDE_S / dt)))
+    if n < 4 * k or motion.duration >= LOOP_REPEAT_S:
+        return motion
+    pos = motion.fk()[0]
+    rel = pos - pos[:, :1]
+    stride = np.linalg.norm(rel[k:] - rel[:-k], axis=-1).max(axis=1)
+    med = float(np.median(stride))
+    seam = float(np.linalg.norm(rel[-1] - rel[0], axis=-1).max())
+    if med <= 0.0 or seam > LOOP_SEAM_FRACTION * med or min(stride[0], stride[-1]) < 0.5 * med:
+        return motion
+    # loop closure: the last frame is taken as the next loop's first, and the pose it misses it by is
+    # spread over the loop (each joint's rotation turned by a growing share of its offset, the
+    # translations shifted alike), so the copies join without a jump
+    period = n - 1
+    ramp = np.arange(n) / period  # 0 at the first frame, 1 at the last
+    rots = Rotation.from_quat(motion.rotations.reshape(-1, 4)).as_quat().reshape(motion.rotations.shape)
+    off = (Rotation.from_quat(motion.rotations[0]) * Rotation.from_quat(motion.rotations[-1]).inv()).as_rotvec()
+    for t in range(n):
+        rots[t] = (Rotation.from_rotvec(off * ramp[t]) * Rotation.from_quat(motion.rotations[t])).as_quat()
+    tj = motion.travel_joint()
+    travel = motion.travel()
+    u = "xyz".index(motion.up)
+    loop_shift = travel[n - 1] - travel[0]
+    loop_shift[u] = 0.0
+    root = motion.root_translation.copy()
+    root[:, u] += ramp * (root[0, u] - root[-1, u])
+    trans = None
+    if motion.translations is not None:
+        trans = motion.translations.copy()
+        gap = trans[0] - trans[-1]
+        gap[tj] = 0.0  # the travel joint's translation is the loop's travel
+        if tj != 0:
+            gap[tj, u] = trans[0, tj, u] - trans[-1, tj, u]
+        trans += ramp[:, None, None] * gap
+    reps = int(np.ceil(LOOP_REPEAT_S / (period * dt)))
+    shifts = np.repeat(np.arange(reps), period)[:, None] * loop_shift  # (reps * period, 3)
+    idx = np.tile(np.arange(period), reps)
+    root = root[idx] + (shifts if tj == 0 else 0.0)
+    if trans is not None:
+        trans = trans[idx]
+        trans[:, tj] += shifts
+        if tj == 0:
+            trans[:, 0] = root
+    rots = rots[idx]
+    out = motion.copy(root_translation=root, rotations=canonical_quat(rots), translations=trans)
+    if notes is not None:
+        notes.append(f"a loop: the clip ends in the pose it starts with ({n} frames, a cycle of {period}); "
+                     f"repeated {reps} times ({out.duration:.2f} s)")
+    return out
+
+
 def humanoid_motion(motion: Motion, notes: list[str] | None = None) -> Motion:
-    """A motion read from a file (any frame) made ready for a humanoid: the project frame, a standing
-    rest pose (:meth:`Motion.with_standing_rest`) and, for a walk in place (:func:`in_place`), its root
+    """A motion read from a file (any frame) made ready for a humanoid: the project frame, a short loop
+    repeated (:func:`repeat_loop`), a standing rest pose (:meth:`Motion.with_standing_rest`) and, for a
+    walk in place (:func:`in_place`), its root
     travel rebuilt from the stance feet (:func:`reconstruct_root`). What was done is appended to
     ``notes`` (lines for the user)."""
     notes = notes if notes is not None else []
-    m = motion.to_project_frame()
+    m = repeat_loop(motion.to_project_frame(), notes)
     standing = m.with_standing_rest()
     if standing is not m:
         notes.append("rest pose: the file's identity pose is no standing body (bone-aligned joint frames); "

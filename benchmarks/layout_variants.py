@@ -21,6 +21,7 @@ Variants (each one change from the file as read):
   as game-animation exports often are);
 - ``mirrored``: left and right exchanged;
 - ``turning``: bent into a steady 15 deg/s turn (the root's heading and its steps turned with time);
+- ``six_channels``: every joint with 3 position channels (holding its OFFSET) before its rotations;
 - ``cycle``: one gait cycle (the loop ``bipedsim run`` plays, both strikes' frames kept) in place, as a
   game animation's walk cycle is exported.
 """
@@ -28,6 +29,7 @@ Variants (each one change from the file as read):
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -100,6 +102,17 @@ def _cycle(path: str, m: Motion) -> Motion:
     return _in_place(m[c.a + t:c.b + t + 1])
 
 
+def _six_channels(m: Motion) -> Motion:
+    """Every joint with position channels (absolute: the channels hold the OFFSET), as some game and
+    Bandai-Namco exports write every joint."""
+    sk = m.skeleton
+    pos = ("Xposition", "Yposition", "Zposition")
+    channels = tuple(ch if any(c in pos for c in ch) else pos + tuple(ch) for ch in sk.channels)
+    modes = tuple(md or "replace" for md in sk.position_modes) or ("replace",) * len(channels)
+    new_sk = dataclasses.replace(sk, channels=channels, position_modes=modes)
+    return m.copy(skeleton=new_sk, translations=m.local_translations())
+
+
 def variants(m: Motion, path: str | None = None) -> dict[str, Callable[[], Motion]]:
     """The layouts of ``m`` (as read), by name; each made only when called."""
     out: dict[str, Callable[[], Motion]] = {}
@@ -115,6 +128,7 @@ def variants(m: Motion, path: str | None = None) -> dict[str, Callable[[], Motio
     out["in_place"] = lambda: _in_place(m)
     out["mirrored"] = lambda: m.mirrored()
     out["turning"] = lambda: _turning(m)
+    out["six_channels"] = lambda: _six_channels(m)
     if path is not None:
         out["cycle"] = lambda: _cycle(path, m)
     return out

@@ -401,9 +401,8 @@ def repeat_loop(motion: Motion, notes: list[str] | None = None) -> Motion:
 def humanoid_motion(motion: Motion, notes: list[str] | None = None) -> Motion:
     """A motion read from a file (any frame) made ready for a humanoid: the project frame, a short loop
     repeated (:func:`repeat_loop`), a standing rest pose (:meth:`Motion.with_standing_rest`) and, for a
-    walk in place (:func:`in_place`), its root
-    travel rebuilt from the stance feet (:func:`reconstruct_root`). What was done is appended to
-    ``notes`` (lines for the user)."""
+    walk in place (:func:`in_place`), its root travel rebuilt from the stance feet
+    (:func:`reconstruct_root`). What was done is appended to ``notes`` (lines for the user)."""
     notes = notes if notes is not None else []
     m = repeat_loop(motion.to_project_frame(), notes)
     standing = m.with_standing_rest()

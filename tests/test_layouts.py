@@ -158,3 +158,17 @@ def test_a_one_cycle_game_walk_is_not_refused() -> None:
     sc = load_scenario(None, path)
     assert any("a loop" in n for n in sc.bvh_info.notes) and any("walks in place" in n for n in sc.bvh_info.notes)
     assert len(sc.clip.events["right"]["strike"]) >= 3 and len(sc.clip.events["left"]["strike"]) >= 3
+
+
+def test_info_reports_the_speed_a_walk_in_place_walks(tmp_path: Path) -> None:
+    """`bipedsim info` on a walk in place reports its root as still (as the file has it) and the speed it
+    walks at, its travel rebuilt from its feet: within 10 % of the original walk's root speed."""
+    from bipedsim.motion.describe import describe_bvh, format_description
+
+    need_shared()
+    original = describe_bvh(SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
+    assert "walked_speed_mps" not in original
+    d = describe_bvh(_variant("cmu_02_02_walk__daz43", "in_place", tmp_path))
+    assert d["root_speed_mps"] < 0.01
+    assert abs(d["walked_speed_mps"] / original["root_speed_mps"] - 1.0) < 0.1, (d["walked_speed_mps"], original)
+    assert "walks       " in format_description(d) and "walks in place" in d["walked_note"]

@@ -20,26 +20,40 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
     ``root_path_m`` (m, along the path), ``root_displacement_m`` (m, first frame to last) and
     ``root_speed_mps`` (m/s, path over duration). ``scale`` (metres per file unit or a unit name) and
     ``up`` (``"y"`` or ``"z"``) override the guesses. It is read as ``bipedsim run`` reads it for the
-    body it builds (``body``: the kind measured from the skeleton, None where none can be told)."""
+    body it builds (``body``: the kind measured from the skeleton, None where none can be told); a walk
+    in place or a short walk cycle also gets ``walked_speed_mps`` (its travel rebuilt from its feet) and
+    ``walked_note`` (what was done)."""
     from bipedsim.errors import ModelError
-    from bipedsim.model.creature_kind import read_for_body
+    from bipedsim.model.gait import read_for_build
 
+    built = None
     try:
-        _, info, m, body = read_for_body(path, scale=scale, up=up, positions=positions)
+        raw, info, built, body = read_for_build(path, scale=scale, up=up, positions=positions)
+        m = raw.to_project_frame()
     except ModelError:  # no body kind can be told: the file as read, its body unknown
         motion, info = read_bvh(path, scale=scale, up=up, positions=positions)
         m, body = motion.to_project_frame(), None
-    root = m.travel()[:, list(horizontal_axes(m.up))]
-    path_len = float(np.linalg.norm(np.diff(root, axis=0), axis=1).sum()) if m.num_frames > 1 else 0.0
+
+    def travel(motion: Any) -> tuple[float, float]:  # (path length m, displacement m)
+        root = motion.travel()[:, list(horizontal_axes(motion.up))]
+        length = float(np.linalg.norm(np.diff(root, axis=0), axis=1).sum()) if motion.num_frames > 1 else 0.0
+        return length, float(np.linalg.norm(root[-1] - root[0]))
+
+    path_len, net = travel(m)
     d = info.to_dict()
     d.update({
         "body": body,
         "duration_s": m.duration,
         "joint_names": list(m.skeleton.names),
         "root_path_m": path_len,
-        "root_displacement_m": float(np.linalg.norm(root[-1] - root[0])),
+        "root_displacement_m": net,
         "root_speed_mps": path_len / m.duration if m.duration > 0 else 0.0,
     })
+    # a walk cycle repeated, a walk in place given its travel back (model.gait): the speed it walks at
+    made = [n for n in info.notes if n.startswith(("a loop:", "walks in place:"))]
+    if built is not None and made and built.duration > 0:
+        d["walked_speed_mps"] = travel(built)[0] / built.duration
+        d["walked_note"] = "; ".join(made)
     return d
 
 
@@ -68,6 +82,7 @@ def format_description(d: dict[str, Any]) -> str:
         *([f"reading     {d['reading_note']}"] if d.get("reading_note") else []),
         f"root        path {d['root_path_m']:.3f} m, net {d['root_displacement_m']:.3f} m, "
         f"speed {d['root_speed_mps']:.3f} m/s",
+        *([f"walks       {d['walked_speed_mps']:.3f} m/s ({d['walked_note']})"] if "walked_speed_mps" in d else []),
         f"text        line endings {d['line_endings']}, final newline {'yes' if d['final_newline'] else 'no'}",
     ]
     return "\n".join(lines)

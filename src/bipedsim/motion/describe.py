@@ -23,16 +23,21 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
     body it builds (``body``: the kind measured from the skeleton, None where none can be told); a walk
     in place or a short walk cycle also gets ``walked_speed_mps`` (its travel rebuilt from its feet) and
     ``walked_note`` (what was done)."""
-    from bipedsim.errors import ModelError
-    from bipedsim.model.gait import read_for_build
+    from bipedsim.errors import BipedsimError, ModelError
+    from bipedsim.model.creature_kind import read_for_body
+    from bipedsim.model.gait import creature_motion, humanoid_motion
 
     built = None
     try:
-        raw, info, built, body = read_for_build(path, scale=scale, up=up, positions=positions)
-        m = raw.to_project_frame()
+        raw, info, m, body = read_for_body(path, scale=scale, up=up, positions=positions)
     except ModelError:  # no body kind can be told: the file as read, its body unknown
         motion, info = read_bvh(path, scale=scale, up=up, positions=positions)
         m, body = motion.to_project_frame(), None
+    try:  # as `bipedsim run` prepares it (model.gait.read_for_build): a loop repeated, a walk in place
+        built = humanoid_motion(raw, info.notes) if body == "humanoid" else (
+            creature_motion(m, info.notes) if body == "creature" else None)
+    except BipedsimError:  # what run would refuse, run says; the file's own facts stand
+        built = None
 
     def travel(motion: Any) -> tuple[float, float]:  # (path length m, displacement m)
         root = motion.travel()[:, list(horizontal_axes(motion.up))]

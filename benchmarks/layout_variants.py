@@ -8,7 +8,8 @@ file is written rather than on the motion in it:
     python benchmarks/real_walks.py --files /tmp/variants/*.bvh        # humans
     python benchmarks/creatures.py --animals /tmp/variants             # creatures (every BVH in the folder)
     python benchmarks/layout_variants.py /tmp/variants --run           # the tracked shared walks: each variant's
-                                                                       # speed ratio against its original's (~2 min)
+                                                                       # speed ratio against its original's (~4 min;
+                                                                       # --csv F [--resume] keeps the rows)
 
 Variants (each one change from the file as read):
 - ``30fps``, ``60fps``, ``120fps``: resampled (slerp / linear), skipped at the file's own rate;
@@ -165,6 +166,8 @@ def main(argv: list[str] | None = None) -> int:
                          "variant's speed against the original's")
     ap.add_argument("--seeds", type=int, default=3, help="with --run: seeds per file (medians; default 3)")
     ap.add_argument("--seconds", type=float, default=20.0, help="with --run: simulated seconds (default 20)")
+    ap.add_argument("--csv", default=None, help="with --run: also write the rows to this CSV, one at a time")
+    ap.add_argument("--resume", action="store_true", help="with --run and --csv: keep the CSV's rows, run the rest")
     args = ap.parse_args(argv)
     files = args.files or ([str(SHARED / "human" / f"{n}.bvh") for n in TRACKED] if args.run else [])
     if not files:
@@ -172,12 +175,18 @@ def main(argv: list[str] | None = None) -> int:
     done = write_variants(Path(args.out), files, args.only)
     if not args.run:
         return 0
-    from real_walks import run_one  # benchmarks/real_walks.py
+    from real_walks import FIELDS, run_one  # benchmarks/real_walks.py
+    from rows import Rows  # benchmarks/rows.py
 
+    rows = Rows(args.csv, ["variant", *FIELDS], args.resume, key=lambda r: f"{r['file']}|{r['variant']}")
     print(f"\n{'file':40s} {'variant':12s} {'outcome':8s} {'ratio':>5s} {'runs':>5s} {'vs original':>11s}")
     base: dict[str, dict[str, object]] = {}
     for f, name, p in [(f, "(original)", Path(f)) for f in files] + done:
-        row = run_one(p, args.seconds, None, seeds=args.seeds)
+        key = f"{p.name}|{name}"
+        row: dict[str, object] = dict(rows.done[key]) if key in rows.done else run_one(p, args.seconds, None,
+                                                                                         seeds=args.seeds)
+        if key not in rows.done:
+            rows.add({"variant": name, **row})
         if name == "(original)":
             base[f] = row
         b = base[f].get("speed_ratio")
@@ -185,6 +194,7 @@ def main(argv: list[str] | None = None) -> int:
         vs = f"{float(r) / float(b):.2f}" if r not in ("", None) and b not in ("", None) else ""  # type: ignore[arg-type]
         out = row["outcome"] if row["outcome"] == "no_fall" else f"{row['outcome']} {row.get('fall_time_s')}"
         print(f"{Path(f).stem[:40]:40s} {name:12s} {out!s:8s} {r!s:>5s} {row.get('runs_ok', '')!s:>5s} {vs:>11s}")
+    rows.close()
     return 0
 
 

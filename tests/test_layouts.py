@@ -172,3 +172,25 @@ def test_info_reports_the_speed_a_walk_in_place_walks(tmp_path: Path) -> None:
     assert d["root_speed_mps"] < 0.01
     assert abs(d["walked_speed_mps"] / original["root_speed_mps"] - 1.0) < 0.1, (d["walked_speed_mps"], original)
     assert "walks       " in format_description(d) and "walks in place" in d["walked_note"]
+
+
+@pytest.mark.parametrize("name", ["cmu_02_01_walk__holden31_crlf", "games105_walk60__metres_crlf"])
+def test_joint_names_that_say_nothing(name: str, tmp_path: Path) -> None:
+    """A shared walk with every joint renamed ``Bone000``... (names in no convention we know) is built
+    from its skeleton's geometry (limbs as sibling chains, the legs the lowest, left of the direction of
+    travel: model.naming.map_from_roles) into the same body with the same reference: it had been refused
+    ("no left leg: could not find the left thigh, knee, ankle joint(s) by name")."""
+    import dataclasses
+
+    from bipedsim.sim.runner import load_scenario
+
+    need_shared()
+    src = SHARED_BVH / "human" / f"{name}.bvh"
+    m, _ = read_bvh(src)
+    anon = tmp_path / "anon.bvh"
+    write_bvh(m.copy(skeleton=dataclasses.replace(
+        m.skeleton, names=tuple(f"Bone{i:03d}" for i in range(m.skeleton.num_joints)))), anon)
+    a, b = load_scenario(None, src), load_scenario(None, anon)
+    assert a.built.model.nbody == b.built.model.nbody and a.built.model.nq == b.built.model.nq
+    assert abs(a.built.summary()["total_mass_kg"] - b.built.summary()["total_mass_kg"]) < 1e-6
+    np.testing.assert_allclose(b.clip.qpos, a.clip.qpos, atol=1e-6)

@@ -16,7 +16,7 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
-from bipedsim.model.naming import HumanoidMap, MapFile, recognise_humanoid
+from bipedsim.model.naming import HumanoidMap, MapFile, map_from_roles, recognise_humanoid
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
 from bipedsim.model.profile import HumanoidProfile, JointSpec
 from bipedsim.model.retarget import kabsch
@@ -385,7 +385,14 @@ class _HumanoidBuilder:
         self.skel = motion.skeleton
         self.profile = profile
         self.geometry = profile.geometry
-        self.hm = recognise_humanoid(motion.skeleton, mapping)
+        try:
+            self.hm = recognise_humanoid(motion.skeleton, mapping)
+        except ModelError:
+            derived = map_from_roles(motion) if mapping is None else None
+            if derived is None:
+                raise
+            # the names say nothing (anonymous or foreign joint names): the limbs found from geometry
+            self.hm = recognise_humanoid(motion.skeleton, derived)
         pts0 = rest_points(motion)
         self.yaw = _facing_yaw(pts0, self.hm)
         self.rest = pts0.turned(self.yaw)

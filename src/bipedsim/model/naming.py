@@ -15,10 +15,14 @@ from __future__ import annotations
 import os
 import re
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from bipedsim import config
 from bipedsim.errors import ModelError
 from bipedsim.motion.skeleton import Skeleton
+
+if TYPE_CHECKING:
+    from bipedsim.motion.motion import Motion
 
 SIDES = ("left", "right")
 
@@ -219,6 +223,36 @@ def _separate_thighs(sk: Skeleton, legs: dict[str, dict[str, str | None]], idx: 
         th = down  # type: ignore[assignment]
     for s in SIDES:
         legs[s]["thigh"] = sk.names[th[s]]
+
+
+def map_from_roles(motion: Motion) -> MapFile | None:
+    """A mapping of the humanoid's limbs and head found from the skeleton's structure and motion
+    (:func:`~bipedsim.motion.roles.find_roles`: limbs as pairs of sibling chains, the legs the pair whose
+    ends stay lowest, left of the direction of travel), for a skeleton whose names say nothing; None
+    when it does not find two legs."""
+    from bipedsim.motion.roles import find_roles
+
+    try:
+        r = find_roles(motion if motion.up == "z" and motion.unit == 1.0 else motion.to_project_frame())
+    except (ValueError, IndexError, ModelError):
+        return None
+    sk = motion.skeleton
+    sides: dict[str, dict[str, str]] = {"left": {}, "right": {}}
+    for limb in r.limbs:
+        if limb.kind not in ("leg", "arm") or limb.side not in sides:
+            continue
+        wanted = ("thigh", "knee", "ankle", "toe") if limb.kind == "leg" else ("upper_arm", "elbow", "wrist")
+        sides[limb.side].update({role: sk.names[j] for role, j in limb.roles.items() if role in wanted})
+    if not all({"thigh", "knee", "ankle"} <= set(sides[s]) for s in SIDES):
+        return None
+    head = r.anchors.get("head")
+    chest = r.anchors.get("chest")
+    neck = None  # the trunk's joint after the chest, below the head
+    if head is not None and chest in r.trunk and head in r.trunk:
+        after = r.trunk[r.trunk.index(chest) + 1:r.trunk.index(head)]
+        neck = after[0] if after else None
+    return MapFile(head=None if head is None else sk.names[head], neck=None if neck is None else sk.names[neck],
+                   left=sides["left"], right=sides["right"])
 
 
 def recognise_humanoid(sk: Skeleton, mapping: MapFile | None = None) -> HumanoidMap:

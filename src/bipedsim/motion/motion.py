@@ -161,7 +161,7 @@ class Motion:
         Bodies are built from the rest pose; files whose joint frames are bone-aligned (every bone
         along +X, the pose made by the rotations) would otherwise build a body lying down."""
         sk = self.skeleton
-        feet = foot_joints(sk.names)
+        feet = foot_joints(sk.names) or self._feet_by_geometry()
         if len(feet) < 2:
             return self
         offsets = sk.offsets if self.translations is None else np.median(self.translations, axis=0)
@@ -187,6 +187,18 @@ class Motion:
         pos = allpos[:, feet][..., list(horizontal_axes(self.up))]  # (T, F, 2)
         spread = np.linalg.norm(pos - pos.mean(axis=1, keepdims=True), axis=2).sum(axis=1)
         return self.rebased(int(np.argmin(spread)), _straightest_limb_frames(sk, allpos, hip, feet))
+
+    def _feet_by_geometry(self) -> list[int]:
+        """The legs' ankle and toe joints found from the skeleton's structure and motion
+        (:func:`~bipedsim.motion.roles.find_roles`), for joints whose names say nothing; [] if none."""
+        from bipedsim.motion.roles import find_roles
+
+        try:
+            roles = find_roles(self.to_project_frame())
+        except (ValueError, IndexError, ModelError):
+            return []
+        return sorted(j for limb in roles.limbs if limb.kind == "leg"
+                      for role, j in limb.roles.items() if role in ("ankle", "toe"))
 
     def copy(self, **changes: object) -> Motion:
         fields = {"skeleton": self.skeleton, "frame_time": self.frame_time,

@@ -14,6 +14,16 @@ from bipedsim.model.creature_kind import detect_body_kind, read_for_body
 from bipedsim.motion.bvh import read_bvh, write_bvh
 from bipedsim.motion.reroot import add_static_root
 
+
+def _probe():  # benchmarks/layout_variants.py, the probe's own variants
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import layout_variants
+
+    return layout_variants
+
+
 WALKS = ("cmu_02_01_walk__holden31_crlf", "cmu_02_02_walk__19joint_Hip_Abdomen", "cmu_02_02_walk__daz43",
          "games105_walk60__metres_crlf")
 
@@ -45,14 +55,7 @@ def test_in_place_travel_rebuilt_from_rolling_feet(name: str) -> None:
 
     need_shared()
     m = humanoid_motion(read_bvh(SHARED_BVH / "human" / f"{name}.bvh")[0])
-    tj = m.travel_joint()
-    flat = m.copy()
-    if tj == 0:
-        flat.root_translation = m.root_translation.copy()
-        flat.root_translation[:, :2] = m.root_translation[0, :2]
-    else:
-        flat.translations = m.translations.copy()  # type: ignore[union-attr]
-        flat.translations[:, tj, :2] = m.translations[0, tj, :2]  # type: ignore[index]
+    flat = _probe()._in_place(m)
     assert in_place(flat)
     rebuilt = reconstruct_root(flat)
     a = m.travel()[:, :2] - m.travel()[0, :2]
@@ -71,18 +74,11 @@ def test_a_walk_in_place_is_tracked(name: str, tmp_path: Path) -> None:
     """The CMU 02_02 walks written in place (a game export's layout) walk 20 s on seeds 0-2 at >= 60 % of
     the rebuilt clip's speed (0.69 and 0.71 by the median; they fell at 1.0 and 1.3 s with the travel
     rebuilt from the lowest foot joint alone; docs/controller.md, *The same walks in other layouts*)."""
-    import sys
-
     from bipedsim.control.reference import clip_speed
     from bipedsim.sim.runner import load_scenario, run_seeds
 
     need_shared()
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    from layout_variants import _in_place  # the probe's own variant
-
-    m, _ = read_bvh(SHARED_BVH / "human" / f"{name}.bvh")
-    path = tmp_path / "in_place.bvh"
-    write_bvh(_in_place(m), path)
+    path = _variant(name, "in_place", tmp_path)
     sc = load_scenario(None, path)
     assert any("walks in place" in n for n in sc.bvh_info.notes)
     outs = run_seeds(sc, 20.0, 3)
@@ -111,15 +107,10 @@ def test_an_experiment_reads_a_file_as_run_does(tmp_path: Path) -> None:
 
 def _variant(name: str, kind: str, tmp_path: Path) -> Path:
     """The probe's ``kind`` variant of a shared human walk, written to ``tmp_path``."""
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    from layout_variants import variants
-
     src = SHARED_BVH / "human" / f"{name}.bvh"
     m, _ = read_bvh(src)
     path = tmp_path / f"{kind}.bvh"
-    write_bvh(variants(m, str(src))[kind](), path)
+    write_bvh(_probe().variants(m, str(src))[kind](), path)
     return path
 
 

@@ -31,7 +31,7 @@ from scipy.ndimage import minimum_filter1d
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ConfigError
-from bipedsim.model.creature_kind import detect_body_kind
+from bipedsim.model.creature_kind import AUTO, detect_body_kind
 from bipedsim.motion.conventions import foot_joints
 from bipedsim.motion.motion import Motion, canonical_quat
 
@@ -362,10 +362,9 @@ def repeat_loop(motion: Motion, notes: list[str] | None = None) -> Motion:
     # translations shifted alike), so the copies join without a jump
     period = n - 1
     ramp = np.arange(n) / period  # 0 at the first frame, 1 at the last
-    rots = Rotation.from_quat(motion.rotations.reshape(-1, 4)).as_quat().reshape(motion.rotations.shape)
     off = (Rotation.from_quat(motion.rotations[0]) * Rotation.from_quat(motion.rotations[-1]).inv()).as_rotvec()
-    for t in range(n):
-        rots[t] = (Rotation.from_rotvec(off * ramp[t]) * Rotation.from_quat(motion.rotations[t])).as_quat()
+    turn = Rotation.from_rotvec((ramp[:, None, None] * off).reshape(-1, 3))
+    rots = (turn * Rotation.from_quat(motion.rotations.reshape(-1, 4))).as_quat().reshape(motion.rotations.shape)
     tj = motion.travel_joint()
     travel = motion.travel()
     u = "xyz".index(motion.up)
@@ -417,21 +416,26 @@ def humanoid_motion(motion: Motion, notes: list[str] | None = None) -> Motion:
     return standing
 
 
+def motion_for_body(raw: Motion, motion: Motion, kind: str, notes: list[str], support: bool = False) -> Motion:
+    """The motion a body of ``kind`` is built from, as every command prepares it: for a humanoid
+    :func:`humanoid_motion` of the file's ``raw`` motion (a short loop repeated, a standing rest pose, the
+    travel of a walk in place), for a creature without root ``support`` :func:`creature_motion` of its
+    project-frame ``motion`` (a walk in place), else ``motion``. What was done is appended to ``notes``."""
+    if kind == "humanoid":
+        return humanoid_motion(raw, notes)
+    return motion if support else creature_motion(motion, notes)
+
+
 def read_for_build(path: str | os.PathLike[str], *, scale: float | str | None = None, up: str | None = None,
-                   positions: str | None = None, profile: str | None = "auto", support: bool = False,
+                   positions: str | None = None, profile: str | None = AUTO, support: bool = False,
                    creature_support: bool = False) -> tuple[Motion, BVHInfo, Motion, str]:
     """A BVH file read as every command builds a body from it -- one way through for ``run``, sweeps,
     suites, tunes and ``convert``: :func:`~bipedsim.model.creature_kind.read_for_body` (reading, body kind,
-    unit, a static floor root folded), then for a humanoid :func:`humanoid_motion` (a standing rest pose,
-    the travel of a walk in place), for a creature without root support (``support``, or
-    ``creature_support`` from its controller) :func:`creature_motion`. Returns the raw motion, what
-    reading found (its ``notes`` extended), the motion to build from (project frame) and the body kind."""
+    unit, a static floor root folded), then :func:`motion_for_body` (root support: ``support``, or
+    ``creature_support`` from a creature's controller). Returns the raw motion, what reading found (its
+    ``notes`` extended), the motion to build from (project frame) and the body kind."""
     from bipedsim.model.creature_kind import read_for_body
 
     raw, info, motion, kind = read_for_body(path, scale=scale, up=up, positions=positions, profile=profile,
                                             support=support)
-    if kind == "humanoid":
-        motion = humanoid_motion(raw, info.notes)
-    elif not (support or creature_support):
-        motion = creature_motion(motion, info.notes)
-    return raw, info, motion, kind
+    return raw, info, motion_for_body(raw, motion, kind, info.notes, support or creature_support), kind

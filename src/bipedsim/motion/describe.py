@@ -25,7 +25,7 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
     ``walked_note`` (what was done)."""
     from bipedsim.errors import BipedsimError, ModelError
     from bipedsim.model.creature_kind import read_for_body
-    from bipedsim.model.gait import creature_motion, humanoid_motion
+    from bipedsim.model.gait import motion_for_body
 
     built = None
     try:
@@ -33,9 +33,8 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
     except ModelError:  # no body kind can be told: the file as read, its body unknown
         motion, info = read_bvh(path, scale=scale, up=up, positions=positions)
         m, body = motion.to_project_frame(), None
-    try:  # as `bipedsim run` prepares it (model.gait.read_for_build): a loop repeated, a walk in place
-        built = humanoid_motion(raw, info.notes) if body == "humanoid" else (
-            creature_motion(m, info.notes) if body == "creature" else None)
+    try:  # as `bipedsim run` prepares it: a loop repeated, a walk in place given its travel back
+        built = motion_for_body(raw, m, body, info.notes) if body is not None else None
     except BipedsimError:  # what run would refuse, run says; the file's own facts stand
         built = None
 

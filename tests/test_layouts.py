@@ -46,6 +46,22 @@ def test_a_static_root_at_the_floor_changes_nothing(name: str, tmp_path: Path) -
     np.testing.assert_allclose(motion1.fk()[0], motion0.fk()[0], atol=1e-4)
 
 
+def test_a_walk_that_comes_back_is_not_in_place() -> None:
+    """A walk round a circle ends where it began: its net displacement is near zero but its root travels.
+    The public Emilya figure-eight walk (15 m of path, 0.35 m net) had been taken for a walk in place and
+    its real root travel replaced by one rebuilt from its feet; in place is now the root's path (smoothed
+    over a stride), not its net displacement."""
+    from bipedsim.model.gait import humanoid_motion, in_place
+
+    need_shared()
+    m = read_bvh(SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")[0]
+    circle = humanoid_motion(_probe()._turning(m, 128.0))  # one full turn in the clip's 2.8 s
+    root = circle.travel()[:, :2]
+    assert np.linalg.norm(root[-1] - root[0]) < 0.2 < 0.1 * np.linalg.norm(np.diff(root, axis=0), axis=1).sum()
+    assert not in_place(circle)
+    assert in_place(_probe()._in_place(circle))
+
+
 @pytest.mark.parametrize("name", WALKS + ("cmu_12_03_walk__cgspeed_mb31", "bandai2_walk_exhausted_001"))
 def test_in_place_travel_rebuilt_from_rolling_feet(name: str) -> None:
     """Every shared steady walk with its translation removed: the rebuilt travel is within 10 % of the

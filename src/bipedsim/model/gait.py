@@ -195,11 +195,16 @@ HAND_DOUBLE_SUPPORT = 0.15
 #: A clip walks in place when its root travels slower than this fraction of its feet's swing speed
 #: (95th-percentile horizontal speed of the foot joints relative to the root).
 IN_PLACE_SPEED_FRACTION = 0.05
+#: The root's travel is the length of its horizontal path smoothed over this window (s, about a
+#: stride: the sway of a walk in place is no travel), over the clip's duration -- not its net
+#: displacement, which a walk that comes back (a figure eight, there and back) also has near zero.
+IN_PLACE_SMOOTH_S = 1.0
 
 
 def in_place(motion: Motion, feet: list[int] | None = None) -> bool:
     """Whether ``motion`` (project frame: m, Z up) steps without travelling: its root (the travelling
-    joint, :meth:`Motion.travel`) moves less than :data:`IN_PLACE_SPEED_FRACTION` of the speed its
+    joint, :meth:`Motion.travel`; its path smoothed over :data:`IN_PLACE_SMOOTH_S`, whatever its net
+    displacement) moves less than :data:`IN_PLACE_SPEED_FRACTION` of the speed its
     feet swing at (a treadmill walk, a game animation exported in place). ``feet``: the foot joints'
     indices (default: a human skeleton's, by name)."""
     feet = foot_joints(motion.skeleton.names) if feet is None else feet
@@ -210,7 +215,8 @@ def in_place(motion: Motion, feet: list[int] | None = None) -> bool:
     pos = motion.fk()[0][:, feet]
     rel = pos[..., :2] - root[:, None, :2]
     swing = float(np.percentile(np.linalg.norm(np.gradient(rel, dt, axis=0), axis=-1), 95))
-    travel = float(np.linalg.norm(root[-1, :2] - root[0, :2])) / motion.duration
+    path = smooth(root[:, :2], dt, IN_PLACE_SMOOTH_S)
+    travel = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum()) / motion.duration
     return swing > 0 and travel < IN_PLACE_SPEED_FRACTION * swing
 
 

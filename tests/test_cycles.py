@@ -126,3 +126,28 @@ def test_seam_blend_makes_the_loop_continuous_and_keeps_the_rest() -> None:
     assert np.allclose(out[30] - out[69], rows[30] - rows[29])
     # the 40 jump spread over 10 frames: smoothstep slope at most 1.5 x 40 / 10, plus the ramp of 1
     assert np.abs(np.diff(out[59:70, 0])).max() <= 1.5 * 40 / 10 + 1 + 1e-9
+
+
+def test_a_clip_with_one_right_strike_loops_from_left_strike_to_left_strike(tmp_path) -> None:
+    """A short capture of one cycle from a left strike to the next (Xia's style clips: 1.2-1.6 s, one
+    right strike between two left ones) had been refused ("need two right strikes"). With no right loop
+    the left one is played and the rollout starts in left stance: CMU 02_01 cut so walks 10 s."""
+    from conftest import SHARED_BVH, need_shared
+
+    from bipedsim.control.reference import clip_cycle
+    from bipedsim.motion.bvh import read_bvh, write_bvh
+    from bipedsim.sim.rollout import RolloutSpec
+    from bipedsim.sim.runner import load_scenario, run_scenario
+
+    need_shared()
+    m, _ = read_bvh(SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
+    path = tmp_path / "left_cycle.bvh"
+    write_bvh(m[131:284], path)  # left strikes at 141 and 273, the right one at 210
+    sc = load_scenario(None, path)
+    assert len(sc.clip.events["right"]["strike"]) == 1 and len(sc.clip.events["left"]["strike"]) == 2
+    c = clip_cycle(sc.clip, sc.built.model, sc.built.plan)
+    assert c is not None and c.foot == "left" and c.alternates
+    assert [c.a, c.b] == sc.clip.events["left"]["strike"]
+    out, _ = run_scenario(sc, RolloutSpec(seconds=10.0))
+    assert out.outcome == "no_fall" and out.foot_strikes >= 15
+    assert out.mean_speed_mps > 0.5 * out.reference_speed_mps

@@ -9,7 +9,7 @@ ankle and COM velocity (heading frame) so balance feedback can act on deviations
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -382,12 +382,13 @@ SEAM_BLEND_S = 0.2
 
 @dataclass(frozen=True)
 class Cycle:
-    """A loop of a clip from one right-foot strike ``a`` to a later one ``b`` (frames) with a left strike
-    between; ``cost``: its seam mismatch plus the penalties below (rad, see :func:`best_cycle`).
-    ``seam``: the pose and velocity mismatch alone (rad); ``alternates``: its strikes alternate feet;
-    ``step_balance``: its shortest step over its longest; ``steady``: its slowest step's root speed
-    over its fastest; ``stance_float``: its stance feet's mean distance from the floor (m, the worse
-    foot; 0 when unknown)."""
+    """A loop of a clip from one strike of ``foot`` ``a`` to a later one ``b`` (frames) with a strike of
+    the other foot between (the right foot's, unless the clip has no such loop); ``cost``: its seam
+    mismatch plus the penalties below (rad, see :func:`best_cycle`). ``seam``: the pose and velocity
+    mismatch alone (rad); ``alternates``: its strikes alternate feet; ``step_balance``: its shortest
+    step over its longest; ``steady``: its slowest step's root speed over its fastest;
+    ``stance_float``: its stance feet's mean distance from the floor (m, the worse foot; 0 when
+    unknown)."""
 
     a: int
     b: int
@@ -397,12 +398,13 @@ class Cycle:
     step_balance: float = 1.0
     steady: float = 1.0
     stance_float: float = 0.0
+    foot: str = "right"
 
 
 def _loop_shape(a: int, b: int, right: list[int], left: list[int], root_xy: FloatArray,
                 frame_time: float) -> tuple[bool, float, float]:
     """(strikes alternate, shortest step / longest, slowest step's root speed / fastest) of the loop
-    from right strike ``a`` to right strike ``b``."""
+    from strike ``a`` to strike ``b`` of the foot whose strikes are ``right`` (the other's ``left``)."""
     events = sorted([(t, "right") for t in right if a <= t <= b] + [(t, "left") for t in left if a < t < b])
     alternates = all(events[k][1] != events[k + 1][1] for k in range(len(events) - 1))
     times = np.array([t for t, _ in events])
@@ -479,8 +481,16 @@ def clip_cycle(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet,
     body without box feet)."""
     h = hinges or Hinges.of(model, plan)
     rs, ls = clip.events["right"]["strike"], clip.events["left"]["strike"]
-    return best_cycle(clip.qpos[:, h.qadr], clip.qvel[:, h.dadr], clip.qpos[:, :2], list(rs), list(ls),
-                      clip.frame_time, stance_low=stance_heights(clip, model))
+    args = (clip.qpos[:, h.qadr], clip.qvel[:, h.dadr], clip.qpos[:, :2])
+    low = stance_heights(clip, model)
+    c = best_cycle(*args, list(rs), list(ls), clip.frame_time, stance_low=low)
+    if c is None:
+        # a clip with one right strike between two left ones (a short capture of one cycle) loops from
+        # left strike to left strike; its rollout starts in left stance (``HumanoidController.reset``)
+        c = best_cycle(*args, list(ls), list(rs), clip.frame_time, stance_low=low)
+        if c is not None:
+            c = replace(c, foot="left")
+    return c
 
 
 def stance_heights(clip: ReferenceClip, model: mujoco.MjModel) -> FloatArray | None:
@@ -521,7 +531,8 @@ def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet)
     if c is not None:
         root = clip.qpos[:, :2]
         loop_v = float(np.linalg.norm(root[c.b] - root[c.a])) / ((c.b - c.a) * clip.frame_time)
-        lines.append(f"cycle: frames {c.a}-{c.b} ({(c.b - c.a) * clip.frame_time:.2f} s, cost {c.cost:.3f}: seam "
+        lines.append(f"cycle: frames {c.a}-{c.b}{' (left strike to left strike)' if c.foot == 'left' else ''} "
+                     f"({(c.b - c.a) * clip.frame_time:.2f} s, cost {c.cost:.3f}: seam "
                      f"{c.seam:.3f}, steps {c.step_balance:.2f} alike, step speeds {c.steady:.2f} alike, stance "
                      f"feet {c.stance_float * 100:.1f} cm off the floor) at {loop_v:.2f} m/s; the whole clip "
                      f"{clip_speed(clip):.2f} m/s")
@@ -540,31 +551,23 @@ class ClipSource(GaitSource):
             raise ModelError("the balance controller needs the humanoid profile (two legs)")
         self.clip = clip
         self.frame_time = clip.frame_time
-        ri = clip.foot_names.index("right")
-        li = clip.foot_names.index("left")
         rs = clip.events["right"]["strike"]
         ls = clip.events["left"]["strike"]
-        if len(rs) < 2 or not ls:
-            raise ModelError(f"the reference clip ({clip.source or 'clip'}) has {len(rs)} right and {len(ls)} "
-                             f"left foot strikes (right at frames {rs}, left at {ls}; {clip.num_frames} frames at "
-                             f"{1 / clip.frame_time:.4g} fps): need two right strikes with a left one between to "
-                             "loop a gait cycle. If the clip walks, give its strikes by hand: --events FILE, a "
-                             "YAML like 'right: [12, 140]' and 'left: [76]' (frames, or times like '1.2s')")
         hq, hqd = clip.qpos[:, hinges.qadr], clip.qvel[:, hinges.dadr]
         cycle = clip_cycle(clip, model, plan, hinges)
         if cycle is None:
-            raise ModelError(f"the reference clip ({clip.source or 'clip'}) has no left foot strike between two "
-                             f"right ones (right at frames {rs}, left at {ls}): give its strikes by hand with "
-                             "--events FILE")
+            raise ModelError(f"the reference clip ({clip.source or 'clip'}) has {len(rs)} right and {len(ls)} "
+                             f"left foot strikes (right at frames {rs}, left at {ls}; {clip.num_frames} frames at "
+                             f"{1 / clip.frame_time:.4g} fps): a gait cycle to loop needs two strikes of one foot "
+                             "with one of the other foot between. If the clip walks a whole cycle, give its "
+                             "strikes by hand: --events FILE, a YAML like 'right: [12, 140]' and 'left: [76]' "
+                             "(frames, or times like '1.2s'); a shorter clip cannot be looped")
         self.cycle = cycle
         self.a, self.b = float(cycle.a), float(cycle.b)
         self.period = self.b - self.a
         self.loop_start = self.a
         self.strikes = {"right": np.array([s for s in rs if self.a <= s < self.b], dtype=float),
                         "left": np.array([s for s in ls if self.a <= s < self.b], dtype=float)}
-        if len(self.strikes["left"]) == 0:
-            raise ModelError("no left foot strike inside the looped cycle")
-        del ri, li
         self.hinge_qadr = hinges.qadr
         blend = int(round(SEAM_BLEND_S / clip.frame_time))
         self.q = blend_seam(hq, cycle.a, cycle.b, blend)
@@ -725,8 +728,9 @@ class ClipSource(GaitSource):
         return (f - prv) / max(nxt - prv, 1e-6)
 
     def start_frame(self) -> float:
-        """Where a rollout starts: just after the loop's first right-foot strike, when that foot
-        already carries weight (starting exactly on the strike frame leaves neither foot loaded)."""
+        """Where a rollout starts: just after the loop's first strike (the right foot's, or the left's
+        for a left-to-left loop), when that foot already carries weight (starting exactly on the strike
+        frame leaves neither foot loaded)."""
         return self.a + max(1.0, round(START_AFTER_STRIKE * self._step / self.frame_time))
 
     def state1_time(self) -> float:

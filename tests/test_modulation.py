@@ -68,7 +68,7 @@ def test_sync_accepts_strikes_only_late_in_the_step(scenario) -> None:
 
 
 def test_swing_foot_ik_raises_the_ankle_by_bending_the_knee(scenario) -> None:
-    c = controller(scenario, swing_foot=SwingFootConfig(enabled=True, height_gain=0.0, lift=0.05))
+    c = controller(scenario, swing_foot=SwingFootConfig(enabled=True, height_gain=0.0, lift=0.05, deadband=0.0))
     try:
         src, model = c.source, c.model
         data = mujoco.MjData(model)
@@ -122,3 +122,28 @@ def test_swing_foot_ik_with_a_deadband_leaves_a_foot_at_its_reference_height_alo
         assert np.array_equal(q_d, before) and not tau.any()
     finally:
         c.restore_model()
+
+
+def test_auto_modulation_is_on_for_a_capture_and_off_for_the_built_in_walk() -> None:
+    """``enabled: auto`` (the default of the swing-foot IK and the stance-ankle feedback) follows the
+    feasibility measure: on for a capture whose legs measure infeasible for the body, off for the built-in
+    walk generated for it; the resolved switches are what the controller and outcome.json see."""
+    from conftest import SHARED_BVH, need_shared
+
+    from bipedsim.control.config import ControllerConfig, for_reference
+    from bipedsim.sim.runner import load_scenario
+
+    d = ControllerConfig()
+    assert d.modulation.swing_foot.enabled == "auto" and d.modulation.stance_ankle.enabled == "auto"
+    on, off = for_reference(d, True), for_reference(d, False)
+    assert on.modulation.swing_foot.enabled is True and on.modulation.stance_ankle.enabled is True
+    assert off.modulation.swing_foot.enabled is False and off.modulation.stance_ankle.enabled is False
+    forced = replace(d, modulation=replace(d.modulation, swing_foot=SwingFootConfig(enabled=False)))
+    assert for_reference(forced, True).modulation.swing_foot.enabled is False  # an explicit switch stays
+    builtin = load_scenario(None)
+    assert builtin.cfg.modulation.swing_foot.enabled is False and not builtin.controller()._ik_on
+    need_shared()
+    cap = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
+    c = cap.controller()
+    assert cap.cfg.modulation.swing_foot.enabled is True and c._ik_on and c._ankle_fb_on
+    c.restore_model()

@@ -268,8 +268,10 @@ class SimbiconController(Controller):
         self._sync_on = mod.sync.enabled
         self._swing_vel_on = mod.swing_velocity and not self._ref_vel and self.implicit
         self._swing_leg = {s: [*self.hip[s][0].tolist(), self.knee[s]] for s in SIDES}
-        self._ik_on = mod.swing_foot.enabled and source.swing_leg(source.loop_start, "left") is not None
-        self._ankle_fb_on = mod.stance_ankle.enabled
+        # "auto" is resolved for the reference when a scenario is loaded (control.config.for_reference);
+        # left unresolved, it is off
+        self._ik_on = mod.swing_foot.enabled is True and source.swing_leg(source.loop_start, "left") is not None
+        self._ankle_fb_on = mod.stance_ankle.enabled is True
         self._com_hf = (0.0, 0.0, 0.0, 0.0)  #: the last step's COM offset from the stance ankle and velocity
         vel = cfg.balance.velocity
         # the sagittal target is the source's walking speed: a source without one (key poses) has none

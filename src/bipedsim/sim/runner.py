@@ -12,7 +12,7 @@ import numpy as np
 
 from bipedsim.config import to_dict
 from bipedsim.control import CONTROLLERS, Controller, CreatureControlConfig
-from bipedsim.control.config import ControllerConfig, load_controller
+from bipedsim.control.config import ControllerConfig, for_reference, load_controller
 from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
@@ -113,6 +113,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
         src = str(bvh)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)
     extra: dict[str, Any] = {}
+    resolved = False
     if cfg.reference.feasible is not False and profile == "humanoid":  # model/feasible.py
         forced = cfg.reference.feasible is True
         why = ["reference: {feasible: true}"] if forced else infeasible_because(measure(clip, built.model),
@@ -120,6 +121,8 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
         if why:
             clip = feasible_clip(clip, built.model, cfg.reference)
             extra["feasible"] = why
+            resolved = True
+    cfg = for_reference(cfg, resolved)  # the "auto" modulation terms act on a re-solved reference
     config_path = None if config is None or isinstance(config, ControllerConfig) else str(config)
     return Scenario(built=built, clip=clip, cfg=cfg, source_path=src, config_path=config_path, motion=motion,
                     bvh_info=info, extra=extra, creature_cfg=replace(cfg.creature, support=support))

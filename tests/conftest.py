@@ -2,9 +2,13 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
+
+if TYPE_CHECKING:
+    from bipedsim.control.config import ControllerConfig
 
 REPO = Path(__file__).resolve().parent.parent
 SHARED_BVH = REPO.parent / "shared" / "data" / "bvh"
@@ -60,3 +64,16 @@ class SharedFile:
 
     def __repr__(self) -> str:
         return f"SharedFile({self.path.name}: {self.folder}, {'travels' if self.travels else 'in place'})"
+
+
+def without_modulation(cfg: ControllerConfig) -> ControllerConfig:
+    """``cfg`` with the reference modulation a capture gets by default (swing-foot IK, stance-ankle
+    feedback) off: the setting in which the counterfactual tests of velocity tuning, the Froude-scheduled
+    c_d, the stance foot's yaw limit and the course frame were measured. With the modulation on these
+    features still help but their counterfactuals no longer fail as they did (docs/controller.md,
+    *Public walks we do not ship*)."""
+    from dataclasses import replace
+
+    mod = cfg.modulation
+    return replace(cfg, modulation=replace(mod, swing_foot=replace(mod.swing_foot, enabled=False),
+                                           stance_ankle=replace(mod.stance_ankle, enabled=False)))

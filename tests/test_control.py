@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared
+from conftest import SHARED_BVH, need_shared, without_modulation
 from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
@@ -494,18 +494,6 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push() -> None:
     assert out_def.outcome == "no_fall"
 
 
-def _without_modulation(cfg: ControllerConfig) -> ControllerConfig:
-    """``cfg`` with the reference modulation a capture gets by default (swing-foot IK, stance-ankle
-    feedback) off: the setting in which velocity tuning and the Froude-scheduled c_d were measured. With
-    it on, both still help but are no longer decisive (CMU 02_01 without velocity tuning 0.77 of its
-    speed, the daz 02_02 unscheduled 0.75, medians of 3 seeds; docs/controller.md)."""
-    from dataclasses import replace
-
-    mod = cfg.modulation
-    return replace(cfg, modulation=replace(mod, swing_foot=replace(mod.swing_foot, enabled=False),
-                                           stance_ankle=replace(mod.stance_ankle, enabled=False)))
-
-
 def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     """The shared CMU 02_01 walk (1.20 m/s) on its feasible reference walks 20 s at about half its speed
     without velocity tuning (the swing-hip feedback c_v (v - v_mean) shortens every step of a slow body
@@ -519,7 +507,7 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
 
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
-    sc = replace(sc, cfg=_without_modulation(sc.cfg))
+    sc = replace(sc, cfg=without_modulation(sc.cfg))
     v_clip = clip_speed(sc.clip)
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, velocity=replace(sc.cfg.balance.velocity, kv_sagittal=0.0)))
 
@@ -546,7 +534,7 @@ def test_froude_scheduled_cd_lets_a_fast_capture_stride_out() -> None:
 
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
-    sc = replace(sc, cfg=_without_modulation(sc.cfg))
+    sc = replace(sc, cfg=without_modulation(sc.cfg))
     ctrl = sc.controller()
     assert 0.35 < ctrl._cd_sagittal < 0.5
     v_clip = clip_speed(sc.clip)

@@ -10,9 +10,11 @@ simulated time.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import without_modulation
 
 from bipedsim.config import from_dict, to_dict
 from bipedsim.control.config import ControllerConfig, merged
@@ -113,6 +115,7 @@ def test_shared_walk_holds_its_course_in_the_course_frame(shared_dir) -> None:
     for frame in ("pelvis", "course"):
         cfg = from_dict(ControllerConfig, merged(to_dict(ControllerConfig()), {"balance": {"heading_frame": frame}}))
         sc = load_scenario(cfg, path)
+        sc = replace(sc, cfg=without_modulation(sc.cfg))  # as measured (with it the pelvis frame crabs less)
         out, _ = run_scenario(sc, RolloutSpec(seconds=20.0))
         assert out.outcome == "no_fall"
         runs[frame] = (out, clip_speed(sc.clip))

@@ -486,7 +486,7 @@ def clip_cycle(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet,
     c = best_cycle(*args, list(rs), list(ls), clip.frame_time, stance_low=low)
     if c is None:
         # a clip with one right strike between two left ones (a short capture of one cycle) loops from
-        # left strike to left strike; its rollout starts in left stance (``HumanoidController.reset``)
+        # left strike to left strike; its rollout starts in left stance (``SimbiconController.reset``)
         c = best_cycle(*args, list(ls), list(rs), clip.frame_time, stance_low=low)
         if c is not None:
             c = replace(c, foot="left")

@@ -369,6 +369,31 @@ class PoseGait:
 
 
 @dataclass(frozen=True)
+class BodyScaleConfig:
+    """The bodies the settings above hold for, and their scaling to a body outside them (dynamic
+    similarity). Every setting with a unit of length, time, force or torque was measured on bodies whose
+    legs (hip to ankle, the two legs' mean) are ``leg_min`` to ``leg_max`` m long and which weigh
+    ``mass`` kg. Run on another body (legs L, mass m), each is scaled by the powers of the leg ratio and
+    of m / ``mass`` its unit has (:data:`BODY_UNITS`: a length by the leg ratio, a time by its square
+    root, a torque or a PD stiffness by the mass ratio times the leg ratio, ...); the leg ratio is L over
+    the nearer end of the range (1 inside it). So a child's or a giant's body walking its clip at the
+    same Froude number as a measured one gets the same control. ``torque_scale`` multiplies the model's
+    own joint torque limits (a group's ``pd.gains`` limit, when set, is scaled instead). A config
+    recorded with a run has been scaled and names that run's body, so running it again on that body
+    changes nothing. ``scale: false``: every value as written."""
+
+    scale: bool = True
+    leg_min: float = field(default=0.78, metadata={"gt": 0.0})  #: m
+    leg_max: float = field(default=0.94, metadata={"gt": 0.0})  #: m
+    mass: float = field(default=64.0, metadata={"gt": 0.0})  #: kg
+    torque_scale: float = field(default=1.0, metadata={"gt": 0.0})
+
+    def validate(self) -> None:
+        if self.leg_min > self.leg_max:
+            raise ValueError(f"leg_min {self.leg_min} > leg_max {self.leg_max} (need leg_min <= leg_max)")
+
+
+@dataclass(frozen=True)
 class ControllerConfig:
     """The whole controller."""
 
@@ -385,6 +410,8 @@ class ControllerConfig:
     #: the reference made feasible for the built body before tracking (model/feasible.py)
     reference: FeasibleConfig = field(default_factory=FeasibleConfig)
     pose_gait: PoseGait = field(default_factory=PoseGait)
+    #: the body the values above are for, scaled to the body run (:func:`for_body`)
+    body: BodyScaleConfig = field(default_factory=BodyScaleConfig)
     #: a creature's controller (control/creature_gait.py): used instead of the sections above when the
     #: body is a creature
     creature: CreatureControlConfig = field(default_factory=CreatureControlConfig)
@@ -436,3 +463,92 @@ def for_reference(cfg: ControllerConfig, resolved: bool) -> ControllerConfig:
     sf = replace(sf, enabled=resolved) if sf.enabled == "auto" else sf
     sa = replace(sa, enabled=resolved) if sa.enabled == "auto" else sa
     return replace(cfg, modulation=replace(mod, swing_foot=sf, stance_ankle=sa))
+
+
+#: unit -> (power of the leg-length ratio, power of the mass ratio): how a setting in that unit scales
+#: between dynamically similar bodies (g fixed; times scale with sqrt(L / g), speeds with sqrt(g L))
+BODY_UNITS: dict[str, tuple[float, float]] = {
+    "length": (1.0, 0.0), "time": (0.5, 0.0), "speed": (0.5, 0.0), "per_length": (-1.0, 0.0),
+    "per_speed": (-0.5, 0.0), "force": (0.0, 1.0), "force_per_speed": (-0.5, 1.0),
+    "stiffness": (1.0, 1.0), "damping": (1.5, 1.0)}
+
+#: every humanoid controller setting that has a unit, by dotted key (rad and ratios do not scale)
+BODY_SCALED: dict[str, str] = {
+    "fsm.state1_time": "time", "fsm.min_swing_time": "time", "fsm.contact_force": "force",
+    "fsm.max_wait": "time", "fsm.tempo.gain": "per_speed", "fsm.tempo.deadband": "speed",
+    "balance.sagittal.cd": "per_length", "balance.sagittal.cv": "per_speed",
+    "balance.coronal.cd": "per_length", "balance.coronal.cv": "per_speed",
+    "balance.torso_kp": "stiffness", "balance.roll_kp": "stiffness", "balance.torso_kd": "damping",
+    "balance.heading_kp": "stiffness",
+    "balance.velocity.kv_sagittal": "force_per_speed", "balance.velocity.kv_coronal": "force_per_speed",
+    "balance.velocity.max_force": "force", "balance.velocity.filter_s": "time",
+    "balance.course.deadband": "length", "balance.course.rate_filter": "time",
+    "balance.course.steer_gain": "per_length", "balance.course.steer_damping": "per_speed",
+    "balance.course.placement_gain": "per_length", "balance.course.placement_damping": "per_speed",
+    "fade.fade_in": "time", "resync.spread": "time", "modulation.sync.blend": "time",
+    "modulation.swing_foot.lift": "length", "modulation.swing_foot.max_raise": "length",
+    "modulation.swing_foot.max_drop": "length", "modulation.swing_foot.deadband": "length",
+    "modulation.swing_foot.max_placement": "length",
+    "modulation.stance_ankle.kv": "per_speed", "modulation.stance_ankle.kd": "per_length",
+    "reference.clearance": "length", "reference.smooth_s": "time"}
+
+
+def _scaled_gain(g: Gain, f_kp: float, f_kd: float) -> Gain:
+    return Gain(g.kp * f_kp, g.kd * f_kd, None if g.torque_limit is None else g.torque_limit * f_kp)
+
+
+def _replace_path(obj: Any, keys: list[str], value: Any) -> Any:
+    if len(keys) == 1:
+        return replace(obj, **{keys[0]: value})
+    return replace(obj, **{keys[0]: _replace_path(getattr(obj, keys[0]), keys[1:], value)})
+
+
+def body_ratios(b: BodyScaleConfig, leg_length: float, mass: float) -> tuple[float, float]:
+    """(leg ratio, mass ratio) a body with legs ``leg_length`` m and ``mass`` kg is scaled by from the
+    bodies ``b`` names; (1, 1) inside them or with ``scale: false``."""
+    if not b.scale:
+        return 1.0, 1.0
+    ref = b.leg_min if leg_length < b.leg_min else b.leg_max if leg_length > b.leg_max else leg_length
+    lam, mu = leg_length / ref, mass / b.mass
+    return (1.0 if abs(lam - 1.0) < 1e-12 else lam), (1.0 if abs(mu - 1.0) < 1e-12 else mu)
+
+
+def describe_body_scale(b: BodyScaleConfig, leg_length: float, mass: float) -> str | None:
+    """What :func:`for_body` does to a body with legs ``leg_length`` m and ``mass`` kg, in words (None:
+    nothing)."""
+    lam, mu = body_ratios(b, leg_length, mass)
+    if lam == 1.0 and mu == 1.0:
+        return None
+    span = f"{b.leg_min:.2f} m" if b.leg_min == b.leg_max else f"{b.leg_min:.2f}-{b.leg_max:.2f} m"
+    torque = BODY_UNITS["stiffness"]
+    return (f"settings scaled to the body (legs {leg_length:.2f} m, {mass:.1f} kg; the defaults were measured on "
+            f"legs {span}, {b.mass:.1f} kg): lengths x{lam:.3f}, times x{lam ** 0.5:.3f}, torques and PD gains "
+            f"x{lam ** torque[0] * mu ** torque[1]:.3f} (body: {{scale: false}} keeps them as written)")
+
+
+def for_body(cfg: ControllerConfig, leg_length: float, mass: float) -> ControllerConfig:
+    """``cfg`` scaled from the bodies it names (``body``) to one with legs ``leg_length`` m long (hip to
+    ankle, the legs' mean) weighing ``mass`` kg (:class:`BodyScaleConfig`), naming that body when it
+    scaled anything."""
+    b = cfg.body
+    if leg_length <= 0.0 or mass <= 0.0:
+        raise ConfigError(f"a body to scale the controller to needs legs and mass > 0, got legs {leg_length} m, "
+                          f"mass {mass} kg", key="body")
+    lam, mu = body_ratios(b, leg_length, mass)
+    if lam == 1.0 and mu == 1.0:
+        return cfg
+    factor = {u: lam ** a * mu ** c for u, (a, c) in BODY_UNITS.items()}
+    out = cfg
+    for key, unit in BODY_SCALED.items():
+        keys = key.split(".")
+        v: Any = out
+        for k in keys:
+            v = getattr(v, k)
+        if v is not None:
+            out = _replace_path(out, keys, v * factor[unit])
+    f_kp, f_kd = factor["stiffness"], factor["damping"]
+    pd = replace(out.pd, gains={k: _scaled_gain(g, f_kp, f_kd) for k, g in out.pd.gains.items()},
+                 joint_gains={k: _scaled_gain(g, f_kp, f_kd) for k, g in out.pd.joint_gains.items()})
+    legs = (leg_length, leg_length) if lam != 1.0 else (b.leg_min, b.leg_max)
+    return replace(out, pd=pd, body=replace(b, leg_min=legs[0], leg_max=legs[1], mass=mass,
+                                            torque_scale=b.torque_scale * f_kp))

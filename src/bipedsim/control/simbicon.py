@@ -112,7 +112,8 @@ class SimbiconController(Controller):
         n = len(self.hinges.names)
         self.kp = np.zeros(n)
         self.kd = np.zeros(n)
-        self.limit = np.abs(model.actuator_ctrlrange[self.hinges.actuator, 1]).copy()
+        # the model's limits are the profile's, for any body: scaled to this one (``body.torque_scale``)
+        self.limit = np.abs(model.actuator_ctrlrange[self.hinges.actuator, 1]) * cfg.body.torque_scale
         for i, name in enumerate(self.hinges.names):
             g = cfg.pd.gains.get(self.hinges.groups[i])
             kp, kd = (g.kp, g.kd) if g else (jplan[name].kp, jplan[name].kd)
@@ -227,7 +228,7 @@ class SimbiconController(Controller):
         self._roll_kp = cfg.balance.torso_kp if cfg.balance.roll_kp is None else cfg.balance.roll_kp
         self._speed = float(source.speed())
         # the sagittal c_v and c_d scheduled by the walk's Froude number (legs: hip to ankle, both sides' mean)
-        leg, g = sum(sum(self.leg_len[s]) for s in SIDES) / 2, -float(model.opt.gravity[2])
+        leg, g = leg_length(model), -float(model.opt.gravity[2])
         self._cv_sagittal = sagittal_cv(cfg.balance, self._speed, leg, g)
         self._cd_sagittal = sagittal_cd(cfg.balance, self._speed, leg, g)
         self._tempo_on = cfg.fsm.tempo.gain > 0.0
@@ -891,6 +892,17 @@ class SimbiconController(Controller):
 #: Actuator fields the controller changes while it runs (and restores after).
 _ACTUATOR_FIELDS = ("actuator_ctrlrange", "actuator_gaintype", "actuator_biastype", "actuator_gainprm",
                     "actuator_biasprm", "actuator_ctrllimited", "actuator_forcelimited", "actuator_forcerange")
+
+
+def leg_length(model: mujoco.MjModel) -> float:
+    """A humanoid's leg length (m): hip to knee plus knee to ankle, the two legs' mean."""
+    return sum(float(np.linalg.norm(model.body_pos[model.body(f"{s}_shin").id]))
+               + float(np.linalg.norm(model.body_pos[model.body(f"{s}_foot").id])) for s in SIDES) / 2
+
+
+def body_mass(model: mujoco.MjModel) -> float:
+    """A body's total mass (kg)."""
+    return float(np.sum(model.body_mass[1:]))
 
 
 def _hinge_angles_small(local: FloatArray, axes: list[tuple[float, float, float]],

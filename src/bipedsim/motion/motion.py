@@ -276,6 +276,15 @@ class Motion:
                          translations=None if self.translations is None else self.translations * factor,
                          unit=self.unit / factor)
 
+    def similar(self, factor: float) -> Motion:
+        """The motion of a body ``factor`` times the size moving at the same Froude number (dynamic
+        similarity under the same gravity): in metres, every length x ``factor`` and the frame time x
+        sqrt(``factor``), so speeds scale by sqrt(``factor``) and accelerations stay those of gravity."""
+        if not (factor > 0 and np.isfinite(factor)):
+            raise ModelError(f"a similar motion needs a size factor > 0, got {factor}")
+        m = self.in_metres().scaled(factor)
+        return m.copy(frame_time=self.frame_time * float(np.sqrt(factor)), unit=1.0)
+
     def in_metres(self) -> Motion:
         """Lengths converted to metres (``unit`` becomes 1)."""
         return self if self.unit == 1.0 else self.scaled(self.unit)

@@ -248,13 +248,17 @@ def check_run_options(*, profile: str | None = None, support: bool = False, bvh:
 
 def found_lines(sc: Scenario) -> list[str]:
     """What reading a ``--bvh`` humanoid's clip found (feet, strikes, cycle, speeds, what preparing the
-    motion did); nothing for the built-in walk or a creature."""
-    if sc.profile != "humanoid" or sc.bvh_info is None or sc.source_path == str(BUILTIN_WALK):
+    motion did) and how the controller was scaled to the body; for the built-in walk only the latter,
+    nothing for a creature."""
+    if sc.profile != "humanoid":
         return []
+    scaled = [f"controller: {sc.extra['body_scale']}"] if "body_scale" in sc.extra else []
+    if sc.bvh_info is None or sc.source_path == str(BUILTIN_WALK):
+        return scaled
     notes = [f"note: {n}" for n in [sc.bvh_info.reading_note, *sc.bvh_info.notes] if n]
     if "feasible" in sc.extra:
         notes.append("reference: legs made feasible for the body (" + "; ".join(sc.extra["feasible"]) + ")")
-    return notes + describe_clip(sc.clip, sc.built.model, sc.built.plan)
+    return notes + scaled + describe_clip(sc.clip, sc.built.model, sc.built.plan)
 
 
 def check_run_length(seconds: float, timestep: float) -> None:

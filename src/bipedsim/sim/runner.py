@@ -12,7 +12,8 @@ import numpy as np
 
 from bipedsim.config import to_dict
 from bipedsim.control import CONTROLLERS, Controller, CreatureControlConfig
-from bipedsim.control.config import ControllerConfig, for_reference, load_controller
+from bipedsim.control.config import ControllerConfig, describe_body_scale, for_body, for_reference, load_controller
+from bipedsim.control.simbicon import body_mass, leg_length
 from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
@@ -111,8 +112,14 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     else:
         built = build_model(motion, profile, total_mass=mass, name=Path(bvh).stem, source=bvh)
         src = str(bvh)
-    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)
     extra: dict[str, Any] = {}
+    if profile == "humanoid":  # the settings' lengths, times and torques scaled to this body
+        leg, kg = leg_length(built.model), body_mass(built.model)
+        note = describe_body_scale(cfg.body, leg, kg)
+        if note:
+            extra["body_scale"] = note
+        cfg = for_body(cfg, leg, kg)
+    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)
     resolved = False
     if cfg.reference.feasible is not False and profile == "humanoid":  # model/feasible.py
         forced = cfg.reference.feasible is True

@@ -1,0 +1,133 @@
+"""The controller's settings scaled to bodies of other sizes and masses (dynamic similarity,
+``control.config.for_body``, docs/controller.md "Bodies of any size")."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from bipedsim.control.config import BODY_SCALED, ControllerConfig, for_body, load_controller
+from bipedsim.errors import ConfigError
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh" / "human"
+
+
+def _get(cfg: object, key: str) -> object:
+    for k in key.split("."):
+        cfg = getattr(cfg, k)
+    return cfg
+
+
+def test_inside_the_measured_legs_nothing_changes() -> None:
+    cfg = ControllerConfig()
+    for leg in (cfg.body.leg_min, 0.85, cfg.body.leg_max):
+        assert for_body(cfg, leg, cfg.body.mass) is cfg
+
+
+def test_each_unit_scales_by_its_power_of_the_leg_and_mass_ratios() -> None:
+    cfg = ControllerConfig()
+    lam, mu = 2.0, 2.0  # legs twice the longest measured, twice the mass
+    out = for_body(cfg, lam * cfg.body.leg_max, mu * cfg.body.mass)
+    assert out.pd.gains["hip"].kp == pytest.approx(cfg.pd.gains["hip"].kp * lam * mu)  # N*m/rad: m g L
+    assert out.pd.gains["hip"].kd == pytest.approx(cfg.pd.gains["hip"].kd * lam ** 1.5 * mu)  # x sqrt(L / g)
+    assert out.balance.torso_kp == pytest.approx(cfg.balance.torso_kp * lam * mu)
+    assert out.balance.sagittal.cd == pytest.approx(cfg.balance.sagittal.cd / lam)  # rad per m
+    assert out.balance.coronal.cv == pytest.approx(cfg.balance.coronal.cv / math.sqrt(lam))  # rad per m/s
+    assert out.balance.velocity.kv_sagittal == pytest.approx(cfg.balance.velocity.kv_sagittal * mu / math.sqrt(lam))
+    assert out.balance.velocity.max_force == pytest.approx(cfg.balance.velocity.max_force * mu)  # N: m g
+    assert out.modulation.swing_foot.lift == pytest.approx(cfg.modulation.swing_foot.lift * lam)  # m
+    assert out.fsm.max_wait == pytest.approx(cfg.fsm.max_wait * math.sqrt(lam))  # s
+    assert out.fsm.tempo.deadband == pytest.approx(cfg.fsm.tempo.deadband * math.sqrt(lam))  # m/s
+    assert out.reference.clearance == pytest.approx(cfg.reference.clearance * lam)
+    # rad and ratios do not scale
+    assert out.balance.max_feedback == cfg.balance.max_feedback
+    assert out.modulation.swing_foot.height_gain == cfg.modulation.swing_foot.height_gain
+    # the scaled config names the body it was scaled to, and the model's torque limits follow
+    assert out.body.leg_min == out.body.leg_max == pytest.approx(lam * cfg.body.leg_max)
+    assert out.body.mass == pytest.approx(mu * cfg.body.mass)
+    assert out.body.torque_scale == pytest.approx(lam * mu)
+    # short legs are measured from the shortest measured leg
+    short = for_body(cfg, 0.5 * cfg.body.leg_min, cfg.body.mass)
+    assert short.balance.sagittal.cd == pytest.approx(2.0 * cfg.balance.sagittal.cd)
+
+
+def test_scaling_twice_to_one_body_is_scaling_once() -> None:
+    cfg = ControllerConfig()
+    once = for_body(cfg, 1.1, 90.0)
+    assert for_body(once, 1.1, 90.0) == once  # a recorded config run again on its body is unchanged
+    assert for_body(dataclasses.replace(cfg, body=dataclasses.replace(cfg.body, scale=False)), 1.1, 90.0).balance \
+        == cfg.balance
+
+
+def test_every_scaled_key_is_a_number_of_the_default_controller() -> None:
+    cfg = ControllerConfig()
+    for key in BODY_SCALED:
+        v = _get(cfg, key)
+        assert v is None or isinstance(v, float), key
+
+
+def test_a_reversed_leg_range_is_refused_with_its_key(tmp_path: Path) -> None:
+    y = tmp_path / "c.yaml"
+    y.write_text("body: {leg_min: 1.0, leg_max: 0.9}\n")
+    with pytest.raises(ConfigError, match=r"body.*leg_min 1.0 > leg_max 0.9"):
+        load_controller(y)
+
+
+def test_run_says_it_scaled_and_records_the_body(tmp_path: Path) -> None:
+    from bipedsim.cli import main
+
+    out = tmp_path / "run"
+    lines: list[str] = []
+    import contextlib
+    import io
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["run", "--seconds", "0.2", "--mass", "80", "--out", str(out)]) == 0
+    lines = buf.getvalue().splitlines()
+    assert any(ln.startswith("controller: settings scaled to the body") and "x1.250" in ln for ln in lines), lines
+    body = json.loads((out / "outcome.json").read_text())["config"]["controller"]["body"]
+    assert body["mass"] == pytest.approx(80.0) and body["torque_scale"] == pytest.approx(1.25)
+
+
+def test_a_similar_motion_scales_lengths_and_time_so_the_froude_number_stays() -> None:
+    from bipedsim.motion.bvh import load_bvh
+
+    f = SHARED / "cmu_02_02_walk__19joint_Hip_Abdomen.bvh"
+    if not f.exists():
+        pytest.skip(f"shared walk not present: {f}")
+    m = load_bvh(f)
+    s = m.similar(0.64)
+    assert s.unit == 1.0 and s.frame_time == pytest.approx(0.8 * m.frame_time)
+    a, b = m.in_metres().travel(), s.travel()
+    speed = [float(abs(x[-1, 0] - x[0, 0])) / (len(x) - 1) / ft for x, ft in ((a, m.frame_time), (b, s.frame_time))]
+    assert speed[1] == pytest.approx(0.8 * speed[0])  # v / sqrt(g L) unchanged
+    assert m.fk()[0][5].max() * m.unit * 0.64 == pytest.approx(s.fk()[0][5].max())
+
+
+@pytest.mark.slow
+def test_a_smaller_body_walks_its_similar_walk_only_when_the_controller_is_scaled(tmp_path: Path) -> None:
+    """CMU 02_02 (19-joint layout, legs 0.84 m) as a body 0.8 times the size (legs 0.67 m, below the
+    measured 0.78-0.94 m) walking the same walk at the same Froude number: scaled, it walks 20 s at
+    >= 70 % of its clip's speed (seed 0); with the settings as written it falls within 5 s."""
+    from bipedsim.control.reference import clip_speed
+    from bipedsim.sim import runner
+    from bipedsim.sim.rollout import RolloutSpec
+
+    f = SHARED / "cmu_02_02_walk__19joint_Hip_Abdomen.bvh"
+    if not f.exists():
+        pytest.skip(f"shared walk not present: {f}")
+    from bipedsim.motion.bvh import load_bvh, write_bvh
+
+    small = tmp_path / "small.bvh"
+    write_bvh(load_bvh(f).similar(0.8), small)
+    sc = runner.load_scenario(None, small)
+    assert sc.cfg.body.leg_min == pytest.approx(0.8 * 0.84, abs=0.01)  # scaled to the small body
+    out, _ = runner.run_scenario(sc, RolloutSpec(seconds=20.0, seed=0))
+    assert out.outcome == "no_fall" and out.mean_speed_mps >= 0.7 * clip_speed(sc.clip), out
+    as_written = dataclasses.replace(ControllerConfig(), body=dataclasses.replace(ControllerConfig().body, scale=False))
+    out, _ = runner.run_scenario(runner.load_scenario(as_written, small), RolloutSpec(seconds=20.0, seed=0))
+    assert out.outcome == "fall" and out.fall_time_s < 5.0, out

@@ -490,7 +490,7 @@ BODY_SCALED: dict[str, str] = {
     "modulation.swing_foot.max_drop": "length", "modulation.swing_foot.deadband": "length",
     "modulation.swing_foot.max_placement": "length",
     "modulation.stance_ankle.kv": "per_speed", "modulation.stance_ankle.kd": "per_length",
-    "reference.clearance": "length", "reference.smooth_s": "time"}
+    "reference.clearance": "length", "reference.smooth_s": "time", "pose_gait.state_a_time": "time"}
 
 
 def _scaled_gain(g: Gain, f_kp: float, f_kd: float) -> Gain:

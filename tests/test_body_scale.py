@@ -131,3 +131,21 @@ def test_a_smaller_body_walks_its_similar_walk_only_when_the_controller_is_scale
     as_written = dataclasses.replace(ControllerConfig(), body=dataclasses.replace(ControllerConfig().body, scale=False))
     out, _ = runner.run_scenario(runner.load_scenario(as_written, small), RolloutSpec(seconds=20.0, seed=0))
     assert out.outcome == "fall" and out.fall_time_s < 5.0, out
+
+
+def test_tuning_candidates_get_the_settings_a_run_gets(tmp_path: Path) -> None:
+    """``bipedsim tune`` swaps each candidate's settings into a loaded scenario: they are scaled to the
+    body and their "auto" switches resolved exactly as ``load_scenario`` does for ``bipedsim run``."""
+    from bipedsim.motion.bvh import load_bvh, write_bvh
+    from bipedsim.sim import runner
+    from bipedsim.tune.evaluate import with_settings
+
+    f = SHARED / "cmu_02_02_walk__19joint_Hip_Abdomen.bvh"
+    if not f.exists():
+        pytest.skip(f"shared walk not present: {f}")
+    big = tmp_path / "big.bvh"
+    write_bvh(load_bvh(f).similar(1.25), big)
+    sc = runner.load_scenario(None, big)
+    assert sc.cfg.body.leg_min > ControllerConfig().body.leg_max  # scaled to a body outside the range
+    assert sc.cfg.modulation.swing_foot.enabled is True  # a capture: its legs re-solved, the IK on
+    assert with_settings(sc, ControllerConfig()).cfg == sc.cfg

@@ -135,6 +135,15 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
                     bvh_info=info, extra=extra, creature_cfg=replace(cfg.creature, support=support))
 
 
+def settings_for(sc: Scenario, settings: ControllerConfig) -> ControllerConfig:
+    """A humanoid controller's ``settings`` made for this scenario's body and reference as
+    :func:`load_scenario` makes its own: scaled to the body (:func:`~bipedsim.control.config.for_body`)
+    and the ``"auto"`` modulation switches resolved for its reference
+    (:func:`~bipedsim.control.config.for_reference`). Both leave settings already made so unchanged."""
+    m = sc.built.model
+    return for_reference(for_body(settings, leg_length(m), body_mass(m)), "feasible" in sc.extra)
+
+
 def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, before_step: list | None = None,
                  progress: Any = None, pushes: list | None = None) -> tuple[Outcome, Controller]:
     """Run one rollout of any body from its controller's start frame (the reference pose and velocity

@@ -14,7 +14,7 @@ from bipedsim import config
 from bipedsim.control.config import ControllerConfig
 from bipedsim.sim.experiment import Row
 from bipedsim.sim.rollout import FallCriteria, RolloutSpec
-from bipedsim.sim.runner import Scenario, load_scenario, run_scenario
+from bipedsim.sim.runner import Scenario, load_scenario, run_scenario, settings_for
 from bipedsim.tune.objective import TERMS, Cadence, GaitMeter, Objective, push_terms, walk_terms
 from bipedsim.tune.spec import CONFIG_CLASSES
 
@@ -51,10 +51,12 @@ def _scenario(reference: str | None, profile: str, support: bool, settings: Any 
 
 
 def with_settings(sc: Scenario, settings: Any) -> Scenario:
-    """``sc`` with another controller's settings (and none of the first one's cached rollouts)."""
+    """``sc`` with another controller's settings (and none of the first one's cached rollouts); a
+    humanoid's made for the scenario's body and reference as ``bipedsim run`` makes them
+    (:func:`~bipedsim.sim.runner.settings_for`)."""
     if sc.profile == "creature":
         return dataclasses.replace(sc, creature_cfg=settings, extra={})
-    return dataclasses.replace(sc, cfg=settings, extra={})
+    return dataclasses.replace(sc, cfg=settings_for(sc, settings), extra={})
 
 
 def evaluate_reference(sc: Scenario, setup: Setup) -> dict[str, float]:

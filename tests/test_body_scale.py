@@ -30,29 +30,75 @@ def test_inside_the_measured_legs_nothing_changes() -> None:
 
 def test_each_unit_scales_by_its_power_of_the_leg_and_mass_ratios() -> None:
     cfg = ControllerConfig()
-    lam, mu = 2.0, 2.0  # legs twice the longest measured, twice the mass
+    lam, mu = 2.0, 3.0  # legs twice the longest measured, three times the mass (lam != mu: powers told apart)
     out = for_body(cfg, lam * cfg.body.leg_max, mu * cfg.body.mass)
-    assert out.pd.gains["hip"].kp == pytest.approx(cfg.pd.gains["hip"].kp * lam * mu)  # N*m/rad: m g L
-    assert out.pd.gains["hip"].kd == pytest.approx(cfg.pd.gains["hip"].kd * lam ** 1.5 * mu)  # x sqrt(L / g)
-    assert out.balance.torso_kp == pytest.approx(cfg.balance.torso_kp * lam * mu)
-    assert out.balance.sagittal.cd == pytest.approx(cfg.balance.sagittal.cd / lam)  # rad per m
-    assert out.balance.coronal.cv == pytest.approx(cfg.balance.coronal.cv / math.sqrt(lam))  # rad per m/s
-    assert out.balance.velocity.kv_sagittal == pytest.approx(cfg.balance.velocity.kv_sagittal * mu / math.sqrt(lam))
-    assert out.balance.velocity.max_force == pytest.approx(cfg.balance.velocity.max_force * mu)  # N: m g
-    assert out.modulation.swing_foot.lift == pytest.approx(cfg.modulation.swing_foot.lift * lam)  # m
-    assert out.fsm.max_wait == pytest.approx(cfg.fsm.max_wait * math.sqrt(lam))  # s
-    assert out.fsm.tempo.deadband == pytest.approx(cfg.fsm.tempo.deadband * math.sqrt(lam))  # m/s
-    assert out.reference.clearance == pytest.approx(cfg.reference.clearance * lam)
-    # rad and ratios do not scale
-    assert out.balance.max_feedback == cfg.balance.max_feedback
-    assert out.modulation.swing_foot.height_gain == cfg.modulation.swing_foot.height_gain
+    r = math.sqrt(lam)
+    expect = {  # written out by hand from each setting's unit
+        "balance.torso_kp": lam * mu,  # N*m/rad: m g L
+        "balance.heading_kp": lam * mu,
+        "balance.torso_kd": lam * r * mu,  # N*m*s/rad: m g L sqrt(L / g)
+        "balance.sagittal.cd": 1 / lam,  # rad per m
+        "balance.coronal.cd": 1 / lam,
+        "balance.sagittal.cv": 1 / r,  # rad per m/s
+        "balance.coronal.cv": 1 / r,
+        "balance.velocity.kv_sagittal": mu / r,  # N per m/s: m g / sqrt(g L)
+        "balance.velocity.max_force": mu,  # N
+        "balance.velocity.filter_s": r,  # s
+        "balance.course.deadband": lam,  # m
+        "balance.course.steer_gain": 1 / lam,  # rad per m
+        "balance.course.steer_damping": 1 / r,  # rad per m/s
+        "fsm.contact_force": mu,  # N
+        "fsm.max_wait": r,  # s
+        "fsm.tempo.gain": 1 / r,  # clock rate per m/s
+        "fsm.tempo.deadband": r,  # m/s
+        "modulation.swing_foot.lift": lam,  # m
+        "modulation.swing_foot.deadband": lam,
+        "modulation.stance_ankle.kv": 1 / r,  # rad per m/s
+        "modulation.stance_ankle.kd": 1 / lam,  # rad per m
+        "reference.smooth_s": r,  # s
+    }
+    for key, f in expect.items():
+        assert _get(out, key) == pytest.approx(_get(cfg, key) * f), key
+    assert out.pd.gains["hip"].kp == pytest.approx(cfg.pd.gains["hip"].kp * lam * mu)
+    assert out.pd.gains["hip"].kd == pytest.approx(cfg.pd.gains["hip"].kd * lam * r * mu)
+    # angles, ratios and shares of the leg do not scale
+    for key in ("balance.max_feedback", "modulation.swing_foot.height_gain", "reference.clearance", "control_dt"):
+        assert _get(out, key) == _get(cfg, key), key
     # the scaled config names the body it was scaled to, and the model's torque limits follow
     assert out.body.leg_min == out.body.leg_max == pytest.approx(lam * cfg.body.leg_max)
     assert out.body.mass == pytest.approx(mu * cfg.body.mass)
     assert out.body.torque_scale == pytest.approx(lam * mu)
+    # scaled again to another body, from the one it names: the torque scale accumulates
+    again = for_body(out, 0.5 * lam * cfg.body.leg_max, mu * cfg.body.mass)
+    assert again.body.torque_scale == pytest.approx(0.5 * lam * mu)
+    assert again.balance.sagittal.cd == pytest.approx(cfg.balance.sagittal.cd / (0.5 * lam))
     # short legs are measured from the shortest measured leg
     short = for_body(cfg, 0.5 * cfg.body.leg_min, cfg.body.mass)
     assert short.balance.sagittal.cd == pytest.approx(2.0 * cfg.balance.sagittal.cd)
+
+
+def _numbers(obj: object, prefix: str = "") -> list[str]:
+    """Dotted keys of every number (or unset number) in a settings tree."""
+    keys = []
+    for f in dataclasses.fields(obj):  # type: ignore[arg-type]
+        v = getattr(obj, f.name)
+        key = prefix + f.name
+        if dataclasses.is_dataclass(v):
+            keys += _numbers(v, key + ".")
+        elif isinstance(v, float) or (v is None and "float" in str(f.type)):
+            keys.append(key)
+    return keys
+
+
+def test_every_number_of_the_humanoid_settings_is_scaled_or_said_not_to_be() -> None:
+    from bipedsim.control.config import BODY_UNSCALED
+
+    cfg = ControllerConfig()
+    keys = [k for k in _numbers(cfg) if not k.startswith(("creature.", "pose_gait.state_", "pose_gait.elbow"))]
+    keys.append("pose_gait.state_a_time")
+    unclassified = [k for k in keys if k not in BODY_SCALED and k not in BODY_UNSCALED]
+    assert not unclassified, f"say how these scale with the body (BODY_SCALED or BODY_UNSCALED): {unclassified}"
+    assert not set(BODY_SCALED) & BODY_UNSCALED
 
 
 def test_scaling_twice_to_one_body_is_scaling_once() -> None:

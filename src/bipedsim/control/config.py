@@ -490,7 +490,19 @@ BODY_SCALED: dict[str, str] = {
     "modulation.swing_foot.max_drop": "length", "modulation.swing_foot.deadband": "length",
     "modulation.swing_foot.max_placement": "length",
     "modulation.stance_ankle.kv": "per_speed", "modulation.stance_ankle.kd": "per_length",
-    "reference.clearance": "length", "reference.smooth_s": "time", "pose_gait.state_a_time": "time"}
+    "reference.smooth_s": "time", "pose_gait.state_a_time": "time"}
+
+#: the humanoid settings with no unit to scale: angles (rad), ratios, weights, counts of clip frames,
+#: lengths given as a share of the leg (``reference.clearance``), and ``control_dt``, which stays with the
+#: physics timestep (neither is scaled)
+BODY_UNSCALED: frozenset[str] = frozenset({
+    "control_dt", "fsm.tempo.min", "fsm.tempo.max", "balance.max_feedback", "balance.stance_yaw_limit",
+    "balance.course_frame_follow", "balance.cv_froude", "balance.cd_froude", "balance.cd_froude_power",
+    "balance.sagittal_reference", "balance.course.max_turn", "balance.course.max_placement",
+    "fade.min_scale", "resync.gain", "resync.max_frames", "modulation.sync.accept",
+    "modulation.swing_foot.height_gain", "modulation.swing_foot.placement_gain",
+    "modulation.stance_ankle.max_angle", "reference.blend", "reference.max_extension", "reference.clearance",
+    "reference.pendulum", "body.leg_min", "body.leg_max", "body.mass", "body.torque_scale"})
 
 
 def _scaled_gain(g: Gain, f_kp: float, f_kd: float) -> Gain:
@@ -521,8 +533,8 @@ def describe_body_scale(b: BodyScaleConfig, leg_length: float, mass: float) -> s
         return None
     span = f"{b.leg_min:.2f} m" if b.leg_min == b.leg_max else f"{b.leg_min:.2f}-{b.leg_max:.2f} m"
     torque = BODY_UNITS["stiffness"]
-    return (f"settings scaled to the body (legs {leg_length:.2f} m, {mass:.1f} kg; the defaults were measured on "
-            f"legs {span}, {b.mass:.1f} kg): lengths x{lam:.3f}, times x{lam ** 0.5:.3f}, torques and PD gains "
+    return (f"settings scaled to the body (legs {leg_length:.2f} m, {mass:.1f} kg; the settings are for legs "
+            f"{span}, {b.mass:.1f} kg): lengths x{lam:.3f}, times x{lam ** 0.5:.3f}, torques and PD gains "
             f"x{lam ** torque[0] * mu ** torque[1]:.3f} (body: {{scale: false}} keeps them as written)")
 
 

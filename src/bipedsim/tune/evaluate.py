@@ -43,9 +43,10 @@ def _scenario(reference: str | None, profile: str, support: bool, settings: Any 
     """The body and clip of a reference, built once per process and per way of preparing the clip
     (a humanoid's ``reference:`` block, which candidates rarely change; the rest is only settings)."""
     prepared = getattr(settings, "reference", None) if profile == "humanoid" else None
-    key = (reference, profile, support, repr(prepared))
+    body = getattr(settings, "body", None) if profile == "humanoid" else None  # scales the reference's times
+    key = (reference, profile, support, repr(prepared), repr(body))
     if key not in _SCENARIOS:
-        controller = None if prepared is None else ControllerConfig(reference=prepared)
+        controller = None if prepared is None else ControllerConfig(reference=prepared, body=body)
         _SCENARIOS[key] = load_scenario(controller, reference, profile=profile, support=support)
     return _SCENARIOS[key]
 

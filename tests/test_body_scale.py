@@ -154,6 +154,18 @@ def test_a_similar_motion_scales_lengths_and_time_so_the_froude_number_stays() -
     assert m.fk()[0][5].max() * m.unit * 0.64 == pytest.approx(s.fk()[0][5].max())
 
 
+def _similar_walk(tmp_path: Path, size: float) -> Path:
+    """CMU 02_02 (19-joint layout) as the walk of a body ``size`` times as large (``Motion.similar``)."""
+    from bipedsim.motion.bvh import load_bvh, write_bvh
+
+    f = SHARED / "cmu_02_02_walk__19joint_Hip_Abdomen.bvh"
+    if not f.exists():
+        pytest.skip(f"shared walk not present: {f}")
+    out = tmp_path / f"similar_{size:g}.bvh"
+    write_bvh(load_bvh(f).similar(size), out)
+    return out
+
+
 @pytest.mark.slow
 def test_a_smaller_body_walks_its_similar_walk_only_when_the_controller_is_scaled(tmp_path: Path) -> None:
     """CMU 02_02 (19-joint layout, legs 0.84 m) as a body 0.8 times the size (legs 0.67 m, below the
@@ -163,13 +175,7 @@ def test_a_smaller_body_walks_its_similar_walk_only_when_the_controller_is_scale
     from bipedsim.sim import runner
     from bipedsim.sim.rollout import RolloutSpec
 
-    f = SHARED / "cmu_02_02_walk__19joint_Hip_Abdomen.bvh"
-    if not f.exists():
-        pytest.skip(f"shared walk not present: {f}")
-    from bipedsim.motion.bvh import load_bvh, write_bvh
-
-    small = tmp_path / "small.bvh"
-    write_bvh(load_bvh(f).similar(0.8), small)
+    small = _similar_walk(tmp_path, 0.8)
     sc = runner.load_scenario(None, small)
     assert sc.cfg.body.leg_min == pytest.approx(0.8 * 0.84, abs=0.01)  # scaled to the small body
     out, _ = runner.run_scenario(sc, RolloutSpec(seconds=20.0, seed=0))
@@ -182,16 +188,10 @@ def test_a_smaller_body_walks_its_similar_walk_only_when_the_controller_is_scale
 def test_tuning_candidates_get_the_settings_a_run_gets(tmp_path: Path) -> None:
     """``bipedsim tune`` swaps each candidate's settings into a loaded scenario: they are scaled to the
     body and their "auto" switches resolved exactly as ``load_scenario`` does for ``bipedsim run``."""
-    from bipedsim.motion.bvh import load_bvh, write_bvh
     from bipedsim.sim import runner
     from bipedsim.tune.evaluate import with_settings
 
-    f = SHARED / "cmu_02_02_walk__19joint_Hip_Abdomen.bvh"
-    if not f.exists():
-        pytest.skip(f"shared walk not present: {f}")
-    big = tmp_path / "big.bvh"
-    write_bvh(load_bvh(f).similar(1.25), big)
-    sc = runner.load_scenario(None, big)
+    sc = runner.load_scenario(None, _similar_walk(tmp_path, 1.25))
     assert sc.cfg.body.leg_min > ControllerConfig().body.leg_max  # scaled to a body outside the range
     assert sc.cfg.modulation.swing_foot.enabled is True  # a capture: its legs re-solved, the IK on
     assert with_settings(sc, ControllerConfig()).cfg == sc.cfg

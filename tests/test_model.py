@@ -17,6 +17,7 @@ from bipedsim.errors import BipedsimError, ConfigError, ModelError
 from bipedsim.model import ReferenceClip, build_model, load_model, load_profile, retarget
 from bipedsim.model.gait import ground_level
 from bipedsim.model.naming import MapFile, load_map, split_name
+from bipedsim.model.profile import PROFILE_DIR
 from bipedsim.model.retarget import (
     _hinge_angles,
     foot_heights,
@@ -51,7 +52,54 @@ def test_builtin_humanoid_file_is_what_the_builder_makes() -> None:
 
     assert_xml_close(BUILTIN_HUMANOID.read_text(), builtin_humanoid_xml())
     built = load_model(BUILTIN_HUMANOID)
-    assert built.summary()["total_mass_kg"] == pytest.approx(64.0)
+    # legs 0.458 + 0.475 m (the walk's OFFSETs) -> 1.900 m tall at BMI 22
+    assert built.summary()["total_mass_kg"] == pytest.approx(22.0 * (0.933 / 0.491) ** 2, abs=0.01)
+
+
+def _bvh_leg_length(path: Path, scale: float) -> float:
+    """Hip to knee plus knee to ankle (m), both sides' mean, read from the file's OFFSET lines alone: the
+    OFFSET of each leg's knee and ankle joints (the two joints below each hip joint of the file)."""
+    lines = [ln.split() for ln in path.read_text().splitlines()]
+    total, legs = 0.0, 0
+    for i, ln in enumerate(lines):
+        if ln[:1] == ["JOINT"] and ln[1].endswith("UpLeg"):
+            offsets = [np.array(lines[j][1:4], float) for j in range(i + 1, len(lines)) if lines[j][:1] == ["OFFSET"]]
+            total += (np.linalg.norm(offsets[1]) + np.linalg.norm(offsets[2])) * scale
+            legs += 1
+    assert legs == 2
+    return total / legs
+
+
+def test_body_mass_comes_from_the_legs(walk_model, tmp_path: Path) -> None:
+    """``total_mass: auto`` (the default): a person whose hip-to-ankle legs are 0.491 of the height (Winter)
+    at body-mass index 22, the legs read from the BVH's OFFSETs (not the builder); the segments keep their
+    shares; ``null`` keeps the segments' own 64 kg; ``--mass`` wins; a word other than auto is refused."""
+    from dataclasses import replace
+
+    from bipedsim.model.humanoid import mass_from_legs
+
+    m, built = walk_model
+    prof = load_profile("humanoid")
+    assert prof.total_mass == "auto"
+    leg = _bvh_leg_length(BUILTIN_WALK, 0.01)  # centimetres
+    assert leg == pytest.approx(0.933)
+    expected = 22.0 * (leg / 0.491) ** 2
+    assert built.summary()["total_mass_kg"] == pytest.approx(expected, rel=1e-5)
+    assert mass_from_legs(leg, prof) == pytest.approx(expected)
+    mj = built.model
+    pelvis = mj.body_mass[mj.body("pelvis").id]
+    assert pelvis / built.summary()["total_mass_kg"] == pytest.approx(22.5 / 64.0)
+    # a body s times the size weighs s^2 as much (the height's square at one BMI)
+    small = build_model(m.similar(0.8))
+    assert small.summary()["total_mass_kg"] == pytest.approx(0.64 * expected, rel=1e-5)
+    assert build_model(m, replace(prof, total_mass=None)).summary()["total_mass_kg"] == pytest.approx(64.0)
+    assert build_model(m, total_mass=70.0).summary()["total_mass_kg"] == pytest.approx(70.0)
+    bad = tmp_path / "p.yaml"
+    bad.write_text((PROFILE_DIR / "humanoid.yaml").read_text().replace("total_mass: auto", "total_mass: heavy"))
+    with pytest.raises(ConfigError, match=r"total_mass.*heavy"):
+        load_profile(bad)
+    with pytest.raises(ModelError, match="legs > 0"):
+        mass_from_legs(0.0, prof)
 
 
 def test_humanoid_structure(walk_model) -> None:
@@ -66,9 +114,9 @@ def test_humanoid_structure(walk_model) -> None:
     assert rng["left_knee"] == (0.0, 2.5) and rng["left_elbow"] == (-2.7, 0.0)
     assert rng["left_hip_y"] == (-1.3, 1.9) and rng["right_hip_z"] == (-1.0, 0.25)
     assert rng["spine_x"] == (-0.6, 0.6) and rng["left_ankle"] == (-0.75, 0.75)
-    masses = {m.body(i).name: m.body_mass[i] for i in range(m.nbody)}
-    assert masses["pelvis"] == pytest.approx(22.5) and masses["left_thigh"] == pytest.approx(6.6)
-    assert masses["left_toe"] == pytest.approx(1.0) and masses["right_lower_arm"] == pytest.approx(1.7)
+    masses = {m.body(i).name: m.body_mass[i] * 64.0 / s["total_mass_kg"] for i in range(m.nbody)}  # the shares
+    shares = {"pelvis": 22.5, "left_thigh": 6.6, "left_toe": 1.0, "right_lower_arm": 1.7}
+    assert all(masses[k] == pytest.approx(v, rel=1e-5) for k, v in shares.items()), masses
     assert m.opt.timestep == pytest.approx(0.002) and m.opt.gravity[2] == pytest.approx(-9.8)
     assert {m.sensor(i).name for i in range(m.nsensor)} == {
         "touch_left_foot_touch", "touch_right_foot_touch", "touch_left_toe_touch", "touch_right_toe_touch"}
@@ -338,8 +386,8 @@ def test_two_segment_spine_where_the_source_bends() -> None:
     assert {"spine_x", "spine_y", "spine_z", "chest_x", "chest_y", "chest_z"} <= hinges
     assert mj.jnt_range[mj.joint("chest_x").id].tolist() == [-0.6, 0.6]
     masses = {mj.body(i).name: mj.body_mass[i] for i in range(mj.nbody)}
-    assert masses["abdomen"] + masses["torso"] == pytest.approx(5.2)
-    assert auto.summary()["total_mass_kg"] == pytest.approx(64.0)
+    total = auto.summary()["total_mass_kg"]
+    assert (masses["abdomen"] + masses["torso"]) / total == pytest.approx(5.2 / 64.0, rel=1e-5)
     one = build_model(m, replace(prof, spine_segments=1))
     assert "abdomen" not in [b.name for b in one.plan.bodies]
     e_auto, e_one = shoulder_error(auto), shoulder_error(one)

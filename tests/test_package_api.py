@@ -110,8 +110,10 @@ def test_run_to_folder_writes_the_run_and_says_each_line(tmp_path: Path) -> None
     lines: list[str] = []
     res = run_to_folder(tmp_path, seconds=0.3, csv=tmp_path / "j.csv", say=lines.append)
     assert res.outcome.sim_seconds == pytest.approx(0.3) and res.folder == tmp_path
-    assert lines[0] == f"removed from an earlier run in {tmp_path}: rollout.mp4"
-    assert lines[1] == outputs.outcome_line(res.outcome, res.scenario)
+    # the built-in body (legs 0.93 m) weighs 79.4 kg from its legs: the settings' forces follow
+    assert lines[0].startswith("controller: settings scaled to the body (legs 0.93 m, 79.4 kg;"), lines[0]
+    assert lines[1] == f"removed from an earlier run in {tmp_path}: rollout.mp4"
+    assert lines[2] == outputs.outcome_line(res.outcome, res.scenario)
     assert lines[-1] == f"wrote {tmp_path / 'j.csv'}"
     assert [p.name for p in res.written] == ["outcome.json", "trajectory.npz", "model.xml", "j.csv"]
     assert all(p.is_file() for p in res.written)

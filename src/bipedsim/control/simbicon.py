@@ -41,7 +41,7 @@ from bipedsim.control.balance import (
     yaw_within,
 )
 from bipedsim.control.base import Controller, register
-from bipedsim.control.config import ControllerConfig
+from bipedsim.control.config import ControllerConfig, for_body
 from bipedsim.control.fsm import GaitFSM
 from bipedsim.control.reference import SIDES, ClipSource, CourseTracker, GaitSource, Hinges, PoseSource, foot_points
 from bipedsim.errors import ConfigError, ModelError
@@ -93,7 +93,9 @@ class SimbiconController(Controller):
         self.model = model
         self.plan = plan
         self.source = source
-        self.cfg = cfg
+        # the settings made for this body however the controller is built (a no-op on settings
+        # ``runner.load_scenario`` already scaled: they name the body they were scaled to)
+        self.cfg = for_body(cfg, leg_length(model), body_mass(model))
         self.hinges = Hinges.of(model, plan)
         jplan = {j.name: j for b in plan.bodies for j in b.joints}
         self._gain_table(jplan)

@@ -47,11 +47,17 @@ def builtin_humanoid_path() -> Path:
     into the user's cache folder on first use."""
     if BUILTIN_HUMANOID.is_file():
         return BUILTIN_HUMANOID
+    import hashlib
     import os
 
+    from bipedsim import __version__
     from bipedsim.io import atomic_write_text
+    from bipedsim.model.profile import PROFILE_DIR
 
-    cache = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "bipedsim" / "humanoid.xml"
+    # named by what it is built from, so a changed profile, walk or release never reuses a stale copy
+    key = hashlib.sha1(__version__.encode() + (PROFILE_DIR / "humanoid.yaml").read_bytes()
+                       + BUILTIN_WALK.read_bytes()).hexdigest()[:12]
+    cache = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "bipedsim" / f"humanoid-{key}.xml"
     if not cache.is_file():
         atomic_write_text(cache, builtin_humanoid_xml())
     return cache

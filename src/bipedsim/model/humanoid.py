@@ -348,8 +348,16 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
             b.add_arm(side)
     for side in ("left", "right"):
         b.add_leg(side)
-    b.scale_masses(total_mass if total_mass is not None else profile.total_mass)
+    b.scale_masses(total_mass if total_mass is not None else b.profile_mass())
     return b.plan(name, b.stand_on_floor())
+
+
+def mass_from_legs(leg_length: float, profile: HumanoidProfile) -> float:
+    """A person's mass (kg) for legs ``leg_length`` m long (hip to ankle): the height the legs are
+    ``profile.leg_share`` of, at the body-mass index ``profile.mass_bmi`` (kg/m^2)."""
+    if not leg_length > 0:
+        raise ModelError(f"a body's mass from its legs needs legs > 0 m, got {leg_length}")
+    return profile.mass_bmi * (leg_length / profile.leg_share) ** 2
 
 
 def _check_bone(v: FloatArray, a: str, b: str, what: str) -> FloatArray:
@@ -706,6 +714,22 @@ class _HumanoidBuilder:
                         rest_vectors=[list(tip_vec)])))
 
     # ----------------------------------------------------------------- whole body
+    def leg_length(self) -> float:
+        """The legs' length (m): hip to knee plus knee to ankle in the rest pose, the two sides' mean
+        (:func:`bipedsim.control.simbicon.leg_length` on the built model)."""
+        total = 0.0
+        for side in ("left", "right"):
+            leg = self.hm.legs[side]
+            total += float(np.linalg.norm(self._vec(leg["thigh"], leg["knee"]))
+                           + np.linalg.norm(self._vec(leg["knee"], leg["ankle"])))
+        return total / 2
+
+    def profile_mass(self) -> float | None:
+        """The profile's total mass (kg): a number, from the legs (``auto``), or None (the segments'
+        own masses, summed)."""
+        m = self.profile.total_mass
+        return mass_from_legs(self.leg_length(), self.profile) if m == "auto" else m
+
     def scale_masses(self, target: float | None) -> None:
         """Scale every geom's mass so the body weighs ``target`` (kg); nothing for None."""
         if target is None:

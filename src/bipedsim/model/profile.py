@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from bipedsim import config
 
@@ -85,7 +85,12 @@ class Geometry:
 @dataclass(frozen=True)
 class HumanoidProfile:
     masses: dict[str, float] = field(default_factory=dict)
-    total_mass: float | None = field(default=None, metadata={"gt": 0.0})
+    #: total mass (kg): a number; "auto", from the legs (:func:`~bipedsim.model.humanoid.mass_from_legs`: a
+    #: person whose hip-to-ankle legs are ``leg_share`` of the height, at body-mass index ``mass_bmi``);
+    #: null, the segments' masses as written
+    total_mass: float | Literal["auto"] | None = field(default="auto", metadata={"gt": 0.0})
+    mass_bmi: float = field(default=22.0, metadata={"gt": 0.0})
+    leg_share: float = field(default=0.491, metadata={"gt": 0.0, "max": 1.0})
     joints: dict[str, JointSpec] = field(default_factory=dict)
     ankle_2dof: bool = False
     ankle_x_range: tuple[float, float] = (-0.4, 0.4)

@@ -168,7 +168,7 @@ def add_soles(bodies: list[BodyPlan], legs: list, moving: SourcePoints, rest: So
         half = (hi - lo) / 2
         name = f"{seg.name}_sole"
         seg.geoms.append(GeomPlan(kind="box", size=[float(v) for v in half], pos=[float(v) for v in frame @ centre],
-                                  mass=0.0, name=f"{name}_geom", quat=_quat(frame)))
+                                  mass=0.0, name=f"{name}_geom", quat=_quat(frame), sole=True))
         bottom = np.array([centre[0], centre[1], lo[2]])
         seg.sites.append(SitePlan(name=name, pos=[float(v) for v in frame @ bottom], quat=_quat(frame)))
         soles[leg.root] = name

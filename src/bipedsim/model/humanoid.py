@@ -767,7 +767,7 @@ def _sole_box(prefix: str, half: list[float], centre: FloatArray, sole: float, f
     coordinates) and its touch-sensor box, TOUCH_PAD_M wider each side, from TOUCH_MARGIN_M below the
     sole height ``sole`` (m, sole frame) to twice that above it."""
     touch_c = np.array([centre[0], 0.0, sole + TOUCH_MARGIN_M / 2])
-    geom = GeomPlan(kind="box", size=half, pos=list(frame @ centre), mass=mass, name=f"{prefix}_geom",
+    geom = GeomPlan(kind="box", size=half, pos=list(frame @ centre), mass=mass, name=f"{prefix}_geom", sole=True,
                     quat=_quat(frame))
     site = SitePlan(name=f"{prefix}_touch", pos=list(frame @ touch_c), kind="box", touch=True,
                     size=[half[0] + TOUCH_PAD_M, half[1] + TOUCH_PAD_M, TOUCH_MARGIN_M * 1.5], quat=_quat(frame))

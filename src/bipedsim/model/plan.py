@@ -57,6 +57,7 @@ class GeomPlan:
     mass: float = 0.0
     name: str | None = None
     quat: list[float] | None = None  #: orientation in the body (w, x, y, z); None: the body's axes
+    sole: bool = False  #: a foot's or toe's sole: its ground contact is the profile's ``sim.sole_solref/solimp``
 
 
 @dataclass
@@ -245,6 +246,10 @@ class ModelBuilder:
             kw: dict[str, Any] = {"contype": BODY_CONTYPE, "conaffinity": BODY_CONAFFINITY,
                                       "friction": list(sim.friction), "solref": list(sim.solref),
                                       "solimp": list(sim.solimp), "condim": 3, "rgba": [0.75, 0.62, 0.5, 1.0]}
+            if g.sole and (sim.sole_solref is not None or sim.sole_solimp is not None):
+                kw["priority"] = 1  # the contact takes the sole's parameters, not a mix with the ground's
+                kw["solref"] = list(sim.sole_solref if sim.sole_solref is not None else sim.solref)
+                kw["solimp"] = list(sim.sole_solimp if sim.sole_solimp is not None else sim.solimp)
             if g.name:
                 kw["name"] = g.name
             if g.quat is not None:

@@ -29,13 +29,21 @@ class SimOptions:
     solimp: tuple[float, float, float, float, float] = (0.9, 0.95, 0.001, 0.5, 2.0)
     joint_damping: float = field(default=0.5, metadata={"min": 0.0})
     armature: float = field(default=0.01, metadata={"min": 0.0})
+    #: the soles' own contact with the ground (foot and toe boxes; MuJoCo geom priority 1, so these are the
+    #: contact's parameters whatever the ground's); null: ``solref`` / ``solimp`` as every other geom
+    sole_solref: tuple[float, float] | None = None
+    sole_solimp: tuple[float, float, float, float, float] | None = None
 
     def validate(self) -> None:
         if any(f < 0 for f in self.friction):
             raise ValueError("friction: coefficients must be >= 0")
-        if self.solref[0] < 2 * self.timestep:
-            raise ValueError(f"solref: time constant {self.solref[0]} s must be at least 2 timesteps "
-                             f"({2 * self.timestep} s) for a stable contact")
+        for key, ref in (("solref", self.solref), ("sole_solref", self.sole_solref)):
+            if ref is not None and ref[0] < 2 * self.timestep:
+                raise ValueError(f"{key}: time constant {ref[0]} s must be at least 2 timesteps "
+                                 f"({2 * self.timestep} s) for a stable contact")
+        for key, imp in (("solimp", self.solimp), ("sole_solimp", self.sole_solimp)):
+            if imp is not None and not (0.0 <= imp[0] <= imp[1] < 1.0 and imp[2] > 0.0):
+                raise ValueError(f"{key}: need 0 <= dmin <= dmax < 1 and width > 0 (m), got {list(imp)}")
 
 
 @dataclass(frozen=True)

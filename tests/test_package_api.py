@@ -105,6 +105,17 @@ def test_check_run_options_names_the_flag(kwargs: dict, flag: str) -> None:
         check_run_options(**kwargs)
 
 
+def test_convert_says_where_the_mass_came_from(tmp_path: Path) -> None:
+    """Without --mass the summary names the person the legs make (legs 0.933 m -> 1.90 m at BMI 22)."""
+    s = convert_bvh(builtin_walk_path(), tmp_path / "walk.xml")
+    assert s["mass_from_legs"] == {"legs_m": 0.933, "height_m": 1.9, "bmi": 22.0}
+    assert "79.4 kg (a 1.90 m person's at BMI 22, from its 0.93 m legs)" in format_convert_summary(s)
+    from bipedsim.model import load_model
+
+    assert load_model(tmp_path / "walk.xml").summary()["mass_from_legs"] == s["mass_from_legs"]  # kept in the file
+    assert convert_bvh(builtin_walk_path(), tmp_path / "w70.xml", mass=70.0)["mass_from_legs"] is None
+
+
 def test_run_to_folder_writes_the_run_and_says_each_line(tmp_path: Path) -> None:
     (tmp_path / "rollout.mp4").write_text("stale")
     lines: list[str] = []

@@ -39,6 +39,7 @@ class BuiltModel:
         return {"name": self.plan.name, "profile": self.plan.profile, "bodies": int(m.nbody - 1),
                 "dofs": int(m.nv), "actuated_dofs": int(m.nu), "joints": int(m.njnt),
                 "total_mass_kg": float(np.sum(m.body_mass)), "height_m": float(top),
+                "mass_from_legs": self.plan.extra.get("mass_from_legs"),
                 "timestep_s": float(m.opt.timestep), "hash": self.hash}
 
     def write(self, path: str | os.PathLike[str]) -> None:

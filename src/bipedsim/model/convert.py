@@ -64,8 +64,12 @@ def format_convert_summary(summary: dict[str, Any]) -> str:
     """The lines ``bipedsim convert`` prints for a :func:`convert_bvh` summary: the body written and,
     when a clip was written, the clip."""
     s = summary
+    note = s.get("mass_from_legs")
+    mass = f"{s['total_mass_kg']:.1f} kg" + (
+        f" (a {note['height_m']:.2f} m person's at BMI {note['bmi']:g}, from its {note['legs_m']:.2f} m legs)"
+        if note else "")
     lines = [f"wrote {s['output']}: {s['bodies']} bodies, {s['dofs']} DOFs ({s['actuated_dofs']} actuated), "
-             f"{s['total_mass_kg']:.1f} kg, {s['height_m']:.2f} m tall, profile {s['profile']}, "
+             f"{mass}, {s['height_m']:.2f} m tall in its rest pose, profile {s['profile']}, "
              f"timestep {s['timestep_s']} s"]
     if "clip" in s:
         c = s["clip"]

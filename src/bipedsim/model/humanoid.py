@@ -408,6 +408,7 @@ class _HumanoidBuilder:
         self.bodies: list[BodyPlan] = []
         self.markers: dict[str, list[str]] = {}
         self.q: dict[str, FloatArray] = {}
+        self.mass_note: dict[str, float] | None = None  #: how the mass was found from the legs (auto)
         thl, thr = self.hm.legs["left"]["thigh"], self.hm.legs["right"]["thigh"]
         assert thl and thr
         self.hips = (thl, thr)
@@ -728,7 +729,12 @@ class _HumanoidBuilder:
         """The profile's total mass (kg): a number, from the legs (``auto``), or None (the segments'
         own masses, summed)."""
         m = self.profile.total_mass
-        return mass_from_legs(self.leg_length(), self.profile) if m == "auto" else m
+        if m != "auto":
+            return m
+        legs = self.leg_length()
+        self.mass_note = {"legs_m": round(legs, 4), "height_m": round(legs / self.profile.leg_share, 3),
+                          "bmi": self.profile.mass_bmi}
+        return mass_from_legs(legs, self.profile)
 
     def scale_masses(self, target: float | None) -> None:
         """Scale every geom's mass so the body weighs ``target`` (kg); nothing for None."""
@@ -758,7 +764,8 @@ class _HumanoidBuilder:
                 b.fit.rest_vectors = [[float(x) for x in v] for v in b.fit.rest_vectors]
         return BodyPlanSet(name=name, profile="humanoid", bodies=self.bodies, heading_yaw=self.yaw,
                            source_names=self.source_names, sim=asdict(self.profile.sim),
-                           extra={"markers": self.markers, "roles": asdict(self.hm), "rest_lift": lift})
+                           extra={"markers": self.markers, "roles": asdict(self.hm), "rest_lift": lift,
+                                  **({"mass_from_legs": self.mass_note} if self.mass_note else {})})
 
 
 def _sole_box(prefix: str, half: list[float], centre: FloatArray, sole: float, frame: FloatArray,

@@ -198,3 +198,25 @@ def test_tuning_candidates_get_the_settings_a_run_gets(tmp_path: Path) -> None:
     assert sc.cfg.body.leg_min > ControllerConfig().body.leg_max  # scaled to a body outside the range
     assert sc.cfg.modulation.swing_foot.enabled is True  # a capture: its legs re-solved, the IK on
     assert with_settings(sc, ControllerConfig()).cfg == sc.cfg
+
+
+def test_the_controller_scales_settings_once_however_it_is_built(tmp_path: Path) -> None:
+    """The controller scales the settings it is given to its body (``SimbiconController.__init__``), and
+    settings ``load_scenario`` already scaled pass unchanged: a body outside the measured legs (0.8x,
+    39.5 kg) and the built-in body (mass alone, 79.4 kg) get the same settings from the scenario, from
+    the controller built on them, and from one built directly on unscaled settings (after the same
+    reference switches)."""
+    from bipedsim.control.config import for_reference
+    from bipedsim.control.simbicon import body_mass, leg_length, make_humanoid
+    from bipedsim.sim import runner
+
+    for sc in (runner.load_scenario(None, _similar_walk(tmp_path, 0.8, "cmu_02_02_walk__daz43")),
+               runner.load_scenario()):
+        m = sc.built.model
+        assert sc.controller().cfg == sc.cfg
+        assert for_body(sc.cfg, leg_length(m), body_mass(m)) == sc.cfg
+        direct = make_humanoid(m, sc.built.plan, sc.clip, for_reference(ControllerConfig(), "feasible" in sc.extra))
+        assert direct.cfg == sc.cfg
+        pose = make_humanoid(m, sc.built.plan, sc.clip, dataclasses.replace(ControllerConfig(), source="pose"))
+        assert pose.source.gait.state_a_time == pose.cfg.pose_gait.state_a_time  # the key poses' time scaled too
+    assert pose.cfg.pose_gait.state_a_time == ControllerConfig().pose_gait.state_a_time  # the built-in: lambda 1

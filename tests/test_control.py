@@ -127,9 +127,11 @@ def scenario():
 @pytest.fixture(scope="module")
 def hard_soles(scenario):
     """The built-in walk on its body with hard soles (profile ``sim.sole_solref/solimp`` null), where the
-    push contrasts below were measured. With the default soft soles the raw variants survive these pushes
-    too (the lateral d's 135 degrees up to 300 N, the raw velocity every push of the grid that the default
-    survives at 225-275 N; docs/controller.md, *Soft soles*), so they show nothing there."""
+    push contrasts below were measured. On the default soft soles the raw lateral d survives these side
+    pushes too (135 degrees up to 300 N, 270 degrees 1 of 3), and the forward-left push late in the
+    right-stance swing (45 degrees, state 4, 248.2 N) is fallen by the default itself as well as by the
+    raw velocity and by tempo off (pinned below, ``test_soft_soles_fall_a_forward_push_late_in_the_step``;
+    docs/controller.md, *Soft soles*)."""
     from dataclasses import replace
 
     from bipedsim.data import BUILTIN_WALK
@@ -215,8 +217,8 @@ def test_shared_cmu_walk_tracked_20s_without_falling() -> None:
 
 def test_shared_cmu_walk_walks_20s_with_the_default_controller() -> None:
     """The same clip with no controller file: its legs measure infeasible for the body (out of range,
-    straight knees), the default re-solves them (``reference: {feasible: auto}``) and it walks 20 s on
-    at least two of seeds 0-2 (measured, seeds 0-5: seed 0 falls at 15.4 s, the rest walk 20 s)."""
+    straight knees), the default re-solves them (``reference: {feasible: auto}``) and it walks 20 s
+    (seeds 0-9 all do with the soft soles; the slow ``test_gait`` check takes seeds 0-2 and the speed)."""
     from conftest import SHARED_BVH
 
     path = SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh"
@@ -224,9 +226,9 @@ def test_shared_cmu_walk_walks_20s_with_the_default_controller() -> None:
         pytest.skip(f"shared BVH data not found at {path}")
     sc = load_scenario(None, path)
     assert "feasible" in sc.extra
-    walked = [o for o in run_seeds(sc, 20.0, 3) if o.outcome == "no_fall"]
-    assert len(walked) >= 2, walked
-    assert all(o.mean_speed_mps > 0.4 * o.reference_speed_mps for o in walked)
+    out, _ = run_scenario(sc, RolloutSpec(seconds=20.0))
+    assert out.outcome == "no_fall", (out.fall_time_s, out.fall_reason)
+    assert out.mean_speed_mps > 0.4 * out.reference_speed_mps
 
 
 @pytest.mark.slow
@@ -364,14 +366,16 @@ def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:
     mass toward the reference's mean speed, so after a backward push the walk gets back to its speed."""
     from dataclasses import replace
 
-    from bipedsim.control.config import VelocityConfig
+    from bipedsim.control.config import VelocityConfig, load_controller
     from bipedsim.sim.push import Push
+    from bipedsim.sim.runner import settings_for
 
     sc = load_scenario()
-    base = sc.cfg
+    base = load_controller(None)  # as written: the override is scaled to the body with the rest
     dev = {}
     for kv in (0.0, 300.0):
-        sc.cfg = replace(base, balance=replace(base.balance, velocity=VelocityConfig(kv_sagittal=kv, filter_s=0.0)))
+        sc.cfg = settings_for(sc, replace(base, balance=replace(base.balance, velocity=VelocityConfig(
+            kv_sagittal=kv, filter_s=0.0))))
         vs: list[float] = []
         out, ctrl = run_scenario(sc, RolloutSpec(seconds=3.0), pushes=[Push(150.0, 180.0, 0.2, start=1.0)],
                                  hooks=[lambda t, d, c, vs=vs: vs.append(d.subtree_linvel[1][0])])
@@ -379,7 +383,8 @@ def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:
         dev[kv] = float(np.mean(np.abs(np.array(vs) - ctrl.source.speed())))
         if kv:
             f0, f1 = ctrl.state.virtual_force
-            assert abs(f0) <= 150.0 + 1e-9 and f1 == 0.0  # clipped to max_force; no coronal gain
+            cap = ctrl.cfg.balance.velocity.max_force  # 150 N x the body's mass / 64 kg
+            assert cap > 150.0 and abs(f0) <= cap + 1e-9 and f1 == 0.0  # clipped to max_force; no coronal gain
     # measured: mean |v - v_ref| 0.46 m/s without (the push halves the speed), 0.20 with
     assert dev[300.0] < 0.6 * dev[0.0], dev
 
@@ -454,18 +459,19 @@ def test_tempo_rate_drives_the_gait_clock(scenario, v_excess: float, minimum: fl
         c.restore_model()
 
 
-@pytest.mark.parametrize(("direction", "state"), [(0.0, 2), (45.0, 4)])
-def test_tempo_recovers_forward_pushes_late_in_the_swing(hard_soles, direction: float, state: int) -> None:
-    """200 N x 0.2 s forward (or forward-left) in the second half of a step: at a fixed swing time the
-    next step is taken at 2 m/s with the legs 65 degrees apart, the impact halves the speed and the body
-    stalls between two loaded feet and falls; with the gait clock sped up (the default ``fsm.tempo``)
-    it steps sooner and recovers."""
+@pytest.mark.parametrize(("direction", "state", "body"), [(0.0, 2, "scenario"), (45.0, 4, "hard_soles")])
+def test_tempo_recovers_forward_pushes_late_in_the_swing(request, direction: float, state: int, body: str) -> None:
+    """200 N (as on a 64 kg body) x 0.2 s forward (or forward-left) in the second half of a step: at a
+    fixed swing time the next step is taken at 2 m/s with the legs 65 degrees apart, the impact halves the
+    speed and the body stalls between two loaded feet and falls; with the gait clock sped up (the default
+    ``fsm.tempo``) it steps sooner and recovers. Forward on the default body; forward-left on the
+    hard-soled one, the soft-soled default falling that push too (``hard_soles``)."""
     from dataclasses import replace
 
     from bipedsim.control.config import TempoConfig
     from bipedsim.sim.push import Push
 
-    scenario = hard_soles
+    scenario = request.getfixturevalue(body)
     assert scenario.cfg.fsm.tempo.gain > 0
     push = [Push(_as_on_64kg(scenario), direction, 0.2, state=state, fraction=0.5)]
     out = {}
@@ -503,6 +509,18 @@ def test_torso_law_on_the_running_method(scenario) -> None:
         c.restore_model()
 
 
+@pytest.mark.xfail(strict=True, reason="soft soles (session 11): the default falls 248.2 N at 45 degrees, state 4 "
+                   "(the 200 N grid's push as on a 64 kg body); strict: passing flags the marker for removal")
+def test_soft_soles_fall_a_forward_push_late_in_the_step(scenario) -> None:
+    """The cost of the soft soles on the built-in body: the forward-left push late in the right-stance
+    swing at 200 N per 64 kg (248.2 N on 79.4 kg), which the hard-soled body survives (the tests above)."""
+    from bipedsim.sim.push import Push
+
+    out, _ = run_scenario(scenario, RolloutSpec(seconds=6.0), pushes=[
+        Push(_as_on_64kg(scenario), 45.0, 0.2, state=4, fraction=0.5)])
+    assert out.outcome == "no_fall", out.fall_time_s
+
+
 def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles) -> None:
     """balance.velocity.filter_s: the virtual force compares the COM velocity low-passed over 0.75 s (the
     default), so a push's transient is left to the balance law. Measured: 200 N x 0.2 s forward-left
@@ -517,7 +535,12 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles
     base = sc.cfg
     assert base.balance.velocity.kv_sagittal > 0.0 and base.balance.velocity.filter_s > 0.0
     push = [Push(_as_on_64kg(sc), 45.0, 0.2, state=4, fraction=0.5)]
-    raw = replace(base, balance=replace(base.balance, velocity=VelocityConfig(kv_sagittal=50.0, filter_s=0.0)))
+    from bipedsim.control.config import load_controller
+    from bipedsim.sim.runner import settings_for
+
+    written = load_controller(None)  # the override scaled to the body with the rest of the settings
+    raw = settings_for(sc, replace(written, balance=replace(written.balance, velocity=VelocityConfig(
+        kv_sagittal=50.0, filter_s=0.0))))
     out_raw, _ = run_scenario(replace(sc, cfg=raw), RolloutSpec(seconds=6.0), pushes=push)
     out_def, _ = run_scenario(sc, RolloutSpec(seconds=6.0), pushes=push)
     assert out_raw.outcome == "fall"

@@ -93,6 +93,11 @@ def test_body_mass_comes_from_the_legs(walk_model, tmp_path: Path) -> None:
     small = build_model(m.similar(0.8))
     assert small.summary()["total_mass_kg"] == pytest.approx(0.64 * expected, rel=1e-5)
     assert build_model(m, replace(prof, total_mass=None)).summary()["total_mass_kg"] == pytest.approx(64.0)
+    in_metres = tmp_path / "walk_m.bvh"  # the same walk written in metres weighs the same
+    from bipedsim.motion.bvh import write_bvh
+
+    write_bvh(m.in_metres(), in_metres)
+    assert build_model(load_bvh(in_metres)).summary()["total_mass_kg"] == pytest.approx(expected, rel=1e-5)
     assert build_model(m, total_mass=70.0).summary()["total_mass_kg"] == pytest.approx(70.0)
     bad = tmp_path / "p.yaml"
     bad.write_text((PROFILE_DIR / "humanoid.yaml").read_text().replace("total_mass: auto", "total_mass: heavy"))

@@ -77,3 +77,18 @@ def test_the_soles_take_their_own_contact_parameters(tmp_path: Path) -> None:
     bad.write_text(text.replace("sole_solref: [0.0225,", "sole_solref: [0.001,"))
     with pytest.raises(ConfigError, match=r"sole_solref.*at least 2 timesteps"):
         load_profile(bad)
+
+
+def test_creature_soles_stay_hard() -> None:
+    """The creature profile names no sole contact: a two-legged creature's sole boxes (the built-in walk
+    built as a creature) meet the ground as every other geom (priority 0, the profile's solref)."""
+    from bipedsim.data import BUILTIN_WALK
+    from bipedsim.model import build_model
+    from bipedsim.motion import load_bvh
+
+    prof = load_profile("creature")
+    assert prof.sim.sole_solref is None and prof.sim.sole_solimp is None
+    m = build_model(load_bvh(BUILTIN_WALK), "creature").model
+    soles = [i for i in range(m.ngeom) if m.geom(i).name.endswith("_sole_geom")]
+    assert soles and all(m.geom_priority[i] == 0 for i in soles)
+    np.testing.assert_allclose(m.geom_solref[soles], np.tile(prof.sim.solref, (len(soles), 1)))

@@ -47,6 +47,8 @@ def _type_name(tp: Any) -> str:
     origin = get_origin(tp)
     if origin in (Union, types.UnionType):
         return " or ".join(_type_name(a) for a in get_args(tp))
+    if origin is typing.Literal:
+        return " or ".join(repr(a) for a in get_args(tp))
     if origin is not None:
         args = ", ".join(_type_name(a) for a in get_args(tp) if a is not Ellipsis)
         return f"{getattr(origin, '__name__', str(origin))}[{args}]"

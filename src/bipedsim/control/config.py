@@ -533,11 +533,14 @@ def describe_body_scale(b: BodyScaleConfig, leg_length: float, mass: float) -> s
         return None
     span = f"{b.leg_min:.2f} m" if b.leg_min == b.leg_max else f"{b.leg_min:.2f}-{b.leg_max:.2f} m"
     torque = BODY_UNITS["stiffness"]
-    size = f"lengths x{lam:.3f}, times x{lam ** 0.5:.3f}, " if lam != 1.0 else ""
-    force = f", forces x{mu:.3f}" if mu != 1.0 else ""
+    torques = f"torques and PD gains x{lam ** torque[0] * mu ** torque[1]:.3f}"
+    if lam == 1.0:  # the mass alone: forces and torques alike
+        scaled = f"forces, {torques}"
+    else:
+        scaled = (f"lengths x{lam:.3f}, times x{lam ** 0.5:.3f}, {torques}"
+                  + (f", forces x{mu:.3f}" if mu != 1.0 else ""))
     return (f"settings scaled to the body (legs {leg_length:.2f} m, {mass:.1f} kg; the settings are for legs "
-            f"{span}, {b.mass:.1f} kg): {size}torques and PD gains x{lam ** torque[0] * mu ** torque[1]:.3f}"
-            f"{force} (body: {{scale: false}} keeps them as written)")
+            f"{span}, {b.mass:.1f} kg): {scaled} (body: {{scale: false}} keeps them as written)")
 
 
 def for_body(cfg: ControllerConfig, leg_length: float, mass: float) -> ControllerConfig:

@@ -964,7 +964,9 @@ def _as_slice(idx: npt.NDArray[np.int64]) -> slice | npt.NDArray[np.int64]:
 @register("humanoid")
 def make_humanoid(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip, cfg: ControllerConfig
                   ) -> SimbiconController:
-    """The humanoid's controller: tracking ``clip`` (``source: clip``) or SIMBICON's key poses (``pose``)."""
+    """The humanoid's controller: tracking ``clip`` (``source: clip``) or SIMBICON's key poses (``pose``), its
+    settings (the key poses' times among them) scaled to the body first."""
+    cfg = for_body(cfg, leg_length(model), body_mass(model))
     return SimbiconController(model, plan, gait_source(model, plan, clip, cfg), cfg)
 
 

@@ -54,9 +54,12 @@ def builtin_humanoid_path() -> Path:
     from bipedsim.io import atomic_write_text
     from bipedsim.model.profile import PROFILE_DIR
 
-    # named by what it is built from, so a changed profile, walk or release never reuses a stale copy
-    key = hashlib.sha1(__version__.encode() + (PROFILE_DIR / "humanoid.yaml").read_bytes()
-                       + BUILTIN_WALK.read_bytes()).hexdigest()[:12]
+    # named by what it is built from (the release, the profile, the walk and the builder's code), so a
+    # change to any of them never reuses a stale copy
+    h = hashlib.sha1(__version__.encode() + (PROFILE_DIR / "humanoid.yaml").read_bytes() + BUILTIN_WALK.read_bytes())
+    for src in sorted((DATA_DIR.parent / "model").glob("*.py")):
+        h.update(src.read_bytes())
+    key = h.hexdigest()[:12]
     cache = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "bipedsim" / f"humanoid-{key}.xml"
     if not cache.is_file():
         atomic_write_text(cache, builtin_humanoid_xml())

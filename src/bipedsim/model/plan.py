@@ -247,7 +247,10 @@ class ModelBuilder:
                                       "friction": list(sim.friction), "solref": list(sim.solref),
                                       "solimp": list(sim.solimp), "condim": 3, "rgba": [0.75, 0.62, 0.5, 1.0]}
             if g.sole and (sim.sole_solref is not None or sim.sole_solimp is not None):
-                kw["priority"] = 1  # the contact takes the sole's parameters, not a mix with the ground's
+                # the contact takes the sole's parameters, not a mix with the ground's: its solref and solimp,
+                # and also its friction and condim (the profile's, as the floor's; a ground with its own
+                # friction is overruled at the soles)
+                kw["priority"] = 1
                 kw["solref"] = list(sim.sole_solref if sim.sole_solref is not None else sim.solref)
                 kw["solimp"] = list(sim.sole_solimp if sim.sole_solimp is not None else sim.solimp)
             if g.name:

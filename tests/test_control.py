@@ -151,6 +151,17 @@ def _as_on_64kg(sc, force: float = 200.0) -> float:
     return force * body_mass(sc.built.model) / 64.0
 
 
+def _torso_kd_100(cfg):  # noqa: ANN001, ANN202
+    """``cfg`` with the torso law's damping at the 100 the contrasts below were measured with (scaled to
+    the body as the rest: the ratio to the default's 175). At the default 175 the body is steadier and
+    both sides of these contrasts survive (docs/controller.md, *Torso damping*)."""
+    from dataclasses import replace
+
+    from bipedsim.control.config import BalanceConfig
+
+    return replace(cfg, balance=replace(cfg.balance, torso_kd=cfg.balance.torso_kd * 100.0 / BalanceConfig().torso_kd))
+
+
 def test_resync_moves_reference_the_right_way(scenario) -> None:
     from dataclasses import replace
 
@@ -465,7 +476,8 @@ def test_tempo_recovers_forward_pushes_late_in_the_swing(request, direction: flo
     fixed swing time the next step is taken at 2 m/s with the legs 65 degrees apart, the impact halves the
     speed and the body stalls between two loaded feet and falls; with the gait clock sped up (the default
     ``fsm.tempo``) it steps sooner and recovers. Forward on the default body; forward-left on the
-    hard-soled one, the soft-soled default falling that push too (``hard_soles``)."""
+    hard-soled one (``hard_soles``). Both contrasts at the torso damping they were measured with
+    (``_torso_kd_100``); the default (torso damping 175) survives both pushes as well."""
     from dataclasses import replace
 
     from bipedsim.control.config import TempoConfig
@@ -475,10 +487,13 @@ def test_tempo_recovers_forward_pushes_late_in_the_swing(request, direction: flo
     assert scenario.cfg.fsm.tempo.gain > 0
     push = [Push(_as_on_64kg(scenario), direction, 0.2, state=state, fraction=0.5)]
     out = {}
-    for name, tempo in (("off", TempoConfig(gain=0.0)), ("default", scenario.cfg.fsm.tempo)):
-        cfg = replace(scenario.cfg, fsm=replace(scenario.cfg.fsm, tempo=tempo))
+    kd100 = _torso_kd_100(scenario.cfg)
+    for name, tempo in (("off", TempoConfig(gain=0.0)), ("tempo", scenario.cfg.fsm.tempo)):
+        cfg = replace(kd100, fsm=replace(kd100.fsm, tempo=tempo))
         out[name], _ = run_scenario(replace(scenario, cfg=cfg), RolloutSpec(seconds=6.0), pushes=push)
+    out["default"], _ = run_scenario(scenario, RolloutSpec(seconds=6.0), pushes=push)
     assert out["off"].outcome == "fall"
+    assert out["tempo"].outcome == "no_fall"
     assert out["default"].outcome == "no_fall"
 
 
@@ -509,15 +524,14 @@ def test_torso_law_on_the_running_method(scenario) -> None:
         c.restore_model()
 
 
-@pytest.mark.xfail(strict=True, reason="soft soles (session 11): the default falls 248.2 N at 45 degrees, state 4 "
-                   "(the 200 N grid's push as on a 64 kg body); strict: passing flags the marker for removal")
-def test_soft_soles_fall_a_forward_push_late_in_the_step(scenario) -> None:
-    """The cost of the soft soles on the built-in body: the forward-left push late in the right-stance
-    swing at 200 N per 64 kg (248.2 N on 79.4 kg), which the hard-soled body survives (the tests above)."""
+def test_the_default_survives_a_forward_push_late_in_the_step(scenario) -> None:
+    """The forward-left push late in the right-stance swing at 200 N per 64 kg (248.2 N on 79.4 kg): the
+    soft soles cost it at the torso damping of 100 (session 11, then a strict expected failure); with the
+    default's 175 the body survives it again (docs/controller.md, *Torso damping*)."""
     from bipedsim.sim.push import Push
 
-    out, _ = run_scenario(scenario, RolloutSpec(seconds=6.0), pushes=[
-        Push(_as_on_64kg(scenario), 45.0, 0.2, state=4, fraction=0.5)])
+    push = [Push(_as_on_64kg(scenario), 45.0, 0.2, state=4, fraction=0.5)]
+    out, _ = run_scenario(scenario, RolloutSpec(seconds=6.0), pushes=push)
     assert out.outcome == "no_fall", out.fall_time_s
 
 
@@ -525,7 +539,8 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles
     """balance.velocity.filter_s: the virtual force compares the COM velocity low-passed over 0.75 s (the
     default), so a push's transient is left to the balance law. Measured: 200 N x 0.2 s forward-left
     in the right-stance swing (the 200 N grid's 45 degrees, state 4) with 50 N per m/s on the raw
-    velocity the walk falls at 4.2 s; the default (90 N per m/s, low-passed) recovers."""
+    velocity the walk falls at 4.2 s; the default (90 N per m/s, low-passed) recovers. Both at the torso
+    damping of 100 (``_torso_kd_100``), where it was measured: at 175 the raw velocity survives too."""
     from dataclasses import replace
 
     from bipedsim.control.config import VelocityConfig
@@ -541,8 +556,8 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles
     written = load_controller(None)  # the override scaled to the body with the rest of the settings
     raw = settings_for(sc, replace(written, balance=replace(written.balance, velocity=VelocityConfig(
         kv_sagittal=50.0, filter_s=0.0))))
-    out_raw, _ = run_scenario(replace(sc, cfg=raw), RolloutSpec(seconds=6.0), pushes=push)
-    out_def, _ = run_scenario(sc, RolloutSpec(seconds=6.0), pushes=push)
+    out_raw, _ = run_scenario(replace(sc, cfg=_torso_kd_100(raw)), RolloutSpec(seconds=6.0), pushes=push)
+    out_def, _ = run_scenario(replace(sc, cfg=_torso_kd_100(sc.cfg)), RolloutSpec(seconds=6.0), pushes=push)
     assert out_raw.outcome == "fall"
     assert out_def.outcome == "no_fall"
 
@@ -562,6 +577,7 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
     sc = replace(sc, cfg=without_modulation(sc.cfg))
     v_clip = clip_speed(sc.clip)
+    sc = replace(sc, cfg=_torso_kd_100(sc.cfg))  # as measured; at 175 the walk without it makes 0.70
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, velocity=replace(sc.cfg.balance.velocity, kv_sagittal=0.0)))
 
     def runs(cfg: object) -> tuple[list[str], list[float]]:
@@ -587,7 +603,7 @@ def test_froude_scheduled_cd_lets_a_fast_capture_stride_out() -> None:
 
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
-    sc = replace(sc, cfg=without_modulation(sc.cfg))
+    sc = replace(sc, cfg=_torso_kd_100(without_modulation(sc.cfg)))  # as measured; at 175 unscheduled 0.61
     ctrl = sc.controller()
     assert 0.35 < ctrl._cd_sagittal < 0.5
     v_clip = clip_speed(sc.clip)

@@ -87,7 +87,9 @@ def test_a_1_2_mps_walk_at_110_steps_needs_the_scheduled_cv(tmp_path: Path) -> N
     falls at 2.4 s (docs/controller.md, *Speed deficit*); and with the sagittal c_d as given (``cd_froude:
     null``, the c_d schedule came later: with it, c_d 0.52 here, the scheduled-c_v walk falls at 2.4 s)."""
     bvh = generated_walk(tmp_path, 1.2, 110)
-    kv0 = ", velocity: {kv_sagittal: 0.0}, cd_froude: null"
+    # and at the torso damping of then (100): at the default 175, without velocity tuning and the c_d
+    # schedule, the scheduled walk falls at 1.6 s too
+    kv0 = ", velocity: {kv_sagittal: 0.0}, cd_froude: null, torso_kd: 100.0"
     off, _ = run_scenario(load_scenario(scheduled_off(tmp_path, kv0), bvh), RolloutSpec(seconds=10.0))
     assert off.outcome == "fall" and off.fall_time_s < 3.0
     on, _ = run_scenario(load_scenario(scheduled(tmp_path, kv0), bvh), RolloutSpec(seconds=10.0))

@@ -183,7 +183,14 @@ class BalanceConfig:
     coronal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.3))
     torso_kp: float = field(default=1000.0, metadata={"min": 0.0})
     roll_kp: float | None = field(default=None, metadata={"min": 0.0})  #: null: torso_kp
-    torso_kd: float = field(default=100.0, metadata={"min": 0.0})
+    #: the torso law's damping, N*m*s/rad (roll, pitch and yaw). 175 (was 100): the pelvis's yaw is damped
+    #: against the swing leg's yaw reaction, so the real walks hold their course (CMU 02_01 from 0.62 to 0.75
+    #: of its clip's speed along it) and CMU 12_03 overshoots less (1.46 -> 1.30 of its speed): shared walks
+    #: x seeds 0-9 at >= 70 % along the course 37 -> 50 of 70, public walks 30 -> 42 of 160. The damping is
+    #: explicit (the measured rate, once per control step): at 250 Hz control it turns unstable from about
+    #: 250 (CMU 131 falls at 0.7 s; stable at 500 Hz), so 175 keeps a margin (docs/controller.md, "Torso
+    #: damping")
+    torso_kd: float = field(default=175.0, metadata={"min": 0.0})
     #: the yaw of the frame the balance law works in (feedback axes, the COM's d and v, the swing thigh's
     #: and the feet's world targets, the torso's yaw target): ``pelvis``: the pelvis's heading now;
     #: ``course``: the course law's heading target plus the reference pelvis's own yaw about its course at

@@ -77,3 +77,16 @@ def without_modulation(cfg: ControllerConfig) -> ControllerConfig:
     mod = cfg.modulation
     return replace(cfg, modulation=replace(mod, swing_foot=replace(mod.swing_foot, enabled=False),
                                            stance_ankle=replace(mod.stance_ankle, enabled=False)))
+
+
+def torso_kd_100(cfg: ControllerConfig) -> ControllerConfig:
+    """``cfg`` with the torso law's damping at 100, where the counterfactual tests of the step tempo, the
+    velocity tuning, the Froude-scheduled c_d, the stance foot's yaw limit and the torso twist were
+    measured, scaled to the body as the rest (the ratio to the default's 175). At 175 the pelvis is steadier
+    and both sides of these contrasts survive or keep their speed (docs/controller.md, *Torso damping*)."""
+    from dataclasses import replace
+
+    from bipedsim.control.config import ControllerConfig
+
+    default = ControllerConfig().balance.torso_kd
+    return replace(cfg, balance=replace(cfg.balance, torso_kd=cfg.balance.torso_kd * 100.0 / default))

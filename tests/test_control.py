@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared, without_modulation
+from conftest import SHARED_BVH, need_shared, torso_kd_100, without_modulation
 from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
@@ -150,16 +150,6 @@ def _as_on_64kg(sc, force: float = 200.0) -> float:
 
     return force * body_mass(sc.built.model) / 64.0
 
-
-def _torso_kd_100(cfg):  # noqa: ANN001, ANN202
-    """``cfg`` with the torso law's damping at the 100 the contrasts below were measured with (scaled to
-    the body as the rest: the ratio to the default's 175). At the default 175 the body is steadier and
-    both sides of these contrasts survive (docs/controller.md, *Torso damping*)."""
-    from dataclasses import replace
-
-    from bipedsim.control.config import BalanceConfig
-
-    return replace(cfg, balance=replace(cfg.balance, torso_kd=cfg.balance.torso_kd * 100.0 / BalanceConfig().torso_kd))
 
 
 def test_resync_moves_reference_the_right_way(scenario) -> None:
@@ -477,7 +467,7 @@ def test_tempo_recovers_forward_pushes_late_in_the_swing(request, direction: flo
     speed and the body stalls between two loaded feet and falls; with the gait clock sped up (the default
     ``fsm.tempo``) it steps sooner and recovers. Forward on the default body; forward-left on the
     hard-soled one (``hard_soles``). Both contrasts at the torso damping they were measured with
-    (``_torso_kd_100``); the default (torso damping 175) survives both pushes as well."""
+    (``torso_kd_100``); the default (torso damping 175) survives both pushes as well."""
     from dataclasses import replace
 
     from bipedsim.control.config import TempoConfig
@@ -487,7 +477,7 @@ def test_tempo_recovers_forward_pushes_late_in_the_swing(request, direction: flo
     assert scenario.cfg.fsm.tempo.gain > 0
     push = [Push(_as_on_64kg(scenario), direction, 0.2, state=state, fraction=0.5)]
     out = {}
-    kd100 = _torso_kd_100(scenario.cfg)
+    kd100 = torso_kd_100(scenario.cfg)
     for name, tempo in (("off", TempoConfig(gain=0.0)), ("tempo", scenario.cfg.fsm.tempo)):
         cfg = replace(kd100, fsm=replace(kd100.fsm, tempo=tempo))
         out[name], _ = run_scenario(replace(scenario, cfg=cfg), RolloutSpec(seconds=6.0), pushes=push)
@@ -540,7 +530,7 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles
     default), so a push's transient is left to the balance law. Measured: 200 N x 0.2 s forward-left
     in the right-stance swing (the 200 N grid's 45 degrees, state 4) with 50 N per m/s on the raw
     velocity the walk falls at 4.2 s; the default (90 N per m/s, low-passed) recovers. Both at the torso
-    damping of 100 (``_torso_kd_100``), where it was measured: at 175 the raw velocity survives too."""
+    damping of 100 (``torso_kd_100``), where it was measured: at 175 the raw velocity survives too."""
     from dataclasses import replace
 
     from bipedsim.control.config import VelocityConfig
@@ -556,8 +546,8 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles
     written = load_controller(None)  # the override scaled to the body with the rest of the settings
     raw = settings_for(sc, replace(written, balance=replace(written.balance, velocity=VelocityConfig(
         kv_sagittal=50.0, filter_s=0.0))))
-    out_raw, _ = run_scenario(replace(sc, cfg=_torso_kd_100(raw)), RolloutSpec(seconds=6.0), pushes=push)
-    out_def, _ = run_scenario(replace(sc, cfg=_torso_kd_100(sc.cfg)), RolloutSpec(seconds=6.0), pushes=push)
+    out_raw, _ = run_scenario(replace(sc, cfg=torso_kd_100(raw)), RolloutSpec(seconds=6.0), pushes=push)
+    out_def, _ = run_scenario(replace(sc, cfg=torso_kd_100(sc.cfg)), RolloutSpec(seconds=6.0), pushes=push)
     assert out_raw.outcome == "fall"
     assert out_def.outcome == "no_fall"
 
@@ -577,7 +567,7 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
     sc = replace(sc, cfg=without_modulation(sc.cfg))
     v_clip = clip_speed(sc.clip)
-    sc = replace(sc, cfg=_torso_kd_100(sc.cfg))  # as measured; at 175 the walk without it makes 0.70
+    sc = replace(sc, cfg=torso_kd_100(sc.cfg))  # as measured; at 175 the walk without it makes 0.70
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, velocity=replace(sc.cfg.balance.velocity, kv_sagittal=0.0)))
 
     def runs(cfg: object) -> tuple[list[str], list[float]]:
@@ -603,7 +593,7 @@ def test_froude_scheduled_cd_lets_a_fast_capture_stride_out() -> None:
 
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
-    sc = replace(sc, cfg=_torso_kd_100(without_modulation(sc.cfg)))  # as measured; at 175 unscheduled 0.61
+    sc = replace(sc, cfg=torso_kd_100(without_modulation(sc.cfg)))  # as measured; at 175 unscheduled 0.61
     ctrl = sc.controller()
     assert 0.35 < ctrl._cd_sagittal < 0.5
     v_clip = clip_speed(sc.clip)

@@ -14,7 +14,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared, without_modulation
+from conftest import SHARED_BVH, need_shared, torso_kd_100, without_modulation
 
 from bipedsim.config import from_dict, to_dict
 from bipedsim.control.config import ControllerConfig, merged
@@ -139,7 +139,5 @@ def test_torso_damping_holds_a_capture_on_its_course() -> None:
     v_clip = clip_speed(sc.clip)
     out, _ = run_scenario(sc, RolloutSpec(seconds=20.0))
     assert out.outcome == "no_fall" and out.course_speed_mps >= 0.7 * v_clip, (out.fall_time_s, out.course_speed_mps)
-    b = sc.cfg.balance
-    kd100 = replace(sc.cfg, balance=replace(b, torso_kd=b.torso_kd * 100.0 / ControllerConfig().balance.torso_kd))
-    out0, _ = run_scenario(replace(sc, cfg=kd100), RolloutSpec(seconds=20.0))
+    out0, _ = run_scenario(replace(sc, cfg=torso_kd_100(sc.cfg)), RolloutSpec(seconds=20.0))
     assert out0.outcome == "no_fall" and out0.course_speed_mps < 0.65 * v_clip, out0.course_speed_mps

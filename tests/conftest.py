@@ -79,14 +79,16 @@ def without_modulation(cfg: ControllerConfig) -> ControllerConfig:
                                            stance_ankle=replace(mod.stance_ankle, enabled=False)))
 
 
-def torso_kd_100(cfg: ControllerConfig) -> ControllerConfig:
-    """``cfg`` with the torso law's damping at 100, where the counterfactual tests of the step tempo, the
-    velocity tuning, the Froude-scheduled c_d, the stance foot's yaw limit and the torso twist were
-    measured, scaled to the body as the rest (the ratio to the default's 175). At 175 the pelvis is steadier
-    and both sides of these contrasts survive or keep their speed (docs/controller.md, *Torso damping*)."""
+def torso_as_measured(cfg: ControllerConfig) -> ControllerConfig:
+    """``cfg`` with the torso law as it was before session 12 -- damping 100 (scaled to the body as the
+    rest: the ratio to the default's 175) and the stance foot's yaw limit 0.35 rad -- where the
+    counterfactual tests of the step tempo, the velocity tuning, the Froude-scheduled c_d, the stance foot's
+    yaw limit and the torso twist were measured. With today's torso law (175, 0.6) the body is steadier and
+    both sides of these contrasts survive or keep their speed (docs/controller.md, *Torso damping*)."""
     from dataclasses import replace
 
     from bipedsim.control.config import ControllerConfig
 
     default = ControllerConfig().balance.torso_kd
-    return replace(cfg, balance=replace(cfg.balance, torso_kd=cfg.balance.torso_kd * 100.0 / default))
+    return replace(cfg, balance=replace(cfg.balance, torso_kd=cfg.balance.torso_kd * 100.0 / default,
+                                        stance_yaw_limit=0.35))

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared, torso_kd_100, without_modulation
+from conftest import SHARED_BVH, need_shared, torso_as_measured, without_modulation
 from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
@@ -466,8 +466,8 @@ def test_tempo_recovers_forward_pushes_late_in_the_swing(request, direction: flo
     fixed swing time the next step is taken at 2 m/s with the legs 65 degrees apart, the impact halves the
     speed and the body stalls between two loaded feet and falls; with the gait clock sped up (the default
     ``fsm.tempo``) it steps sooner and recovers. Forward on the default body; forward-left on the
-    hard-soled one (``hard_soles``). Both contrasts at the torso damping they were measured with
-    (``torso_kd_100``); the default (torso damping 175) survives both pushes as well."""
+    hard-soled one (``hard_soles``). Both contrasts with the torso law they were measured with (damping 100,
+    yaw limit 0.35: ``torso_as_measured``); the default (175, 0.6) survives both pushes as well."""
     from dataclasses import replace
 
     from bipedsim.control.config import TempoConfig
@@ -477,9 +477,9 @@ def test_tempo_recovers_forward_pushes_late_in_the_swing(request, direction: flo
     assert scenario.cfg.fsm.tempo.gain > 0
     push = [Push(_as_on_64kg(scenario), direction, 0.2, state=state, fraction=0.5)]
     out = {}
-    kd100 = torso_kd_100(scenario.cfg)
+    before = torso_as_measured(scenario.cfg)
     for name, tempo in (("off", TempoConfig(gain=0.0)), ("tempo", scenario.cfg.fsm.tempo)):
-        cfg = replace(kd100, fsm=replace(kd100.fsm, tempo=tempo))
+        cfg = replace(before, fsm=replace(before.fsm, tempo=tempo))
         out[name], _ = run_scenario(replace(scenario, cfg=cfg), RolloutSpec(seconds=6.0), pushes=push)
     out["default"], _ = run_scenario(scenario, RolloutSpec(seconds=6.0), pushes=push)
     assert out["off"].outcome == "fall"
@@ -516,8 +516,8 @@ def test_torso_law_on_the_running_method(scenario) -> None:
 
 def test_the_default_survives_a_forward_push_late_in_the_step(scenario) -> None:
     """The forward-left push late in the right-stance swing at 200 N per 64 kg (248.2 N on 79.4 kg): the
-    soft soles cost it at the torso damping of 100 (session 11, then a strict expected failure); with the
-    default's 175 the body survives it again (docs/controller.md, *Torso damping*)."""
+    soft soles cost it at the torso damping of 100 (session 11, then a strict expected failure); with
+    today's torso law (damping 175, yaw limit 0.6) the body survives it again (docs/controller.md, *Torso damping*)."""
     from bipedsim.sim.push import Push
 
     push = [Push(_as_on_64kg(scenario), 45.0, 0.2, state=4, fraction=0.5)]
@@ -530,7 +530,8 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles
     default), so a push's transient is left to the balance law. Measured: 200 N x 0.2 s forward-left
     in the right-stance swing (the 200 N grid's 45 degrees, state 4) with 50 N per m/s on the raw
     velocity the walk falls at 4.2 s; the default (90 N per m/s, low-passed) recovers. Both at the torso
-    damping of 100 (``torso_kd_100``), where it was measured: at 175 the raw velocity survives too."""
+    law it was measured with (damping 100, yaw limit 0.35: ``torso_as_measured``): with today's the raw
+    velocity survives too."""
     from dataclasses import replace
 
     from bipedsim.control.config import VelocityConfig
@@ -546,8 +547,8 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles
     written = load_controller(None)  # the override scaled to the body with the rest of the settings
     raw = settings_for(sc, replace(written, balance=replace(written.balance, velocity=VelocityConfig(
         kv_sagittal=50.0, filter_s=0.0))))
-    out_raw, _ = run_scenario(replace(sc, cfg=torso_kd_100(raw)), RolloutSpec(seconds=6.0), pushes=push)
-    out_def, _ = run_scenario(replace(sc, cfg=torso_kd_100(sc.cfg)), RolloutSpec(seconds=6.0), pushes=push)
+    out_raw, _ = run_scenario(replace(sc, cfg=torso_as_measured(raw)), RolloutSpec(seconds=6.0), pushes=push)
+    out_def, _ = run_scenario(replace(sc, cfg=torso_as_measured(sc.cfg)), RolloutSpec(seconds=6.0), pushes=push)
     assert out_raw.outcome == "fall"
     assert out_def.outcome == "no_fall"
 
@@ -567,7 +568,7 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
     sc = replace(sc, cfg=without_modulation(sc.cfg))
     v_clip = clip_speed(sc.clip)
-    sc = replace(sc, cfg=torso_kd_100(sc.cfg))  # as measured; at 175 the walk without it makes 0.70
+    sc = replace(sc, cfg=torso_as_measured(sc.cfg))  # as measured; with today's torso law, 0.67-0.70 without it
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, velocity=replace(sc.cfg.balance.velocity, kv_sagittal=0.0)))
 
     def runs(cfg: object) -> tuple[list[str], list[float]]:
@@ -593,7 +594,7 @@ def test_froude_scheduled_cd_lets_a_fast_capture_stride_out() -> None:
 
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
-    sc = replace(sc, cfg=torso_kd_100(without_modulation(sc.cfg)))  # as measured; at 175 unscheduled 0.61
+    sc = replace(sc, cfg=torso_as_measured(without_modulation(sc.cfg)))  # as measured; today's: unscheduled 0.61
     ctrl = sc.controller()
     assert 0.35 < ctrl._cd_sagittal < 0.5
     v_clip = clip_speed(sc.clip)

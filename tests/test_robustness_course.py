@@ -260,7 +260,7 @@ def test_old_configuration_drifts_off_the_line(walk) -> None:
     """The configuration before the course work -- sagittal c_d 0.65, no course law, no velocity tuning --
     limps and crabs: 27.2 m off the line in 60 s (the check above can fail)."""
     old = {"sagittal": {"cd": 0.65}, "course": {"enabled": False}, "velocity": {"kv_sagittal": 0.0},
-           "torso_kd": 100.0}  # the torso damping of then: at 175 the old gains end 2.0 m off
+           "torso_kd": 100.0, "stance_yaw_limit": None}  # the torso law of then: at 175 they end 2.0 m off
     outcome, final, _ = _line_offset(walk, _cfg({"balance": old}), 60.0)
     assert outcome == "no_fall" and abs(final) > 10.0
 

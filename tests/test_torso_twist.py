@@ -16,7 +16,7 @@ from dataclasses import replace
 import mujoco
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared, torso_kd_100
+from conftest import SHARED_BVH, need_shared, torso_as_measured
 
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
@@ -72,11 +72,11 @@ def test_torso_twist_keeps_the_pelvis_on_the_reference_yaw() -> None:
     """CMU 02_01 (seed 0, 20 s): held against its capture's twist the pelvis settles 37 degrees off the
     reference's yaw (course + twist) on average over 2-20 s and the walk crabs (0.39 m/s along its
     course); following the twist it stays within about 3 degrees on average (measured: 0.88 m/s along the
-    course). At the torso damping of 100, where it was measured: at 175 the pelvis holds within 14 degrees
-    without the twist (docs/controller.md, *Torso damping*)."""
+    course). With the torso law it was measured with (damping 100, yaw limit 0.35): with today's the pelvis
+    holds within 14 degrees without the twist (docs/controller.md, *Torso damping*)."""
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
-    sc = replace(sc, cfg=torso_kd_100(sc.cfg))
+    sc = replace(sc, cfg=torso_as_measured(sc.cfg))
     mean_off = {}
     for on in (False, True):
         errs: list[float] = []

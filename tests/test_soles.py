@@ -79,6 +79,25 @@ def test_the_soles_take_their_own_contact_parameters(tmp_path: Path) -> None:
         load_profile(bad)
 
 
+def test_the_soles_take_the_profile_s_condim() -> None:
+    """With priority the sole's condim is the contact's, so the soles carry the profile's ``sim.condim``
+    (3 by default; 4 adds torsional friction, ``friction[1]`` m): before, every body geom had condim 3 and
+    a profile asking for 4 got 3 at the soles."""
+    from dataclasses import replace
+
+    from bipedsim.data import BUILTIN_WALK
+    from bipedsim.model import build_model
+    from bipedsim.motion import load_bvh
+
+    prof = load_profile("humanoid")
+    for condim in (3, 4):
+        p = replace(prof, sim=replace(prof.sim, condim=condim))
+        m = build_model(load_bvh(BUILTIN_WALK), p).model
+        soles = [i for i in range(m.ngeom) if m.geom(i).name.endswith(("_foot_geom", "_toe_geom"))]
+        assert len(soles) == 4 and all(m.geom_condim[i] == condim for i in soles)
+        assert m.geom_condim[m.geom("floor").id] == condim
+
+
 def test_creature_soles_stay_hard() -> None:
     """The creature profile names no sole contact: a two-legged creature's sole boxes (the built-in walk
     built as a creature) meet the ground as every other geom (priority 0, the profile's solref)."""

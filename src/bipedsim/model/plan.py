@@ -253,6 +253,7 @@ class ModelBuilder:
                 kw["priority"] = 1
                 kw["solref"] = list(sim.sole_solref if sim.sole_solref is not None else sim.solref)
                 kw["solimp"] = list(sim.sole_solimp if sim.sole_solimp is not None else sim.solimp)
+                kw["condim"] = sim.condim  # with priority the sole's condim is the contact's: the profile's
             if g.name:
                 kw["name"] = g.name
             if g.quat is not None:

@@ -1,6 +1,8 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -77,6 +79,23 @@ def without_modulation(cfg: ControllerConfig) -> ControllerConfig:
     mod = cfg.modulation
     return replace(cfg, modulation=replace(mod, swing_foot=replace(mod.swing_foot, enabled=False),
                                            stance_ankle=replace(mod.stance_ankle, enabled=False)))
+
+
+@contextmanager
+def toes_as_measured() -> Iterator[None]:
+    """Bodies built inside it get the toes they had before session 13: a toe whose skeleton gives no tip
+    (Bandai-Namco's, the Holden CMU layouts') stops at its 3 cm minimum instead of reaching a person's foot
+    length. The counterfactual tests measured on such bodies build their scenario in it: with the
+    real-length toes both sides of some contrasts walk (docs/controller.md, *Real-length toes*)."""
+    from bipedsim.model import humanoid
+
+    builder = humanoid._HumanoidBuilder
+    saved = builder.toe_length_without_tip
+    builder.toe_length_without_tip = lambda self, side, foot_frame: humanoid.MIN_TOE_M  # type: ignore[method-assign]
+    try:
+        yield
+    finally:
+        builder.toe_length_without_tip = saved  # type: ignore[method-assign]
 
 
 def torso_as_measured(cfg: ControllerConfig) -> ControllerConfig:

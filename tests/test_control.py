@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared, torso_as_measured, without_modulation
+from conftest import SHARED_BVH, need_shared, toes_as_measured, torso_as_measured, without_modulation
 from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
@@ -564,7 +564,8 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     from bipedsim.control.reference import clip_speed
 
     need_shared()
-    sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
+    with toes_as_measured():  # as measured (with today's toes, on these old settings, it falls at 5.4-19.6 s with it)
+        sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
     sc = replace(sc, cfg=torso_as_measured(without_modulation(sc.cfg)))  # as measured; today's: 0.67-0.70 without it
     v_clip = clip_speed(sc.clip)
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, velocity=replace(sc.cfg.balance.velocity, kv_sagittal=0.0)))

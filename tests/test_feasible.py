@@ -48,8 +48,10 @@ def test_stance_feet_planted_flat_on_the_floor_and_legs_within_reach_and_range(n
     assert after["legs_out_of_range"] == 0.0  # the IK keeps every leg hinge within its range
     assert after["out_of_range"] <= before["out_of_range"]
     assert after["max_extension"] <= FeasibleConfig().max_extension + 0.005
-    # stance feet neither float nor sink (the capture's float 2-4 cm), flat ones do not slide
-    assert after["stance_low_min"] >= -0.01 and after["stance_low_max"] <= 0.02
+    # stance feet neither float nor sink (the capture's float 2-4 cm), flat ones do not slide; the most
+    # is on CMU 02_01's first stance frames, the heel still coming down: 2.0 cm with 3 cm toes, 2.1 cm
+    # with its real-length ones (session 13)
+    assert after["stance_low_min"] >= -0.01 and after["stance_low_max"] <= 0.025
     assert after["stance_low_max"] < before["stance_low_max"]
     assert after["flat_slide"] <= 0.012
 
@@ -218,3 +220,30 @@ def test_no_feasible_leg_reaches_past_its_limit_on_any_shared_walk() -> None:
         sc = runner.load_scenario(None, path)  # the default: 'auto' re-solves every shared capture
         assert sc.extra.get("feasible"), path.name
         assert measure(sc.clip, sc.built.model)["max_extension"] <= limit, path.name
+
+
+@pytest.mark.parametrize("name", ["bandai2_walk_exhausted_001", "cmu_02_01_walk__holden31_crlf",
+                                  "games105_walk60__metres_crlf"])
+def test_swing_toes_peel_off_the_floor_instead_of_reaching_through_it(name: str) -> None:
+    """A foot leaving the floor heel up bends its toe just enough to keep the toe's tip on the floor, and
+    the toe straightens as the foot rises. Before, a swing toe turned with its foot: the toe box reached
+    5-8 cm below the floor (Bandai's and CMU 02_01's 9-11 cm toes, games105's own 6 cm ones) and its hinge
+    snapped from bent to straight at liftoff, 0.7-1.0 rad in one frame."""
+    import mujoco
+
+    sc, fc = _feasible(name)
+    model = sc.built.model
+    data = mujoco.MjData(model)
+    for side in SIDES:
+        g = next(i for i in range(model.ngeom) if model.body(model.geom_bodyid[i]).name == f"{side}_toe"
+                 and model.geom_type[i] == mujoco.mjtGeom.mjGEOM_BOX)
+        swing = ~fc.contacts[:, fc.foot_names.index(side)].astype(bool)
+        corners = np.array([[a, b, c] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1)]) * model.geom_size[g]
+        low = []
+        for t in np.flatnonzero(swing):
+            data.qpos[:] = fc.qpos[t]
+            mujoco.mj_kinematics(model, data)
+            low.append(float(np.min(data.geom_xpos[g][2] + corners @ data.geom_xmat[g].reshape(3, 3)[2])))
+        assert min(low) >= -0.02, (side, min(low))
+        q = fc.qpos[:, model.jnt_qposadr[model.joint(f"{side}_toe").id]]
+        assert float(np.max(np.abs(np.diff(q)))) < 0.5, side

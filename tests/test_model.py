@@ -478,3 +478,38 @@ def test_thigh_helper_bones_at_the_pelvis_centre_are_passed_for_the_hip_joints()
     hm = recognise_humanoid(load_bvh(path).skeleton)
     assert (hm.legs["left"]["thigh"], hm.legs["right"]["thigh"]) == ("UpLeg_L", "UpLeg_R")
     assert hm.pelvis == "Hips"
+
+
+def _sole_lengths(model: mujoco.MjModel) -> dict[str, tuple[float, float]]:
+    """Per side, the foot box's and the toe box's lengths (m) along the sole."""
+    out = {}
+    for side in ("left", "right"):
+        def box(body: str) -> float:
+            g = [i for i in range(model.ngeom) if model.body(model.geom_bodyid[i]).name == body
+                 and model.geom_type[i] == mujoco.mjtGeom.mjGEOM_BOX]
+            return 2.0 * float(model.geom_size[g[0]][0])
+        out[side] = (box(f"{side}_foot"), box(f"{side}_toe"))
+    return out
+
+
+def test_a_toe_without_a_tip_reaches_a_person_s_foot_length(tmp_path: Path) -> None:
+    """The built-in walk's toes end in 5 cm tips: kept as measured. The same skeleton with zero-length
+    toe end sites (Bandai-Namco's and the Holden CMU layouts have them): the sole reaches, heel to toe
+    tip, ``foot_length_share`` x the height (the legs over ``leg_share``: 0.152 H in Winter's table),
+    where the toe box used to stop at its 3 cm minimum (a 17 cm foot on a 1.63 m body)."""
+    from bipedsim.control.simbicon import leg_length
+    from bipedsim.motion import load_bvh
+
+    prof = load_profile("humanoid")
+    measured = build_model(load_bvh(BUILTIN_WALK)).model
+    for foot, toe in _sole_lengths(measured).values():
+        assert toe == pytest.approx(0.05, abs=1e-3)  # the tip's 5 cm, not the rule's length
+    text = BUILTIN_WALK.read_text()
+    assert text.count("OFFSET 5.000000 0.000000 0.000000") == 2  # the two toes' end sites
+    tipless = tmp_path / "tipless.bvh"
+    tipless.write_text(text.replace("OFFSET 5.000000 0.000000 0.000000", "OFFSET 0.000000 0.000000 0.000000"))
+    m = build_model(load_bvh(tipless)).model
+    height = leg_length(m) / prof.leg_share
+    for side, (foot, toe) in _sole_lengths(m).items():
+        assert foot + toe == pytest.approx(prof.geometry.foot_length_share * height, abs=0.003), side
+        assert toe > 0.06  # far past the 3 cm minimum the tipless toe had

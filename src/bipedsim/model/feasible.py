@@ -230,6 +230,7 @@ class _FootShape:
     heel: FloatArray
     front: FloatArray
     ball: FloatArray
+    toe_length: float = 0.0
 
     @staticmethod
     def of(model: mujoco.MjModel, leg: _Leg) -> _FootShape:
@@ -240,7 +241,8 @@ class _FootShape:
         corners = np.array([c + [i * sx, j * sy, k * sz] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)])
         heel, front = c + [-sx, 0.0, -sz], c + [sx, 0.0, -sz]
         ball = r_g.T @ model.body_pos[leg.toe] if leg.toe is not None else front
-        return _FootShape(corners, heel, front, ball)
+        toe_length = 2.0 * float(model.geom_size[leg.toe_geom][0]) if leg.toe_geom is not None else 0.0
+        return _FootShape(corners, heel, front, ball, toe_length)
 
 
 #: A stance foot's pitch (rad) within this band of level counts as flat (the capture's jitter).
@@ -315,6 +317,16 @@ def plan_feet(model: mujoco.MjModel, clip: ReferenceClip, legs: dict[str, _Leg],
         toe = rot.copy()
         ball = stance & (pitch < 0)
         toe[ball] = _yaws(heading[ball])
+        if shape.toe_length > 0.0:
+            # a swing foot pitched heel up (leaving the floor) bends its toe just enough to keep the tip
+            # on the floor, as a toe does as it peels off: turning with the foot, a toe reaches below
+            # the floor by its length x the pitch, and snaps from bent to straight at liftoff
+            sw = np.flatnonzero(~stance & (pitch < 0))
+            if len(sw):
+                ball_sole = np.array([shape.ball[0], 0.0, shape.heel[2]])
+                z_ball = ankle[sw, 2] + np.einsum("tj,j->t", rot[sw, 2, :], ball_sole)
+                need = np.arcsin(np.clip(-z_ball / shape.toe_length, -1.0, 1.0))
+                toe[sw] = _yaws(heading[sw]) @ _rot_y(np.maximum(pitch[sw], np.minimum(need, 0.0)))
         out[s] = FootPlan(ankle=ankle, sole=rot, toe=toe, stance=stance, cop=cop)
     return out
 

@@ -29,6 +29,8 @@ BASIS = {"x": np.array([1.0, 0, 0]), "y": np.array([0, 1.0, 0]), "z": np.array([
 FORWARD = np.array([1.0, 0.0, 0.0])
 #: Shortest bone (m) the builder accepts; shorter ones are zero-length for practical purposes.
 MIN_BONE_M = 0.01
+#: The shortest toe box (m), toe joint to tip.
+MIN_TOE_M = 0.03
 #: Touch-sensor sites reach this far below and above the sole (m).
 TOUCH_MARGIN_M = 0.02
 #: Touch-sensor boxes reach this far (m) beyond the sides of the foot and toe boxes.
@@ -691,17 +693,19 @@ class _HumanoidBuilder:
         q, g = self.q, self.geometry
         tip = self.rest.tip(toe)
         tip_vec = q[tip] - q[toe]
-        if np.linalg.norm(tip_vec) < MIN_BONE_M:
-            # no toe bone to measure: the toe's sole continues the foot's
-            tip_vec = np.array([0.03, 0.0, 0.0])
+        no_tip = bool(np.linalg.norm(tip_vec) < MIN_BONE_M)
+        if no_tip:
+            # no toe bone to measure (a zero-length end site): the toe's sole continues the foot's,
+            # as far as a person's foot of this body's height reaches (toe_length_without_tip)
+            tip_vec = np.array([self.toe_length_without_tip(side, foot_frame), 0.0, 0.0])
             rt = foot_frame
         else:
             hw = self._foot_hinge_world(an, toe, q[toe] - q[an], knee_axis)
             rt = _flat_frame(self.moving, toe, [toe, tip], tip_vec, (th, kn, an), knee_axis, hw)
         # the sole's depth below the toe joint (foot frame), carried into the toe's frame
         sole_t = sole - (foot_frame.T @ (q[toe] - q[an]))[2]
-        tip_t = rt.T @ (q[tip] - q[toe])
-        x2 = max(tip_t[0], 0.03)
+        tip_t = tip_vec if no_tip else rt.T @ (q[tip] - q[toe])
+        x2 = max(tip_t[0], MIN_TOE_M)
         ttop = max(0.01, sole_t + 0.03)
         half = [x2 / 2, g.foot_width / 2, (ttop - sole_t) / 2]
         centre = np.array([x2 / 2, 0.0, (ttop + sole_t) / 2])
@@ -713,6 +717,21 @@ class _HumanoidBuilder:
             geoms=[geom], sites=[site],
             fit=FitPlan(method="aim", origin=toe, points=[tip], ref=f"bvh:{toe}",
                         rest_vectors=[list(tip_vec)])))
+
+    def toe_length_without_tip(self, side: str, foot_frame: FloatArray) -> float:
+        """The toe box's length (m) for a toe whose skeleton gives no tip: the sole then reaches the
+        length of a person's foot of this body's height, ``geometry.foot_length_share`` x the height
+        (the legs over ``leg_share``: foot 0.152, hip to ankle 0.491 of the height in Winter's
+        anthropometric table), from the heel (``heel_length`` behind the ankle); at least
+        :data:`MIN_TOE_M`. Without it such a foot is as short as its skeleton's ankle-to-toe bone
+        (Bandai-Namco's and the Holden CMU layouts': 14-16 cm of sole on a 1.6-1.7 m body)."""
+        leg = self.hm.legs[side]
+        an, toe = leg["ankle"], leg["toe"]
+        assert an and toe
+        g = self.geometry
+        height = self.leg_length() / self.profile.leg_share
+        toe_x = float((foot_frame.T @ (self.q[toe] - self.q[an]))[0])
+        return max(g.foot_length_share * height - g.heel_length - toe_x, MIN_TOE_M)
 
     # ----------------------------------------------------------------- whole body
     def leg_length(self) -> float:

@@ -88,6 +88,9 @@ class Geometry:
     foot_width: float = field(default=0.09, metadata={"gt": 0.0})
     heel_length: float = field(default=0.05, metadata={"min": 0.0})
     foot_top: float = field(default=0.02, metadata={"min": 0.0})
+    #: the sole's length, heel to toe tip, as a share of the height, where a skeleton's toe has no
+    #: tip to measure (:meth:`~bipedsim.model.humanoid._HumanoidBuilder.toe_length_without_tip`)
+    foot_length_share: float = field(default=0.152, metadata={"gt": 0.0, "max": 0.5})
 
 
 @dataclass(frozen=True)

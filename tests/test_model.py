@@ -502,7 +502,7 @@ def test_a_toe_without_a_tip_reaches_a_person_s_foot_length(tmp_path: Path) -> N
 
     prof = load_profile("humanoid")
     measured = build_model(load_bvh(BUILTIN_WALK)).model
-    for foot, toe in _sole_lengths(measured).values():
+    for _foot, toe in _sole_lengths(measured).values():
         assert toe == pytest.approx(0.05, abs=1e-3)  # the tip's 5 cm, not the rule's length
     text = BUILTIN_WALK.read_text()
     assert text.count("OFFSET 5.000000 0.000000 0.000000") == 2  # the two toes' end sites

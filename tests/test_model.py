@@ -501,15 +501,19 @@ def test_a_toe_without_a_tip_reaches_a_person_s_foot_length(tmp_path: Path) -> N
     from bipedsim.motion import load_bvh
 
     prof = load_profile("humanoid")
-    measured = build_model(load_bvh(BUILTIN_WALK)).model
-    for _foot, toe in _sole_lengths(measured).values():
+    built = build_model(load_bvh(BUILTIN_WALK))
+    for _foot, toe in _sole_lengths(built.model).values():
         assert toe == pytest.approx(0.05, abs=1e-3)  # the tip's 5 cm, not the rule's length
+    assert "toes_without_tip" not in built.plan.extra
     text = BUILTIN_WALK.read_text()
     assert text.count("OFFSET 5.000000 0.000000 0.000000") == 2  # the two toes' end sites
     tipless = tmp_path / "tipless.bvh"
     tipless.write_text(text.replace("OFFSET 5.000000 0.000000 0.000000", "OFFSET 0.000000 0.000000 0.000000"))
-    m = build_model(load_bvh(tipless)).model
+    built = build_model(load_bvh(tipless))
+    m = built.model
     height = leg_length(m) / prof.leg_share
     for side, (foot, toe) in _sole_lengths(m).items():
         assert foot + toe == pytest.approx(prof.geometry.foot_length_share * height, abs=0.003), side
         assert toe > 0.06  # far past the 3 cm minimum the tipless toe had
+        # recorded with the body (``bipedsim run --bvh`` prints it)
+        assert built.plan.extra["toes_without_tip"][side]["sole_m"] == pytest.approx(foot + toe, abs=0.003)

@@ -411,6 +411,8 @@ class _HumanoidBuilder:
         self.markers: dict[str, list[str]] = {}
         self.q: dict[str, FloatArray] = {}
         self.mass_note: dict[str, float] | None = None  #: how the mass was found from the legs (auto)
+        #: per side, the sole a toe without a tip was given (:meth:`toe_length_without_tip`)
+        self.toe_note: dict[str, dict[str, float]] = {}
         thl, thr = self.hm.legs["left"]["thigh"], self.hm.legs["right"]["thigh"]
         assert thl and thr
         self.hips = (thl, thr)
@@ -731,7 +733,10 @@ class _HumanoidBuilder:
         g = self.geometry
         height = self.leg_length() / self.profile.leg_share
         toe_x = float((foot_frame.T @ (self.q[toe] - self.q[an]))[0])
-        return max(g.foot_length_share * height - g.heel_length - toe_x, MIN_TOE_M)
+        length = max(g.foot_length_share * height - g.heel_length - toe_x, MIN_TOE_M)
+        self.toe_note[side] = {"sole_m": round(g.heel_length + toe_x + length, 3), "height_m": round(height, 3),
+                               "foot_length_share": g.foot_length_share}
+        return length
 
     # ----------------------------------------------------------------- whole body
     def leg_length(self) -> float:
@@ -784,7 +789,8 @@ class _HumanoidBuilder:
         return BodyPlanSet(name=name, profile="humanoid", bodies=self.bodies, heading_yaw=self.yaw,
                            source_names=self.source_names, sim=asdict(self.profile.sim),
                            extra={"markers": self.markers, "roles": asdict(self.hm), "rest_lift": lift,
-                                  **({"mass_from_legs": self.mass_note} if self.mass_note else {})})
+                                  **({"mass_from_legs": self.mass_note} if self.mass_note else {}),
+                                  **({"toes_without_tip": self.toe_note} if self.toe_note else {})})
 
 
 def _sole_box(prefix: str, half: list[float], centre: FloatArray, sole: float, frame: FloatArray,

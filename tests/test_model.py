@@ -498,6 +498,7 @@ def test_a_toe_without_a_tip_reaches_a_person_s_foot_length(tmp_path: Path) -> N
     tip, ``foot_length_share`` x the height (the legs over ``leg_share``: 0.152 H in Winter's table),
     where the toe box used to stop at its 3 cm minimum (a 17 cm foot on a 1.63 m body)."""
     from bipedsim.control.simbicon import leg_length
+    from bipedsim.model.humanoid import toes_note
     from bipedsim.motion import load_bvh
 
     prof = load_profile("humanoid")
@@ -505,6 +506,7 @@ def test_a_toe_without_a_tip_reaches_a_person_s_foot_length(tmp_path: Path) -> N
     for _foot, toe in _sole_lengths(built.model).values():
         assert toe == pytest.approx(0.05, abs=1e-3)  # the tip's 5 cm, not the rule's length
     assert "toes_without_tip" not in built.plan.extra
+    assert toes_note(built.plan.extra) is None
     text = BUILTIN_WALK.read_text()
     assert text.count("OFFSET 5.000000 0.000000 0.000000") == 2  # the two toes' end sites
     tipless = tmp_path / "tipless.bvh"
@@ -517,3 +519,5 @@ def test_a_toe_without_a_tip_reaches_a_person_s_foot_length(tmp_path: Path) -> N
         assert toe > 0.06  # far past the 3 cm minimum the tipless toe had
         # recorded with the body (``bipedsim run --bvh`` prints it)
         assert built.plan.extra["toes_without_tip"][side]["sole_m"] == pytest.approx(foot + toe, abs=0.003)
+    # what `bipedsim run --bvh` and `convert` print
+    assert "toes end without a tip (left, right); the soles reach" in (toes_note(built.summary()) or "")

@@ -40,6 +40,7 @@ class BuiltModel:
                 "dofs": int(m.nv), "actuated_dofs": int(m.nu), "joints": int(m.njnt),
                 "total_mass_kg": float(np.sum(m.body_mass)), "height_m": float(top),
                 "mass_from_legs": self.plan.extra.get("mass_from_legs"),
+                "toes_without_tip": self.plan.extra.get("toes_without_tip"),
                 "timestep_s": float(m.opt.timestep), "hash": self.hash}
 
     def write(self, path: str | os.PathLike[str]) -> None:

@@ -11,6 +11,7 @@ from bipedsim.io import check_output_file
 from bipedsim.model.build import build_model, check_total_mass
 from bipedsim.model.creature_kind import AUTO
 from bipedsim.model.gait import read_for_build
+from bipedsim.model.humanoid import toes_note
 from bipedsim.model.naming import load_map
 from bipedsim.model.profile import HumanoidProfile, load_profile
 from bipedsim.model.retarget import retarget
@@ -75,5 +76,6 @@ def format_convert_summary(summary: dict[str, Any]) -> str:
         c = s["clip"]
         lines.append(f"wrote {c['path']}: {c['frames']} frames, foot strikes {c['strikes']}"
                      + (f", dropped {c['trimmed_frames']} leading glitch frame(s)" if c["trimmed_frames"] else ""))
-    lines += [f"note: {n}" for n in s.get("notes", [])]
+    toes = toes_note(s)
+    lines += [f"note: {n}" for n in [*s.get("notes", []), *([toes] if toes else [])]]
     return "\n".join(lines)

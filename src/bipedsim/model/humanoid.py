@@ -10,6 +10,7 @@ its rotation is absorbed into the orientation fit of the body it belongs to.
 from __future__ import annotations
 
 from dataclasses import asdict
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -352,6 +353,18 @@ def humanoid_plan(motion: Motion, profile: HumanoidProfile, *, mapping: MapFile 
         b.add_leg(side)
     b.scale_masses(total_mass if total_mass is not None else b.profile_mass())
     return b.plan(name, b.stand_on_floor())
+
+
+def toes_note(extra: dict[str, Any]) -> str | None:
+    """The line saying a body's toes were given a person's foot length (a body plan's ``extra``, where
+    :meth:`_HumanoidBuilder.toe_length_without_tip` records it); None when its toes were measured."""
+    toes = extra.get("toes_without_tip")
+    if not toes:
+        return None
+    t = next(iter(toes.values()))
+    return (f"the skeleton's toes end without a tip ({', '.join(toes)}); the soles reach {t['sole_m']:.2f} m heel "
+            f"to toe tip, a {t['height_m']:.2f} m person's foot (profile geometry.foot_length_share "
+            f"{t['foot_length_share']:g})")
 
 
 def mass_from_legs(leg_length: float, profile: HumanoidProfile) -> float:

@@ -25,6 +25,7 @@ from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_text, check_output_file, prepare_output_dir, progress_bar, remove_stale
 from bipedsim.model.build import check_total_mass
+from bipedsim.model.humanoid import toes_note
 from bipedsim.render.gl import RenderError
 from bipedsim.render.plots import PLOT_FILES, plot_run
 from bipedsim.render.video import (
@@ -256,12 +257,9 @@ def found_lines(sc: Scenario) -> list[str]:
     if sc.bvh_info is None or sc.source_path == str(BUILTIN_WALK):
         return scaled
     notes = [f"note: {n}" for n in [sc.bvh_info.reading_note, *sc.bvh_info.notes] if n]
-    toes = sc.built.plan.extra.get("toes_without_tip")
+    toes = toes_note(sc.built.plan.extra)
     if toes:
-        t = next(iter(toes.values()))
-        notes.append(f"body: the skeleton's toes end without a tip ({', '.join(toes)}); the soles reach "
-                     f"{t['sole_m']:.2f} m heel to toe tip, a {t['height_m']:.2f} m person's foot "
-                     f"(profile geometry.foot_length_share {t['foot_length_share']:g})")
+        notes.append(f"body: {toes}")
     if "feasible" in sc.extra:
         notes.append("reference: legs made feasible for the body (" + "; ".join(sc.extra["feasible"]) + ")")
     return notes + scaled + describe_clip(sc.clip, sc.built.model, sc.built.plan)

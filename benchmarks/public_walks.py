@@ -37,6 +37,13 @@ WALKS: tuple[tuple[str, str, str, str, str], ...] = tuple(
         "74ead3ba1ae4696404e6086233779f60de8bf9ef",
         "dataset/Bandai-Namco-Research-Motiondataset-2/data/dataset-2_walk_normal_001.bvh",
         "Bandai-Namco set 2 (the shared exhausted walk's set), normal walk")]
+    # added in session 13 as an out-of-sample check of the real-length toes (docs/controller.md)
+    + [(f"bn2_walk_{s}.bvh", "BandaiNamcoResearchInc/Bandai-Namco-Research-Motiondataset",
+        "74ead3ba1ae4696404e6086233779f60de8bf9ef",
+        f"dataset/Bandai-Namco-Research-Motiondataset-2/data/dataset-2_walk_{s}.bvh",
+        f"Bandai-Namco set 2, '{s[:-4]}' walk (take {s[-3:]}), toes without tips")
+       for s in ("active_001", "active_002", "elderly_001", "elderly_002", "exhausted_002", "feminine_001",
+                 "feminine_002", "masculine_001", "masculine_002", "normal_002", "youthful_001", "youthful_002")]
     + [(f"g105_{n}.bvh", "GAMES-105/GAMES-105", "442b13ad9c50544889236d6541358c9c752f8458",
         f"lab2/motion_material/{n}.bvh", what)
        for n, what in (("walk_forward", "1 s of a straight walk at 100 fps, metres"),

@@ -104,3 +104,90 @@ def test_info_reads_a_creature_as_run_builds_it() -> None:
     assert d["unit_name"] == sc.bvh_info.unit_name and d["unit_scale"] == sc.bvh_info.unit_scale
     human = describe_bvh(SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
     assert human["body"] == "humanoid"
+
+
+# ---------------------------------------------------------------------- the frame rate (session 14)
+def test_a_given_frame_rate_replaces_the_file_s_frame_time_and_is_checked(tmp_path: Path) -> None:
+    """``fps`` (``--clip-fps``) sets the capture's rate for a file whose Frame Time is not it: every frame
+    kept, the time between them changed, the file's own Frame Time recorded beside it."""
+    from bipedsim.data import builtin_walk_path
+
+    path = builtin_walk_path()
+    m0, i0 = read_bvh(path)
+    m1, i1 = read_bvh(path, fps=i0.fps / 2)
+    assert i0.frame_time_source == "file" and i1.frame_time_source == "given"
+    assert i1.file_frame_time == pytest.approx(i0.frame_time)
+    assert m1.frame_time == pytest.approx(2 * m0.frame_time) and i1.frame_time == pytest.approx(2 * i0.frame_time)
+    assert m1.num_frames == m0.num_frames
+    assert np.allclose(m1.rotations, m0.rotations) and np.allclose(m1.root_translation, m0.root_translation)
+    for bad in (0.0, -30.0, float("nan"), 1e6):
+        with pytest.raises(BVHError, match="frame rate .* is not plausible: give 1 to 10000 frames per second"):
+            read_bvh(path, fps=bad)
+
+
+def test_a_clip_faster_than_a_walk_says_so_and_names_the_flag() -> None:
+    """A walk read at three times its rate moves at Froude 0.8, where people run: ``describe_bvh`` says so
+    (the Froude number from its own speed and hip height) and names ``--clip-fps``; at its own rate, or
+    given its rate back, it says nothing."""
+    from bipedsim.data import builtin_walk_path
+    from bipedsim.motion.conventions import HIP_PER_STATURE
+    from bipedsim.motion.describe import GRAVITY, WALK_FROUDE_MAX
+
+    path = builtin_walk_path()
+    d0 = describe_bvh(path)
+    assert "pace_note" not in d0
+    fast = describe_bvh(path, fps=3 * d0["fps"])
+    v = fast["root_speed_mps"]
+    assert v == pytest.approx(3 * d0["root_speed_mps"], rel=1e-6)
+    fr = v ** 2 / (GRAVITY * fast["standing_height_m"] * HIP_PER_STATURE)
+    assert fr > WALK_FROUDE_MAX
+    note = fast["pace_note"]
+    assert f"Froude {fr:.2f}" in note and "--clip-fps" in note and f"at {1.5 * d0['fps']:.4g} fps" in note
+    assert "given" in note  # the rate it was read at is named as the caller's
+
+
+def test_no_shared_walk_is_faster_than_a_walk_but_the_makehuman_cycle_is() -> None:
+    """Every shared human walk reads below Froude 0.5; the MakeHuman walk cycle, whose 14 frames at its
+    header's 24 fps make a 2.9 m/s stride, is flagged, and read at 12 fps it is not."""
+    need_shared()
+    for f in sorted((SHARED_BVH / "human").glob("*.bvh")):
+        assert "pace_note" not in describe_bvh(f), f.name
+    mh = SHARED_BVH / "odd" / "makehuman_walk1__zup_decimetre.bvh"
+    d = describe_bvh(mh)
+    assert "Froude 0.89" in d["pace_note"] and "the file's Frame Time 0.041667 s" in d["pace_note"]
+    assert "pace_note" not in describe_bvh(mh, fps=12)
+
+
+def test_clip_fps_on_the_command_line(capsys, tmp_path: Path) -> None:
+    """``bipedsim info --clip-fps`` prints the rate as given; a rate out of range, or one without a
+    ``--bvh`` file to apply to, exits 2 naming what is allowed."""
+    need_shared()
+    mh = str(SHARED_BVH / "odd" / "makehuman_walk1__zup_decimetre.bvh")
+    assert main(["info", mh, "--clip-fps", "12"]) == 0
+    out = capsys.readouterr().out
+    assert "14 at 12 fps (frame time 0.0833333 s, given; the file's 0.041667 s)" in out and "pace" not in out
+    assert main(["info", mh]) == 0
+    assert "pace        the clip moves at 2.86 m/s" in capsys.readouterr().out
+    assert main(["info", mh, "--clip-fps", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "frame rate 0.0 is not plausible: give 1 to 10000 frames per second" in err and "Traceback" not in err
+    assert main(["run", "--clip-fps", "12", "--seconds", "0.1", "--out", str(tmp_path / "r")]) == 2
+    assert "--clip-fps: sets the frame rate of a --bvh file" in capsys.readouterr().err
+
+
+def test_run_prints_the_pace_and_records_the_rate_it_read(capsys, tmp_path: Path) -> None:
+    """``bipedsim run --bvh`` prints the pace line for a clip faster than a walk, and ``outcome.json``
+    records how the file was read (unit, up axis, frame rate and where each came from)."""
+    import json
+
+    need_shared()
+    mh = str(SHARED_BVH / "odd" / "makehuman_walk1__zup_decimetre.bvh")
+    assert main(["run", "--bvh", mh, "--seconds", "0.1", "--out", str(tmp_path / "a")]) == 0
+    assert "pace: the clip moves at 2.73 m/s" in capsys.readouterr().out
+    assert main(["run", "--bvh", mh, "--clip-fps", "12", "--seconds", "0.1", "--out", str(tmp_path / "b")]) == 0
+    assert "pace:" not in capsys.readouterr().out
+    a = json.loads((tmp_path / "a" / "outcome.json").read_text())["config"]["reading"]
+    b = json.loads((tmp_path / "b" / "outcome.json").read_text())["config"]["reading"]
+    assert a["fps"] == pytest.approx(24.0, rel=1e-4) and a["fps_source"] == "file"
+    assert b["fps"] == pytest.approx(12.0) and b["fps_source"] == "given"
+    assert a["unit_m_per_unit"] == b["unit_m_per_unit"] == pytest.approx(0.1) and a["up"] == "z"

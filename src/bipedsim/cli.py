@@ -51,6 +51,9 @@ def _scale_up(p: argparse.ArgumentParser, scale_help: str, up_help: str) -> None
     p.add_argument("--positions", choices=("absolute", "offset"), default=None,
                    help="position channels are absolute or added to the joint's OFFSET (decided per joint and "
                         "scored with the up axis when omitted; bipedsim info says which reading was chosen)")
+    p.add_argument("--clip-fps", type=float, default=None, dest="clip_fps", metavar="FPS",
+                   help="the capture's frame rate, replacing the file's Frame Time (for a file whose header "
+                        "does not give the rate it was captured at)")
 
 
 def _output(p: argparse.ArgumentParser, what: str) -> None:
@@ -85,7 +88,8 @@ def cmd_info(args: argparse.Namespace) -> int:
     from bipedsim.data import builtin_walk_path
     from bipedsim.motion import describe_bvh, format_description
 
-    d = describe_bvh(args.file or str(builtin_walk_path()), scale=args.scale, up=args.up, positions=args.positions)
+    d = describe_bvh(args.file or str(builtin_walk_path()), scale=args.scale, up=args.up, positions=args.positions,
+                     fps=args.clip_fps)
     print(json.dumps(d, indent=2) if args.json else format_description(d))
     return 0
 
@@ -103,7 +107,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
 
     summary = convert_bvh(args.input, args.output, profile=args.profile, profile_file=args.profile_file,
                           mass=args.mass, map=args.map, clip=args.clip, scale=args.scale, up=args.up,
-                          positions=args.positions)
+                          positions=args.positions, fps=args.clip_fps)
     print(json.dumps(summary, indent=2) if args.json else format_convert_summary(summary))
     return 0
 
@@ -128,7 +132,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     run_to_folder(args.out, config=args.config, bvh=args.bvh, seconds=args.seconds, seed=args.seed,
                   init_noise=args.init_noise, mass=args.mass, scale=args.scale, up=args.up, positions=args.positions,
-                  events=args.events, profile=args.profile,
+                  fps=args.clip_fps, events=args.events, profile=args.profile,
                   support=args.support, record_hz=DEFAULT_RECORD_HZ if args.record_hz is None else args.record_hz,
                   pushes=args.push or [], plots=args.plots, csv=args.csv, export_bvh=args.export_bvh,
                   video=args.video, gif=args.gif, video_options=video_options(args), progress=sys.stderr.isatty(),

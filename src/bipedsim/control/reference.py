@@ -521,6 +521,15 @@ def clip_speed(clip: ReferenceClip) -> float:
     return float(np.linalg.norm(np.diff(root, axis=0), axis=1).sum()) / clip.duration
 
 
+def step_time(clip: ReferenceClip) -> float | None:
+    """The clip's step time (s): the median interval between consecutive strikes of either foot; None
+    with fewer than two strikes."""
+    strikes = sorted(s for f in clip.foot_names for s in clip.events[f]["strike"])
+    if len(strikes) < 2:
+        return None
+    return float(np.median(np.diff(strikes))) * clip.frame_time
+
+
 def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet) -> list[str]:
     """Lines saying what was found in a humanoid's reference clip: the feet and their strikes, the cycle
     looped and its speed, the whole clip's speed."""

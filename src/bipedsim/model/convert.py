@@ -22,7 +22,7 @@ PathLike = str | os.PathLike[str]
 def convert_bvh(input: PathLike, output: PathLike, *, profile: str = AUTO, profile_file: PathLike | None = None,
                 mass: float | None = None, map: PathLike | None = None, clip: PathLike | None = None,
                 scale: float | str | None = None, up: str | None = None,
-                positions: str | None = None) -> dict[str, Any]:
+                positions: str | None = None, fps: float | None = None) -> dict[str, Any]:
     """Build an MJCF body from the skeleton of the BVH file ``input`` and write it to ``output``.
 
     ``profile``: ``"humanoid"``, ``"creature"`` or ``"auto"`` (measured from the skeleton; a ``map`` means
@@ -31,7 +31,8 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = AUTO, profi
     roles' joints; ``clip``: also retarget the motion and write this ``.npz`` reference clip;
     ``scale``: metres per file unit or a unit name, ``up``: the file's up axis (``"y"``/``"z"``), both
     guessed when None; ``positions``: ``"absolute"``/``"offset"`` position channels (decided per
-    joint when None). Output locations are checked (errors name ``-o`` and ``--clip``) before
+    joint when None); ``fps``: the capture's frame rate, replacing the file's Frame Time (None: the
+    file's). Output locations are checked (errors name ``-o`` and ``--clip``) before
     anything is built. Returns the body's summary (bodies, DOFs, mass in kg, height in m, timestep in
     s, ...) with ``source``, ``output``, ``unit``, ``up`` and, with ``clip``, the clip's frames,
     trimmed frames and foot strikes."""
@@ -41,7 +42,7 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = AUTO, profi
     else:
         kind = "humanoid" if map and profile == AUTO else profile
     # read as `bipedsim run` reads it (model.gait.read_for_build): unit, static root, rest pose, in place
-    _, info, motion, profile = read_for_build(input, scale=scale, up=up, positions=positions, profile=kind)
+    _, info, motion, profile = read_for_build(input, scale=scale, up=up, positions=positions, profile=kind, fps=fps)
     check_output_file(output, "-o")
     if clip:
         check_output_file(clip, "--clip")

@@ -192,7 +192,7 @@ def resolve_profile(motion: Motion, profile: str | None = AUTO, *, support: bool
 
 def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = None, up: str | None = None,
                   positions: str | None = None, profile: str | None = AUTO,
-                  support: bool = False) -> tuple[Motion, BVHInfo, Motion, str]:
+                  support: bool = False, fps: float | None = None) -> tuple[Motion, BVHInfo, Motion, str]:
     """A BVH file read for the body it will build: the raw motion and what reading found, the motion in
     the project frame, and the body kind (:func:`resolve_profile`). A creature's unit, when guessed, is
     guessed from its largest extent, not a standing human's height: a bred dog x horse with its head up
@@ -200,7 +200,7 @@ def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = N
     from bipedsim.motion.bvh import read_bvh
     from bipedsim.motion.reroot import fold_static_root
 
-    raw, info = read_bvh(path, scale=scale, up=up, positions=positions)
+    raw, info = read_bvh(path, scale=scale, up=up, positions=positions, fps=fps)
     motion = raw.to_project_frame()
     forced = profile not in (None, AUTO)
     profile = resolve_profile(motion, profile, support=support, source=str(path))
@@ -208,7 +208,7 @@ def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = N
     # --profile creature keeps a human's unit (its largest extent would read CMU's inches as cm)
     shaped = profile == "creature" and (not forced or detect_body_kind(motion).kind == "creature")
     if shaped and info.unit_source == "guessed" and info.upright:
-        raw, info = read_bvh(path, up=up, positions=positions, upright=False)
+        raw, info = read_bvh(path, up=up, positions=positions, upright=False, fps=fps)
         motion = raw.to_project_frame()
     # a static root at the floor with the body's translation on its one child (a game-data layout):
     # the floor joint is folded away, not built as a bone

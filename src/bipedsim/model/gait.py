@@ -434,7 +434,7 @@ def motion_for_body(raw: Motion, motion: Motion, kind: str, notes: list[str], su
 
 def read_for_build(path: str | os.PathLike[str], *, scale: float | str | None = None, up: str | None = None,
                    positions: str | None = None, profile: str | None = AUTO, support: bool = False,
-                   creature_support: bool = False) -> tuple[Motion, BVHInfo, Motion, str]:
+                   creature_support: bool = False, fps: float | None = None) -> tuple[Motion, BVHInfo, Motion, str]:
     """A BVH file read as every command builds a body from it -- one way through for ``run``, sweeps,
     suites, tunes and ``convert``: :func:`~bipedsim.model.creature_kind.read_for_body` (reading, body kind,
     unit, a static floor root folded), then :func:`motion_for_body` (root support: ``support``, or
@@ -443,5 +443,5 @@ def read_for_build(path: str | os.PathLike[str], *, scale: float | str | None = 
     from bipedsim.model.creature_kind import read_for_body
 
     raw, info, motion, kind = read_for_body(path, scale=scale, up=up, positions=positions, profile=profile,
-                                            support=support)
+                                            support=support, fps=fps)
     return raw, info, motion_for_body(raw, motion, kind, info.notes, support or creature_support), kind

@@ -13,6 +13,7 @@ project frame (metres, Z up). :func:`write_bvh` writes a motion exactly as it is
 
 from __future__ import annotations
 
+import math
 import os
 import warnings
 from collections import Counter
@@ -69,6 +70,8 @@ class BVHInfo:
     up_reason: str
     line_endings: str
     final_newline: bool
+    frame_time_source: str = "file"  # "file" (its Frame Time) or "given" (the caller's frame rate)
+    file_frame_time: float = 0.0  # the file's own Frame Time (s), whichever was used
     position_channels: dict[str, str] = field(default_factory=dict)  # joint -> "replace" | "add"
     position_mode_reasons: dict[str, str] = field(default_factory=dict)
     end_sites: int = 0
@@ -517,7 +520,7 @@ def _choose_reading(sk: Skeleton, frame_time: float, data: FloatArray, mode_opti
 
 def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
              up: str | None = None, positions: str | None = None,
-             upright: bool | None = None) -> tuple[Motion, BVHInfo]:
+             upright: bool | None = None, fps: float | None = None) -> tuple[Motion, BVHInfo]:
     """Read a BVH file in its own units and axes.
 
     Args:
@@ -530,6 +533,9 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
         upright: whether the body is a human-like upright one for the unit guess (its height in a
             human's range) or not (its largest extent in a creature's); measured from the body's
             extents when omitted (:func:`~bipedsim.motion.conventions.guess_unit`).
+        fps: the capture's frame rate (frames per second), replacing the file's ``Frame Time`` for a file
+            whose header does not give the rate it was captured at (``info.frame_time_source`` says which
+            was used, ``info.file_frame_time`` keeps the file's).
 
     The up axis and the position-channel modes are chosen together: every combination is read and
     scored for a plausible body (:func:`~bipedsim.motion.conventions.score_reading`: the hip at about a
@@ -549,6 +555,10 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
     except OSError as exc:
         raise BVHError(f"cannot read: {exc.strerror or exc}", p) from None
     sk, frame_time, data, info, _ = _parse(p, raw)
+    info.file_frame_time = frame_time
+    if fps is not None:
+        frame_time = info.frame_time = _given_frame_time(fps, p)
+        info.frame_time_source = "given"
     if up is not None and up.lower() not in ("y", "z"):
         raise BVHError(f"up axis must be 'y' or 'z', got {up!r}", p)
     if positions is None:
@@ -598,10 +608,18 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
     return motion, info
 
 
+def _given_frame_time(fps: float, path: str) -> float:
+    """The frame time (s) of a frame rate given by the caller, within :data:`FRAME_TIME_RANGE_S`."""
+    lo, hi = FRAME_TIME_RANGE_S
+    if not (isinstance(fps, (int, float)) and math.isfinite(fps) and 1.0 / hi <= fps <= 1.0 / lo):
+        raise BVHError(f"frame rate {fps!r} is not plausible: give {1 / hi:g} to {1 / lo:g} frames per second", path)
+    return 1.0 / float(fps)
+
+
 def load_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
-             up: str | None = None, positions: str | None = None) -> Motion:
+             up: str | None = None, positions: str | None = None, fps: float | None = None) -> Motion:
     """Read a BVH file and convert it to the project frame: metres, Z up."""
-    motion, _ = read_bvh(path, scale=scale, up=up, positions=positions)
+    motion, _ = read_bvh(path, scale=scale, up=up, positions=positions, fps=fps)
     return motion.to_project_frame()
 
 

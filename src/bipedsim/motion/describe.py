@@ -8,30 +8,58 @@ from typing import Any
 
 import numpy as np
 
-from bipedsim.motion.bvh import read_bvh
-from bipedsim.motion.conventions import horizontal_axes
+from bipedsim.motion.bvh import BVHInfo, read_bvh
+from bipedsim.motion.conventions import HIP_PER_STATURE, horizontal_axes
+
+#: The Froude number v^2 / (g h) (v the speed, h the hip's height standing) above which people run rather
+#: than walk: the walk-run transition lies near 0.5 across body sizes (Alexander 1989, "Optimization and
+#: gaits in the locomotion of vertebrates"). The shared and public walks measure 0.04-0.3.
+WALK_FROUDE_MAX = 0.5
+GRAVITY = 9.81
+
+
+def pace_note(speed_mps: float, info: BVHInfo, step_s: float | None = None) -> str | None:
+    """A line saying the clip moves faster than people walk, or None: its speed ``speed_mps`` (m/s) on its
+    hip's height (``info.standing_height_m`` x :data:`HIP_PER_STATURE`) is above Froude
+    :data:`WALK_FROUDE_MAX`. A walk read that fast most often has a Frame Time that is not its capture's
+    rate; the line gives the flag that sets the rate, and what half the rate would give. ``step_s``: the
+    clip's step time (s), for its cadence; None where unknown. None also for a body without named feet."""
+    hip = info.standing_height_m * HIP_PER_STATURE
+    if not (hip > 0 and speed_mps > 0):
+        return None
+    fr = speed_mps ** 2 / (GRAVITY * hip)
+    if fr <= WALK_FROUDE_MAX:
+        return None
+    cadence = f", {60.0 / step_s:.0f} steps/min" if step_s else ""
+    rate = (f"{info.fps:.4g} fps, given" if info.frame_time_source == "given"
+            else f"{info.fps:.4g} fps, the file's Frame Time {info.file_frame_time:.6g} s")
+    return (f"the clip moves at {speed_mps:.2f} m/s on a {hip:.2f} m hip height: Froude {fr:.2f} (v^2 / g h)"
+            f"{cadence}; people walk below about Froude {WALK_FROUDE_MAX:g} and run above it. If this is a walk, "
+            f"its frame rate ({rate}) is likely not the capture's: give the capture's rate with --clip-fps FPS "
+            f"(at {info.fps / 2:.4g} fps it moves at {speed_mps / 2:.2f} m/s, Froude {fr / 4:.2f})")
 
 
 def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
-                 up: str | None = None, positions: str | None = None) -> dict[str, Any]:
+                 up: str | None = None, positions: str | None = None, fps: float | None = None) -> dict[str, Any]:
     """Facts about the BVH file at ``path``: what reading it found (:meth:`BVHInfo.to_dict`: joints,
     frames, fps, rotation orders, position channels, unit, height, up axis, line endings) plus
     ``duration_s`` (s), ``joint_names``, and the root's horizontal travel in the project frame:
     ``root_path_m`` (m, along the path), ``root_displacement_m`` (m, first frame to last) and
     ``root_speed_mps`` (m/s, path over duration). ``scale`` (metres per file unit or a unit name) and
-    ``up`` (``"y"`` or ``"z"``) override the guesses. It is read as ``bipedsim run`` reads it for the
-    body it builds (``body``: the kind measured from the skeleton, None where none can be told); a walk
-    in place or a short walk cycle also gets ``walked_speed_mps`` (its travel rebuilt from its feet) and
-    ``walked_note`` (what was done)."""
+    ``up`` (``"y"`` or ``"z"``) override the guesses, ``fps`` the file's frame rate. It is read as
+    ``bipedsim run`` reads it for the body it builds (``body``: the kind measured from the skeleton, None
+    where none can be told); a walk in place or a short walk cycle also gets ``walked_speed_mps`` (its
+    travel rebuilt from its feet) and ``walked_note`` (what was done); a humanoid clip faster than people
+    walk gets ``pace_note`` (:func:`pace_note`)."""
     from bipedsim.errors import BipedsimError, ModelError
     from bipedsim.model.creature_kind import read_for_body
     from bipedsim.model.gait import motion_for_body
 
     built = None
     try:
-        raw, info, m, body = read_for_body(path, scale=scale, up=up, positions=positions)
+        raw, info, m, body = read_for_body(path, scale=scale, up=up, positions=positions, fps=fps)
     except ModelError:  # no body kind can be told: the file as read, its body unknown
-        motion, info = read_bvh(path, scale=scale, up=up, positions=positions)
+        motion, info = read_bvh(path, scale=scale, up=up, positions=positions, fps=fps)
         m, body = motion.to_project_frame(), None
     try:  # as `bipedsim run` prepares it: a loop repeated, a walk in place given its travel back
         built = motion_for_body(raw, m, body, info.notes) if body is not None else None
@@ -58,6 +86,9 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
     if built is not None and made and built.duration > 0:
         d["walked_speed_mps"] = travel(built)[0] / built.duration
         d["walked_note"] = "; ".join(made)
+    pace = pace_note(d.get("walked_speed_mps", d["root_speed_mps"]), info) if body == "humanoid" else None
+    if pace:
+        d["pace_note"] = pace
     return d
 
 
@@ -68,8 +99,9 @@ def format_description(d: dict[str, Any]) -> str:
     lines = [
         f"file        {d['path']}",
         f"joints      {d['num_joints']}  (end sites: {d['end_sites']})",
-        f"frames      {d['num_frames']} at {d['fps']:.4g} fps (frame time {d['frame_time']:.6g} s), "
-        f"duration {d['duration_s']:.3f} s",
+        f"frames      {d['num_frames']} at {d['fps']:.4g} fps (frame time {d['frame_time']:.6g} s"
+        + (f", given; the file's {d['file_frame_time']:.6g} s" if d.get("frame_time_source") == "given" else "")
+        + f"), duration {d['duration_s']:.3f} s",
         f"rotations   {orders}",
     ]
     if six:
@@ -87,6 +119,7 @@ def format_description(d: dict[str, Any]) -> str:
         f"root        path {d['root_path_m']:.3f} m, net {d['root_displacement_m']:.3f} m, "
         f"speed {d['root_speed_mps']:.3f} m/s",
         *([f"walks       {d['walked_speed_mps']:.3f} m/s ({d['walked_note']})"] if "walked_speed_mps" in d else []),
+        *([f"pace        {d['pace_note']}"] if d.get("pace_note") else []),
         f"text        line endings {d['line_endings']}, final newline {'yes' if d['final_newline'] else 'no'}",
     ]
     return "\n".join(lines)

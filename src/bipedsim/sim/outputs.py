@@ -20,12 +20,13 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.reference import clip_speed, describe_clip
+from bipedsim.control.reference import clip_speed, describe_clip, step_time
 from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_text, check_output_file, prepare_output_dir, progress_bar, remove_stale
 from bipedsim.model.build import check_total_mass
 from bipedsim.model.humanoid import toes_note
+from bipedsim.motion.describe import pace_note
 from bipedsim.render.gl import RenderError
 from bipedsim.render.plots import PLOT_FILES, plot_run
 from bipedsim.render.video import (
@@ -228,7 +229,8 @@ def render_folder(folder: PathLike, output: PathLike | None = None, video_option
 # ---------------------------------------------------------------------- the whole run
 def check_run_options(*, profile: str | None = None, support: bool = False, bvh: PathLike | None = None,
                       scale: float | str | None = None, up: str | None = None, init_noise: float = 0.0,
-                      seed: int = 0, positions: str | None = None, mass: float | None = None) -> None:
+                      seed: int = 0, positions: str | None = None, mass: float | None = None,
+                      fps: float | None = None) -> None:
     """Refuse run options that would be ignored or meaningless, before anything runs: each error names
     the flag and what is allowed. Ranges of the run length and pushes are checked by
     :func:`~bipedsim.sim.push.check_pushes`, the video options by :meth:`VideoOptions.validate`."""
@@ -236,7 +238,8 @@ def check_run_options(*, profile: str | None = None, support: bool = False, bvh:
         raise ConfigError("holds a creature's root; it needs --profile creature", key="--support")
     if bvh is None:
         for flag, value, what in (("--scale", scale, "unit"), ("--up", up, "up axis"),
-                                  ("--positions", positions, "position-channel mode")):
+                                  ("--positions", positions, "position-channel mode"),
+                                  ("--clip-fps", fps, "frame rate")):
             if value is not None:
                 raise ConfigError(f"sets the {what} of a --bvh file; the built-in walk's {what} is known "
                                   f"(give --bvh FILE or drop {flag})", key=flag)
@@ -262,7 +265,8 @@ def found_lines(sc: Scenario) -> list[str]:
         notes.append(f"body: {toes}")
     if "feasible" in sc.extra:
         notes.append("reference: legs made feasible for the body (" + "; ".join(sc.extra["feasible"]) + ")")
-    return notes + scaled + describe_clip(sc.clip, sc.built.model, sc.built.plan)
+    pace = pace_note(clip_speed(sc.clip), sc.bvh_info, step_time(sc.clip))
+    return notes + scaled + describe_clip(sc.clip, sc.built.model, sc.built.plan) + ([f"pace: {pace}"] if pace else [])
 
 
 def check_run_length(seconds: float, timestep: float) -> None:
@@ -319,6 +323,7 @@ def _timed_bar(seconds: float, show: bool) -> tuple[Callable[[float], None], Cal
 def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLike | None = None,
                   seconds: float = 10.0, seed: int = 0, init_noise: float = 0.0, mass: float | None = None,
                   scale: float | str | None = None, up: str | None = None, positions: str | None = None,
+                  fps: float | None = None,
                   events: PathLike | None = None, profile: str | None = None, support: bool = False,
                   record_hz: float = DEFAULT_RECORD_HZ, pushes: Sequence[str | Push] = (),
                   plots: bool = False, csv: PathLike | None = None, export_bvh: PathLike | None = None,
@@ -326,7 +331,7 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
                   video_options: VideoOptions | None = None, progress: bool = False,
                   say: Callable[[str], None] | None = None) -> RunResult:
     """Everything ``bipedsim run`` does: track the reference (``bvh``, else the built-in walk; its
-    ``scale``, ``up``, ``positions``: see :func:`~bipedsim.motion.bvh.read_bvh`; ``events``: a YAML of
+    ``scale``, ``up``, ``positions``, ``fps``: see :func:`~bipedsim.motion.bvh.read_bvh`; ``events``: a YAML of
     foot strikes given by hand, :func:`~bipedsim.model.gait.load_events`) with the controller
     YAML ``config`` on the ``profile`` body (``mass`` in kg;
     ``support``: hold a creature's root) for ``seconds`` (simulated s) from ``seed`` (``init_noise``:
@@ -342,12 +347,12 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     say = say or (lambda line: None)
     options = video_options or VideoOptions()
     check_run_options(profile=profile, support=support, bvh=bvh, scale=scale, up=up, init_noise=init_noise,
-                      seed=seed, positions=positions, mass=mass)
+                      seed=seed, positions=positions, mass=mass, fps=fps)
     options.validate()
     pushes = [p if isinstance(p, Push) else Push.parse(p) for p in pushes]
     check_pushes(pushes, seconds)  # the run length too, before anything is built
     sc = runner.load_scenario(config, bvh, scale=scale, up=up, mass=mass, profile=profile, support=support,
-                              positions=positions, events=events)
+                              positions=positions, events=events, fps=fps)
     check_run_length(seconds, sc.built.model.opt.timestep)
     for line in found_lines(sc):
         say(line)

@@ -77,12 +77,14 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
                   bvh: str | os.PathLike[str] | None = None, *,
                   scale: float | str | None = None, up: str | None = None, mass: float | None = None,
                   profile: str | None = AUTO, support: bool = False, positions: str | None = None,
-                  events: str | os.PathLike[str] | None = None) -> Scenario:
+                  events: str | os.PathLike[str] | None = None, fps: float | None = None) -> Scenario:
     """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
     retargeted onto it (``auto``: the kind measured from the skeleton, :func:`resolve_profile`). A
     controller YAML (or its settings, a :class:`ControllerConfig`) configures the humanoid's controller and
     how its reference is prepared (``reference:``), its ``creature:`` section a creature's controller;
-    ``support`` (root support, or the section's ``support``) is a creature's."""
+    ``support`` (root support, or the section's ``support``) is a creature's. ``scale``, ``up``,
+    ``positions`` and ``fps`` (the capture's frame rate) say how to read ``bvh``
+    (:func:`~bipedsim.motion.bvh.read_bvh`)."""
     from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
     from bipedsim.motion.bvh import read_bvh
 
@@ -95,7 +97,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     motion = info = None
     if bvh is not None:
         raw, info, motion, profile = read_for_build(bvh, scale=scale, up=up, positions=positions, profile=profile,
-                                                    support=support, creature_support=cfg.creature.support)
+                                                    support=support, creature_support=cfg.creature.support, fps=fps)
         if profile == "creature":
             support = support or cfg.creature.support
     if profile != "creature" and support:
@@ -182,9 +184,18 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
                   "reference": sc.source_path, "model": sc.built.plan.name, "model_hash": sc.built.hash,
                   "seconds": spec.seconds, "fall": to_dict(spec.fall), "init_noise": spec.init_noise,
                   "timestep_s": float(sc.built.model.opt.timestep),
-                  "pushes": [to_dict(p) for p in (pushes or [])]}
+                  "pushes": [to_dict(p) for p in (pushes or [])], "reading": reading_record(sc.bvh_info)}
     out.versions = versions()
     return out, ctrl
+
+
+def reading_record(info: Any) -> dict[str, Any] | None:
+    """How the reference's BVH file was read (unit, up axis, frame rate, each with where it came from),
+    for a run's recorded config: a file read another way is another reference."""
+    if info is None:
+        return None
+    return {"unit_m_per_unit": info.unit_scale, "unit": info.unit_source, "up": info.up, "up_source": info.up_source,
+            "fps": info.fps, "fps_source": info.frame_time_source}
 
 
 #: the initial velocity noise (rad/s, m/s; standard deviation) of seeds 1.. in :func:`run_seeds`:

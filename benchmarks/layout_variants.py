@@ -21,6 +21,8 @@ Variants (each one change from the file as read):
 - ``in_place``: the travelling joint's horizontal translation held at its first frame (a walk in place,
   as game-animation exports often are);
 - ``mirrored``: left and right exchanged;
+- ``side_names``: the joints' side names exchanged (``Left``/``Right``, ``L``/``R`` prefixes, ``_L``/``.R``
+  suffixes), the geometry kept: a skeleton named from the viewer's side, or a mirrored capture;
 - ``turning``: bent into a steady 15 deg/s turn (the root's heading and its steps turned with time);
 - ``six_channels``: every joint with 3 position channels (holding its OFFSET) before its rotations;
 - ``cycle``: one gait cycle (the loop ``bipedsim run`` plays, both strikes' frames kept) in place, as a
@@ -31,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import re
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -114,6 +117,17 @@ def _six_channels(m: Motion) -> Motion:
     return m.copy(skeleton=new_sk, translations=m.local_translations())
 
 
+_SIDE_WORDS = re.compile(r"Left|Right|left|right|LEFT|RIGHT|(?<![A-Za-z])[LRlr](?=[A-Z])|(?<=[_.])[LRlr](?![A-Za-z])")
+_OTHER_SIDE = {"Left": "Right", "Right": "Left", "left": "right", "right": "left", "LEFT": "RIGHT", "RIGHT": "LEFT",
+               "L": "R", "R": "L", "l": "r", "r": "l"}
+
+
+def _side_names(m: Motion) -> Motion:
+    """The same motion with each joint name's side word exchanged (the skeleton's geometry kept)."""
+    names = tuple(_SIDE_WORDS.sub(lambda x: _OTHER_SIDE[x.group(0)], n) for n in m.skeleton.names)
+    return m.copy(skeleton=m.skeleton.replace(names=names))
+
+
 def variants(m: Motion, path: str | None = None) -> dict[str, Callable[[], Motion]]:
     """The layouts of ``m`` (as read), by name; each made only when called."""
     out: dict[str, Callable[[], Motion]] = {}
@@ -128,6 +142,7 @@ def variants(m: Motion, path: str | None = None) -> dict[str, Callable[[], Motio
     out["static_root"] = lambda: add_static_root(m)
     out["in_place"] = lambda: _in_place(m)
     out["mirrored"] = lambda: m.mirrored()
+    out["side_names"] = lambda: _side_names(m)
     out["turning"] = lambda: _turning(m)
     out["six_channels"] = lambda: _six_channels(m)
     if path is not None:

@@ -41,6 +41,7 @@ class BuiltModel:
                 "total_mass_kg": float(np.sum(m.body_mass)), "height_m": float(top),
                 "mass_from_legs": self.plan.extra.get("mass_from_legs"),
                 "toes_without_tip": self.plan.extra.get("toes_without_tip"),
+                "sides_from_geometry": self.plan.extra.get("sides_from_geometry"),
                 "timestep_s": float(m.opt.timestep), "hash": self.hash}
 
     def write(self, path: str | os.PathLike[str]) -> None:

@@ -11,7 +11,7 @@ from bipedsim.io import check_output_file
 from bipedsim.model.build import build_model, check_total_mass
 from bipedsim.model.creature_kind import AUTO
 from bipedsim.model.gait import read_for_build
-from bipedsim.model.humanoid import toes_note
+from bipedsim.model.humanoid import sides_note, toes_note
 from bipedsim.model.naming import load_map
 from bipedsim.model.profile import HumanoidProfile, load_profile
 from bipedsim.model.retarget import retarget
@@ -77,6 +77,6 @@ def format_convert_summary(summary: dict[str, Any]) -> str:
         c = s["clip"]
         lines.append(f"wrote {c['path']}: {c['frames']} frames, foot strikes {c['strikes']}"
                      + (f", dropped {c['trimmed_frames']} leading glitch frame(s)" if c["trimmed_frames"] else ""))
-    toes = toes_note(s)
-    lines += [f"note: {n}" for n in [*s.get("notes", []), *([toes] if toes else [])]]
+    body = [n for n in (sides_note(s), toes_note(s)) if n]
+    lines += [f"note: {n}" for n in [*s.get("notes", []), *body]]
     return "\n".join(lines)

@@ -107,6 +107,68 @@ def _capsule(a: FloatArray, b: FloatArray, origin: FloatArray, radius: float, ma
     return GeomPlan(kind="capsule", size=[radius], fromto=[*(a - origin), *(b - origin)], mass=mass)
 
 
+#: The named sides are taken as mirrored when every strong piece of evidence of where the legs face
+#: points the other way from the hips' named sides by more than this (a cosine; real skeletons measure
+#: +0.39 to +1.00 for the knees and +0.61 to +1.00 for the feet, a skeleton with its side names swapped
+#: -0.92 to -0.99).
+MIRRORED_SIDES_COS = -0.5
+#: The knees' bend is evidence when they leave the hip-ankle line by at least this much on average (m):
+#: a motion with straight legs (a T-pose, a stand) says nothing about where its knees point.
+MIN_KNEE_BEND_M = 0.03
+
+
+def side_evidence(moving: SourcePoints, hm: HumanoidMap) -> dict[str, float]:
+    """How well the legs agree with the hips' named sides, over the motion ``moving`` (project frame, Z
+    up): with forward the named left hip minus the right, crossed with up, ``knee`` is the mean cosine
+    between forward and where the knees leave the hip-ankle line (weighted by how far), ``foot`` the
+    same for the feet (ankle to toe, or to the ankle's end site), both horizontal; +1: the names' forward,
+    -1: the opposite. A value is left out when the motion cannot tell (straight knees, no foot point);
+    ``knee_bend_m`` is the knees' mean distance from the hip-ankle line."""
+    legs = hm.legs
+    left = moving[legs["left"]["thigh"]] - moving[legs["right"]["thigh"]]  # type: ignore[index]
+    fwd = np.cross(left, [0.0, 0.0, 1.0])
+    fwd[..., 2] = 0.0
+    fwd /= np.linalg.norm(fwd, axis=-1, keepdims=True) + 1e-12
+    knee = [0.0, 0.0]
+    foot = [0.0, 0.0]
+    for leg in legs.values():
+        h, k, a = moving[leg["thigh"]], moving[leg["knee"]], moving[leg["ankle"]]  # type: ignore[index]
+        u = (a - h) / (np.linalg.norm(a - h, axis=-1, keepdims=True) + 1e-12)
+        e = (k - h) - np.sum((k - h) * u, axis=-1, keepdims=True) * u
+        e[..., 2] = 0.0
+        knee[0] += float(np.sum(e * fwd))
+        knee[1] += float(np.sum(np.linalg.norm(e, axis=-1)))
+        ends = [n for n in moving.names if n.startswith(f"{leg['ankle']}/end")]
+        tip = leg["toe"] or (ends[0] if ends else None)
+        if tip is not None:
+            d = moving[tip] - a
+            d[..., 2] = 0.0
+            foot[0] += float(np.sum(d * fwd))
+            foot[1] += float(np.sum(np.linalg.norm(d, axis=-1)))
+    frames = max(1, int(np.prod(fwd.shape[:-1])))
+    out = {"knee_bend_m": knee[1] / (2 * frames)}
+    if out["knee_bend_m"] >= MIN_KNEE_BEND_M:
+        out["knee"] = knee[0] / knee[1]
+    if foot[1] > 1e-9:
+        out["foot"] = foot[0] / foot[1]
+    return out
+
+
+def mirrored_sides(evidence: dict[str, float]) -> bool:
+    """Whether the legs face away from the hips' named sides (:func:`side_evidence`): every piece of
+    evidence there is below :data:`MIRRORED_SIDES_COS`, and there is some."""
+    found = [evidence[k] for k in ("knee", "foot") if k in evidence]
+    return bool(found) and all(c < MIRRORED_SIDES_COS for c in found)
+
+
+def _swap_sides(hm: HumanoidMap) -> HumanoidMap:
+    """The same roles with left and right exchanged (legs, and arms where there are both)."""
+    legs = {"left": hm.legs["right"], "right": hm.legs["left"]}
+    arms = {"left": hm.arms["right"], "right": hm.arms["left"]} if len(hm.arms) == 2 else hm.arms
+    return HumanoidMap(pelvis=hm.pelvis, torso_base=hm.torso_base, chest=hm.chest, neck=hm.neck, head=hm.head,
+                       legs=legs, arms=arms)
+
+
 def _facing_yaw(pts: SourcePoints, hm: HumanoidMap) -> float:
     """Yaw (rad) about +z that turns the rest pose to face +x (from the hips: forward = left x up)."""
     left = pts[hm.legs["left"]["thigh"]] - pts[hm.legs["right"]["thigh"]]  # type: ignore[index]
@@ -367,6 +429,20 @@ def toes_note(extra: dict[str, Any]) -> str | None:
             f"{t['foot_length_share']:g})")
 
 
+def sides_note(extra: dict[str, Any]) -> str | None:
+    """The line saying a body's left and right were taken from where its legs face, not from its joint
+    names (a body plan's ``extra``, or a build summary); None when the names' sides were kept."""
+    s = extra.get("sides_from_geometry")
+    if not s:
+        return None
+    parts = [(w, s[k]) for k, w in (("knee", "knees bend"), ("foot", "feet point")) if k in s]
+    how = " and ".join(w for w, _ in parts)
+    cos = " and ".join(f"{c:+.2f}" for _, c in parts)
+    return (f"the skeleton's side names are mirrored: with its named left hip on its left, its {how} backward "
+            f"(cosine {cos} with that forward); {s['named_left']!r} is built as the right leg and "
+            f"{s['named_right']!r} as the left (give a mapping YAML with --map to name the sides yourself)")
+
+
 def mass_from_legs(leg_length: float, profile: HumanoidProfile) -> float:
     """A person's mass (kg) for legs ``leg_length`` m long (hip to ankle): the height the legs are
     ``profile.leg_share`` of, at the body-mass index ``profile.mass_bmi`` (kg/m^2)."""
@@ -408,8 +484,18 @@ class _HumanoidBuilder:
         self.skel = motion.skeleton
         self.profile = profile
         self.geometry = profile.geometry
+        #: the evidence on which the named sides were exchanged (None: they were kept)
+        self.sides_note: dict[str, Any] | None = None
+        moving = motion_points(motion)
         try:
             self.hm = recognise_humanoid(motion.skeleton, mapping)
+            if mapping is None:  # sides from names: checked against where the legs face
+                ev = side_evidence(moving, self.hm)
+                if mirrored_sides(ev):
+                    left, right = self.hm.legs["left"]["thigh"], self.hm.legs["right"]["thigh"]
+                    self.hm = _swap_sides(self.hm)
+                    self.sides_note = {"named_left": left, "named_right": right,
+                                       **{k: round(v, 2) for k, v in ev.items()}}
         except ModelError:
             derived = map_from_roles(motion) if mapping is None else None
             if derived is None:
@@ -419,7 +505,7 @@ class _HumanoidBuilder:
         pts0 = rest_points(motion)
         self.yaw = _facing_yaw(pts0, self.hm)
         self.rest = pts0.turned(self.yaw)
-        self.moving = motion_points(motion).turned(self.yaw)
+        self.moving = moving.turned(self.yaw)
         self.bodies: list[BodyPlan] = []
         self.markers: dict[str, list[str]] = {}
         self.q: dict[str, FloatArray] = {}
@@ -803,7 +889,8 @@ class _HumanoidBuilder:
                            source_names=self.source_names, sim=asdict(self.profile.sim),
                            extra={"markers": self.markers, "roles": asdict(self.hm), "rest_lift": lift,
                                   **({"mass_from_legs": self.mass_note} if self.mass_note else {}),
-                                  **({"toes_without_tip": self.toe_note} if self.toe_note else {})})
+                                  **({"toes_without_tip": self.toe_note} if self.toe_note else {}),
+                                  **({"sides_from_geometry": self.sides_note} if self.sides_note else {})})
 
 
 def _sole_box(prefix: str, half: list[float], centre: FloatArray, sole: float, frame: FloatArray,

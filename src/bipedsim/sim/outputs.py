@@ -25,7 +25,7 @@ from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_text, check_output_file, prepare_output_dir, progress_bar, remove_stale
 from bipedsim.model.build import check_total_mass
-from bipedsim.model.humanoid import toes_note
+from bipedsim.model.humanoid import sides_note, toes_note
 from bipedsim.motion.describe import pace_note
 from bipedsim.render.gl import RenderError
 from bipedsim.render.plots import PLOT_FILES, plot_run
@@ -260,9 +260,7 @@ def found_lines(sc: Scenario) -> list[str]:
     if sc.bvh_info is None or sc.source_path == str(BUILTIN_WALK):
         return scaled
     notes = [f"note: {n}" for n in [sc.bvh_info.reading_note, *sc.bvh_info.notes] if n]
-    toes = toes_note(sc.built.plan.extra)
-    if toes:
-        notes.append(f"body: {toes}")
+    notes += [f"body: {n}" for n in (sides_note(sc.built.plan.extra), toes_note(sc.built.plan.extra)) if n]
     if "feasible" in sc.extra:
         notes.append("reference: legs made feasible for the body (" + "; ".join(sc.extra["feasible"]) + ")")
     pace = pace_note(clip_speed(sc.clip), sc.bvh_info, step_time(sc.clip))

@@ -603,3 +603,39 @@ def test_froude_scheduled_cd_lets_a_fast_capture_stride_out() -> None:
     out0, _ = run_scenario(replace(sc, cfg=off), RolloutSpec(seconds=20.0))
     assert out0.outcome == "no_fall" and out0.mean_speed_mps < 0.6 * v_clip, out0.mean_speed_mps
     assert load_scenario(None).controller()._cd_sagittal == 0.55
+
+
+@pytest.mark.parametrize("mode", ["off", "swing_hip", "all"])
+def test_net_torque_limit_bounds_actuator_and_damping_together(mode: str, monkeypatch) -> None:
+    """``pd.net_limit`` (opt-in; docs/controller.md, *The swing's speed limit*): the implicit damping
+    -kd qdot acts beside the actuator, so a joint driven at its torque limit tops out at limit / kd. With
+    the net limit, while a joint is driven the way it moves, the actuator may give up to limit + kd |qdot|,
+    and actuator less damping stays within the limit; braking is bounded as before. Off, no torque
+    passes the limit."""
+    import dataclasses
+
+    need_shared()
+    rec: list = []
+    call = Controller.__call__
+
+    def spy(self, model, data, t, dt):  # type: ignore[no-untyped-def]
+        out = call(self, model, data, t, dt)
+        rec.append((self.torque.copy(), self._akd * data.qvel[self._dsel], self.limit.copy(), self.fsm.swing,
+                    self.hip[self.fsm.swing][0].tolist()))
+        return out
+
+    monkeypatch.setattr(Controller, "__call__", spy)
+    cfg = load_controller(None)
+    cfg = dataclasses.replace(cfg, pd=dataclasses.replace(cfg.pd, net_limit=mode))
+    sc = load_scenario(cfg, SHARED_BVH / "human" / "bandai2_walk_exhausted_001.bvh")
+    run_scenario(sc, RolloutSpec(seconds=1.5, seed=0))
+    over = 0
+    for tq, damp, lim, _swing, hips in rec:
+        driving = tq * damp > 0
+        assert np.all(np.abs(tq - damp)[driving] <= lim[driving] + 1e-6)
+        assert np.all(np.abs(tq)[~driving] <= lim[~driving] + 1e-6)  # braking: the limit as before
+        past = np.abs(tq) > lim + 1e-6
+        over += int(past.sum())
+        if mode == "swing_hip":
+            assert set(np.flatnonzero(past)) <= set(hips)  # only the swing hip's hinges
+    assert (over == 0) if mode == "off" else (over > 20)

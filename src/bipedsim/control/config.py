@@ -63,6 +63,13 @@ class PDConfig:
     #: even when the controller runs less often (``control_dt``). At ``control_dt`` = the timestep
     #: this is exactly the torque law; ``false``: plain torque motors, held between control steps.
     servo: bool = True
+    #: with implicit damping, which joints' torque limits bound their net drive, actuator and damping
+    #: together, while the joint is driven the way it moves (the actuator may give up to limit + kd
+    #: |theta_dot|, of which the damping takes kd |theta_dot|): ``all``, ``swing`` (the swing leg's hip and
+    #: knee), ``swing_hip``; ``off``: the limit bounds the actuator alone, so a joint driven at its limit tops
+    #: out at limit / kd (366 / 91 = 4 rad/s for a 58 kg body's hip and knee). Measured, off by default
+    #: (docs/controller.md, "The swing's speed limit")
+    net_limit: str = field(default="off", metadata={"choices": ("off", "swing", "swing_hip", "all")})
     #: feedforward: hold every swinging part against gravity (MuJoCo's bias forces) and let the
     #: stance knee and ankle carry their share (gamma) of the body weight (J^T f); not in the paper
     gravity_compensation: bool = True

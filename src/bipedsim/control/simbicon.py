@@ -53,6 +53,9 @@ FloatArray = npt.NDArray[np.float64]
 #: the shortest nominal swing state (s) a phase-timed push assumes when the reference's step is
 #: shorter than ``state1_time`` (a key-pose gait)
 MIN_SWING_STATE_S = 0.05
+#: With ``pd.net_limit``: the joint speed (rad/s) up to which a servo's force range leaves room for the
+#: damping's share beside the torque limit.
+NET_LIMIT_SPEED = 20.0
 #: the order of the feet in recordings (trajectory.npz's contact_force columns)
 FOOT_ORDER = ("left", "right")
 
@@ -224,6 +227,10 @@ class SimbiconController(Controller):
         self._leg_dofs = {s: _as_slice(self.hinges.dadr[self.leg_low[s]]) for s in SIDES}
         self._leg_low = {s: _as_slice(self.leg_low[s]) for s in SIDES}
         self._neg_limit = -self.limit
+        self._net_limit = cfg.pd.net_limit != "off" and self.implicit
+        self._net_swing = cfg.pd.net_limit in ("swing", "swing_hip")
+        self._net_joints = ({sd: self.hip[sd][0].tolist() for sd in SIDES} if cfg.pd.net_limit == "swing_hip"
+                            else {sd: [*self.hip[sd][0].tolist(), self.knee[sd]] for sd in SIDES})
         self._all_servo = bool(np.all(self.servo))
         self._ref_vel = cfg.pd.mode == "pd_ref_velocity"
         self._fade_on = cfg.fade.enabled
@@ -298,8 +305,11 @@ class SimbiconController(Controller):
             model.actuator_biasprm[acts] = 0.0
             model.actuator_ctrllimited[acts] = 0
             model.actuator_forcelimited[acts] = 1
-            model.actuator_forcerange[acts, 0] = -self.limit
-            model.actuator_forcerange[acts, 1] = self.limit
+            # with net limits the controller clamps each torque (see __call__); the servo's own range
+            # leaves room for the damping's share at up to NET_LIMIT_SPEED rad/s
+            room = self.kd * NET_LIMIT_SPEED if self._net_limit else 0.0
+            model.actuator_forcerange[acts, 0] = -self.limit - room
+            model.actuator_forcerange[acts, 1] = self.limit + room
         else:
             model.actuator_ctrlrange[acts, 0] = -self.limit
             model.actuator_ctrlrange[acts, 1] = self.limit
@@ -533,7 +543,19 @@ class SimbiconController(Controller):
         if cfg.balance.enabled:
             self._dt = dt
             self._balance(data, q, qd, q_d, qd_d, tau, forces)
-        self.torque = np.minimum(np.maximum(tau, self._neg_limit), self.limit)
+        if self._net_limit:
+            # the limit bounds actuator and damping together while the joint is driven the way it moves
+            damp = self._akd * qd
+            if self._net_swing:  # only the swing leg's hip and knee
+                sw = self._net_joints[fsm.swing]
+                d_sw = damp[sw]
+                damp = np.zeros_like(damp)
+                damp[sw] = d_sw
+            self.torque = np.minimum(np.maximum(tau, self._neg_limit + np.minimum(damp, 0.0)),
+                                     self.limit + np.maximum(damp, 0.0))
+            tau = self.torque
+        else:
+            self.torque = np.minimum(np.maximum(tau, self._neg_limit), self.limit)
         if self.cfg.pd.servo:
             # servo joints: the target that gives this torque now, tau = gain (ctrl - q), and the
             # actuator keeps applying gain (ctrl - q), clamped to the limit, as q moves

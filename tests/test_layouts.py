@@ -229,6 +229,9 @@ def test_side_names_that_contradict_the_legs(name: str, tmp_path: Path) -> None:
     np.testing.assert_allclose(b.built.model.body_pos, a.built.model.body_pos, atol=1e-9)
     np.testing.assert_allclose(b.built.model.jnt_axis, a.built.model.jnt_axis, atol=1e-9)
     np.testing.assert_allclose(b.clip.qpos, a.clip.qpos, atol=1e-6)
+    from bipedsim.motion import describe_bvh
+
+    assert describe_bvh(swapped)["sides_note"] == note and "sides_note" not in describe_bvh(src)  # info says so
 
 
 def test_side_evidence_on_every_shared_human_and_its_rule() -> None:

@@ -161,6 +161,18 @@ def mirrored_sides(evidence: dict[str, float]) -> bool:
     return bool(found) and all(c < MIRRORED_SIDES_COS for c in found)
 
 
+def check_sides(moving: SourcePoints, hm: HumanoidMap) -> tuple[HumanoidMap, dict[str, Any] | None]:
+    """The roles ``hm`` found from names, with left and right exchanged when the legs face away from the
+    named sides over the motion ``moving`` (:func:`mirrored_sides`), and the evidence for
+    :func:`sides_note` (None when the names' sides were kept)."""
+    ev = side_evidence(moving, hm)
+    if not mirrored_sides(ev):
+        return hm, None
+    note = {"named_left": hm.legs["left"]["thigh"], "named_right": hm.legs["right"]["thigh"],
+            **{k: round(v, 2) for k, v in ev.items()}}
+    return _swap_sides(hm), note
+
+
 def _swap_sides(hm: HumanoidMap) -> HumanoidMap:
     """The same roles with left and right exchanged (legs, and arms where there are both)."""
     legs = {"left": hm.legs["right"], "right": hm.legs["left"]}
@@ -490,12 +502,7 @@ class _HumanoidBuilder:
         try:
             self.hm = recognise_humanoid(motion.skeleton, mapping)
             if mapping is None:  # sides from names: checked against where the legs face
-                ev = side_evidence(moving, self.hm)
-                if mirrored_sides(ev):
-                    left, right = self.hm.legs["left"]["thigh"], self.hm.legs["right"]["thigh"]
-                    self.hm = _swap_sides(self.hm)
-                    self.sides_note = {"named_left": left, "named_right": right,
-                                       **{k: round(v, 2) for k, v in ev.items()}}
+                self.hm, self.sides_note = check_sides(moving, self.hm)
         except ModelError:
             derived = map_from_roles(motion) if mapping is None else None
             if derived is None:

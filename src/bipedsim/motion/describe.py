@@ -89,7 +89,27 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
     pace = pace_note(d.get("walked_speed_mps", d["root_speed_mps"]), info) if body == "humanoid" else None
     if pace:
         d["pace_note"] = pace
+    sides = _sides_note(m) if body == "humanoid" else None
+    if sides:
+        d["sides_note"] = sides
     return d
+
+
+def _sides_note(m: Any) -> str | None:
+    """What the humanoid builder will say of a skeleton whose side names contradict its legs
+    (:func:`~bipedsim.model.humanoid.check_sides`), for ``info``; None when they agree or no roles are
+    found by name."""
+    from bipedsim.errors import ModelError
+    from bipedsim.model.humanoid import check_sides, sides_note
+    from bipedsim.model.naming import recognise_humanoid
+    from bipedsim.model.source import motion_points
+
+    try:
+        hm = recognise_humanoid(m.skeleton)
+    except ModelError:
+        return None
+    _, note = check_sides(motion_points(m), hm)
+    return sides_note({"sides_from_geometry": note}) if note else None
 
 
 def format_description(d: dict[str, Any]) -> str:
@@ -120,6 +140,7 @@ def format_description(d: dict[str, Any]) -> str:
         f"speed {d['root_speed_mps']:.3f} m/s",
         *([f"walks       {d['walked_speed_mps']:.3f} m/s ({d['walked_note']})"] if "walked_speed_mps" in d else []),
         *([f"pace        {d['pace_note']}"] if d.get("pace_note") else []),
+        *([f"sides       {d['sides_note']}"] if d.get("sides_note") else []),
         f"text        line endings {d['line_endings']}, final newline {'yes' if d['final_newline'] else 'no'}",
     ]
     return "\n".join(lines)

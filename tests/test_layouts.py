@@ -237,7 +237,8 @@ def test_side_names_that_contradict_the_legs(name: str, tmp_path: Path) -> None:
 def test_side_evidence_on_every_shared_human_and_its_rule() -> None:
     """Every shared human file's legs face the way its names say (knees where they bend +0.39 to +1.00,
     feet +0.61 to +1.00, except the BVH spec sample's backward end sites, which the knees outvote);
-    the rule swaps only on agreeing evidence below -0.5, and straight knees are no evidence."""
+    the rule swaps only when the knees bend backward of the named forward (below -0.5) and the feet, where
+    measured, agree; straight knees (a T-pose, a stand) leave the names as they are."""
     from bipedsim.model.humanoid import MIN_KNEE_BEND_M, mirrored_sides, side_evidence
     from bipedsim.model.naming import recognise_humanoid
     from bipedsim.model.source import motion_points
@@ -257,5 +258,6 @@ def test_side_evidence_on_every_shared_human_and_its_rule() -> None:
             assert ev["knee"] > 0.9, (f.name, ev)
     assert mirrored_sides({"knee": -0.9, "foot": -0.8, "knee_bend_m": 0.1})
     assert not mirrored_sides({"knee": 0.95, "foot": -0.86, "knee_bend_m": 0.19})  # the spec sample
-    assert mirrored_sides({"foot": -0.9, "knee_bend_m": MIN_KNEE_BEND_M / 2})  # straight knees: the feet decide
+    assert not mirrored_sides({"foot": -0.9, "knee_bend_m": MIN_KNEE_BEND_M / 2})  # straight knees: kept
     assert not mirrored_sides({"knee_bend_m": 0.0})
+    assert not mirrored_sides({"knee": -0.9, "foot": 0.8, "knee_bend_m": 0.1})  # the feet disagree

@@ -107,10 +107,9 @@ def _capsule(a: FloatArray, b: FloatArray, origin: FloatArray, radius: float, ma
     return GeomPlan(kind="capsule", size=[radius], fromto=[*(a - origin), *(b - origin)], mass=mass)
 
 
-#: The named sides are taken as mirrored when every strong piece of evidence of where the legs face
-#: points the other way from the hips' named sides by more than this (a cosine; real skeletons measure
-#: +0.39 to +1.00 for the knees and +0.61 to +1.00 for the feet, a skeleton with its side names swapped
-#: -0.92 to -0.99).
+#: The named sides are taken as mirrored when the knees (and the feet, where measured) face the other
+#: way from the hips' named sides by more than this (a cosine; real skeletons measure +0.39 to +1.00 for
+#: the knees and +0.61 to +1.00 for the feet, a skeleton with its side names swapped -0.92 to -0.99).
 MIRRORED_SIDES_COS = -0.5
 #: The knees' bend is evidence when they leave the hip-ankle line by at least this much on average (m):
 #: a motion with straight legs (a T-pose, a stand) says nothing about where its knees point.
@@ -155,10 +154,13 @@ def side_evidence(moving: SourcePoints, hm: HumanoidMap) -> dict[str, float]:
 
 
 def mirrored_sides(evidence: dict[str, float]) -> bool:
-    """Whether the legs face away from the hips' named sides (:func:`side_evidence`): every piece of
-    evidence there is below :data:`MIRRORED_SIDES_COS`, and there is some."""
-    found = [evidence[k] for k in ("knee", "foot") if k in evidence]
-    return bool(found) and all(c < MIRRORED_SIDES_COS for c in found)
+    """Whether the legs face away from the hips' named sides (:func:`side_evidence`): the knees bend
+    backward of the named forward (below :data:`MIRRORED_SIDES_COS`) and the feet, where measured, point
+    backward too. Without bent knees nothing is exchanged: a foot's end site alone can point back (the BVH
+    specification's sample), and a body left as named is no worse than the file says."""
+    if evidence.get("knee", 1.0) >= MIRRORED_SIDES_COS:
+        return False
+    return evidence.get("foot", -1.0) < MIRRORED_SIDES_COS
 
 
 def check_sides(moving: SourcePoints, hm: HumanoidMap) -> tuple[HumanoidMap, dict[str, Any] | None]:

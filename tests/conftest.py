@@ -98,6 +98,23 @@ def toes_as_measured() -> Iterator[None]:
         builder.toe_length_without_tip = saved  # type: ignore[method-assign]
 
 
+def swing_as_measured(cfg: ControllerConfig) -> ControllerConfig:
+    """``cfg`` with the swing as it was before session 14 -- the hips' torque limits on the actuator alone
+    (``pd.net_limit: off``, so a hip driven at its limit tops out at limit / kd) and the sagittal c_v 0.2
+    (scaled to the body as the rest: the ratio to the default's 0.15) -- where the counterfactual tests of
+    the step tempo, the velocity tuning, the Froude-scheduled c_d, the sync and the course law were
+    measured. With the swing hip's net limit the swing reaches its reference, and some of those contrasts
+    no longer fail on their weaker side (docs/controller.md, *The swing's speed limit*)."""
+    from dataclasses import replace
+
+    from bipedsim.control.config import ControllerConfig
+
+    default = ControllerConfig().balance.sagittal.cv
+    sag = cfg.balance.sagittal
+    return replace(cfg, pd=replace(cfg.pd, net_limit="off"),
+                   balance=replace(cfg.balance, sagittal=replace(sag, cv=sag.cv * 0.2 / default)))
+
+
 def torso_as_measured(cfg: ControllerConfig) -> ControllerConfig:
     """``cfg`` with the torso law as it was before session 12 -- damping 100 (scaled to the body as the
     rest: the ratio to the default's 175) and the stance foot's yaw limit 0.35 rad -- where the

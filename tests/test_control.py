@@ -7,7 +7,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared, toes_as_measured, torso_as_measured, without_modulation
+from conftest import (
+    SHARED_BVH,
+    need_shared,
+    swing_as_measured,
+    toes_as_measured,
+    torso_as_measured,
+    without_modulation,
+)
 from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
@@ -476,7 +483,7 @@ def test_tempo_recovers_forward_pushes_late_in_the_swing(request, direction: flo
     assert scenario.cfg.fsm.tempo.gain > 0
     push = [Push(_as_on_64kg(scenario), direction, 0.2, state=state, fraction=0.5)]
     out = {}
-    before = torso_as_measured(scenario.cfg)
+    before = swing_as_measured(torso_as_measured(scenario.cfg))
     for name, tempo in (("off", TempoConfig(gain=0.0)), ("tempo", scenario.cfg.fsm.tempo)):
         cfg = replace(before, fsm=replace(before.fsm, tempo=tempo))
         out[name], _ = run_scenario(replace(scenario, cfg=cfg), RolloutSpec(seconds=6.0), pushes=push)
@@ -546,8 +553,10 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles
     written = load_controller(None)  # the override scaled to the body with the rest of the settings
     raw = settings_for(sc, replace(written, balance=replace(written.balance, velocity=VelocityConfig(
         kv_sagittal=50.0, filter_s=0.0))))
-    out_raw, _ = run_scenario(replace(sc, cfg=torso_as_measured(raw)), RolloutSpec(seconds=6.0), pushes=push)
-    out_def, _ = run_scenario(replace(sc, cfg=torso_as_measured(sc.cfg)), RolloutSpec(seconds=6.0), pushes=push)
+    out_raw, _ = run_scenario(replace(sc, cfg=swing_as_measured(torso_as_measured(raw))), RolloutSpec(seconds=6.0),
+                              pushes=push)
+    out_def, _ = run_scenario(replace(sc, cfg=swing_as_measured(torso_as_measured(sc.cfg))), RolloutSpec(seconds=6.0),
+                              pushes=push)
     assert out_raw.outcome == "fall"
     assert out_def.outcome == "no_fall"
 
@@ -566,7 +575,7 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     need_shared()
     with toes_as_measured():  # as measured (with today's toes, on these old settings, it falls at 5.4-19.6 s with it)
         sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
-    sc = replace(sc, cfg=torso_as_measured(without_modulation(sc.cfg)))  # as measured; today's: 0.67-0.70 without it
+    sc = replace(sc, cfg=swing_as_measured(torso_as_measured(without_modulation(sc.cfg))))  # as measured
     v_clip = clip_speed(sc.clip)
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, velocity=replace(sc.cfg.balance.velocity, kv_sagittal=0.0)))
 
@@ -593,7 +602,7 @@ def test_froude_scheduled_cd_lets_a_fast_capture_stride_out() -> None:
 
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
-    sc = replace(sc, cfg=torso_as_measured(without_modulation(sc.cfg)))  # as measured; today's: unscheduled 0.61
+    sc = replace(sc, cfg=swing_as_measured(torso_as_measured(without_modulation(sc.cfg))))  # as measured
     ctrl = sc.controller()
     assert 0.35 < ctrl._cd_sagittal < 0.5
     v_clip = clip_speed(sc.clip)
@@ -607,11 +616,11 @@ def test_froude_scheduled_cd_lets_a_fast_capture_stride_out() -> None:
 
 @pytest.mark.parametrize("mode", ["off", "swing_hip", "all"])
 def test_net_torque_limit_bounds_actuator_and_damping_together(mode: str, monkeypatch) -> None:
-    """``pd.net_limit`` (opt-in; docs/controller.md, *The swing's speed limit*): the implicit damping
-    -kd qdot acts beside the actuator, so a joint driven at its torque limit tops out at limit / kd. With
-    the net limit, while a joint is driven the way it moves, the actuator may give up to limit + kd |qdot|,
-    and actuator less damping stays within the limit; braking is bounded as before. Off, no torque
-    passes the limit."""
+    """``pd.net_limit`` (the default: ``swing_hip``; docs/controller.md, *The swing's speed limit*): the
+    implicit damping -kd qdot acts beside the actuator, so a joint driven at its torque limit tops out at
+    limit / kd. With the net limit, while a joint is driven the way it moves, the actuator may give up to
+    limit + kd |qdot|, and actuator less damping stays within the limit; braking is bounded as before.
+    Off, no torque passes the limit."""
     import dataclasses
 
     need_shared()

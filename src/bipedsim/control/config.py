@@ -67,9 +67,9 @@ class PDConfig:
     #: together, while the joint is driven the way it moves (the actuator may give up to limit + kd
     #: |theta_dot|, of which the damping takes kd |theta_dot|): ``all``, ``swing`` (the swing leg's hip and
     #: knee), ``swing_hip``; ``off``: the limit bounds the actuator alone, so a joint driven at its limit tops
-    #: out at limit / kd (366 / 91 = 4 rad/s for a 58 kg body's hip and knee). Measured, off by default
+    #: out at limit / kd (366 / 91 = 4 rad/s for a 58 kg body's hip and knee), and a fast walk's swing lags
     #: (docs/controller.md, "The swing's speed limit")
-    net_limit: str = field(default="off", metadata={"choices": ("off", "swing", "swing_hip", "all")})
+    net_limit: str = field(default="swing_hip", metadata={"choices": ("off", "swing", "swing_hip", "all")})
     #: feedforward: hold every swinging part against gravity (MuJoCo's bias forces) and let the
     #: stance knee and ankle carry their share (gamma) of the body weight (J^T f); not in the paper
     gravity_compensation: bool = True
@@ -186,7 +186,7 @@ class BalanceConfig:
     feedback: bool = True
     #: sagittal c_d 0.55 rad/m: at 0.6 and 0.65 the built-in walk limps (a foot lands behind the COM, the
     #: next far ahead) and crabs off its heading, 27 m off the line in 60 s at 0.65 (docs/controller.md)
-    sagittal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.2))
+    sagittal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.15))
     coronal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.3))
     torso_kp: float = field(default=1000.0, metadata={"min": 0.0})
     roll_kp: float | None = field(default=None, metadata={"min": 0.0})  #: null: torso_kp

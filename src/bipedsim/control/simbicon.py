@@ -297,6 +297,9 @@ class SimbiconController(Controller):
         """Put this controller's actuator settings into the model (on reset; ``restore_model`` undoes
         them): constructing a controller leaves the model as it was, so several may be made for one model."""
         model, acts = self.model, self.hinges.actuator
+        # with net limits the controller clamps each torque (see __call__); the actuator's own range
+        # leaves room for the damping's share at up to NET_LIMIT_SPEED rad/s
+        room = self.kd * NET_LIMIT_SPEED if self._net_limit else 0.0
         if self.cfg.pd.servo:
             # force = gain ctrl - gain q for servo joints (ctrl is a target angle), = ctrl for motors;
             # the torque limit clamps the actuator force on every physics step
@@ -305,14 +308,11 @@ class SimbiconController(Controller):
             model.actuator_biasprm[acts] = 0.0
             model.actuator_ctrllimited[acts] = 0
             model.actuator_forcelimited[acts] = 1
-            # with net limits the controller clamps each torque (see __call__); the servo's own range
-            # leaves room for the damping's share at up to NET_LIMIT_SPEED rad/s
-            room = self.kd * NET_LIMIT_SPEED if self._net_limit else 0.0
             model.actuator_forcerange[acts, 0] = -self.limit - room
             model.actuator_forcerange[acts, 1] = self.limit + room
         else:
-            model.actuator_ctrlrange[acts, 0] = -self.limit
-            model.actuator_ctrlrange[acts, 1] = self.limit
+            model.actuator_ctrlrange[acts, 0] = -self.limit - room
+            model.actuator_ctrlrange[acts, 1] = self.limit + room
 
     def _apply_damping(self, scale: float) -> None:
         """Gains scaled by the fade factor: MuJoCo joint damping (implicit kd) and servo stiffness."""

@@ -227,10 +227,13 @@ class SimbiconController(Controller):
         self._leg_dofs = {s: _as_slice(self.hinges.dadr[self.leg_low[s]]) for s in SIDES}
         self._leg_low = {s: _as_slice(self.leg_low[s]) for s in SIDES}
         self._neg_limit = -self.limit
+        #: pd.net_limit: which hinges' limits bound actuator and damping together (None: every hinge;
+        #: per side, the swing leg's hinges for "swing" and "swing_hip")
         self._net_limit = cfg.pd.net_limit != "off" and self.implicit
-        self._net_swing = cfg.pd.net_limit in ("swing", "swing_hip")
-        self._net_joints = ({sd: self.hip[sd][0].tolist() for sd in SIDES} if cfg.pd.net_limit == "swing_hip"
-                            else {sd: [*self.hip[sd][0].tolist(), self.knee[sd]] for sd in SIDES})
+        self._net_joints: dict[str, list[int]] | None = (
+            {sd: [int(i) for i in self.hip[sd][0]] for sd in SIDES} if cfg.pd.net_limit == "swing_hip"
+            else {sd: [*(int(i) for i in self.hip[sd][0]), int(self.knee[sd])] for sd in SIDES}
+            if cfg.pd.net_limit == "swing" else None)
         self._all_servo = bool(np.all(self.servo))
         self._ref_vel = cfg.pd.mode == "pd_ref_velocity"
         self._fade_on = cfg.fade.enabled
@@ -297,9 +300,13 @@ class SimbiconController(Controller):
         """Put this controller's actuator settings into the model (on reset; ``restore_model`` undoes
         them): constructing a controller leaves the model as it was, so several may be made for one model."""
         model, acts = self.model, self.hinges.actuator
-        # with net limits the controller clamps each torque (see __call__); the actuator's own range
-        # leaves room for the damping's share at up to NET_LIMIT_SPEED rad/s
-        room = self.kd * NET_LIMIT_SPEED if self._net_limit else 0.0
+        # the net-limited hinges: the controller clamps their torques (see __call__), and the actuator's own
+        # range leaves room for the damping's share at up to NET_LIMIT_SPEED rad/s
+        room = np.zeros(len(self.limit))
+        if self._net_limit:
+            net = range(len(room)) if self._net_joints is None else [i for js in self._net_joints.values() for i in js]
+            for i in net:
+                room[i] = self.kd[i] * NET_LIMIT_SPEED
         if self.cfg.pd.servo:
             # force = gain ctrl - gain q for servo joints (ctrl is a target angle), = ctrl for motors;
             # the torque limit clamps the actuator force on every physics step
@@ -543,19 +550,18 @@ class SimbiconController(Controller):
         if cfg.balance.enabled:
             self._dt = dt
             self._balance(data, q, qd, q_d, qd_d, tau, forces)
+        self.torque = np.minimum(np.maximum(tau, self._neg_limit), self.limit)
         if self._net_limit:
             # the limit bounds actuator and damping together while the joint is driven the way it moves
-            damp = self._akd * qd
-            if self._net_swing:  # only the swing leg's hip and knee
-                sw = self._net_joints[fsm.swing]
-                d_sw = damp[sw]
-                damp = np.zeros_like(damp)
-                damp[sw] = d_sw
-            self.torque = np.minimum(np.maximum(tau, self._neg_limit + np.minimum(damp, 0.0)),
-                                     self.limit + np.maximum(damp, 0.0))
+            if self._net_joints is None:
+                damp = self._akd * qd
+                self.torque = np.minimum(np.maximum(tau, self._neg_limit + np.minimum(damp, 0.0)),
+                                         self.limit + np.maximum(damp, 0.0))
+            else:
+                for i in self._net_joints[fsm.swing]:
+                    d, lim, t = float(self._akd[i] * qd[i]), float(self.limit[i]), float(tau[i])
+                    self.torque[i] = min(max(t, -lim + (d if d < 0.0 else 0.0)), lim + (d if d > 0.0 else 0.0))
             tau = self.torque
-        else:
-            self.torque = np.minimum(np.maximum(tau, self._neg_limit), self.limit)
         if self.cfg.pd.servo:
             # servo joints: the target that gives this torque now, tau = gain (ctrl - q), and the
             # actuator keeps applying gain (ctrl - q), clamped to the limit, as q moves

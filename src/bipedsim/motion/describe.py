@@ -13,7 +13,7 @@ from bipedsim.motion.conventions import HIP_PER_STATURE, horizontal_axes
 
 #: The Froude number v^2 / (g h) (v the speed, h the hip's height standing) above which people run rather
 #: than walk: the walk-run transition lies near 0.5 across body sizes (Alexander 1989, "Optimization and
-#: gaits in the locomotion of vertebrates"). The shared and public walks measure 0.04-0.3.
+#: gaits in the locomotion of vertebrates"). The shared and public walks measure 0.03-0.37.
 WALK_FROUDE_MAX = 0.5
 GRAVITY = 9.81
 

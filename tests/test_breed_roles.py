@@ -111,6 +111,50 @@ def test_scrambled_parent_gets_the_named_parents_pairs() -> None:
         assert blind.get(k) == new[named[k]], k
 
 
+def _side_words_exchanged(m: Motion) -> Motion:  # benchmarks/layout_variants.py's ``side_names`` variant
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import layout_variants
+
+    return layout_variants._side_names(m)
+
+
+@pytest.mark.parametrize("path", [HOLDEN, BANDAI, GAMES, HUMAN / "cmu_12_03_walk__cgspeed_mb31.bvh",
+                                  HUMAN / "cmu_131_01_start_walk_stop__max31_mixedEOL.bvh"], ids=lambda p: p.name)
+def test_named_sides_that_contradict_the_walk_are_exchanged(path: Path) -> None:
+    """A walk whose joints' side words are exchanged (``LeftUpLeg`` on the body's right: a mirrored export)
+    had its limbs paired left with right in a breed. Its named left leg lies right of where it walks and of
+    where its feet point on (nearly) every frame, so the named sides are exchanged, for the arms too: the
+    same joints get the same sides as the true names give, and the evidence says why. The true names are
+    kept (every shared skeleton: test below)."""
+    need_shared()
+    m = load_bvh(path)
+    named = find_roles(m)
+    truth = {limb.chain[0]: limb.side for limb in named.limbs}
+    r = find_roles(_side_words_exchanged(m))
+    assert {limb.chain[0]: limb.side for limb in r.limbs} == truth
+    assert "the named sides are exchanged" in r.evidence["sides"]
+    assert all(limb.side_from == "names, exchanged" for limb in r.limbs)
+    corr = correspondence(m, _side_words_exchanged(m))  # each joint pairs with itself under its other name
+    limbs = [m.skeleton.names[j] for limb in named.limbs for role, j in limb.roles.items()
+             if role in ("thigh", "knee", "ankle", "upper_arm", "elbow", "wrist")]
+    assert len(limbs) >= 12
+    for n in limbs:
+        assert corr.pairs.get(n) == _side_words_exchanged(m).skeleton.names[m.skeleton.names.index(n)], n
+
+
+def test_every_shared_skeleton_keeps_its_named_sides() -> None:
+    """No shared file (walks, the dog, the flamingo in place, T-poses, two-frame files) has its names'
+    sides exchanged; the ones whose feet have no toe joint (the dog, the 19-joint and Daz walks) cannot be
+    checked and keep their names too."""
+    need_shared()
+    for f in sorted(SHARED_BVH.rglob("*.bvh")):
+        r = find_roles(load_bvh(f))
+        assert "sides" not in r.evidence, f.name
+        assert all(limb.side_from in ("names", "geometry: left of " + r.forward) for limb in r.limbs), f.name
+
+
 def test_static_root_fold_round_trip(tmp_path: Path) -> None:
     """A walk put under a static floor root (translation on the hips) reads back through BVH and folds
     into the same motion: every joint where it was."""

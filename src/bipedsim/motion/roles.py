@@ -13,7 +13,9 @@ A role says what a joint is for -- ``root``, the trunk (``spine``, ``chest``, ``
   subtrees of similar length; the leg pair is the one whose ends are lowest over the clip, the other
   pairs are arms (a quadruped's forelegs) or wings; the head is the highest end of the rest; within a
   limb the thigh/knee/ankle (upper arm/elbow/wrist) are the two longest consecutive bones; left is
-  the side to the left of the direction of travel (or of the feet when the clip stays in place).
+  the side to the left of the direction of travel (or of the feet when the clip stays in place);
+- and the motion checks the names' sides: a walk whose named left leg lies on its right, of where it
+  goes and of where its feet point, has every named side exchanged (a mirrored export).
 
 :func:`correspondence` pairs the joints of two skeletons role by role (trunk and limb chains of
 different lengths by their position along the chain). Everything here works on a
@@ -58,6 +60,10 @@ LIMB_MIN_FRACTION = 0.12
 PAIR_COUNT_RATIO = 0.5
 #: A clip travels when its root ends this many body sizes from where it started.
 TRAVEL_FRACTION = 0.3
+#: The names' sides are exchanged when their left leg lies on the right this consistently (-1: on every
+#: frame, :func:`_left_consistency`), both of the direction of travel and of the direction the feet
+#: point: a mirrored export, or a skeleton named from the viewer's side (:func:`_names_mirrored`)
+MIRRORED_SIDES = -0.5
 #: Sibling limbs pair up better the closer their ends' mean heights: the score falls by e per this
 #: fraction of the body size (legs end at the floor, wings and arms higher).
 PAIR_HEIGHT_SCALE = 0.1
@@ -109,7 +115,8 @@ class Limb:
     side: str  #: "left"/"right"
     chain: list[int]  #: main chain from the limb's first joint to its tip
     roles: dict[str, int] = field(default_factory=dict)  #: role -> joint (anchors, above<k>, below<k>)
-    evidence: str = "names"
+    evidence: str = "names"  #: what found the limb's joints' roles
+    side_from: str = "names"  #: what gave its side
 
 
 @dataclass
@@ -327,6 +334,42 @@ def _side_of(sk: Skeleton, a: list[int], b: list[int], pos: FloatArray, forward:
     return ("left", "right") if float(np.sum(d * left)) >= 0 else ("right", "left")
 
 
+def _left_consistency(a: list[int], b: list[int], pos: FloatArray, forward: FloatArray) -> float | None:
+    """How consistently limb ``a`` lies left of limb ``b`` (horizontal, the left of ``forward`` (T, 2),
+    frames weighted by its length: a body standing still says little about where it goes): the
+    weighted sum of ``a``'s offsets to the left over that of their sizes, +1 always left, -1 always
+    right; None where nothing can be measured."""
+    left = np.stack([-forward[:, 1], forward[:, 0]], axis=1)
+    d = pos[:, a, :2].mean(axis=1) - pos[:, b, :2].mean(axis=1)
+    lat = np.sum(d * left, axis=1)
+    tot = float(np.sum(np.abs(lat)))
+    return float(np.sum(lat)) / tot if tot > 1e-12 else None
+
+
+def _names_mirrored(motion: Motion, pos: FloatArray, size: float, legs: list[Limb]) -> dict[str, float] | None:
+    """Whether the legs' named sides are the wrong way round: the named left leg lies on the body's
+    right of both the direction of travel and the direction the feet point (ankle to toe), more
+    consistently than :data:`MIRRORED_SIDES`; returns those two consistencies when so, None otherwise
+    (names kept whenever either cannot be measured: a clip in place, feet without toes)."""
+    named = {leg.side: leg for leg in legs[:2] if leg.side_from == "names"}
+    if set(named) != set(SIDES):
+        return None
+    a, b = named["left"].chain, named["right"].chain
+    hips = 0.5 * (pos[:, a[0], :2] + pos[:, b[0], :2])  # where the legs join: travels with a static root too
+    if motion.num_frames < 2 or np.linalg.norm(hips[-1] - hips[0]) < TRAVEL_FRACTION * size:
+        return None
+    feet = np.zeros_like(hips)
+    for leg in legs[:2]:
+        ankle, toe = leg.roles.get("ankle"), leg.roles.get("toe")
+        if ankle is None or toe is None:
+            return None
+        feet += pos[:, toe, :2] - pos[:, ankle, :2]
+    travel, point = _left_consistency(a, b, pos, np.gradient(hips, axis=0)), _left_consistency(a, b, pos, feet)
+    if travel is None or point is None or max(travel, point) >= MIRRORED_SIDES:
+        return None
+    return {"travel": round(travel, 2), "feet": round(point, 2)}
+
+
 # ---------------------------------------------------------------------- the whole skeleton
 def find_roles(motion: Motion) -> Roles:
     """The roles of ``motion``'s skeleton (project frame), names first, structure and geometry where
@@ -391,8 +434,21 @@ def find_roles(motion: Motion) -> Roles:
     for i in range(len(limb_ids)):
         a, b = limbs[2 * i], limbs[2 * i + 1]
         a.side, b.side = _side_of(sk, a.chain, b.chain, pos, forward)
-        evidence[f"sides of {sk.names[a.chain[0]]}/{sk.names[b.chain[0]]}"] = (
-            "names" if name_side(sk.names[a.chain[0]]) else "geometry: left of " + how)
+        sa, sb = name_side(sk.names[a.chain[0]]), name_side(sk.names[b.chain[0]])
+        a.side_from = b.side_from = "names" if sa and sb and sa != sb else "geometry: left of " + how
+        evidence[f"sides of {sk.names[a.chain[0]]}/{sk.names[b.chain[0]]}"] = a.side_from
+    mirrored = _names_mirrored(motion, pos, size, legs)
+    if mirrored is not None:
+        # a mirrored export names every limb the wrong way round: the named sides are exchanged
+        for limb in limbs:
+            if limb.side_from == "names":
+                limb.side = "left" if limb.side == "right" else "right"
+                limb.side_from = "names, exchanged"
+        for key in [k for k, v in evidence.items() if k.startswith("sides of ") and v == "names"]:
+            evidence[key] = "names, exchanged"
+        evidence["sides"] = ("geometry: the named left leg lies on the right of the direction of travel and of "
+                             f"the direction the feet point (consistency {mirrored['travel']:+.2f}, "
+                             f"{mirrored['feet']:+.2f}); the named sides are exchanged")
     limb_joints = set().union(*(set(sk.subtree(limb.chain[0])) for limb in limbs)) if limbs else set()
     # the head: named, else the highest end outside the limbs and tails
     free = [j for j in range(sk.num_joints) if j not in limb_joints and j not in tail_joints]

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import IN_PLACE_SPEED, shared_params
+from conftest import IN_PLACE_SPEED, need_shared, shared_files, shared_params
 
 from bipedsim.control.reference import (
     CYCLE_COST_TOLERANCE,
@@ -115,6 +115,26 @@ def test_the_cycle_of_every_shared_walk_is_a_steady_walk(path) -> None:
     assert loop_v >= 0.95 * clip_speed(clip), (loop_v, clip_speed(clip))
     v = np.linalg.norm(np.gradient(smooth(root, dt, 0.5), dt, axis=0), axis=1)[c.a:c.b + 1]
     assert v.min() >= 0.5 * loop_v, (v.min(), loop_v)
+
+
+def test_a_clip_without_a_clean_cycle_says_so() -> None:
+    """CMU 131 has one and a half cycles of walking between a leap and a stop: its best loop's ends differ
+    by 0.885 rad, and `bipedsim run` says the clip has no clean gait cycle; every other shared walk's loop
+    closes within :data:`CYCLE_SEAM_WARN` and gets no such line."""
+    from bipedsim.control.reference import CYCLE_SEAM_WARN, describe_clip
+    from bipedsim.sim.runner import load_scenario
+
+    need_shared()
+    for path in shared_files("human"):
+        if "walk" not in path.name:
+            continue
+        sc = load_scenario(None, path)
+        lines = describe_clip(sc.clip, sc.built.model, sc.built.plan)
+        warned = [ln for ln in lines if "no clean gait cycle" in ln]
+        if "cmu_131" in path.name:
+            assert len(warned) == 1 and "differ by 0.89 rad" in warned[0] and str(CYCLE_SEAM_WARN) in warned[0]
+        else:
+            assert not warned, (path.name, warned)
 
 
 def test_seam_blend_makes_the_loop_continuous_and_keeps_the_rest() -> None:

@@ -375,6 +375,11 @@ CYCLE_STEADY_SPEED = 0.7
 #: capture whose floor is not under the walk).
 CYCLE_STANCE_FLOAT_M = 0.03
 CYCLE_STANCE_SCALE_M = 0.1
+#: A loop whose seam (pose and velocity mismatch, rad) is above this is said to be no clean gait cycle:
+#: the shared and public walks that the default tracks loop within 0.55 (the 02_02 pair), the two that
+#: have no steady stretch of walking do not (CMU 131's one and a half cycles between a leap and a stop
+#: 0.885, a Xia walk 1.36; docs/controller.md, *Cycles*)
+CYCLE_SEAM_WARN = 0.6
 #: Seconds before the loop's end over which its last frames are blended into the frames one loop
 #: earlier, so that the seam is continuous.
 SEAM_BLEND_S = 0.2
@@ -545,6 +550,11 @@ def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet)
                      f"{c.seam:.3f}, steps {c.step_balance:.2f} alike, step speeds {c.steady:.2f} alike, stance "
                      f"feet {c.stance_float * 100:.1f} cm off the floor) at {loop_v:.2f} m/s; the whole clip "
                      f"{clip_speed(clip):.2f} m/s")
+        if c.seam > CYCLE_SEAM_WARN:
+            lines.append(f"cycle: no clean gait cycle in this clip: the best loop's ends differ by {c.seam:.2f} rad "
+                         f"(pose and velocity; a steady walk's loop closes within {CYCLE_SEAM_WARN}), so every "
+                         "loop jumps at its seam and the walk may not be tracked; a take with two or more "
+                         "cycles of steady walking loops cleanly")
     return lines
 
 

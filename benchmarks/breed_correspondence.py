@@ -2,7 +2,8 @@
 the shipped horse and pterosaur, bred without a map, against the baseline of pairing joints by equal
 names only (what breeding did before roles: refused when the roots' names differ). Then the same
 skeletons with every joint renamed J00, J01...: how many of the limb joints (thigh, knee, ankle, upper
-arm, elbow, wrist) the geometry alone gives the role their names give.
+arm, elbow, wrist) the geometry alone gives the role their names give; and with their side words exchanged
+(``LeftUpLeg`` on the right, as a mirrored export names them): how many keep their true side.
 
     python benchmarks/breed_correspondence.py
 """
@@ -19,6 +20,8 @@ from bipedsim.data import HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.motion import load_bvh
 from bipedsim.motion.reroot import fold_static_root
 from bipedsim.motion.roles import correspondence, find_roles
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh"
 CORE = ("thigh", "knee", "ankle", "upper_arm", "elbow", "wrist")
@@ -63,6 +66,18 @@ def main() -> int:
         agree += sum(blind.get(j) == r for j, r in named.items())
     print(f"names scrambled: {agree}/{total} limb joints get the role their names give "
           f"({agree / max(total, 1):.0%}; a name-only matcher: 0%)")
+    # the side words exchanged (a mirrored export): the side the true names give, or the names' (wrong) one
+    from layout_variants import _side_names
+
+    agree = total = flipped = 0
+    for m in motions.values():
+        named = limb_roles(m)
+        swapped = limb_roles(_side_names(m))
+        total += len(named)
+        agree += sum(swapped.get(j) == r for j, r in named.items())
+        flipped += sum(swapped.get(j, "").split(" ")[0] not in ("", r.split(" ")[0]) for j, r in named.items())
+    print(f"side words exchanged: {agree}/{total} limb joints keep the side their true names give "
+          f"({agree / max(total, 1):.0%}; {flipped} take the exchanged names' side; a name-only matcher: 0%)")
     return 0
 
 

@@ -14,8 +14,8 @@ A role says what a joint is for -- ``root``, the trunk (``spine``, ``chest``, ``
   pairs are arms (a quadruped's forelegs) or wings; the head is the highest end of the rest; within a
   limb the thigh/knee/ankle (upper arm/elbow/wrist) are the two longest consecutive bones; left is
   the side to the left of the direction of travel (or of the feet when the clip stays in place);
-- and the motion checks the names' sides: a walk whose named left leg lies on its right, of where it
-  goes and of where its feet point, has every named side exchanged (a mirrored export).
+- **the names' sides checked against the motion**: a walk whose named left leg lies on its right, of
+  where it goes and of where its feet point, has every named side exchanged (a mirrored export).
 
 :func:`correspondence` pairs the joints of two skeletons role by role (trunk and limb chains of
 different lengths by their position along the chain). Everything here works on a

@@ -144,6 +144,21 @@ def test_named_sides_that_contradict_the_walk_are_exchanged(path: Path) -> None:
         assert corr.pairs.get(n) == _side_words_exchanged(m).skeleton.names[m.skeleton.names.index(n)], n
 
 
+def test_breed_says_when_it_exchanged_a_parent_s_sides(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`bipedsim breed` with a side-swapped parent prints that the names' sides were exchanged and pairs
+    the parent's (misnamed) RightUpLeg, the leg on its left, with the other parent's left hip."""
+    need_shared()
+    swapped = tmp_path / "swapped.bvh"
+    write_bvh(_side_words_exchanged(load_bvh(HOLDEN)), swapped)
+    assert main(["breed", str(swapped), str(GAMES), "-o", str(tmp_path / "c.bvh")]) == 0
+    out = capsys.readouterr().out
+    assert "parent A: geometry: the named left leg lies on the right" in out and "--map" in out
+    assert "RightUpLeg=lHip" in out and "LeftUpLeg=rHip" in out
+    assert main(["breed", str(HOLDEN), str(GAMES), "-o", str(tmp_path / "d.bvh")]) == 0
+    out = capsys.readouterr().out
+    assert "named left leg" not in out and "LeftUpLeg=lHip" in out
+
+
 def test_every_shared_skeleton_keeps_its_named_sides() -> None:
     """No shared file (walks, the dog, the flamingo in place, T-poses, two-frame files) has its names'
     sides exchanged; the ones whose feet have no toe joint (the dog, the 19-joint and Daz walks) cannot be

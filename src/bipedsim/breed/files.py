@@ -95,6 +95,9 @@ def format_breed_summary(rep: BreedReport, output: PathLike, report: PathLike | 
              f"{sum(rep.timings_s.values()) * 1000:.0f} ms"]
     for parent, f in rep.folded_roots.items():
         lines.append(f"  parent {parent}: static root {f['root']!r} folded into {f['into']!r} (it carries the motion)")
+    for parent, ev in rep.role_evidence.items():
+        if "sides" in ev:  # the names' sides contradicted by the walk (motion.roles): said, with how to overrule
+            lines.append(f"  parent {parent}: {ev['sides']} (a --map names the pairs yourself)")
     how = "by role" if rep.map_source == "roles" else f"from {rep.map_source}"
     pairs = ", ".join(f"{a}={b}" for a, b in rep.correspondence.items())
     lines.append(f"  correspondence {how}, {len(rep.correspondence)} pairs (A=B): {pairs}")

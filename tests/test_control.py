@@ -532,7 +532,7 @@ def test_the_default_survives_a_forward_push_late_in_the_step(scenario) -> None:
 
 
 def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles) -> None:
-    """balance.velocity.filter_s: the virtual force compares the COM velocity low-passed over 0.75 s (the
+    """balance.velocity.filter_s: the virtual force compares the COM velocity low-passed over 1.0 s (the
     default), so a push's transient is left to the balance law. Measured: 200 N x 0.2 s forward-left
     in the right-stance swing (the 200 N grid's 45 degrees, state 4) with 50 N per m/s on the raw
     velocity the walk falls at 4.2 s; the default (90 N per m/s, low-passed) recovers. Both at the torso

@@ -115,6 +115,19 @@ def swing_as_measured(cfg: ControllerConfig) -> ControllerConfig:
                    balance=replace(cfg.balance, sagittal=replace(sag, cv=sag.cv * 0.2 / default)))
 
 
+def velocity_as_measured(cfg: ControllerConfig) -> ControllerConfig:
+    """``cfg`` with the velocity tuning's speed low-pass as it was before session 15 -- 0.75 s (scaled to
+    the body as the rest: the ratio to the default's 1.0 s) -- where the counterfactual tests of the
+    velocity tuning and the torso law were measured (docs/controller.md, *Pushes on a real capture*)."""
+    from dataclasses import replace
+
+    from bipedsim.control.config import ControllerConfig
+
+    default = ControllerConfig().balance.velocity.filter_s
+    vel = cfg.balance.velocity
+    return replace(cfg, balance=replace(cfg.balance, velocity=replace(vel, filter_s=vel.filter_s * 0.75 / default)))
+
+
 def torso_as_measured(cfg: ControllerConfig) -> ControllerConfig:
     """``cfg`` with the torso law as it was before session 12 -- damping 100 (scaled to the body as the
     rest: the ratio to the default's 175) and the stance foot's yaw limit 0.35 rad -- where the

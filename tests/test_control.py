@@ -13,6 +13,7 @@ from conftest import (
     swing_as_measured,
     toes_as_measured,
     torso_as_measured,
+    velocity_as_measured,
     without_modulation,
 )
 from scipy.spatial.transform import Rotation
@@ -575,8 +576,8 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     need_shared()
     with toes_as_measured():  # as measured (with today's toes, on these old settings, it falls at 5.4-19.6 s with it)
         sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
-    sc = replace(sc, cfg=swing_as_measured(torso_as_measured(without_modulation(sc.cfg))))  # as measured
-    v_clip = clip_speed(sc.clip)
+    sc = replace(sc, cfg=velocity_as_measured(swing_as_measured(torso_as_measured(without_modulation(sc.cfg)))))
+    v_clip = clip_speed(sc.clip)  # ^ as measured
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, velocity=replace(sc.cfg.balance.velocity, kv_sagittal=0.0)))
 
     def runs(cfg: object) -> tuple[list[str], list[float]]:

@@ -21,6 +21,7 @@ from conftest import (
     swing_as_measured,
     toes_as_measured,
     torso_as_measured,
+    velocity_as_measured,
     without_modulation,
 )
 
@@ -109,7 +110,7 @@ def test_stance_yaw_limit_delays_the_sideways_falls(name: str) -> None:
         sc = load_scenario(None, SHARED_BVH / "human" / name)
     # as measured: without the modulation (with it Bandai falls at 2 s either way), at the torso damping of
     # 100 (at 175 CMU 12_03 walks its 20 s without the limit too); the limit itself today's (0.6)
-    sc = replace(sc, cfg=swing_as_measured(torso_as_measured(without_modulation(sc.cfg))))
+    sc = replace(sc, cfg=velocity_as_measured(swing_as_measured(torso_as_measured(without_modulation(sc.cfg)))))
     lim = ControllerConfig().balance.stance_yaw_limit
     sc = replace(sc, cfg=replace(sc.cfg, balance=replace(sc.cfg.balance, stance_yaw_limit=lim)))
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, stance_yaw_limit=None))

@@ -467,8 +467,8 @@ def load_controller(path: str | os.PathLike[str] | None = None) -> ControllerCon
 def for_reference(cfg: ControllerConfig, resolved: bool) -> ControllerConfig:
     """``cfg`` with every ``"auto"`` reference-modulation switch (``modulation.swing_foot``,
     ``modulation.stance_ankle``) made true for a reference whose legs were ``resolved`` for the body
-    (``reference: {feasible: auto}`` re-solves a capture whose legs measure infeasible,
-    :func:`bipedsim.model.feasible.infeasible_because`), false otherwise (the built-in walk generated for
+    (``reference: {feasible: auto}`` re-solves every capture, :func:`bipedsim.model.feasible.resolve_because`),
+    false otherwise (the built-in walk generated for
     the body; a clip tracked as it is, ``feasible: false``). Measured on 7 shared and 15 public walks x
     seeds 0-9, the swing-foot IK (deadband 0.01 m) with the stance-ankle feedback: runs at >= 70 % of the
     clip's speed 37 -> 36 of 70 on the shared walks, 6 -> 26 of 160 on the public ones

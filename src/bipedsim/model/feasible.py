@@ -51,10 +51,10 @@ class FeasibleConfig:
     built body before tracking (:func:`feasible_clip`), and how."""
 
     #: build the feasible lower-body reference (stance feet planted flat, swing clearance, pelvis
-    #: lowered off a straight knee, legs by IK on the body): true, false, or "auto" -- only where the
-    #: clip's legs measure infeasible for the body (:func:`infeasible_because`: hinges out of range,
-    #: a leg straighter than ``max_extension``, stance feet floating), as every real capture measured
-    #: here does and the built-in walk does not
+    #: lowered off a straight knee, legs by IK on the body): true, false, or "auto" -- every capture,
+    #: and a clip generated for the body (the built-in walk) only where its legs measure infeasible
+    #: (:func:`resolve_because`, :func:`infeasible_because`: hinges out of range, a leg straighter than
+    #: ``max_extension``, stance feet floating)
     feasible: bool | Literal["auto"] = "auto"
     #: 0: the clip's legs, 1: the feasible ones (hinge angles and pelvis height mixed linearly)
     blend: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
@@ -528,6 +528,22 @@ def feasible_clip(clip: ReferenceClip, model: mujoco.MjModel, cfg: FeasibleConfi
 TOLERANCE_OUT_OF_RANGE = 0.05
 TOLERANCE_EXTENSION = 0.005
 TOLERANCE_FLOAT_M = 0.03
+
+
+def resolve_because(measured: dict[str, float], cfg: FeasibleConfig, generated: bool) -> list[str]:
+    """Why ``feasible: auto`` re-solves a clip's legs (empty: it tracks them as they are). A clip
+    ``generated`` for the body (the built-in walk) is re-solved only where it measures infeasible
+    (:func:`infeasible_because`); a capture always is, since the body was built from its skeleton, not
+    posed by it: Bandai-Namco's elderly_002 measures within the tolerances (0 %, a leg 0.989 straight,
+    stance feet 0.4-2.7 cm up) and fell at 1.1 s as it was, where re-solved it walks 20 s at 0.87 of its
+    speed (docs/controller.md, *A capture within the tolerances*)."""
+    why = infeasible_because(measured, cfg)
+    if why or generated:
+        return why
+    return [f"a capture, re-solved though within the tolerances: legs out of range on "
+            f"{measured['legs_out_of_range']:.0%} of frames, a leg {measured['max_extension']:.3f} of its "
+            f"length straight, stance feet {measured['stance_low_min'] * 100:.1f} to "
+            f"{measured['stance_low_max'] * 100:.1f} cm from the floor"]
 
 
 def infeasible_because(measured: dict[str, float], cfg: FeasibleConfig) -> list[str]:

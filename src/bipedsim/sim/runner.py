@@ -19,7 +19,7 @@ from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature_kind import AUTO, resolve_profile
-from bipedsim.model.feasible import feasible_clip, infeasible_because, measure
+from bipedsim.model.feasible import feasible_clip, measure, resolve_because
 from bipedsim.model.gait import read_for_build
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
@@ -125,8 +125,9 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     resolved = False
     if cfg.reference.feasible is not False and profile == "humanoid":  # model/feasible.py
         forced = cfg.reference.feasible is True
-        why = ["reference: {feasible: true}"] if forced else infeasible_because(measure(clip, built.model),
-                                                                                 cfg.reference)
+        generated = bvh is None or Path(bvh).resolve() == Path(BUILTIN_WALK).resolve()  # the built-in walk
+        why = ["reference: {feasible: true}"] if forced else resolve_because(measure(clip, built.model),
+                                                                              cfg.reference, generated)
         if why:
             clip = feasible_clip(clip, built.model, cfg.reference)
             extra["feasible"] = why

@@ -26,7 +26,18 @@ Variants (each one change from the file as read):
 - ``turning``: bent into a steady 15 deg/s turn (the root's heading and its steps turned with time);
 - ``six_channels``: every joint with 3 position channels (holding its OFFSET) before its rotations;
 - ``cycle``: one gait cycle (the loop ``bipedsim run`` plays, both strikes' frames kept) in place, as a
-  game animation's walk cycle is exported.
+  game animation's walk cycle is exported;
+- ``rig_prefix``: every joint name behind a rig's prefix (``CC_Base_``, as ActorCore's; MotionBuilder's
+  ``Character1_``, 3ds Max's ``Bip01 ``);
+- ``helpers``: twist and share bones on the limbs (a twist chain along each shin and forearm from its
+  joint, a share bone at each knee, a twist bone half-way down each thigh: ActorCore, HumanIK and
+  Unreal rigs), each turning with its parent;
+- ``fingers``: five three-joint fingers on each hand (Mixamo and Perception Neuron rigs: 40 of their
+  ~60 joints);
+- ``no_tips``: a foot without a toe joint and the head without a neck, their End Sites of no length (a
+  Perception Neuron foot, SNU's 15-joint head), for the files that have no toe joint;
+- ``spine_down``: the spine's joint frames turned half a turn about the forward axis, so the identity
+  pose stands on its head (a Rokoko export's spine OFFSETs all point down); the motion is unchanged.
 """
 
 from __future__ import annotations
@@ -128,6 +139,107 @@ def _side_names(m: Motion) -> Motion:
     return m.copy(skeleton=m.skeleton.replace(names=names))
 
 
+def _rig_prefix(m: Motion, prefix: str = "CC_Base_") -> Motion:
+    """Every joint name behind a rig's ``prefix``."""
+    return m.copy(skeleton=m.skeleton.replace(names=tuple(prefix + n for n in m.skeleton.names)))
+
+
+def _with_leaves(m: Motion, leaves: list[tuple[str, str, np.ndarray, np.ndarray | None]]) -> Motion:
+    """``m`` with joints added: (parent, name, offset, End Site offset or None), in the motion's units,
+    each with 3 rotation channels held at identity (it turns with its parent)."""
+    sk = m.skeleton
+    names, parents, offsets = list(sk.names), list(sk.parents), [np.asarray(o) for o in sk.offsets]
+    channels, modes = list(sk.channels), list(sk.position_modes)
+    es_p, es_o = list(sk.end_site_parents), [np.asarray(o) for o in sk.end_site_offsets]
+    for parent, name, off, end in leaves:
+        names.append(name)
+        parents.append(names.index(parent))
+        offsets.append(np.asarray(off, dtype=float))
+        channels.append(("Zrotation", "Xrotation", "Yrotation"))
+        modes.append("")
+        if end is not None:
+            es_p.append(len(names) - 1)
+            es_o.append(np.asarray(end, dtype=float))
+    k, t = len(leaves), m.num_frames
+    rot = np.concatenate([m.rotations, np.tile([0.0, 0.0, 0.0, 1.0], (t, k, 1))], axis=1)
+    trans = None if m.translations is None else np.concatenate(
+        [m.translations, np.tile(np.array(offsets[-k:]), (t, 1, 1))], axis=1)
+    new_sk = sk.replace(names=tuple(names), parents=np.array(parents), offsets=np.array(offsets),
+                        channels=tuple(channels), position_modes=tuple(modes),
+                        end_site_parents=np.array(es_p, dtype=np.int64), end_site_offsets=np.array(es_o).reshape(-1, 3))
+    return m.copy(skeleton=new_sk, rotations=rot, translations=trans)
+
+
+def _roles(m: Motion):
+    from bipedsim.model.naming import recognise_humanoid
+
+    return recognise_humanoid(m.skeleton)
+
+
+def _helpers(m: Motion) -> Motion:
+    """Twist and share bones on the limbs: a twist chain from each knee and elbow along the bone below,
+    a share bone at each knee pointing down the shin, a twist bone half-way down each thigh."""
+    hm, sk = _roles(m), m.skeleton
+    leaves = []
+    for side, leg in hm.legs.items():
+        shin = sk.offsets[sk.index(leg["ankle"])]
+        leaves += [(leg["knee"], f"{side}_ShinTwist01", 0.0 * shin, None),
+                   (f"{side}_ShinTwist01", f"{side}_ShinTwist02", 0.5 * shin, 0.2 * shin),
+                   (leg["knee"], f"{side}_KneeShareBone", 0.0 * shin, 0.2 * shin),
+                   (leg["thigh"], f"{side}_ThighTwist01", 0.5 * sk.offsets[sk.index(leg["knee"])], None)]
+    for side, arm in hm.arms.items():
+        fore = sk.offsets[sk.index(arm["wrist"])]
+        leaves += [(arm["elbow"], f"{side}_ForearmTwist01", 0.0 * fore, None),
+                   (f"{side}_ForearmTwist01", f"{side}_ForearmTwist02", 0.5 * fore, 0.2 * fore)]
+    return _with_leaves(m, leaves)
+
+
+def _fingers(m: Motion) -> Motion:
+    """Five fingers of three joints on each hand, fanned ahead of the wrist along the forearm."""
+    hm, sk = _roles(m), m.skeleton
+    leaves = []
+    for side, arm in hm.arms.items():
+        fore = sk.offsets[sk.index(arm["wrist"])]
+        along = fore / max(float(np.linalg.norm(fore)), 1e-9)
+        side_dir = np.cross(along, [0.0, 1.0, 0.0] if abs(along[1]) < 0.9 else [1.0, 0.0, 0.0])
+        side_dir /= np.linalg.norm(side_dir)
+        seg = 0.1 * float(np.linalg.norm(fore))  # a finger's bone: a tenth of the forearm
+        for f in range(5):
+            base = f"{side}_Finger{f + 1}"
+            leaves.append((arm["wrist"], f"{base}_1", along * seg + side_dir * (f - 2) * 0.3 * seg, None))
+            leaves.append((f"{base}_1", f"{base}_2", along * seg, None))
+            leaves.append((f"{base}_2", f"{base}_3", along * seg, along * 0.5 * seg))
+    return _with_leaves(m, leaves)
+
+
+def _no_tips(m: Motion) -> Motion:
+    """The feet's and head's End Sites of no length, the neck renamed to no neck word (so the head is its
+    own neck); for a skeleton without toe joints."""
+    hm, sk = _roles(m), m.skeleton
+    if any(leg["toe"] for leg in hm.legs.values()):
+        raise BipedsimError("no_tips is for a skeleton without toe joints")
+    ends = {sk.index(leg["ankle"]) for leg in hm.legs.values()} | {sk.index(hm.head)}
+    es = sk.end_site_offsets.copy()
+    for e, p in enumerate(sk.end_site_parents):
+        if int(p) in ends:
+            es[e] = 0.0
+    names = tuple("Throat" if n == hm.neck and hm.neck != hm.head else n for n in sk.names)
+    return m.copy(skeleton=sk.replace(end_site_offsets=es, names=names))
+
+
+def _spine_down(m: Motion) -> Motion:
+    """The spine's joint frames (the torso's first joint and everything above it) turned half a turn about
+    the forward axis: the identity pose stands on its head, the motion is unchanged."""
+    hm, sk = _roles(m), m.skeleton
+    base = np.tile(np.eye(3), (sk.num_joints, 1, 1))
+    forward = np.zeros(3)
+    forward[2 if m.up == "y" else 0] = 1.0  # a horizontal axis: any turns the spine over
+    half = Rotation.from_rotvec(np.pi * forward).as_matrix()
+    for j in sk.subtree(sk.index(hm.torso_base)):
+        base[j] = half
+    return m.reframed(base)
+
+
 def variants(m: Motion, path: str | None = None) -> dict[str, Callable[[], Motion]]:
     """The layouts of ``m`` (as read), by name; each made only when called."""
     out: dict[str, Callable[[], Motion]] = {}
@@ -147,6 +259,16 @@ def variants(m: Motion, path: str | None = None) -> dict[str, Callable[[], Motio
     out["six_channels"] = lambda: _six_channels(m)
     if path is not None:
         out["cycle"] = lambda: _cycle(path, m)
+    out["rig_prefix"] = lambda: _rig_prefix(m)
+    try:
+        hm = _roles(m)
+    except BipedsimError:  # no humanoid found by name (a creature): the human rigs' variants do not apply
+        return out
+    out["helpers"] = lambda: _helpers(m)
+    out["fingers"] = lambda: _fingers(m)
+    if not any(leg["toe"] for leg in hm.legs.values()):
+        out["no_tips"] = lambda: _no_tips(m)
+    out["spine_down"] = lambda: _spine_down(m)
     return out
 
 

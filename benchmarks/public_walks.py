@@ -1,7 +1,8 @@
 """Public walks the project does not ship: `bipedsim run` judged on captures from sources beside the shared
 sample (other Bandai-Namco styles, GAMES-105's turning walks, Xia's style clips on Holden's CMU skeleton,
-an Emilya figure-eight walk, a deep-motion-editing example), so that what works is not fitted to the files
-we develop on.
+an Emilya figure-eight walk, a deep-motion-editing example; since session 16 ActorCore, LaFAN1,
+Perception Neuron, OptiTrack-style, MotionBuilder, SNU, SFU, Mixamo, Rokoko and HumanIK exports), so that
+what works is not fitted to the files we develop on.
 
 The files stay where they are published; this script says where each one is, copies them out of clones of
 their repositories and runs ``benchmarks/real_walks.py`` on the ones found:
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import shutil
+import subprocess
 import sys
 from pathlib import Path
 
@@ -59,7 +61,47 @@ WALKS: tuple[tuple[str, str, str, str, str], ...] = tuple(
         "blender_rendering/example.bvh", "a 2.3 s walk, Holden's CMU skeleton")]
     + [("emilya_8walk_meredith.bvh", "omimo/PyMO", "ba24f5f8d8911173f41e2ea1a367fa7955a6da9f",
         "demos/data/AV_8Walk_Meredith_HVHA_Rep1.bvh",
-        "Emilya figure-eight walk, 8.9 s at 120 fps, inches: 15 m of path, 0.35 m net")])
+        "Emilya figure-eight walk, 8.9 s at 120 fps, inches: 15 m of path, 0.35 m net")]
+    # added in session 16: twelve more sources and rigs (docs/controller.md, *Walks from twelve more
+    # sources*); some files were deleted after the commit named, which collect reads them from
+    + [(n, r, c, p, w) for n, r, c, p, w in (
+        ("ksim_actorcore_walk_normal.bvh", "kscalelabs/ksim", "ca9ddb768643f89472ecfda3db63a0e675832e2b",
+         "examples/data/walk_normal_dh.bvh", "ActorCore (Reallusion CC_Base_ rig, 101 joints, twist and share "
+         "bones), Z up, 60 fps, a 2.3 s straight walk"),
+        ("ksim_actorcore_walk_relaxed_inplace.bvh", "kscalelabs/ksim", "c580ee93a3880cadfc4a8476d20641693e85ccad",
+         "examples/default_humanoid/data/walk-relaxed_actorcore.bvh", "ActorCore relaxed walk in place, 30 fps"),
+        ("lafan1_bvhutils_walking.bvh", "eggfryonrice/bvhUtils", "6f9a1cac97f969a76b4dc7868872dd03648b41c2",
+         "walking.bvh", "a LaFAN1 (Ubisoft) walk, 17 s of turns at 30 fps"),
+        ("neuron_addradar_walk.bvh", "chenzunh23/add_radar", "8f425125670f675096949744f9699504bfe324ec",
+         "walk.bvh", "Perception Neuron naming, 59 joints, feet without toes or foot length, 90 fps, start-stop"),
+        ("neuron_ezgitek_walk1.bvh", "ezgitek/bvh-parser", "fa0878723dc5f9791ff5f2575f99f0d46bd85ab7",
+         "walk1.bvh", "Perception Neuron Studio naming, every joint with 6 channels, 58.8 fps, from standing"),
+        ("optitrackstyle_motionviewer_walk.bvh", "kevinxie4c/motion-viewer", "5205a8df11a4302837f026e039fbb9752643a89a",
+         "walk.bvh", "Hip/Knee/Ankle naming, mixed rotation orders, 120 fps, a brisk 2.5 s walk"),
+        ("mass_walk_cycle.bvh", "lsw9021/MASS", "e79a338e97878ea4acbf98f8d456d7a4154c74b6", "data/motion/walk.bvh",
+         "MotionBuilder Character1_ rig with *_RIGMESH helpers, one 1.1 s cycle at 120 fps"),
+        ("snu_helloavatar_walk_attitude.bvh", "y0ngw00/HelloAvatar", "6ab37417ea45112c687d2557ed01b25f9d9a54ea",
+         "data/bvh/walk_attitude.bvh", "SNU 15-joint sim* rig (no neck, a head End Site of no length), start-stop"),
+        ("snu_car_walk_long.bvh", "syleemrl/CAR", "e7cfc8d9d5d38727a8c30309b2a2484d455091c2", "motion/walk_long.bvh",
+         "SNU 18-joint rig (no Foot joint, a toe joint on the ankle), 42 s back and forth"),
+        ("sfu_0005_walking001.bvh", "yiyezhiqiu2077/BVHskinning", "95f36906ba3d24c7eddb50df7aad10d2964b6486",
+         "assets/motions/0005_Walking001.bvh", "SFU walk in circles, inches, 39 s at 120 fps"),
+        ("mixamo_bvhskin_walking.bvh", "yiyezhiqiu2077/BVHskinning", "95f36906ba3d24c7eddb50df7aad10d2964b6486",
+         "assets/motions/walking.bvh", "Mixamo (mixamorig:, 65 joints), 1 s of walking then a held pose"),
+        ("mixamo_bvhskin_start_walking.bvh", "yiyezhiqiu2077/BVHskinning", "95f36906ba3d24c7eddb50df7aad10d2964b6486",
+         "assets/motions/start walking.bvh", "Mixamo start walking from idle, 3 s, then a held pose"),
+        ("mixamo_haze_walk_inplace.bvh", "jerech33/haze", "0417d922cfe2049481d8b60fb319a880f0c9a276", "bvh/walk.bvh",
+         "Mixamo walk cycle in place, 1.3 s"),
+        ("mixamo_qvb_walking_inplace.bvh", "frankpyf/QueryVectorBuilder", "c61e750d24b411354f46c05352f9dde57924f154",
+         "data/walking.bvh", "Mixamo names without prefix, Z up, 53 joints with 6 channels, in place"),
+        ("mixamo_s2d_walk_inplace.bvh", "Shinhyoung/2DtoAnimated3D", "25e3e0262d2794ee4fa426af2aa8a33d6244ed1f",
+         "motions/walk.bvh", "Mixamo names, Z up, metres, a 1 m character, in place"),
+        ("rokoko_anais_walk_turn_30fps.bvh", "codespace-antwerp/anais-dance-tool",
+         "7ea63c438da41405ac5405da8072f8af277ed65b", "public/walk.bvh", "Rokoko naming (spine OFFSETs pointing "
+         "down), 'Frames:' one short, a walk, a turn and a walk back at 30 fps"),
+        ("hik_anais_walk_turn_100fps.bvh", "codespace-antwerp/anais-dance-tool",
+         "31d4a025113624d49515754634145c6a815006d2", "public/walk.bvh", "the same take, HumanIK naming with Roll "
+         "bones, 100 fps, 'Frames:' one short"))])
 
 
 def _list() -> int:
@@ -74,13 +116,17 @@ def _list() -> int:
 def _collect(clones: Path, out: Path) -> int:
     out.mkdir(parents=True, exist_ok=True)
     missing = 0
-    for name, repo, _, path, _ in WALKS:
-        src = clones / repo.split("/")[1] / path
-        if src.is_file():
-            shutil.copyfile(src, out / name)
+    for name, repo, commit, path, _ in WALKS:
+        clone = clones / repo.split("/")[1]
+        # the file at the commit named (some were deleted or changed since), else the clone's copy
+        shown = subprocess.run(["git", "-C", str(clone), "show", f"{commit}:{path}"], capture_output=True)
+        if shown.returncode == 0:
+            (out / name).write_bytes(shown.stdout)
+        elif (clone / path).is_file():
+            shutil.copyfile(clone / path, out / name)
         else:
             missing += 1
-            print(f"missing: {src}")
+            print(f"missing: {clone / path} (at {commit[:12]}: clone without --depth 1 to read it)")
     print(f"copied {len(WALKS) - missing} of {len(WALKS)} files into {out}")
     return 0 if missing < len(WALKS) else 1
 

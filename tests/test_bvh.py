@@ -182,6 +182,21 @@ def test_six_channel_add_mode(tmp_path: Path) -> None:
     assert "0.5 0.1" in out.read_text().replace("0.09999999999999964", "0.1")
 
 
+def test_whole_frame_lines_past_the_declared_count_are_read_and_said(tmp_path: Path) -> None:
+    """An exporter's 'Frames:' one short (a real take, exported at 30 and 100 fps, declares 418 and 1392
+    frames over 419 and 1393 rows): every whole frame line is motion, read with a note; an extra line
+    that is no whole frame is still refused (``BAD_CASES``)."""
+    from bipedsim.motion.describe import describe_bvh, format_description
+
+    path = _write(tmp_path, SIMPLE.replace("Frames: 2", "Frames: 1"))
+    m, info = read_bvh(path)
+    assert m.num_frames == 2 and info.num_frames == 2
+    assert info.notes == ["'Frames: 1' but 2 whole frame lines follow (line 21 on): all 2 read"]
+    full, _ = read_bvh(_write(tmp_path, SIMPLE, "full.bvh"))
+    assert np.array_equal(m.rotations, full.rotations)
+    assert "'Frames: 1' but 2 whole frame lines" in format_description(describe_bvh(path))
+
+
 def test_one_frame_file_and_leaf_without_end_site(tmp_path: Path) -> None:
     text = SIMPLE.replace("Frames: 2", "Frames: 1").rsplit("\n", 2)[0] + "\n"
     m, info = read_bvh(_write(tmp_path, text))
@@ -192,7 +207,8 @@ BAD_CASES = [
     ("truncated", lambda s: s.rsplit("\n", 2)[0] + "\n", "truncated motion", 20),
     ("too many values", lambda s: s.replace("0 20 0 0 0 0 10", "0 20 0 0 0 0 0 10"),
      "expected 15 values on a frame line", 20),
-    ("frames mismatch", lambda s: s.replace("Frames: 2", "Frames: 1"), "'Frames: 1' but 2 frame lines", 21),
+    ("frames past the count, not whole", lambda s: s.replace("Frames: 2", "Frames: 1").replace(" 0 0 45\n", " 0 0\n"),
+     "expected 15 values on a frame line", 21),
     ("nan", lambda s: s.replace("0.5 -10 1e-05", "0.5 nan 1e-05"), "must be finite, got 'nan'", 20),
     ("inf", lambda s: s.replace("1 20 0 90", "1 20 0 inf"), "must be finite, got 'inf'", 21),
     ("text value", lambda s: s.replace("1 20 0 90", "1 20 0 abc"), "expected a number", 21),

@@ -261,3 +261,75 @@ def test_side_evidence_on_every_shared_human_and_its_rule() -> None:
     assert not mirrored_sides({"foot": -0.9, "knee_bend_m": MIN_KNEE_BEND_M / 2})  # straight knees: kept
     assert not mirrored_sides({"knee_bend_m": 0.0})
     assert not mirrored_sides({"knee": -0.9, "foot": 0.8, "knee_bend_m": 0.1})  # the feet disagree
+
+
+def _xpos(sc, frames: list[int]) -> np.ndarray:
+    """World positions of every body of ``sc``'s model posed by its reference clip at ``frames``."""
+    import mujoco
+
+    m = sc.built.model
+    d = mujoco.MjData(m)
+    out = []
+    for f in frames:
+        d.qpos[:] = sc.clip.qpos[f]
+        mujoco.mj_kinematics(m, d)
+        out.append(d.xpos.copy())
+    return np.array(out)
+
+
+@pytest.mark.parametrize("name", WALKS)
+@pytest.mark.parametrize("kind", ["rig_prefix", "helpers", "fingers", "spine_down", "no_tips"])
+def test_game_rig_layouts_build_the_same_humanoid(name: str, kind: str, tmp_path: Path) -> None:
+    """A shared walk written as game and animation rigs write theirs (benchmarks/layout_variants.py) is the
+    same humanoid, posed where the original is. Among 17 public walks from other sources, seven had been
+    built as creatures (finger joints tilting the measured trunk to 51-80 deg, twist and share bones
+    taken for two more legs or cutting the legs at the knee, arms hanging close to a slender body) and
+    five had stopped at a bone of no length (a rig prefix hiding the names, a foot or head End Site on
+    its joint): docs/controller.md, *Walks from twelve more sources*."""
+    from bipedsim.control.simbicon import leg_length
+    from bipedsim.sim.runner import load_scenario
+
+    need_shared()
+    src = SHARED_BVH / "human" / f"{name}.bvh"
+    m, _ = read_bvh(src)
+    made = _probe().variants(m, str(src))
+    if kind not in made:
+        pytest.skip(f"{kind} does not apply to {name} (it has toe joints)")
+    path = tmp_path / f"{kind}.bvh"
+    write_bvh(made[kind](), path)
+    assert read_for_body(path)[3] == "humanoid", detect_body_kind(read_bvh(path)[0]).describe()
+    sc0, sc = load_scenario(None, src), load_scenario(None, path)
+    assert [sc.built.model.body(i).name for i in range(sc.built.model.nbody)] == \
+        [sc0.built.model.body(i).name for i in range(sc0.built.model.nbody)]
+    assert leg_length(sc.built.model) == pytest.approx(leg_length(sc0.built.model), rel=0.02)
+    n = min(sc.clip.num_frames, sc0.clip.num_frames)
+    frames = list(range(0, n, max(1, n // 12)))
+    a, b = _xpos(sc, frames), _xpos(sc0, frames)
+    if kind in ("rig_prefix", "helpers", "fingers"):  # the same skeleton, named or dressed otherwise
+        err = np.linalg.norm(a - b, axis=2)
+        assert np.median(err) < 0.02 and err.max() < 0.1, (np.median(err), err.max())
+        return
+    # the body's pose about its pelvis: a rest pose rebased on a standing frame (spine_down) turns the
+    # reference about the origin, and feet given a person's length (no_tips) stand the body higher
+    names = [sc.built.model.body(i).name for i in range(sc.built.model.nbody)]
+    body = [i for i, nm in enumerate(names) if nm != "world" and not nm.endswith(("_foot", "_toe", "_shin"))]
+    pel = names.index("pelvis")
+    err = np.linalg.norm((a - a[:, pel:pel + 1]) - (b - b[:, pel:pel + 1]), axis=2)[:, body]
+    assert np.median(err) < 0.03 and err.max() < 0.1, (np.median(err), err.max())
+    if kind == "spine_down":
+        assert any("rest pose" in n for n in sc.bvh_info.notes)
+    else:
+        assert any("where it begins" in n or "where they begin" in n for n in sc.bvh_info.notes)
+
+
+def test_rig_prefixes_are_told_from_role_words() -> None:
+    from bipedsim.model.naming import rig_prefix, split_name
+
+    assert rig_prefix(["CC_Base_BoneRoot", "CC_Base_Hip", "CC_Base_L_Thigh", "CC_Base_R_Thigh"]) == "CC_Base_"
+    assert rig_prefix(["simHips", "simLeftUpLeg", "simRightUpLeg", "simHead"]) == "sim"
+    assert rig_prefix(["Character1_Hips", "Character1_LeftUpLeg", "L_Femur_RIGMESH", "Character1_Head"]) == \
+        "Character1_"
+    assert rig_prefix(["Hips", "LeftUpLeg", "LeftLeg", "LeftFoot", "RightUpLeg"]) == ""  # no rig: 'Left' is a side
+    assert rig_prefix(["mixamorig:Hips", "mixamorig:LeftUpLeg", "mixamorig:Spine"]) == ""  # a namespace, no prefix
+    assert split_name("CC_Base_L_Thigh", "CC_Base_") == ("left", "thigh")
+    assert split_name("Bip01 R Calf", "Bip01 ") == ("right", "calf")

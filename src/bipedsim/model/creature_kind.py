@@ -43,14 +43,25 @@ MIN_LEG_JOINTS = 2
 #: the floor joins two legs (a pelvis bone between the root and both thighs, as in MakeHuman's skeleton);
 #: a foot's toes branch near the floor
 LEG_BRANCH_FRACTION = 0.15
-#: largest angle (rad) from vertical of the hips -> upper-body-centroid line of an upright trunk
-UPRIGHT_MAX_RAD = np.radians(50.0)
+#: a tip within this fraction of the body's height of a leg's bone is a helper's on that bone (twist,
+#: roll and share bones, mesh helpers: ActorCore's CalfTwist and KneeShareBone, HumanIK's LegRoll,
+#: MotionBuilder's *_RIGMESH), no branch of its own: the leg is walked up past it
+HELPER_FRACTION = 0.05
+#: largest angle (rad) from vertical of the hips -> upper-body-centroid line of an upright trunk: the
+#: shared human walks measure 3-16 deg, a crouch 50, the flamingo 101 (the bones' length-weighted
+#: centroid, :func:`_trunk_centroid`)
+UPRIGHT_MAX_RAD = np.radians(60.0)
 #: hip height as a fraction of the standing height (top of the body) for human proportions: 0.53 of
 #: the stature with a head (Drillis & Contini), up to about 0.65 of the shoulder height when the head is
 #: missing (a bred child whose head a mutation removed), more in a crouch; 0.8 leaves that margin
 HIP_HEIGHT_RANGE = (0.35, 0.8)
-#: an arm's tip lies at least this fraction of the height from the trunk's line (any frame's median)
+#: an arm's tip lies at least this fraction of the height from the trunk's line (any frame's median),
 ARM_REACH_FRACTION = 0.12
+#: or its chain is at least this fraction of the height long, along its bones from where it leaves the
+#: spine (the joints up to the highest tip): arms hanging by the sides of a slender walker (a Rokoko
+#: take's fingertips 0.07-0.10 of the height from the trunk's line) are 0.4-0.5 of the height long from
+#: the chest, 0.4 to the wrist; a head is part of the spine, and a neck's side branches are short
+ARM_LENGTH_FRACTION = 0.3
 
 
 @dataclass(frozen=True)
@@ -121,11 +132,25 @@ def detect_body_kind(motion: Motion) -> BodyKind:
     def joins_legs(p: int) -> bool:  # p is where two legs meet (a pelvis bone above both), not a foot's toes
         return sum(tall(int(c)) for c in np.flatnonzero(parents == p) if c != p) >= 2
 
+    def on_bones(t: int, chain: list[int]) -> bool:  # tip t lies on one of the bones joining ``chain``
+        pt = pts[:, t]
+        best = np.full(pts.shape[0], np.inf)
+        for a, b in zip(chain[:-1], chain[1:]):
+            pa, ab = pts[:, a], pts[:, b] - pts[:, a]
+            u = np.clip(np.sum((pt - pa) * ab, axis=1) / np.maximum(np.sum(ab * ab, axis=1), 1e-12), 0.0, 1.0)
+            best = np.minimum(best, np.linalg.norm(pa + u[:, None] * ab - pt, axis=1))
+        return float(np.median(best)) <= HELPER_FRACTION * height
+
     legs: dict[int, list[int]] = {}
     for t in sorted(low):
         j = t if t < n else int(sk.end_site_parents[t - n])
-        while j > 0 and parents[j] > 0 and tips[int(parents[j])] <= low and not joins_legs(int(parents[j])):
-            j = int(parents[j])
+        chain = [t, j] if t >= n else [j]  # the foot's tip up to j: a helper's tip on these bones is no branch
+        while j > 0 and parents[j] > 0 and not joins_legs(int(parents[j])):
+            p = int(parents[j])
+            if not all(u in low or on_bones(u, chain + [p]) for u in tips[p]):
+                break
+            j = p
+            chain.append(j)
         if j == 0 or _chain_joints(parents, t if t < n else int(sk.end_site_parents[t - n]), j) < MIN_LEG_JOINTS:
             continue
         legs.setdefault(j, []).append(t)
@@ -138,25 +163,58 @@ def detect_body_kind(motion: Motion) -> BodyKind:
             stack.extend(int(c) for c in np.flatnonzero(parents == j) if c != j)
     hips = pts[:, list(legs), :].mean(axis=1) if legs else pts[:, 0, :]
     trunk = ~in_leg & body[:n]
-    upper = pts[:, :n][:, trunk] if trunk.any() else pts[:, :1]
-    d = upper.mean(axis=1) - hips
+    d = _trunk_centroid(pts, parents, sk.end_site_parents, trunk, n) - hips
     tilt = float(np.median(np.arctan2(np.linalg.norm(d[:, :2], axis=1), d[:, 2])))
     hip_frac = float(np.median((hips[:, 2] - z[:, body].min(axis=1)) / np.maximum(rel[:, body].max(axis=1), 1e-9)))
     axis = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
+
+    def joint_of(t: int) -> int:
+        return t if t < n else int(sk.end_site_parents[t - n])
+
+    upper_tips = [t for t in all_tips if not in_leg[joint_of(t)] and t not in low and body[t]]
+    # the spine: the joints from the root up to the highest tip (the head's); an arm leaves it
+    spine = set()
+    if upper_tips:
+        j = joint_of(max(upper_tips, key=lambda t: float(np.median(rel[:, t]))))
+        while j >= 0:
+            spine.add(j)
+            j = int(parents[j])
     arms = 0
-    for t in all_tips:
-        j = t if t < n else int(sk.end_site_parents[t - n])
-        if in_leg[j] or t in low:
-            continue
+    for t in upper_tips:
         v = pts[:, t] - hips
         off = np.linalg.norm(v - np.sum(v * axis, axis=1, keepdims=True) * axis, axis=1)
-        if np.median(off) >= ARM_REACH_FRACTION * height:
+        length, a = 0.0, t  # along the bones from the tip back to the spine
+        while a not in spine and a > 0:
+            b = joint_of(a) if a >= n else int(parents[a])
+            length += float(np.median(np.linalg.norm(pts[:, a] - pts[:, b], axis=1)))
+            a = b
+        if np.median(off) >= ARM_REACH_FRACTION * height or length >= ARM_LENGTH_FRACTION * height:
             arms += 1
     named = tuple((sk.names[r], tuple(sk.names[t] if t < n else f"{sk.names[sk.end_site_parents[t - n]]}/End Site"
                                       for t in ts)) for r, ts in legs.items())
     kind, reason = _decide(len(legs), tilt, hip_frac, arms)
     return BodyKind(kind=kind, legs=named, trunk_tilt_rad=tilt, hip_height_fraction=hip_frac, arms=arms,
                     reason=reason)
+
+
+def _trunk_centroid(pts: np.ndarray, parents: np.ndarray, end_parents: np.ndarray, trunk: np.ndarray,
+                    n: int) -> np.ndarray:
+    """(T, 3) centroid of the bones hanging from the ``trunk`` joints (the body less its legs), each
+    bone's midpoint weighted by its length: where the upper body's mass lies. A count of joints would
+    put it in the hands of a skeleton with fingers (Mixamo and Perception Neuron rigs: 40 of their
+    ~60 joints; their walks measured 51-80 deg from vertical by joint count), or on a cluster of twist
+    bones; the root (a point, no bone) counts by the bones from it."""
+    child = [j for j in range(1, n) if trunk[int(parents[j])]] + [n + e for e, p in enumerate(end_parents)
+                                                                     if trunk[int(p)]]
+    if not child:
+        return pts[:, :n][:, trunk].mean(axis=1) if trunk.any() else pts[:, 0]
+    par = [int(parents[c]) if c < n else int(end_parents[c - n]) for c in child]
+    a, b = pts[:, par], pts[:, child]
+    w = np.linalg.norm(b - a, axis=2)  # (T, bones)
+    tot = w.sum(axis=1, keepdims=True)
+    mid = 0.5 * (a + b)
+    return np.where(tot > 1e-9, (mid * w[:, :, None]).sum(axis=1) / np.maximum(tot, 1e-9),
+                    pts[:, :n][:, trunk].mean(axis=1) if trunk.any() else pts[:, 0])
 
 
 def _decide(legs: int, tilt: float, hip_frac: float, arms: int) -> tuple[str, str]:

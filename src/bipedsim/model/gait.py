@@ -405,7 +405,8 @@ def repeat_loop(motion: Motion, notes: list[str] | None = None) -> Motion:
 
 def humanoid_motion(motion: Motion, notes: list[str] | None = None) -> Motion:
     """A motion read from a file (any frame) made ready for a humanoid: the project frame, a short loop
-    repeated (:func:`repeat_loop`), a standing rest pose (:meth:`Motion.with_standing_rest`) and, for a
+    repeated (:func:`repeat_loop`), a standing rest pose (:meth:`Motion.with_standing_rest`), a length for
+    a foot or head that has none (:func:`~bipedsim.model.humanoid.with_tips`) and, for a
     walk in place (:func:`in_place`), its root travel rebuilt from the stance feet
     (:func:`reconstruct_root`). What was done is appended to ``notes`` (lines for the user)."""
     notes = notes if notes is not None else []
@@ -414,6 +415,9 @@ def humanoid_motion(motion: Motion, notes: list[str] | None = None) -> Motion:
     if standing is not m:
         notes.append("rest pose: the file's identity pose is no standing body (bone-aligned joint frames); "
                      "rebased on the frame whose feet are closest together")
+    from bipedsim.model.humanoid import with_tips
+
+    standing = with_tips(standing, notes)
     if in_place(standing):
         standing = reconstruct_root(standing)
         root = standing.travel()[:, :2]

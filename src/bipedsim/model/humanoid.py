@@ -465,6 +465,95 @@ def mass_from_legs(leg_length: float, profile: HumanoidProfile) -> float:
     return profile.mass_bmi * (leg_length / profile.leg_share) ** 2
 
 
+#: a head that ends where it begins (no neck joint, and a head End Site of no length: SNU's 15-joint rig)
+#: is given a crown this fraction of the body's height above its joint, up the spine (chin to crown 0.13
+#: of the stature, Drillis & Contini)
+HEAD_TOP_SHARE = 0.13
+#: a foot with no toe joint and no length (the ankle's End Site of no length: Perception Neuron exports)
+#: reaches a person's foot length forward (``geometry.foot_length_share``), its tip this fraction of the
+#: height below the ankle (the ankle's height, 0.039 of the stature in Winter's table)
+ANKLE_HEIGHT_SHARE = 0.039
+
+
+def with_tips(motion: Motion, notes: list[str] | None = None, profile: HumanoidProfile | None = None) -> Motion:
+    """``motion`` (project frame, a standing rest pose) with a length given to the bones a humanoid's
+    body needs and its skeleton leaves without one: a foot with no toe joint whose End Site lies on the
+    ankle, a head with no neck whose End Site lies on the head joint. Each gets an End Site at a
+    person's proportions for the body's height (legs / ``leg_share``) in the rest pose's forward or up
+    direction, so it turns with the captured joint; what was done is appended to ``notes``. Unchanged
+    where the tips have length or no humanoid roles are found (the builder says what is missing)."""
+    sk = motion.skeleton
+    try:
+        hm = recognise_humanoid(sk)
+    except ModelError:
+        derived = map_from_roles(motion)
+        try:
+            hm = recognise_humanoid(sk, derived) if derived is not None else None
+        except ModelError:
+            hm = None
+    if hm is None:
+        return motion
+    prof = profile if profile is not None else _default_profile()
+    rest = rest_points(motion)
+    pts = rest.positions if rest.positions.ndim == 2 else rest.positions[0]
+
+    def reach(joint: str, origin: str) -> float:  # farthest point of ``joint``'s subtree from ``origin``
+        sub = set(sk.subtree(sk.index(joint)))
+        names = [sk.names[i] for i in sub] + [n for n in rest.index
+                                               if "/end" in n and sk.index(n.split("/end")[0]) in sub]
+        return max(float(np.linalg.norm(pts[rest.index[n]] - rest[origin])) for n in names)
+
+    legs = [hm.legs[sd] for sd in ("left", "right")]
+    leg = float(np.mean([np.linalg.norm(rest[lg["knee"]] - rest[lg["thigh"]])  # type: ignore[index]
+                         + np.linalg.norm(rest[lg["ankle"]] - rest[lg["knee"]]) for lg in legs]))  # type: ignore[index]
+    height = leg / prof.leg_share
+    up = np.array([0.0, 0.0, 1.0])
+    fwd = np.cross(rest[legs[0]["thigh"]] - rest[legs[1]["thigh"]], up)  # type: ignore[index]
+    tips: dict[str, FloatArray] = {}
+    made: list[str] = []
+    for sd, lg in zip(("left", "right"), legs):
+        an, toe = lg["ankle"], lg["toe"]
+        assert an
+        if toe and float(np.linalg.norm(rest[toe] - rest[an])) >= MIN_BONE_M:
+            continue
+        if reach(an, an) >= MIN_BONE_M or np.linalg.norm(fwd[:2]) < 1e-9:
+            continue
+        ahead = prof.geometry.foot_length_share * height - prof.geometry.heel_length
+        tips[an] = fwd / np.linalg.norm(fwd) * ahead - up * ANKLE_HEIGHT_SHARE * height
+        made.append(f"{sd} foot")
+    if reach(hm.head, hm.neck) < MIN_BONE_M:
+        spine = rest[hm.head] - rest[hm.torso_base]
+        d = spine / np.linalg.norm(spine) if np.linalg.norm(spine) > 1e-9 else up
+        tips[hm.head] = d * HEAD_TOP_SHARE * height
+        made.append("head")
+    if not tips:
+        return motion
+    par, off = list(sk.end_site_parents), [np.asarray(o, dtype=float) for o in sk.end_site_offsets]
+    for joint, vec in tips.items():
+        j = sk.index(joint)
+        if j in par:
+            off[par.index(j)] = vec
+        else:
+            par.append(j)
+            off.append(vec)
+    if notes is not None:
+        what = " and ".join(made)
+        notes.append(f"the skeleton's {what} {'end where they begin' if len(made) > 1 else 'ends where it begins'} "
+                     "(no toe or neck joint, an End Site of no length): given a person's proportions for a "
+                     f"{height:.2f} m body (a foot {prof.geometry.foot_length_share:g} of the height heel to toe, a "
+                     f"head {HEAD_TOP_SHARE:g} of it above its joint)")
+    return motion.copy(skeleton=sk.replace(end_site_parents=np.array(par, dtype=np.int64),
+                                           end_site_offsets=np.array(off).reshape(-1, 3)))
+
+
+def _default_profile() -> HumanoidProfile:
+    from bipedsim.model.profile import load_profile
+
+    prof = load_profile("humanoid")
+    assert isinstance(prof, HumanoidProfile)
+    return prof
+
+
 def _check_bone(v: FloatArray, a: str, b: str, what: str) -> FloatArray:
     """``v`` (m), the bone from joint ``a`` to ``b``; a ModelError when shorter than MIN_BONE_M."""
     if np.linalg.norm(v) < MIN_BONE_M:
@@ -512,6 +601,11 @@ class _HumanoidBuilder:
             # the names say nothing (anonymous or foreign joint names): the limbs found from geometry
             self.hm = recognise_humanoid(motion.skeleton, derived)
         pts0 = rest_points(motion)
+        for lg in self.hm.legs.values():
+            # a toe joint on the ankle (SNU's LeftToe -> LeftToeEnd of no length) is no toe: the foot
+            # runs from the ankle to the farthest point below it
+            if lg["toe"] and lg["ankle"] and np.linalg.norm(pts0[lg["toe"]] - pts0[lg["ankle"]]) < MIN_BONE_M:
+                lg["toe"] = None
         self.yaw = _facing_yaw(pts0, self.hm)
         self.rest = pts0.turned(self.yaw)
         self.moving = moving.turned(self.yaw)

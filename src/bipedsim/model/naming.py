@@ -12,6 +12,7 @@ arm-like ancestor of the elbow, the chest is where both arms meet, the pelvis is
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 from dataclasses import dataclass, field
@@ -42,6 +43,8 @@ ARM_ROLES: dict[str, list[list[str]]] = {
 TOE_STEM = "toe"
 HEAD_WORDS = ["head"]
 NECK_WORDS = ["neck"]
+_ROLE_WORDS = {w for groups in (*LEG_ROLES.values(), *ARM_ROLES.values()) for g in groups for w in g} | {
+    "head", "neck", "hips", "hip", "spine", "pelvis", "root"}
 
 _SIDE_RULES = [
     (re.compile(r"^(left|right)[_\-. ]?(.*)$", re.IGNORECASE), lambda m: (m.group(1).lower(), m.group(2))),
@@ -51,13 +54,51 @@ _SIDE_RULES = [
     (re.compile(r"^(.*?)(LT|RT)$"), lambda m: ("left" if m.group(2) == "LT" else "right", m.group(1))),
     (re.compile(r"^([lL])([A-Z].*)$"), lambda m: ("left", m.group(2))),
     (re.compile(r"^([rR])([A-Z].*)$"), lambda m: ("right", m.group(2))),
+    (re.compile(r"^([LRlr])[_\-. ](.+)$"), lambda m: ("left" if m.group(1) in "Ll" else "right", m.group(2))),
 ]
 
+#: a name prefix shared by at least this share of a skeleton's joints is a rig's, no part of any joint's
+#: role (ActorCore's ``CC_Base_``, MotionBuilder's ``Character1_``, 3ds Max's ``Bip01 ``, ``sim``)
+RIG_PREFIX_SHARE = 0.5
 
-def split_name(name: str) -> tuple[str, str]:
-    """(side, base): side is ``left``/``right``/``""``; base lower-case with namespace, ``joint``
-    prefix, digits and separators removed (``mixamorig:LeftUpLeg`` -> ``("left", "upleg")``)."""
+
+def rig_prefix(names: tuple[str, ...] | list[str]) -> str:
+    """The longest name prefix shared by at least :data:`RIG_PREFIX_SHARE` of ``names`` (after any
+    namespace, ``ns:``) that ends at a word boundary -- a separator (``_ - . `` space) or a change to
+    upper case (``simLeftUpLeg``) -- and is no side or role word itself; ``""`` when none is."""
+    bare = [n.split(":")[-1].split("|")[-1] for n in names]
+    if len(bare) < 2:
+        return ""
+    best = ""
+    cands: set[str] = set()
+    for b in bare:
+        for k in range(1, len(b)):
+            if b[k - 1] in "_-. " or (b[k].isupper() and b[k - 1].islower()):
+                cands.add(b[:k])
+    for c in sorted(cands, key=len, reverse=True):
+        word = re.sub(r"[^a-z]", "", c.lower())
+        if word in ("left", "right", "l", "r", "") or word in _ROLE_WORDS:
+            continue
+        if sum(b.startswith(c) for b in bare) >= RIG_PREFIX_SHARE * len(bare):
+            best = c
+            break
+    return best
+
+
+def _strip(name: str, prefix: str) -> str:
+    """``name`` without its namespace's rig ``prefix`` (the namespace kept)."""
+    head, sep, n = name.rpartition(":") if ":" in name else ("", "", name)
+    return head + sep + (n[len(prefix):] if n.startswith(prefix) and len(n) > len(prefix) else n)
+
+
+def split_name(name: str, prefix: str = "") -> tuple[str, str]:
+    """(side, base): side is ``left``/``right``/``""``; base lower-case with namespace, the rig's
+    ``prefix`` (:func:`rig_prefix`), ``joint`` prefix, digits and separators removed
+    (``mixamorig:LeftUpLeg`` -> ``("left", "upleg")``; ``CC_Base_L_Thigh`` with ``CC_Base_`` ->
+    ``("left", "thigh")``)."""
     n = name.split(":")[-1].split("|")[-1]
+    if prefix and n.startswith(prefix) and len(n) > len(prefix):
+        n = n[len(prefix):]
     n = re.sub(r"^joint[_\-. ]?", "", n, flags=re.IGNORECASE)
     side = ""
     for pat, fn in _SIDE_RULES:
@@ -256,9 +297,16 @@ def map_from_roles(motion: Motion) -> MapFile | None:
 
 
 def recognise_humanoid(sk: Skeleton, mapping: MapFile | None = None) -> HumanoidMap:
-    """Find the humanoid roles in a skeleton; raise :class:`ModelError` saying what is missing."""
+    """Find the humanoid roles in a skeleton; raise :class:`ModelError` saying what is missing. Names
+    are matched without the rig's prefix (:func:`rig_prefix`); the map holds the skeleton's own names."""
     mp = mapping or MapFile()
+    orig = sk
     idx = {n: i for i, n in enumerate(sk.names)}
+    prefix = rig_prefix(sk.names)
+    if prefix:
+        bare = tuple(_strip(n, prefix) for n in sk.names)
+        if len(set(bare)) == len(bare):
+            sk = dataclasses.replace(sk, names=bare)  # for matching only
     legs: dict[str, dict[str, str | None]] = {}
     arms: dict[str, dict[str, str]] = {}
     for side in SIDES:
@@ -280,8 +328,8 @@ def recognise_humanoid(sk: Skeleton, mapping: MapFile | None = None) -> Humanoid
                 f"the humanoid profile needs two legs -- give a mapping YAML with --map, or use the "
                 f"creature profile")
         toe = idx[given["toe"]] if "toe" in given else _find_toe(sk, side, ankle)
-        legs[side] = {"thigh": sk.names[thigh], "knee": sk.names[knee], "ankle": sk.names[ankle],
-                      "toe": None if toe is None else sk.names[toe]}
+        legs[side] = {"thigh": orig.names[thigh], "knee": orig.names[knee], "ankle": orig.names[ankle],
+                      "toe": None if toe is None else orig.names[toe]}
         wrist = idx[given["wrist"]] if "wrist" in given else _find_first(sk, side, ARM_ROLES["wrist"][0])
         if wrist is None:
             continue
@@ -292,12 +340,12 @@ def recognise_humanoid(sk: Skeleton, mapping: MapFile | None = None) -> Humanoid
                  else _topmost_on_chain(sk, elbow, ARM_ROLES["upper_arm"], side))
         if upper is None:
             upper = int(sk.parents[elbow])
-        arms[side] = {"upper_arm": sk.names[upper], "elbow": sk.names[elbow], "wrist": sk.names[wrist]}
+        arms[side] = {"upper_arm": orig.names[upper], "elbow": orig.names[elbow], "wrist": orig.names[wrist]}
     if len(arms) == 1:
         arms = {}  # one arm only: drop both, the body stays symmetric
 
     if "thigh" not in mp.left and "thigh" not in mp.right:
-        _separate_thighs(sk, legs, idx)
+        _separate_thighs(orig, legs, idx)
     th_l, th_r = idx[legs["left"]["thigh"]], idx[legs["right"]["thigh"]]  # type: ignore[index]
     pelvis = idx[mp.pelvis] if mp.pelvis else _lca(sk, th_l, th_r)
     head = idx[mp.head] if mp.head else _find_first(sk, "", HEAD_WORDS)
@@ -312,7 +360,7 @@ def recognise_humanoid(sk: Skeleton, mapping: MapFile | None = None) -> Humanoid
         raise ModelError("found legs but neither arms nor a head: cannot tell where the torso is; "
                          "give chest: in a mapping YAML (--map)")
     if chest == pelvis or pelvis in _ancestors(sk, chest)[1:] and chest in (th_l, th_r):
-        raise ModelError(f"torso not found: the arms meet at {sk.names[chest]!r}, which is the pelvis; "
+        raise ModelError(f"torso not found: the arms meet at {orig.names[chest]!r}, which is the pelvis; "
                          f"give chest: in a mapping YAML (--map)")
     if head is None:
         head = chest
@@ -329,5 +377,5 @@ def recognise_humanoid(sk: Skeleton, mapping: MapFile | None = None) -> Humanoid
         path = _ancestors(sk, chest)
         path = path[:path.index(a)]  # chest ... child of a
         torso_base = path[-1] if path else chest
-    return HumanoidMap(pelvis=sk.names[pelvis], torso_base=sk.names[torso_base], chest=sk.names[chest],
-                       neck=sk.names[neck], head=sk.names[head], legs=legs, arms=arms)
+    return HumanoidMap(pelvis=orig.names[pelvis], torso_base=orig.names[torso_base], chest=orig.names[chest],
+                       neck=orig.names[neck], head=orig.names[head], legs=legs, arms=arms)

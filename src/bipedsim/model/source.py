@@ -54,18 +54,25 @@ class SourcePoints:
         return SourcePoints(self.skeleton, self.positions + delta, self.rotations)
 
     def tip(self, joint: str) -> str:
-        """The point that ends a joint's bone: its first End Site, else its farthest descendant."""
+        """The point that ends a joint's bone: its first End Site, else -- none, or one of no length
+        (a Perception Neuron foot's) -- the farthest point below it (descendant joints and their End
+        Sites: a toe joint on the ankle ending in its End Site), else the joint itself."""
         sk = self.skeleton
         j = sk.index(joint)
-        end = f"{joint}/end0"
-        if end in self.index:
-            return end
-        sub = [i for i in sk.subtree(j) if i != j]
-        if not sub:
-            return joint
         rest = self.positions if self.positions.ndim == 2 else self.positions[0]
-        d = [np.linalg.norm(rest[i] - rest[j]) for i in sub]
-        return sk.names[sub[int(np.argmax(d))]]
+
+        def farthest(names: list[str]) -> str | None:
+            d = [float(np.linalg.norm(rest[self.index[n]] - rest[j])) for n in names]
+            return names[int(np.argmax(d))] if d and max(d) > 0.0 else None
+
+        sub = sorted(sk.subtree(j))
+        end = f"{joint}/end0"
+        first = (end if end in self.index and np.linalg.norm(rest[self.index[end]] - rest[j]) > 0.0
+                 else farthest([sk.names[i] for i in sub if i != j]))
+        if first is not None:
+            return first
+        ends = [n for n in self.index if "/end" in n and sk.index(n.split("/end")[0]) in sub]
+        return farthest(ends) or joint
 
 
 def rest_points(motion: Motion) -> SourcePoints:

@@ -290,14 +290,18 @@ def _parse(path: str, raw: bytes) -> tuple[Skeleton, float, FloatArray, BVHInfo,
         last = data_lines[-1] + 1 if data_lines else ln
         raise BVHError(f"truncated motion: 'Frames: {n_frames}' but only {len(data_lines)} frame lines "
                        f"follow", path, last)
-    if len(data_lines) > n_frames:
-        raise BVHError(f"'Frames: {n_frames}' but {len(data_lines)} frame lines follow "
-                       f"(first extra frame here)", path, data_lines[n_frames] + 1)
     rows = [lines[i].split() for i in data_lines]
     for r, i in zip(rows, data_lines):
         if len(r) != n_ch:
             raise BVHError(f"expected {n_ch} values on a frame line (the hierarchy's channel count), "
                            f"got {len(r)}", path, i + 1)
+    notes = []
+    if len(data_lines) > n_frames:
+        # every extra line is a whole frame (checked above): an exporter's count off by a frame or a few
+        # (one take exported twice, 418 and 1392 declared, one more row each); the rows are the motion
+        notes.append(f"'Frames: {n_frames}' but {len(data_lines)} whole frame lines follow (line "
+                     f"{data_lines[n_frames] + 1} on): all {len(data_lines)} read")
+        n_frames = len(data_lines)
     flat = [x for r in rows for x in r]
     try:
         data = np.array(flat, dtype=np.float64).reshape(n_frames, max(n_ch, 0))
@@ -318,7 +322,7 @@ def _parse(path: str, raw: bytes) -> tuple[Skeleton, float, FloatArray, BVHInfo,
                    rotation_orders=dict(Counter(sk0.rotation_order(j) or "-" for j in range(len(names)))),
                    unit_name="", unit_scale=1.0, unit_source="", unit_reason="", height_m=0.0,
                    upright=True, up="y", up_source="", up_reason="", line_endings=endings,
-                   final_newline=final_newline, end_sites=len(es_par))
+                   final_newline=final_newline, end_sites=len(es_par), notes=notes)
     return sk0, frame_time, data, info, []
 
 

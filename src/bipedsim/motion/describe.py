@@ -122,6 +122,7 @@ def format_description(d: dict[str, Any]) -> str:
         f"frames      {d['num_frames']} at {d['fps']:.4g} fps (frame time {d['frame_time']:.6g} s"
         + (f", given; the file's {d['file_frame_time']:.6g} s" if d.get("frame_time_source") == "given" else "")
         + f"), duration {d['duration_s']:.3f} s",
+        *[f"            {n}" for n in d.get("notes", []) if n.startswith("'Frames:")],
         f"rotations   {orders}",
     ]
     if six:

@@ -137,6 +137,14 @@ class Motion:
                 turn = _yaw_between(g[frame, p], g[f, p], u)
                 for j in sk.subtree(top):
                     base[j] = (turn @ g[f, j]).T
+        return self.reframed(base, g)
+
+    def reframed(self, base: FloatArray, g: FloatArray | None = None) -> Motion:
+        """The same motion with each joint's frame turned by ``base`` (J, 3, 3): global rotations
+        G'_j = G_j B_j on every frame; offsets, End Sites and position channels turn with their parent's
+        frame, so forward kinematics is unchanged (``g``: the global rotations, if known)."""
+        sk = self.skeleton
+        g = forward_kinematics(self)[1] if g is None else g
         new_g = np.einsum("tjab,jbc->tjac", g, base)
         par = sk.parents
         loc = new_g.copy()
@@ -155,7 +163,8 @@ class Motion:
 
     def with_standing_rest(self) -> Motion:
         """This motion, or -- when its rest pose (every rotation identity) is no standing body: a foot
-        not below the legs' root by :data:`REST_FOOT_DROP` of its leg's length along ``up`` -- the same motion
+        not below the legs' root by :data:`REST_FOOT_DROP` of its leg's length along ``up``, or the rest of
+        the body (its bones' length-weighted centroid) below that root -- the same motion
         :meth:`rebased` on the frame whose feet are closest together, each leg and arm on the frame
         where it is straightest (:func:`_straightest_limb_frames`, turned to the main frame's heading).
         Bodies are built from the rest pose; files whose joint frames are bone-aligned (every bone
@@ -177,6 +186,17 @@ class Motion:
             chain = [a for a in range(sk.num_joints) if a in _chain_between(sk.parents, hip, f)]
             if rest[hip, u] - rest[f, u] < REST_FOOT_DROP * bone[chain].sum():
                 standing = False
+        # and the upper body above the legs' root: a rig whose spine bones point down in its identity
+        # pose (a Rokoko export: every spine OFFSET -y, the rotations turning it up) stands on its head
+        legs = {a for f in feet for a in _chain_between(sk.parents, hip, f)}
+        upper = [a for a in range(1, sk.num_joints) if a not in legs and a != hip and int(sk.parents[a]) >= 0]
+        if upper:
+            par = sk.parents[upper]
+            w = bone[upper]
+            if w.sum() > 0.0:
+                mid = 0.5 * (rest[upper, u] + rest[par, u])
+                if float((mid * w).sum() / w.sum()) < rest[hip, u]:
+                    standing = False
         if standing:
             return self
         # the trunk from the frame whose feet are closest together, each limb from the frame where it

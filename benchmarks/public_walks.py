@@ -62,8 +62,9 @@ WALKS: tuple[tuple[str, str, str, str, str], ...] = tuple(
     + [("emilya_8walk_meredith.bvh", "omimo/PyMO", "ba24f5f8d8911173f41e2ea1a367fa7955a6da9f",
         "demos/data/AV_8Walk_Meredith_HVHA_Rep1.bvh",
         "Emilya figure-eight walk, 8.9 s at 120 fps, inches: 15 m of path, 0.35 m net")]
-    # added in session 16: twelve more sources and rigs (docs/controller.md, *Walks from twelve more
-    # sources*); some files were deleted after the commit named, which collect reads them from
+    # added in session 16: thirteen more repositories and their rigs (docs/controller.md, *Walks from
+    # thirteen more repositories*); some files were deleted after the commit named, which collect reads
+    # them from
     + [(n, r, c, p, w) for n, r, c, p, w in (
         ("ksim_actorcore_walk_normal.bvh", "kscalelabs/ksim", "ca9ddb768643f89472ecfda3db63a0e675832e2b",
          "examples/data/walk_normal_dh.bvh", "ActorCore (Reallusion CC_Base_ rig, 101 joints, twist and share "

@@ -285,7 +285,7 @@ def test_game_rig_layouts_build_the_same_humanoid(name: str, kind: str, tmp_path
     built as creatures (finger joints tilting the measured trunk to 51-80 deg, twist and share bones
     taken for two more legs or cutting the legs at the knee, arms hanging close to a slender body) and
     five had stopped at a bone of no length (a rig prefix hiding the names, a foot or head End Site on
-    its joint): docs/controller.md, *Walks from twelve more sources*."""
+    its joint): docs/controller.md, *Walks from thirteen more repositories*."""
     from bipedsim.control.simbicon import leg_length
     from bipedsim.sim.runner import load_scenario
 

@@ -89,6 +89,25 @@ def test_profile_flag_overrides_and_birds_need_no_flag() -> None:
     assert load_scenario(bvh=PTEROSAUR_FLIGHT, support=True).profile == "creature"
 
 
+def test_the_balance_height_of_a_root_at_the_floor_is_the_legs() -> None:
+    """The creature balance works at the root's median height; a root at the floor carrying the travel
+    (ActorCore's BoneRoot, run with --profile creature) had given 0 m and a traceback ("math domain
+    error"): such a root's height gives way to the legs' roots' height above the feet."""
+    from dataclasses import replace
+
+    from bipedsim.control.creature_balance import _leg_height
+
+    sc = load_scenario(bvh=HORSE_WALK)
+    m, clip = sc.built.model, sc.clip
+    legs = creature_legs(sc.built.plan)
+    h = _leg_height(m, clip, legs)
+    assert h == pytest.approx(float(np.median(clip.qpos[:, 2])))  # a root where the body is: as it was
+    low = clip.qpos.copy()
+    low[:, 2] -= float(np.median(clip.qpos[:, 2]))  # the whole body lowered: its root at the floor
+    h_low = _leg_height(m, replace(clip, qpos=low), legs)
+    assert 0.5 * h < h_low < 1.5 * h
+
+
 def test_legs_of_the_dog_and_the_horse() -> None:
     need_shared()
     for path in (DOG, HORSE_WALK):

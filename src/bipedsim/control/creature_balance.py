@@ -117,6 +117,25 @@ def _rz(a: float) -> FloatArray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def _leg_height(model: mujoco.MjModel, clip: ReferenceClip, legs: list) -> float:
+    """The height (m) the balance works at: the root body's median height, or -- where the root is not
+    where the body is (a root joint at the floor carrying the travel, as ActorCore's ``BoneRoot``: 0 m,
+    and a square root of it had stopped the run) -- the legs' roots' median height above the lowest foot."""
+    h = float(np.median(clip.qpos[:, 2]))
+    if not legs:
+        return h
+    d = mujoco.MjData(model)
+    roots = [model.body(leg.root).id for leg in legs]
+    feet = [model.body(f).id for leg in legs for f in leg.feet]
+    hips = []
+    for f in np.unique(np.linspace(0, clip.num_frames - 1, min(clip.num_frames, 40)).astype(int)):
+        d.qpos[:] = clip.qpos[f]
+        mujoco.mj_kinematics(model, d)
+        hips.append(float(np.mean(d.xpos[roots, 2]) - np.min(d.xpos[feet, 2])))
+    legs_h = float(np.median(hips))
+    return legs_h if h < 0.5 * legs_h else h
+
+
 class CreatureBalanceController(CreatureController):
     """PD tracking plus legged balance for any creature (see the module text)."""
 
@@ -125,7 +144,7 @@ class CreatureBalanceController(CreatureController):
         super().__init__(model, plan, clip, cfg)
         self.bal = balance or self.cfg.balance
         self.legs = creature_legs(plan)
-        self.leg_height = float(np.median(clip.qpos[:, 2]))
+        self.leg_height = _leg_height(model, clip, self.legs)
         self.omega0 = math.sqrt(-float(model.opt.gravity[2]) / max(self.leg_height, 1e-3))
         self._leg_tables(model, plan)
         self._level_reference(model)

@@ -37,7 +37,9 @@ Variants (each one change from the file as read):
 - ``no_tips``: a foot without a toe joint and the head without a neck, their End Sites of no length (a
   Perception Neuron foot, SNU's 15-joint head), for the files that have no toe joint;
 - ``spine_down``: the spine's joint frames turned half a turn about the forward axis, so the identity
-  pose stands on its head (a Rokoko export's spine OFFSETs all point down); the motion is unchanged.
+  pose stands on its head (a Rokoko export's spine OFFSETs all point down); the motion is unchanged;
+- ``held_tail``: the last frame repeated for 3 s (an export padded to a fixed length: four Mixamo files
+  of 250 frames walk 30-90).
 """
 
 from __future__ import annotations
@@ -240,6 +242,14 @@ def _spine_down(m: Motion) -> Motion:
     return m.reframed(base)
 
 
+def _held_tail(m: Motion, seconds: float = 3.0) -> Motion:
+    """The last frame repeated for ``seconds`` (an export padded to a fixed length)."""
+    k = int(round(seconds / m.frame_time))
+    idx = np.concatenate([np.arange(m.num_frames), np.full(k, m.num_frames - 1)])
+    return m.copy(root_translation=m.root_translation[idx], rotations=m.rotations[idx],
+                  translations=None if m.translations is None else m.translations[idx])
+
+
 def variants(m: Motion, path: str | None = None) -> dict[str, Callable[[], Motion]]:
     """The layouts of ``m`` (as read), by name; each made only when called."""
     out: dict[str, Callable[[], Motion]] = {}
@@ -260,6 +270,7 @@ def variants(m: Motion, path: str | None = None) -> dict[str, Callable[[], Motio
     if path is not None:
         out["cycle"] = lambda: _cycle(path, m)
     out["rig_prefix"] = lambda: _rig_prefix(m)
+    out["held_tail"] = lambda: _held_tail(m)
     try:
         hm = _roles(m)
     except BipedsimError:  # no humanoid found by name (a creature): the human rigs' variants do not apply

@@ -278,14 +278,15 @@ def _xpos(sc, frames: list[int]) -> np.ndarray:
 
 
 @pytest.mark.parametrize("name", WALKS)
-@pytest.mark.parametrize("kind", ["rig_prefix", "helpers", "fingers", "spine_down", "no_tips"])
+@pytest.mark.parametrize("kind", ["rig_prefix", "helpers", "fingers", "spine_down", "no_tips", "held_tail"])
 def test_game_rig_layouts_build_the_same_humanoid(name: str, kind: str, tmp_path: Path) -> None:
     """A shared walk written as game and animation rigs write theirs (benchmarks/layout_variants.py) is the
     same humanoid, posed where the original is. Among 17 public walks from other sources, seven had been
     built as creatures (finger joints tilting the measured trunk to 51-80 deg, twist and share bones
     taken for two more legs or cutting the legs at the knee, arms hanging close to a slender body) and
     five had stopped at a bone of no length (a rig prefix hiding the names, a foot or head End Site on
-    its joint): docs/controller.md, *Walks from thirteen more repositories*."""
+    its joint); four Mixamo exports padded with a held pose had hidden their loop (``held_tail``):
+    docs/controller.md, *Walks from thirteen more repositories*."""
     from bipedsim.control.simbicon import leg_length
     from bipedsim.sim.runner import load_scenario
 
@@ -305,9 +306,12 @@ def test_game_rig_layouts_build_the_same_humanoid(name: str, kind: str, tmp_path
     n = min(sc.clip.num_frames, sc0.clip.num_frames)
     frames = list(range(0, n, max(1, n // 12)))
     a, b = _xpos(sc, frames), _xpos(sc0, frames)
-    if kind in ("rig_prefix", "helpers", "fingers"):  # the same skeleton, named or dressed otherwise
+    if kind in ("rig_prefix", "helpers", "fingers", "held_tail"):  # the same skeleton and motion, written otherwise
         err = np.linalg.norm(a - b, axis=2)
         assert np.median(err) < 0.02 and err.max() < 0.1, (np.median(err), err.max())
+        if kind == "held_tail":  # the padding dropped: the clip is the original's, frame for frame
+            assert any(n.startswith("held pose: the last") for n in sc.bvh_info.notes)
+            assert sc.clip.num_frames == sc0.clip.num_frames
         return
     # the body's pose about its pelvis: a rest pose rebased on a standing frame (spine_down) turns the
     # reference about the origin, and feet given a person's length (no_tips) stand the body higher
@@ -333,3 +337,19 @@ def test_rig_prefixes_are_told_from_role_words() -> None:
     assert rig_prefix(["mixamorig:Hips", "mixamorig:LeftUpLeg", "mixamorig:Spine"]) == ""  # a namespace, no prefix
     assert split_name("CC_Base_L_Thigh", "CC_Base_") == ("left", "thigh")
     assert split_name("Bip01 R Calf", "Bip01 ") == ("right", "calf")
+
+
+def test_a_held_tail_is_dropped_only_when_it_is_padding() -> None:
+    """Frames that repeat the last moving frame exactly for at least HELD_TAIL_S are padding; one repeated
+    frame (CMU 131's last in its metres copy) or a wholly still clip is left as it is."""
+    from bipedsim.model.gait import HELD_TAIL_S, trim_held_tail
+
+    need_shared()
+    m = read_bvh(SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")[0].to_project_frame()
+    notes: list[str] = []
+    padded = _probe()._held_tail(m, 1.0)
+    assert trim_held_tail(padded, notes).num_frames == m.num_frames and notes[0].startswith("held pose")
+    short = _probe()._held_tail(m, 0.5 * HELD_TAIL_S)
+    assert trim_held_tail(short).num_frames == short.num_frames
+    still = _probe()._held_tail(m[:1], 2.0)
+    assert trim_held_tail(still).num_frames == still.num_frames

@@ -341,6 +341,35 @@ LOOP_STRIDE_S = 1.0 / 30.0
 #: ...and such a clip shorter than this (s) is repeated to at least this long, so that its strikes
 #: can loop (two right strikes with a left between) and its travel can be measured.
 LOOP_REPEAT_S = 3.0
+#: trailing frames that repeat the last moving frame exactly, for at least this long (s), are an export's
+#: padding, not motion: no capture holds every channel to the last digit
+HELD_TAIL_S = 0.25
+
+
+def trim_held_tail(motion: Motion, notes: list[str] | None = None) -> Motion:
+    """``motion`` without the trailing frames that repeat its last moving frame exactly (every rotation
+    and the root's translation equal), when there are at least :data:`HELD_TAIL_S` of them and something
+    moves before them: four Mixamo exports of 250 frames walk 30-90 and hold the last pose for the rest,
+    which had made their clip's speed a fifth of their walk's and hid a loop (a note says what was
+    dropped)."""
+    n = motion.num_frames
+    if n < 3:
+        return motion
+    rot = motion.rotations.reshape(n, -1)
+    same = np.all(rot[1:] == rot[:-1], axis=1) & np.all(motion.root_translation[1:] == motion.root_translation[:-1],
+                                                        axis=1)
+    if motion.translations is not None:
+        same &= np.all(motion.translations[1:].reshape(n - 1, -1) == motion.translations[:-1].reshape(n - 1, -1),
+                       axis=1)
+    k = 0
+    while k < n - 1 and same[n - 2 - k]:
+        k += 1
+    if k == n - 1 or k * motion.frame_time < HELD_TAIL_S:
+        return motion
+    if notes is not None:
+        notes.append(f"held pose: the last {k} frames repeat frame {n - 1 - k} exactly (an export's padding, "
+                     f"{k * motion.frame_time:.2f} s): dropped")
+    return motion[:n - k]
 
 
 def repeat_loop(motion: Motion, notes: list[str] | None = None) -> Motion:
@@ -404,13 +433,13 @@ def repeat_loop(motion: Motion, notes: list[str] | None = None) -> Motion:
 
 
 def humanoid_motion(motion: Motion, notes: list[str] | None = None) -> Motion:
-    """A motion read from a file (any frame) made ready for a humanoid: the project frame, a short loop
-    repeated (:func:`repeat_loop`), a standing rest pose (:meth:`Motion.with_standing_rest`), a length for
+    """A motion read from a file (any frame) made ready for a humanoid: the project frame, an export's
+    held tail dropped (:func:`trim_held_tail`), a short loop repeated (:func:`repeat_loop`), a standing rest pose (:meth:`Motion.with_standing_rest`), a length for
     a foot or head that has none (:func:`~bipedsim.model.humanoid.with_tips`) and, for a
     walk in place (:func:`in_place`), its root travel rebuilt from the stance feet
     (:func:`reconstruct_root`). What was done is appended to ``notes`` (lines for the user)."""
     notes = notes if notes is not None else []
-    m = repeat_loop(motion.to_project_frame(), notes)
+    m = repeat_loop(trim_held_tail(motion.to_project_frame(), notes), notes)
     standing = m.with_standing_rest()
     if standing is not m:
         notes.append("rest pose: the file's identity pose is no standing body (bone-aligned joint frames); "

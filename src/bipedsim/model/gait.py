@@ -434,10 +434,11 @@ def repeat_loop(motion: Motion, notes: list[str] | None = None) -> Motion:
 
 def humanoid_motion(motion: Motion, notes: list[str] | None = None) -> Motion:
     """A motion read from a file (any frame) made ready for a humanoid: the project frame, an export's
-    held tail dropped (:func:`trim_held_tail`), a short loop repeated (:func:`repeat_loop`), a standing rest pose (:meth:`Motion.with_standing_rest`), a length for
-    a foot or head that has none (:func:`~bipedsim.model.humanoid.with_tips`) and, for a
-    walk in place (:func:`in_place`), its root travel rebuilt from the stance feet
-    (:func:`reconstruct_root`). What was done is appended to ``notes`` (lines for the user)."""
+    held tail dropped (:func:`trim_held_tail`), a short loop repeated (:func:`repeat_loop`), a standing
+    rest pose (:meth:`Motion.with_standing_rest`), a length for a foot or head that has none
+    (:func:`~bipedsim.model.humanoid.with_tips`) and, for a walk in place (:func:`in_place`), its root
+    travel rebuilt from the stance feet (:func:`reconstruct_root`). What was done is appended to
+    ``notes`` (lines for the user)."""
     notes = notes if notes is not None else []
     m = repeat_loop(trim_held_tail(motion.to_project_frame(), notes), notes)
     standing = m.with_standing_rest()

@@ -36,7 +36,7 @@ from bipedsim.control.base import FloatArray
 from bipedsim.control.creature import CreatureControlConfig, CreatureController, quat_error_rotvecs
 from bipedsim.control.creature_config import CreatureBalanceConfig
 from bipedsim.model.clip import ReferenceClip
-from bipedsim.model.creature import creature_legs
+from bipedsim.model.creature import Leg, creature_legs
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
 
 
@@ -117,7 +117,7 @@ def _rz(a: float) -> FloatArray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def _leg_height(model: mujoco.MjModel, clip: ReferenceClip, legs: list) -> float:
+def _leg_height(model: mujoco.MjModel, clip: ReferenceClip, legs: list[Leg]) -> float:
     """The height (m) the balance works at: the root body's median height, or -- where the root is not
     where the body is (a root joint at the floor carrying the travel, as ActorCore's ``BoneRoot``: 0 m,
     and a square root of it had stopped the run) -- the legs' roots' median height above the lowest foot."""

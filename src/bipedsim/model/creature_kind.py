@@ -206,15 +206,14 @@ def _trunk_centroid(pts: np.ndarray, parents: np.ndarray, end_parents: np.ndarra
     bones; the root (a point, no bone) counts by the bones from it."""
     child = [j for j in range(1, n) if trunk[int(parents[j])]] + [n + e for e, p in enumerate(end_parents)
                                                                      if trunk[int(p)]]
+    by_count = pts[:, :n][:, trunk].mean(axis=1) if trunk.any() else pts[:, 0]
     if not child:
-        return pts[:, :n][:, trunk].mean(axis=1) if trunk.any() else pts[:, 0]
+        return by_count
     par = [int(parents[c]) if c < n else int(end_parents[c - n]) for c in child]
     a, b = pts[:, par], pts[:, child]
     w = np.linalg.norm(b - a, axis=2)  # (T, bones)
     tot = w.sum(axis=1, keepdims=True)
-    mid = 0.5 * (a + b)
-    return np.where(tot > 1e-9, (mid * w[:, :, None]).sum(axis=1) / np.maximum(tot, 1e-9),
-                    pts[:, :n][:, trunk].mean(axis=1) if trunk.any() else pts[:, 0])
+    return np.where(tot > 1e-9, (0.5 * (a + b) * w[:, :, None]).sum(axis=1) / np.maximum(tot, 1e-9), by_count)
 
 
 def _decide(legs: int, tilt: float, hip_frac: float, arms: int) -> tuple[str, str]:

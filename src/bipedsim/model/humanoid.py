@@ -475,6 +475,20 @@ HEAD_TOP_SHARE = 0.13
 ANKLE_HEIGHT_SHARE = 0.039
 
 
+def humanoid_roles(motion: Motion, mapping: MapFile | None = None) -> tuple[HumanoidMap, bool]:
+    """The humanoid roles of ``motion``'s skeleton: from its names (and ``mapping``), else -- the names
+    say nothing (anonymous or foreign joint names) and no mapping is given -- the limbs found from its
+    geometry (:func:`~bipedsim.model.naming.map_from_roles`). Returns them and whether the names gave
+    them; a :class:`ModelError` saying what is missing when neither does."""
+    try:
+        return recognise_humanoid(motion.skeleton, mapping), True
+    except ModelError:
+        derived = map_from_roles(motion) if mapping is None else None
+        if derived is None:
+            raise
+        return recognise_humanoid(motion.skeleton, derived), False
+
+
 def with_tips(motion: Motion, notes: list[str] | None = None, profile: HumanoidProfile | None = None) -> Motion:
     """``motion`` (project frame, a standing rest pose) with a length given to the bones a humanoid's
     body needs and its skeleton leaves without one: a foot with no toe joint whose End Site lies on the
@@ -484,24 +498,14 @@ def with_tips(motion: Motion, notes: list[str] | None = None, profile: HumanoidP
     where the tips have length or no humanoid roles are found (the builder says what is missing)."""
     sk = motion.skeleton
     try:
-        hm = recognise_humanoid(sk)
+        hm = humanoid_roles(motion)[0]
     except ModelError:
-        derived = map_from_roles(motion)
-        try:
-            hm = recognise_humanoid(sk, derived) if derived is not None else None
-        except ModelError:
-            hm = None
-    if hm is None:
         return motion
     prof = profile if profile is not None else _default_profile()
     rest = rest_points(motion)
-    pts = rest.positions if rest.positions.ndim == 2 else rest.positions[0]
 
     def reach(joint: str, origin: str) -> float:  # farthest point of ``joint``'s subtree from ``origin``
-        sub = set(sk.subtree(sk.index(joint)))
-        names = [sk.names[i] for i in sub] + [n for n in rest.index
-                                               if "/end" in n and sk.index(n.split("/end")[0]) in sub]
-        return max(float(np.linalg.norm(pts[rest.index[n]] - rest[origin])) for n in names)
+        return max(float(np.linalg.norm(rest[n] - rest[origin])) for n in rest.below(joint))
 
     legs = [hm.legs[sd] for sd in ("left", "right")]
     leg = float(np.mean([np.linalg.norm(rest[lg["knee"]] - rest[lg["thigh"]])  # type: ignore[index]
@@ -590,16 +594,9 @@ class _HumanoidBuilder:
         #: the evidence on which the named sides were exchanged (None: they were kept)
         self.sides_note: dict[str, Any] | None = None
         moving = motion_points(motion)
-        try:
-            self.hm = recognise_humanoid(motion.skeleton, mapping)
-            if mapping is None:  # sides from names: checked against where the legs face
-                self.hm, self.sides_note = check_sides(moving, self.hm)
-        except ModelError:
-            derived = map_from_roles(motion) if mapping is None else None
-            if derived is None:
-                raise
-            # the names say nothing (anonymous or foreign joint names): the limbs found from geometry
-            self.hm = recognise_humanoid(motion.skeleton, derived)
+        self.hm, by_name = humanoid_roles(motion, mapping)
+        if by_name and mapping is None:  # sides from names: checked against where the legs face
+            self.hm, self.sides_note = check_sides(moving, self.hm)
         pts0 = rest_points(motion)
         for lg in self.hm.legs.values():
             # a toe joint on the ankle (SNU's LeftToe -> LeftToeEnd of no length) is no toe: the foot
@@ -685,10 +682,7 @@ class _HumanoidBuilder:
         top = rest.tip(hm.head)
         if np.linalg.norm(rest[top] - rest[hm.neck]) >= MIN_BONE_M:
             return top
-        sk = self.source_names
-        sub = {sk[i] for i in self.skel.subtree(self.skel.index(hm.head))}
-        cands = [n for n in rest.names if n in sub or n.split("/end")[0] in sub]
-        return max(cands, key=lambda n: float(np.linalg.norm(rest[n] - rest[hm.neck])))
+        return max(rest.below(hm.head), key=lambda n: float(np.linalg.norm(rest[n] - rest[hm.neck])))
 
     # ----------------------------------------------------------------- trunk bodies
     def add_pelvis(self) -> None:

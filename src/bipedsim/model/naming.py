@@ -66,10 +66,9 @@ def rig_prefix(names: tuple[str, ...] | list[str]) -> str:
     """The longest name prefix shared by at least :data:`RIG_PREFIX_SHARE` of ``names`` (after any
     namespace, ``ns:``) that ends at a word boundary -- a separator (``_ - . `` space) or a change to
     upper case (``simLeftUpLeg``) -- and is no side or role word itself; ``""`` when none is."""
-    bare = [n.split(":")[-1].split("|")[-1] for n in names]
+    bare = [_bare(n) for n in names]
     if len(bare) < 2:
         return ""
-    best = ""
     cands: set[str] = set()
     for b in bare:
         for k in range(1, len(b)):
@@ -80,15 +79,20 @@ def rig_prefix(names: tuple[str, ...] | list[str]) -> str:
         if word in ("left", "right", "l", "r", "") or word in _ROLE_WORDS:
             continue
         if sum(b.startswith(c) for b in bare) >= RIG_PREFIX_SHARE * len(bare):
-            best = c
-            break
-    return best
+            return c
+    return ""
+
+
+def _bare(name: str) -> str:
+    """``name`` without its namespace (``mixamorig:``, ``a|b|``)."""
+    return name.split(":")[-1].split("|")[-1]
 
 
 def _strip(name: str, prefix: str) -> str:
-    """``name`` without its namespace's rig ``prefix`` (the namespace kept)."""
-    head, sep, n = name.rpartition(":") if ":" in name else ("", "", name)
-    return head + sep + (n[len(prefix):] if n.startswith(prefix) and len(n) > len(prefix) else n)
+    """``name`` without the rig ``prefix`` after its namespace (the namespace kept)."""
+    n = _bare(name)
+    head = name[:len(name) - len(n)]
+    return head + (n[len(prefix):] if prefix and n.startswith(prefix) and len(n) > len(prefix) else n)
 
 
 def split_name(name: str, prefix: str = "") -> tuple[str, str]:
@@ -96,9 +100,7 @@ def split_name(name: str, prefix: str = "") -> tuple[str, str]:
     ``prefix`` (:func:`rig_prefix`), ``joint`` prefix, digits and separators removed
     (``mixamorig:LeftUpLeg`` -> ``("left", "upleg")``; ``CC_Base_L_Thigh`` with ``CC_Base_`` ->
     ``("left", "thigh")``)."""
-    n = name.split(":")[-1].split("|")[-1]
-    if prefix and n.startswith(prefix) and len(n) > len(prefix):
-        n = n[len(prefix):]
+    n = _bare(_strip(name, prefix))
     n = re.sub(r"^joint[_\-. ]?", "", n, flags=re.IGNORECASE)
     side = ""
     for pat, fn in _SIDE_RULES:

@@ -53,6 +53,11 @@ class SourcePoints:
     def shifted(self, delta: FloatArray) -> SourcePoints:
         return SourcePoints(self.skeleton, self.positions + delta, self.rotations)
 
+    def below(self, joint: str) -> list[str]:
+        """``joint``, its descendant joints and the End Sites of all of them, in point order."""
+        sub = set(self.skeleton.subtree(self.skeleton.index(joint)))
+        return [n for n in self.index if self.skeleton.index(n.split("/end")[0]) in sub]
+
     def tip(self, joint: str) -> str:
         """The point that ends a joint's bone: its first End Site, else -- none, or one of no length
         (a Perception Neuron foot's) -- the farthest point below it (descendant joints and their End
@@ -65,14 +70,13 @@ class SourcePoints:
             d = [float(np.linalg.norm(rest[self.index[n]] - rest[j])) for n in names]
             return names[int(np.argmax(d))] if d and max(d) > 0.0 else None
 
-        sub = sorted(sk.subtree(j))
+        below = self.below(joint)
         end = f"{joint}/end0"
         first = (end if end in self.index and np.linalg.norm(rest[self.index[end]] - rest[j]) > 0.0
-                 else farthest([sk.names[i] for i in sub if i != j]))
+                 else farthest([n for n in below if n != joint and "/end" not in n]))
         if first is not None:
             return first
-        ends = [n for n in self.index if "/end" in n and sk.index(n.split("/end")[0]) in sub]
-        return farthest(ends) or joint
+        return farthest([n for n in below if "/end" in n]) or joint
 
 
 def rest_points(motion: Motion) -> SourcePoints:

@@ -189,7 +189,7 @@ class Motion:
         # and the upper body above the legs' root: a rig whose spine bones point down in its identity
         # pose (a Rokoko export: every spine OFFSET -y, the rotations turning it up) stands on its head
         legs = {a for f in feet for a in _chain_between(sk.parents, hip, f)}
-        upper = [a for a in range(1, sk.num_joints) if a not in legs and a != hip and int(sk.parents[a]) >= 0]
+        upper = [a for a in range(1, sk.num_joints) if a not in legs and a != hip]
         if upper:
             par = sk.parents[upper]
             w = bone[upper]

@@ -244,7 +244,9 @@ def test_a_threshold_that_prunes_every_frame_is_refused_and_nothing_written(
     example = Path(__file__).resolve().parents[1] / "examples" / "graphs" / "walk_wave.yaml"
     text = example.read_text().replace("../../../shared", str(SHARED_BVH.parents[1]))
     cfg = tmp_path / "g.yaml"
-    cfg.write_text(text + "threshold_quantile: 0.02\n")
+    text = re.sub(r"(?m)^threshold_quantile:.*$", "threshold_quantile: 0.02", text)
+    assert "threshold_quantile: 0.02" in text
+    cfg.write_text(text)
     out = tmp_path / "g.npz"
     assert main(["graph", "build", str(cfg), "-o", str(out)]) == 2
     err = capsys.readouterr().err

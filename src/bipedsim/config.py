@@ -22,25 +22,95 @@ from typing import Any, TypeVar, Union, get_args, get_origin, get_type_hints
 
 import yaml
 
-from bipedsim.errors import ConfigError
+from bipedsim.errors import ConfigError, InputError
+from bipedsim.io import read_input_text
 
 T = TypeVar("T")
 
 
-def load_yaml(path: str | os.PathLike[str]) -> Any:
-    """Parse a YAML file; syntax errors become :class:`ConfigError` with the line and column."""
-    p = Path(path)
+#: Deepest nesting of mappings and lists a YAML file may have; configuration files here nest about 5
+#: deep. PyYAML builds nested nodes recursively, so a deeper file would end in a RecursionError.
+MAX_YAML_DEPTH = 64
+#: Most values a YAML file may hold with its aliases expanded (``*name`` repeats an anchored value: ten
+#: nested levels of ten aliases each stand for 10**10 values in a file of a few hundred bytes).
+MAX_YAML_NODES = 1_000_000
+
+_MERGE_TAG = "tag:yaml.org,2002:merge"
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """PyYAML's safe loader that refuses a mapping naming one key twice (PyYAML keeps the last silently)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            if key_node.tag == _MERGE_TAG:
+                continue
+            key = self.construct_object(key_node, deep=True)
+            try:
+                first = seen.get(key)
+            except TypeError:  # an unhashable key: the base class says so with its own message
+                continue
+            if first is not None:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"key {key!r} is given twice (first on line {first}); give it once",
+                    key_node.start_mark)
+            seen[key] = key_node.start_mark.line + 1
+        return super().construct_mapping(node, deep=deep)
+
+
+def _check_size(text: str) -> None:
+    """Raise :class:`yaml.YAMLError` where the nesting passes :data:`MAX_YAML_DEPTH` or the values with
+    aliases expanded pass :data:`MAX_YAML_NODES` (read from the event stream, which PyYAML parses without
+    recursion and without expanding aliases)."""
+    stack: list[list[Any]] = [[0, None]]  # per open collection: expanded values so far, its anchor
+    anchors: dict[str, int] = {}
+    for event in yaml.parse(text, Loader=yaml.SafeLoader):
+        if isinstance(event, yaml.MappingStartEvent | yaml.SequenceStartEvent):
+            if len(stack) > MAX_YAML_DEPTH:
+                raise yaml.parser.ParserError(None, None, f"nested more than {MAX_YAML_DEPTH} levels deep",
+                                              event.start_mark)
+            stack.append([0, event.anchor])
+            continue
+        if isinstance(event, yaml.MappingEndEvent | yaml.SequenceEndEvent):
+            n, anchor = stack.pop()
+            n += 1
+        elif isinstance(event, yaml.ScalarEvent):
+            n, anchor = 1, event.anchor
+        elif isinstance(event, yaml.AliasEvent):
+            n, anchor = anchors.get(event.anchor, 1), None
+        else:
+            continue
+        if anchor is not None:
+            anchors[anchor] = n
+        stack[-1][0] += n
+        if stack[-1][0] > MAX_YAML_NODES:
+            raise yaml.parser.ParserError(None, None, f"holds more than {MAX_YAML_NODES} values with its "
+                                          "aliases expanded", event.start_mark)
+
+
+def parse_yaml(text: str, path: str | os.PathLike[str] | None = None) -> Any:
+    """Parse YAML ``text`` safely (no Python objects): nesting at most :data:`MAX_YAML_DEPTH` deep, no key
+    given twice in one mapping, at most :data:`MAX_YAML_NODES` values with aliases expanded. Errors become
+    :class:`ConfigError` with the line and column."""
     try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"cannot read: {exc.strerror or exc}", path=p) from None
-    try:
-        return yaml.safe_load(text)
+        _check_size(text)
+        return yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader subclass
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark else ""
         problem = getattr(exc, "problem", None) or str(exc)
-        raise ConfigError(f"{where}invalid YAML: {problem}", path=p) from None
+        raise ConfigError(f"{where}invalid YAML: {problem}", path=path) from None
+
+
+def load_yaml(path: str | os.PathLike[str]) -> Any:
+    """Read and parse a YAML file (see :func:`parse_yaml`); the file is refused before it is read when it
+    is not a regular file or is larger than the YAML limit (:func:`bipedsim.io.read_input_text`)."""
+    try:
+        text = read_input_text(path, "yaml")
+    except InputError as exc:
+        raise ConfigError(exc.reason, path=path) from None
+    return parse_yaml(text, path=Path(path))
 
 
 def _type_name(tp: Any) -> str:

@@ -48,3 +48,13 @@ class ModelError(BipedsimError):
 class OutputError(BipedsimError):
     """An output location that cannot be written: a folder where a file is wanted (or the reverse), a
     path under a file, no permission, a read-only or full disk. Names the flag or file and the cause."""
+
+
+class InputError(BipedsimError):
+    """An input that is refused before it is read: missing, a folder, a device, pipe or socket, or larger
+    than the limit for its kind. Names the file, what was found and how to raise a limit."""
+
+    def __init__(self, message: str, path: str | os.PathLike[str] | None = None) -> None:
+        self.path = None if path is None else str(path)
+        self.reason = message
+        super().__init__(f"{self.path}: {message}" if self.path else message)

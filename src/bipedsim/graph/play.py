@@ -11,7 +11,7 @@ from bipedsim.errors import ConfigError
 from bipedsim.graph.build import FULL, MotionGraph, build_graph, load_graph_config
 from bipedsim.graph.player import Player
 from bipedsim.graph.script import parse
-from bipedsim.io import atomic_write_json, check_output_file, read_text_file
+from bipedsim.io import atomic_write_json, check_output_file, read_input_text
 from bipedsim.motion.bvh import write_bvh
 
 PathLike = str | os.PathLike[str]
@@ -88,7 +88,7 @@ def play_script(graph: PathLike, script: PathLike, output: PathLike, *, start: s
     (s) and the ``events`` of the path taken (time in s, layer, kind, detail, transition cost), with
     the graph's ``fps`` (frames/s) added (not in the JSON file)."""
     g = MotionGraph.load(graph)
-    cmds = parse(read_text_file(script), source=str(script), layers=tuple(g.layers))
+    cmds = parse(read_input_text(script, "script"), source=str(script), layers=tuple(g.layers))
     check_output_file(output, "-o", (".bvh",))
     if report:
         check_output_file(report, "--report")

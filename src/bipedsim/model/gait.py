@@ -26,10 +26,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
-import yaml
 from scipy.ndimage import minimum_filter1d
 from scipy.spatial.transform import Rotation
 
+from bipedsim.config import load_yaml
 from bipedsim.errors import ConfigError
 from bipedsim.model.creature_kind import AUTO, detect_body_kind
 from bipedsim.motion.conventions import foot_joints
@@ -130,10 +130,7 @@ def load_events(path: str | os.PathLike[str], feet: list[str], num_frames: int,
 
     Returns per foot the strike frames, sorted; errors name the file and key."""
     p = Path(path)
-    try:
-        raw = yaml.safe_load(p.read_text(encoding="utf-8"))
-    except (OSError, yaml.YAMLError) as exc:
-        raise ConfigError(f"cannot read gait events: {exc}", path=p) from None
+    raw = load_yaml(p)
     if not isinstance(raw, dict):
         raise ConfigError("gait events must be a mapping of foot to strike frames, e.g. "
                           "'right: [12, 140]' and 'left: [76]'", path=p)

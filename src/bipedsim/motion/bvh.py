@@ -18,13 +18,13 @@ import os
 import warnings
 from collections import Counter
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
-from bipedsim.errors import BVHError
+from bipedsim.errors import BVHError, InputError
+from bipedsim.io import read_input_bytes
 from bipedsim.motion.conventions import (
     AMBIGUOUS_SCORE_MARGIN,
     UNIT_SCALES,
@@ -36,6 +36,9 @@ from bipedsim.motion.conventions import (
 )
 from bipedsim.motion.motion import Motion, canonical_quat
 from bipedsim.motion.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Skeleton
+
+#: A UTF-8 byte-order mark, which some editors write at the start of a text file: dropped before parsing.
+UTF8_BOM = b"\xef\xbb\xbf"
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -555,9 +558,9 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
     """
     p = str(path)
     try:
-        raw = Path(p).read_bytes()
-    except OSError as exc:
-        raise BVHError(f"cannot read: {exc.strerror or exc}", p) from None
+        raw = read_input_bytes(p, "bvh").removeprefix(UTF8_BOM)
+    except InputError as exc:
+        raise BVHError(exc.reason, p) from None
     sk, frame_time, data, info, _ = _parse(p, raw)
     info.file_frame_time = frame_time
     if fps is not None:

@@ -157,7 +157,7 @@ def test_unwritable_outputs_are_errors_not_tracebacks(tmp_path: Path, small, mon
         run_sweep(small, afile, progress=False)
     out = tmp_path / "out"
     (out / "results.csv").mkdir(parents=True)
-    with pytest.raises(BipedsimError, match="results.csv: cannot read"):
+    with pytest.raises(BipedsimError, match="results.csv: is a folder, not a CSV file"):
         run_sweep(small, out, progress=False)
 
     # a full disk while a row is appended: the message names the file, the cause and how to resume
@@ -171,12 +171,18 @@ def test_unwritable_outputs_are_errors_not_tracebacks(tmp_path: Path, small, mon
     with pytest.raises(BipedsimError, match=r"results.csv: cannot write: No space left on device.*resume"):
         run_sweep(small, out2, progress=False)
     monkeypatch.undo()
-    # corrupt summary.json and experiment.json are simply rewritten; a folder in summary.json's place is an error
+    # a corrupt summary.json is simply rewritten; a garbled experiment.json beside results is refused (the
+    # rows could not be checked against this experiment's setup), and once removed the sweep resumes; a
+    # folder in summary.json's place is an error
     out3 = tmp_path / "out3"
     out3.mkdir()
     write_results(out3 / "results.csv", fake_rows(small))
     (out3 / "summary.json").write_bytes(b"\x00{not json")
     (out3 / "experiment.json").write_text("[1, 2")
+    with pytest.raises(BipedsimError, match=r"experiment.json: not a sweep's record \(not JSON: .*\), so the results "
+                                            "beside it cannot be checked"):
+        run_sweep(small, out3, progress=False)
+    (out3 / "experiment.json").unlink()
     assert run_sweep(small, out3, progress=False)["rollouts"] == 2
     assert json.loads((out3 / "summary.json").read_text())["rollouts"] == 2
     (out3 / "summary.json").unlink()

@@ -218,7 +218,7 @@ def tiny_run(tmp_path_factory) -> tuple[Path, Path, dict]:
 def test_a_tune_writes_its_outputs_and_improves_on_a_broken_start(tiny_run) -> None:
     p, out, summary = tiny_run
     assert {f.name for f in out.iterdir()} >= {"best.yaml", "history.csv", "convergence.png", "summary.json",
-                                               "state.pkl"}
+                                               "state.json"}
     rows = _history(out)
     assert [int(r["candidate"]) for r in rows] == list(range(6))  # the start + 5 candidates, in order
     assert [int(r["generation"]) for r in rows] == [0, 1, 1, 1, 2, 2]  # popsize 3; the last generation cut to 5
@@ -256,7 +256,7 @@ def test_same_seed_same_result_and_a_finished_tune_reruns_nothing(tiny_run, tmp_
 
 def test_a_finished_tune_run_again_says_there_is_nothing_to_do_and_writes_nothing(tiny_run, tmp_path: Path,
                                                                                   monkeypatch, capsys) -> None:
-    """It rewrote state.pkl (and the outputs) and printed the summary again; with evaluations below the
+    """It rewrote state.json (and the outputs) and printed the summary again; with evaluations below the
     candidates evaluated it wrote a summary whose budget was below what was evaluated."""
     import shutil
 
@@ -323,7 +323,7 @@ def test_interrupted_tune_resumes_without_scoring_any_candidate_twice(tiny_run, 
 
 
 def test_cli_interrupt_says_how_to_resume(tmp_path: Path, monkeypatch, capsys) -> None:
-    p = write_tune(tmp_path, with_(TINY, evaluations=2))
+    p = write_tune(tmp_path, with_(TINY, evaluations=2, popsize=2))
 
     def stop(task):
         raise KeyboardInterrupt
@@ -403,7 +403,7 @@ def test_a_creature_tune_starts_from_a_controller_files_creature_section(tmp_pat
 
 
 def test_ray_backend_without_ray_is_a_clear_error(tmp_path: Path, monkeypatch) -> None:
-    p = write_tune(tmp_path, with_(TINY, evaluations=2))
+    p = write_tune(tmp_path, with_(TINY, evaluations=2, popsize=2))
     monkeypatch.setitem(sys.modules, "ray", None)
     with pytest.raises(BipedsimError, match=r"the Ray backend needs the ray package: pip install 'bipedsim\[ray\]'"):
         run_tune(load_tune(p), tmp_path / "o", backend="ray", progress=False)

@@ -20,8 +20,15 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from bipedsim.errors import BipedsimError, ConfigError, OutputError
-from bipedsim.io import atomic_write_text, os_reason, prepare_output_dir, progress_bar
+from bipedsim.errors import BipedsimError, ConfigError, InputError, OutputError
+from bipedsim.io import (
+    atomic_write_text,
+    os_reason,
+    prepare_output_dir,
+    progress_bar,
+    read_input_bytes,
+    read_input_text,
+)
 from bipedsim.sim.experiment import Experiment, Row
 from bipedsim.sim.rollout import OUTCOMES, PUSH_NOT_APPLIED
 
@@ -32,6 +39,8 @@ RESULT_COLUMNS = ["index", "key", "controller", "magnitude", "direction", "durat
 TIMING_COLUMNS = ("wall_seconds",)
 
 _CACHE: dict[Any, Any] = {}
+#: What a job asked to run on Ray says when the ``ray`` package is not installed.
+RAY_MISSING = "the Ray backend needs the ray package: pip install 'bipedsim[ray]'"
 
 
 #: one rollout for a worker: (row, (reference, profile, support), seconds, init_noise, fall criteria)
@@ -86,10 +95,12 @@ _REPORT_ROWS = 3
 def read_results(path: Path) -> list[dict[str, str]]:
     """The rows of ``path`` that have a key and an outcome, for counting (an interrupted sweep's
     message); [] when there is no readable file. :func:`load_results` checks them properly."""
+    if not path.exists():
+        return []
     try:
-        with open(path, newline="", encoding="utf-8", errors="replace") as f:
-            rows = list(csv.DictReader(f))
-    except (OSError, csv.Error):
+        text = read_input_bytes(path, "csv").decode("utf-8", errors="replace")
+        rows = list(csv.DictReader(io.StringIO(text, newline="")))
+    except (BipedsimError, csv.Error):
         return []
     return [r for r in rows if r.get("key") and r.get("outcome")]
 
@@ -125,13 +136,11 @@ def load_results(path: Path, rows: list[Row]) -> tuple[list[dict[str, str]], lis
     (line number, why) for every other record: a torn last line (a crash or a full disk mid-write), a
     wrong column count, an unparsable number, an unknown outcome, a key not in the experiment or
     parameters that differ from it, a second row for one key. Raises :class:`BipedsimError` when the
-    file cannot be read, or is not a results file (its header is not :data:`RESULT_COLUMNS`)."""
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
+    file cannot be read (:class:`~bipedsim.errors.InputError`: a folder, a device, above the size limit
+    for CSV files), or is not a results file (its header is not :data:`RESULT_COLUMNS`)."""
+    if not path.exists():
         return [], []
-    except OSError as exc:
-        raise OutputError(f"{path}: cannot read: {os_reason(exc)}") from None
+    raw = read_input_bytes(path, "csv")
     text = raw.decode("utf-8", errors="replace")  # a byte torn in a character shows as a bad value
     records: list[tuple[int, list[str]]] = []
     reader = csv.reader(io.StringIO(text, newline=""))
@@ -225,6 +234,18 @@ def _local(tasks: list, workers: int, fn: Callable[[Any], Any] | None = None) ->
         yield from pool.imap_unordered(fn, tasks)
 
 
+def check_backend(backend: str) -> None:
+    """Refuse, before anything is written, a backend that is not known or cannot run here: Ray when the
+    ``ray`` package is not installed (:class:`ConfigError` naming ``--backend`` and the fix)."""
+    if backend not in BACKENDS:
+        raise ConfigError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}", key="--backend")
+    if backend == "ray":
+        try:
+            import ray  # noqa: F401 - imported only to learn whether it can be
+        except ImportError:
+            raise ConfigError(RAY_MISSING, key="--backend") from None
+
+
 @contextlib.contextmanager
 def ray_session(workers: int) -> Iterator[Any]:
     """The ``ray`` module, initialised for ``workers`` CPUs unless it already is (and then shut down
@@ -233,7 +254,7 @@ def ray_session(workers: int) -> Iterator[Any]:
     try:
         import ray
     except ImportError:
-        raise BipedsimError("the Ray backend needs the ray package: pip install 'bipedsim[ray]'") from None
+        raise BipedsimError(RAY_MISSING) from None
     started = False
     if not ray.is_initialized():
         ray.init(num_cpus=max(1, workers), include_dashboard=False, log_to_driver=False,
@@ -308,9 +329,9 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
     ``progress``: a progress bar on stderr (the command line asks for one when stderr is a terminal).
     ``say`` gets one-line notes: malformed rows dropped from results.csv (they are run again), workers
     capped. Errors (an unwritable folder, a results.csv that is not one, another run setup's results)
-    are :class:`BipedsimError` before any rollout."""
-    if backend not in BACKENDS:
-        raise ConfigError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}", key="--backend")
+    are :class:`BipedsimError` before any rollout; a backend that cannot run here (Ray not installed)
+    and a worker count below 1, before anything is written."""
+    check_backend(backend)
     if workers < 1:
         raise ConfigError(f"must be at least 1, got {workers}", key="--workers")
     out = prepare_output_dir(out_dir, "--out")
@@ -402,22 +423,53 @@ def _setup(exp: Experiment) -> dict[str, Any]:
             "fall": None if s.fall is None else asdict(s.fall)}
 
 
+def _read_setup(path: Path) -> dict[str, Any] | None:
+    """The setup an ``experiment.json`` records; None when there is none to check against (no file, or
+    an older record without one); :class:`InputError` for a file that is not a sweep's record."""
+    if not path.exists():
+        return None
+    try:
+        record = json.loads(read_input_text(path, "json"))
+    except (ValueError, RecursionError) as exc:  # RecursionError: nesting deeper than json's parser goes
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise InputError(_not_a_record(f"not JSON: {why}"), path) from None
+    if not isinstance(record, dict):
+        raise InputError(_not_a_record(f"a JSON {json_kind(record)}, not an object"), path)
+    if "setup" not in record:
+        return None
+    if not isinstance(record["setup"], dict):
+        raise InputError(_not_a_record("its setup is not an object"), path)
+    return record["setup"]
+
+
+def json_kind(value: Any) -> str:
+    """What a parsed JSON value is, in JSON's words (for a message about a file holding the wrong kind)."""
+    if value is None or isinstance(value, bool):
+        return {None: "null", True: "true", False: "false"}[value]
+    kinds = {dict: "object", list: "array", str: "string", int: "number", float: "number"}
+    return kinds.get(type(value), type(value).__name__)
+
+
+def _not_a_record(why: str) -> str:
+    return (f"not a sweep's record ({why}), so the results beside it cannot be checked against this "
+            "experiment; remove it to resume without that check, or remove results.csv to start again")
+
+
 def _check_setup(out: Path, exp: Experiment) -> None:
     """Refuse to resume into results made with another run length, reference, noise or fall criteria
-    (``experiment.json`` records them; an unreadable or older record is not checked: it is rewritten)."""
-    try:
-        old = json.loads((out / "experiment.json").read_text(encoding="utf-8"))["setup"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return
+    (``experiment.json`` records them; an older record without them is not checked: it is rewritten;
+    a file that is not a record at all is refused, as resuming would trust rows it cannot check)."""
     if not read_results(out / "results.csv"):
         return
+    old = _read_setup(out / "experiment.json")
+    if old is None:
+        return
     new = json.loads(json.dumps(_setup(exp)))  # tuples as lists, as the record has them
-    diff = [k for k in new if old.get(k) != new[k]] if isinstance(old, dict) else list(new)
+    diff = [k for k in new if old.get(k) != new[k]]
     if diff:
         k = diff[0]
-        raise BipedsimError(f"--out {out}: holds results made with {k} {old.get(k) if isinstance(old, dict) else '?'}"
-                            f", this experiment has {k} {new[k]}; give another --out, or remove "
-                            f"{out / 'results.csv'} to start again")
+        raise BipedsimError(f"--out {out}: holds results made with {k} {old.get(k)}, this experiment has {k} "
+                            f"{new[k]}; give another --out, or remove {out / 'results.csv'} to start again")
 
 
 def _rewrite(path: Path, rows: list[dict[str, str]]) -> None:

@@ -3,9 +3,13 @@
 The parameters are scaled to [0, 1] (``low`` .. ``high``) and CMA-ES keeps its samples there (pycma's
 ``bounds``, its default boundary transform); the start controller's values (clipped into the ranges)
 are the initial mean. Candidates of a generation are scored in parallel (local processes or Ray, the
-sweep's backends) and each is appended to ``history.csv`` as it finishes. The optimiser's state --
-pycma's object with its own random generator -- is pickled to ``state.pkl`` (atomically) after each
-generation is told, so rerunning the same command resumes: CMA-ES asks the interrupted generation again
+sweep's backends) and each is appended to ``history.csv`` as it finishes. The optimiser's state is
+written to ``state.json`` (atomically) after each generation: CMA-ES's construction arguments (start,
+step, population, seed) and every candidate it asked that was evaluated, with its score. JSON of
+numbers only, so a state file from anywhere can be read without running anything; it is checked
+(format, version, shapes, finite numbers, this tune's configuration) before use. Rerunning the same
+command resumes: pycma's object is rebuilt by replaying those asks and tells from the same seed (each
+replayed ask must give the recorded candidates exactly), CMA-ES asks the interrupted generation again
 (the same candidates), the candidates already in ``history.csv`` are not scored again, and the run ends
 with what an uninterrupted one would have found. ``best.yaml``, ``convergence.png`` and ``summary.json``
 are rewritten after every generation.
@@ -19,9 +23,9 @@ import io
 import json
 import math
 import os
-import pickle
 import sys
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +33,7 @@ import numpy as np
 import yaml
 
 from bipedsim import config
-from bipedsim.errors import BipedsimError, ConfigError, OutputError
+from bipedsim.errors import BipedsimError, ConfigError, InputError, OutputError
 from bipedsim.io import (
     atomic_write_bytes,
     atomic_write_json,
@@ -37,24 +41,33 @@ from bipedsim.io import (
     os_reason,
     prepare_output_dir,
     progress_bar,
+    read_input_bytes,
+    read_input_text,
     versions,
 )
-from bipedsim.sim.sweep import BACKENDS, backend_session, worker_count
+from bipedsim.sim.sweep import backend_session, check_backend, json_kind, worker_count
 from bipedsim.tune.evaluate import Setup, evaluate
 from bipedsim.tune.objective import TERMS
-from bipedsim.tune.spec import CONFIG_CLASSES, Tune
+from bipedsim.tune.spec import CONFIG_CLASSES, MAX_POPSIZE, Tune
 
-STATE_FILE, HISTORY_FILE = "state.pkl", "history.csv"
+STATE_FILE, HISTORY_FILE = "state.json", "history.csv"
+#: The state file of earlier versions: a Python pickle, refused without being read (unpickling a file
+#: runs whatever code it names, and a tune folder may come from anyone).
+OLD_STATE_FILE = "state.pkl"
 #: history.csv's columns before the parameters' (one column per dotted key) and after them
 HEAD_COLUMNS = ["candidate", "generation", "score", *TERMS, "survived", "rollouts", "walk_s"]
 TAIL_COLUMNS = ["wall_seconds"]
-#: state.pkl's format; an older one is refused, not misread
-STATE_VERSION = 2
+#: state.json's "format" and "version": a file without them, or of another version, is refused, not misread
+STATE_FORMAT, STATE_VERSION = "bipedsim tune state", 3
+#: state.json's keys, and those of its "strategy" (CMA-ES's construction arguments) and of a generation
+STATE_KEYS = ("format", "version", "fingerprint", "parameters", "strategy", "generations")
+STRATEGY_KEYS = ("x0", "sigma0", "popsize", "seed", "cma")
+GENERATION_KEYS = ("candidates", "scores")
 
 
 class Randn:
     """CMA-ES's normal samples from its own generator, seeded by the tune (pycma's ``randn`` option
-    would take NumPy's global one, which the pickled state would not hold)."""
+    would take NumPy's global one, which other code in the process may draw from between generations)."""
 
     def __init__(self, seed: int) -> None:
         self.rng = np.random.default_rng(seed)
@@ -80,7 +93,48 @@ def _fingerprint(tune: Tune) -> str:
     return hashlib.sha1(ident.encode()).hexdigest()
 
 
-def _new_state(tune: Tune) -> dict[str, Any]:
+@dataclass
+class Generation:
+    """One generation as far as it was evaluated: its candidates in CMA-ES's coordinates (each
+    parameter's range scaled to [0, 1]), in the order CMA-ES asked them, and their scores. All
+    ``popsize`` of them unless the budget cut it short; only a whole generation is told to CMA-ES."""
+
+    candidates: list[list[float]]
+    scores: list[float]
+
+
+@dataclass
+class TuneState:
+    """A tune's optimiser: pycma's object (``es``), made from ``strategy`` (its construction arguments)
+    and moved on by ``generations`` (asked, evaluated and, when whole, told)."""
+
+    fingerprint: str
+    strategy: dict[str, Any]
+    es: Any
+    generations: list[Generation] = field(default_factory=list)
+
+    @property
+    def generation(self) -> int:
+        return len(self.generations)
+
+    @property
+    def evaluated(self) -> int:
+        return sum(len(g.candidates) for g in self.generations)
+
+    def candidates(self) -> list[tuple[int, list[float]]]:
+        """(generation, CMA-ES coordinates) of every candidate evaluated, in candidate order (1, 2, ...)."""
+        return [(n, x) for n, g in enumerate(self.generations, start=1) for x in g.candidates]
+
+    def to_json(self, keys: list[str]) -> dict[str, Any]:
+        """What state.json holds: numbers and names only (its size grows with the candidates evaluated)."""
+        return {"format": STATE_FORMAT, "version": STATE_VERSION, "fingerprint": self.fingerprint,
+                "parameters": keys, "strategy": self.strategy,
+                "generations": [{"candidates": g.candidates, "scores": g.scores} for g in self.generations]}
+
+
+def _new_state(tune: Tune) -> TuneState:
+    """A fresh optimiser for ``tune``: CMA-ES from the start controller's values (clipped into the
+    ranges), with the tune's step, population and seed."""
     import cma
 
     s = tune.spec
@@ -91,8 +145,9 @@ def _new_state(tune: Tune) -> dict[str, Any]:
     if s.popsize is not None:
         opts["popsize"] = s.popsize
     es = cma.CMAEvolutionStrategy(x0.tolist(), s.sigma, opts)
-    return {"version": STATE_VERSION, "fingerprint": _fingerprint(tune), "es": es, "generation": 0,
-            "evaluated": 0, "told": []}
+    strategy = {"x0": [float(v) for v in x0], "sigma0": float(s.sigma), "popsize": int(es.popsize), "seed": s.seed,
+                "cma": cma.__version__}
+    return TuneState(fingerprint=_fingerprint(tune), strategy=strategy, es=es)
 
 
 def _bounds(tune: Tune) -> tuple[np.ndarray, np.ndarray]:
@@ -100,42 +155,163 @@ def _bounds(tune: Tune) -> tuple[np.ndarray, np.ndarray]:
     return ranges[:, 0], ranges[:, 1]
 
 
-def _save_state(path: Path, state: dict[str, Any]) -> None:
-    atomic_write_bytes(path, pickle.dumps(state))
+def _save_state(path: Path, state: TuneState, tune: Tune) -> None:
+    # floats as repr writes them: they read back exactly, so the replay tells CMA-ES the same numbers
+    atomic_write_text(path, json.dumps(state.to_json(tune.keys), allow_nan=False) + "\n")
 
 
-def _load_state(path: Path, tune: Tune, has_history: bool) -> dict[str, Any] | None:
-    """The saved state of this tune, or None for a fresh folder; BipedsimError for another tune's
-    folder or an unreadable state."""
-    if not path.exists():
+def _load_state(out: Path, tune: Tune, has_history: bool) -> TuneState | None:
+    """The saved state of the tune in ``out``, rebuilt; None for a fresh folder. Refused with one line
+    (a :class:`BipedsimError`), never loaded: an earlier version's pickle, a file that is not this
+    version's state, another tune's state, and one whose replay does not ask the recorded candidates."""
+    old = out / OLD_STATE_FILE
+    if old.exists() or old.is_symlink():
+        raise InputError(f"a tune state of an earlier bipedsim: a Python pickle, which this version never opens "
+                         f"(reading one can run any code it holds); give another --out, or remove {OLD_STATE_FILE} "
+                         f"and {HISTORY_FILE} to start again", old)
+    path = out / STATE_FILE
+    if not (path.exists() or path.is_symlink()):
         if has_history:
-            raise BipedsimError(f"--out {path.parent}: holds {HISTORY_FILE} but no {STATE_FILE}: not a tune folder "
+            raise BipedsimError(f"--out {out}: holds {HISTORY_FILE} but no {STATE_FILE}: not a tune folder "
                                 f"this version can resume; give another --out, or remove {HISTORY_FILE}")
         return None
-    try:
-        state = pickle.loads(path.read_bytes())
-        ok = isinstance(state, dict) and state.get("version") == STATE_VERSION
-    except Exception:  # noqa: BLE001 - a torn or foreign pickle: refuse it, whatever it raised
-        ok = False
-    if not ok:
-        raise BipedsimError(f"{path}: not a state file of this version of bipedsim tune; give another --out, or "
-                            "remove the folder's state.pkl and history.csv to start again")
-    if state["fingerprint"] != _fingerprint(tune):
-        raise BipedsimError(f"--out {path.parent}: holds a tune of another configuration (the tune file, its "
+    fingerprint, keys, strategy, generations = parse_state(read_input_text(path, "json"), path, len(tune.keys))
+    state = _new_state(tune)
+    mine = {k: v for k, v in state.strategy.items() if k != "cma"}
+    if fingerprint != state.fingerprint or keys != tune.keys or {k: strategy[k] for k in mine} != mine:
+        raise BipedsimError(f"--out {out}: holds a tune of another configuration (the tune file, its "
                             "controller or its references changed since); give another --out, or remove "
                             f"{STATE_FILE} and {HISTORY_FILE} to start again")
+    _replay(state, generations, path, written_with=strategy["cma"])
     return state
+
+
+def _replay(state: TuneState, generations: list[Generation], path: Path, written_with: str) -> None:
+    """Move a fresh ``state`` on through the recorded ``generations`` as the tune that wrote them did
+    (ask; tell when whole), in this process: the same seed gives the same candidates, which each replayed
+    ask must give exactly (another cma or NumPy may sample otherwise: then the tune cannot resume)."""
+    import cma
+
+    es = state.es
+    for number, gen in enumerate(generations, start=1):
+        es.stop()  # as the tune's loop checks it before each generation (pycma updates its record of it)
+        asked = [np.asarray(x, dtype=float) for x in es.ask()]
+        n = len(gen.candidates)
+        if n > len(asked) or not all(np.array_equal(asked[i], gen.candidates[i]) for i in range(n)):
+            raise InputError(f"generation {number}: CMA-ES asks other candidates than the state records (written "
+                             f"with cma {written_with}, this is cma {cma.__version__}), so this tune cannot be "
+                             f"resumed exactly; give another --out, or remove {STATE_FILE} and {HISTORY_FILE} to "
+                             "start again", path)
+        if n == len(asked):
+            es.tell(asked, list(gen.scores))
+        state.generations.append(gen)
+
+
+class _Malformed(ValueError):
+    """Where a state file departs from the format, and how (becomes one line naming the file)."""
+
+
+def parse_state(text: str, path: Path, dims: int) -> tuple[str, list[str], dict[str, Any], list[Generation]]:
+    """A state file's (fingerprint, parameter names, strategy, generations), every value checked: the
+    format and version, each key and its kind, vectors of ``dims`` numbers in [0, 1], finite numbers, at
+    most a generation's ``popsize`` candidates each with one score; an :class:`InputError` naming the
+    file and the first departure otherwise. Nothing in the file is run or looked up, whatever it holds."""
+    try:
+        data = json.loads(text)
+    except (ValueError, RecursionError) as exc:  # RecursionError: nesting deeper than json's parser goes
+        raise _bad_state(path, f"not JSON: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    try:
+        if not isinstance(data, dict) or data.get("format") != STATE_FORMAT:
+            raise _Malformed(f"no \"format\": \"{STATE_FORMAT}\"")
+        if data.get("version") != STATE_VERSION:
+            raise _Malformed(f"format version {data.get('version')!r}; this bipedsim reads version {STATE_VERSION}")
+        _keys(data, STATE_KEYS, "the file")
+        fingerprint = data["fingerprint"]
+        if not isinstance(fingerprint, str):
+            raise _Malformed(f"fingerprint: expected a string, got a JSON {json_kind(fingerprint)}")
+        keys = data["parameters"]
+        if not isinstance(keys, list) or len(keys) != dims or not all(isinstance(k, str) for k in keys):
+            raise _Malformed(f"parameters: expected the names of {dims} parameters")
+        strategy = _strategy(data["strategy"], dims)
+        generations = _generations(data["generations"], dims, strategy["popsize"])
+    except _Malformed as exc:
+        raise _bad_state(path, str(exc)) from None
+    return fingerprint, keys, strategy, generations
+
+
+def _bad_state(path: Path, why: str) -> InputError:
+    return InputError(f"not a state file of this version of bipedsim tune ({why}); give another --out, or remove "
+                      f"{STATE_FILE} and {HISTORY_FILE} to start again", path)
+
+
+def _keys(data: Any, keys: tuple[str, ...], where: str) -> None:
+    if not isinstance(data, dict):
+        raise _Malformed(f"{where}: expected an object, got a JSON {json_kind(data)}")
+    if set(data) != set(keys):
+        odd = sorted(set(data) ^ set(keys))[0]
+        raise _Malformed(f"{where}: {'unknown' if odd in data else 'missing'} key {odd!r}; expected "
+                         f"{', '.join(keys)}")
+
+
+def _number(v: Any, where: str, low: float = -math.inf, high: float = math.inf) -> float:
+    """``v`` as a float when it is a finite JSON number within [low, high]."""
+    try:
+        ok = not isinstance(v, bool) and isinstance(v, int | float) and low <= float(v) <= high
+    except OverflowError:  # an integer beyond any float
+        ok = False
+    if not ok or not math.isfinite(float(v)):
+        limits = "" if math.isinf(low) and math.isinf(high) else f" in [{low:g}, {high:g}]"
+        raise _Malformed(f"{where}: expected a finite number{limits}, got {str(v)[:40]}")
+    return float(v)
+
+
+def _vector(v: Any, dims: int, where: str) -> list[float]:
+    """A candidate: ``dims`` numbers in [0, 1] (CMA-ES's coordinates)."""
+    if not isinstance(v, list) or len(v) != dims:
+        raise _Malformed(f"{where}: expected a list of {dims} numbers in [0, 1]")
+    return [_number(x, f"{where}[{i}]", 0.0, 1.0) for i, x in enumerate(v)]
+
+
+def _integer(v: Any, where: str, low: int, high: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= high:
+        raise _Malformed(f"{where}: expected an integer in [{low}, {high}], got {str(v)[:40]}")
+    return v
+
+
+def _strategy(v: Any, dims: int) -> dict[str, Any]:
+    _keys(v, STRATEGY_KEYS, "strategy")
+    if not isinstance(v["cma"], str):
+        raise _Malformed(f"strategy.cma: expected a version string, got a JSON {json_kind(v['cma'])}")
+    return {"x0": _vector(v["x0"], dims, "strategy.x0"), "sigma0": _number(v["sigma0"], "strategy.sigma0", 0.0, 1.0),
+            "popsize": _integer(v["popsize"], "strategy.popsize", 1, MAX_POPSIZE),
+            "seed": _integer(v["seed"], "strategy.seed", 0, 2**63), "cma": v["cma"]}
+
+
+def _generations(v: Any, dims: int, popsize: int) -> list[Generation]:
+    if not isinstance(v, list):
+        raise _Malformed(f"generations: expected a list, got a JSON {json_kind(v)}")
+    out = []
+    for i, g in enumerate(v):
+        where = f"generations[{i}]"
+        _keys(g, GENERATION_KEYS, where)
+        xs, scores = g["candidates"], g["scores"]
+        if not isinstance(xs, list) or not 1 <= len(xs) <= popsize:
+            raise _Malformed(f"{where}.candidates: expected a list of 1 to {popsize} (popsize) candidates")
+        if not isinstance(scores, list) or len(scores) != len(xs):
+            raise _Malformed(f"{where}.scores: expected a list of {len(xs)} scores, one per candidate")
+        out.append(Generation([_vector(x, dims, f"{where}.candidates[{j}]") for j, x in enumerate(xs)],
+                              [_number(f, f"{where}.scores[{j}]") for j, f in enumerate(scores)]))
+    return out
 
 
 def _load_history(path: Path, columns: list[str]) -> dict[int, dict[str, str]]:
     """The whole rows of history.csv by candidate number (a torn last line is dropped: that candidate
-    is scored again)."""
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except FileNotFoundError:
+    is scored again); :class:`InputError` for one that cannot be read (a folder, a device, above the size
+    limit for CSV files)."""
+    if not path.exists():
         return {}
-    except OSError as exc:
-        raise OutputError(f"{path}: cannot read: {os_reason(exc)}") from None
+    # a byte torn in a character shows as a bad value in its row, which is dropped
+    text = read_input_bytes(path, "csv").decode("utf-8", errors="replace")
     rows = list(csv.reader(io.StringIO(text, newline="")))
     if not rows:
         return {}
@@ -249,29 +425,29 @@ def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, back
     Candidate 0 is the start controller (the baseline, besides the budget); 1 .. ``evaluations`` are
     CMA-ES's, in generations of ``popsize`` (the last one cut to the budget). CMA-ES may stop before
     the budget (its own criteria, e.g. every candidate scoring the same); the summary says why. A
-    folder whose tune has finished is left untouched (state.pkl included): the summary of its history
+    folder whose tune has finished is left untouched (state.json included): the summary of its history
     is returned with ``nothing_to_do``, the line saying so (and, when ``evaluations`` is now below the
-    candidates evaluated, that too)."""
-    if backend not in BACKENDS:
-        raise ConfigError(f"unknown backend {backend!r}; choose {', '.join(BACKENDS)}", key="--backend")
+    candidates evaluated, that too). A backend that cannot run here (Ray not installed) is refused
+    before anything is written."""
+    check_backend(backend)
     if workers < 1:
         raise ConfigError(f"must be at least 1, got {workers}", key="--workers")
     out = prepare_output_dir(out_dir, "--out")
     columns = history_columns(tune)
     has_history = (out / HISTORY_FILE).is_file() and (out / HISTORY_FILE).stat().st_size > 0
-    loaded = _load_state(out / STATE_FILE, tune, has_history)
+    loaded = _load_state(out, tune, has_history)
     state = loaded or _new_state(tune)
     history = _load_history(out / HISTORY_FILE, columns)
     budget = tune.spec.evaluations
-    if loaded is not None and _finished(state, history, budget):  # rewrite nothing, state.pkl included
+    if loaded is not None and _finished(state, history, budget):  # rewrite nothing, state.json included
         return {**summarize(tune, history, state), "nothing_to_do": _nothing_to_do(tune, state, budget)}
-    _save_state(out / STATE_FILE, state)
+    _save_state(out / STATE_FILE, state, tune)
     if history:
         _write_history(out / HISTORY_FILE, columns, [history[n] for n in sorted(history)], append=False)
     bar = progress_bar(budget + 1, tune.spec.name, "candidate", force=True, leave=True) if progress else None
     if bar is not None:
         bar.update(min(len(history), budget + 1))
-    n_workers, note = worker_count(workers, int(state["es"].popsize))  # capped by the CPUs or a generation
+    n_workers, note = worker_count(workers, int(state.es.popsize))  # capped by the CPUs or a generation
     if note:
         say(note.replace("rollout(s) left", "candidates per generation"))
     try:
@@ -280,7 +456,7 @@ def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, back
             scorer = _Scorer(tune, out, history, run, bar)
             scorer.score(0, [(0, tune.start_values())])
             _rescore_lost(tune, state, scorer)
-            while state["evaluated"] < budget and not state["es"].stop():
+            while state.evaluated < budget and not state.es.stop():
                 _generation(tune, state, scorer, out, budget)
                 write_outputs(tune, out, scorer.history, state)
     finally:
@@ -291,54 +467,54 @@ def run_tune(tune: Tune, out_dir: str | os.PathLike[str], workers: int = 1, back
     return write_outputs(tune, out, history, state)
 
 
-def _finished(state: dict[str, Any], history: dict[int, dict[str, str]], budget: int) -> bool:
+def _finished(state: TuneState, history: dict[int, dict[str, str]], budget: int) -> bool:
     """Whether a resumed tune has nothing left to do: its budget spent (or CMA-ES stopped) and every
-    candidate told, and the start, in the history."""
-    done = state["evaluated"] >= budget or bool(state["es"].stop())
-    return done and all(n in history for n in range(len(state["told"]) + 1))
+    candidate evaluated, and the start, in the history."""
+    done = state.evaluated >= budget or bool(state.es.stop())
+    return done and all(n in history for n in range(state.evaluated + 1))
 
 
-def _nothing_to_do(tune: Tune, state: dict[str, Any], budget: int) -> str:
+def _nothing_to_do(tune: Tune, state: TuneState, budget: int) -> str:
     """The line a rerun of a finished tune prints instead of its summary."""
-    n, name = state["evaluated"], tune.path.name
+    n, name = state.evaluated, tune.path.name
     if n > budget:
         return (f"tune already finished ({n} candidates evaluated, more than evaluations: {budget} in {name}); "
                 f"nothing to do (evaluations above {n} continue it)")
     if n < budget:
-        stop = ", ".join(state["es"].stop())
+        stop = ", ".join(state.es.stop())
         return (f"tune already finished ({n} candidates evaluated; CMA-ES stopped before the budget: {stop}); "
                 "nothing to do")
     return f"tune already finished ({n} candidates evaluated); nothing to do (raise evaluations in {name} to continue)"
 
 
-def _generation(tune: Tune, state: dict[str, Any], scorer: _Scorer, out: Path, budget: int) -> None:
+def _generation(tune: Tune, state: TuneState, scorer: _Scorer, out: Path, budget: int) -> None:
     """Ask, score (the candidates not already in the history), tell, save."""
-    # The state is saved only once a generation is told: a resumed tune asks again from the saved
-    # state and gets the same candidates (CMA-ES's generator is in the pickle). It must not tell
-    # candidates asked by another process: pycma finds a told solution's internal (unbounded) form by
-    # a hash that differs between processes, and would recompute it -- another update, other results.
-    es = state["es"]
+    # The state is saved only once a generation is scored: a resumed tune replays the saved ones and
+    # asks this one again (the same candidates: the same seed). Asks and tells are replayed in the
+    # resuming process because pycma finds a told solution's internal (unbounded) form by a hash that
+    # differs between processes: told what another process asked, it would recompute it -- another
+    # update, other results.
+    es = state.es
     asked = [np.asarray(x, dtype=float) for x in es.ask()]
-    gen = state["generation"] + 1
-    n = min(len(asked), budget - state["evaluated"])
-    scores = scorer.score(gen, [(state["evaluated"] + 1 + i, _values(tune, asked[i].tolist())) for i in range(n)])
+    gen = state.generation + 1
+    n = min(len(asked), budget - state.evaluated)  # the state holds the candidates evaluated, not popsize
+    scores = scorer.score(gen, [(state.evaluated + 1 + i, _values(tune, asked[i].tolist())) for i in range(n)])
     if n == len(asked):
         es.tell(asked, scores)
-    state["told"] += [(gen, x.tolist()) for x in asked[:n]]
-    state.update(generation=gen, evaluated=state["evaluated"] + n)
-    _save_state(out / STATE_FILE, state)
+    state.generations.append(Generation([x.tolist() for x in asked[:n]], [float(f) for f in scores]))
+    _save_state(out / STATE_FILE, state, tune)
 
 
-def _rescore_lost(tune: Tune, state: dict[str, Any], scorer: _Scorer) -> None:
-    """Score again the told candidates missing from history.csv (a row torn by a crash mid-write):
+def _rescore_lost(tune: Tune, state: TuneState, scorer: _Scorer) -> None:
+    """Score again the evaluated candidates missing from history.csv (a row torn by a crash mid-write):
     CMA-ES has their scores already; the history gets back the same rows."""
-    for number, (gen, x) in enumerate(state["told"], start=1):
+    for number, (gen, x) in enumerate(state.candidates(), start=1):
         if number not in scorer.history:
             scorer.score(gen, [(number, _values(tune, x))])
 
 
 # ---------------------------------------------------------------------- outputs
-def write_outputs(tune: Tune, out: Path, history: dict[int, dict[str, str]], state: dict[str, Any]) -> dict[str, Any]:
+def write_outputs(tune: Tune, out: Path, history: dict[int, dict[str, str]], state: TuneState) -> dict[str, Any]:
     """best.yaml, convergence.png and summary.json from the history so far; returns the summary."""
     summary = summarize(tune, history, state)
     best_n = summary["best"]["candidate"]
@@ -349,17 +525,17 @@ def write_outputs(tune: Tune, out: Path, history: dict[int, dict[str, str]], sta
     return summary
 
 
-def summarize(tune: Tune, history: dict[int, dict[str, str]], state: dict[str, Any]) -> dict[str, Any]:
+def summarize(tune: Tune, history: dict[int, dict[str, str]], state: TuneState) -> dict[str, Any]:
     """The summary (what summary.json holds) of the history so far."""
     import cma
 
     best_n = min(history, key=lambda n: (float(history[n]["score"]), n))
     best, start = history[best_n], history[0]
-    stop = {k: str(v) for k, v in state["es"].stop().items()}
+    stop = {k: str(v) for k, v in state.es.stop().items()}
     summary = {"name": tune.spec.name, "file": str(tune.path), "controller": tune.controller_path,
                "references": list(tune.references), "profile": tune.spec.profile, "seed": tune.spec.seed,
-               "budget": tune.spec.evaluations, "evaluated": state["evaluated"], "generations": state["generation"],
-               "popsize": int(state["es"].popsize), "stopped_early": stop if stop and state["evaluated"] <
+               "budget": tune.spec.evaluations, "evaluated": state.evaluated, "generations": state.generation,
+               "popsize": int(state.es.popsize), "stopped_early": stop if stop and state.evaluated <
                tune.spec.evaluations else None,
                "start": _summary_row(tune, start), "best": _summary_row(tune, best),
                "config": config.to_dict(tune.spec), "versions": {**versions(), "cma": cma.__version__}}
@@ -447,5 +623,6 @@ def interrupted_message(tune: Tune, out_dir: str | os.PathLike[str]) -> str:
             "same command again to resume")
 
 
-__all__ = ["CONFIG_CLASSES", "HISTORY_FILE", "STATE_FILE", "convergence_plot", "format_tune_summary",
-           "history_columns", "interrupted_message", "run_tune", "write_outputs"]
+__all__ = ["CONFIG_CLASSES", "HISTORY_FILE", "OLD_STATE_FILE", "STATE_FILE", "Generation", "TuneState",
+           "convergence_plot", "format_tune_summary", "history_columns", "interrupted_message", "parse_state",
+           "run_tune", "write_outputs"]

@@ -28,6 +28,16 @@ from bipedsim.tune.objective import Objective
 CONFIG_CLASSES: dict[str, type] = {"humanoid": ControllerConfig, "creature": CreatureControlConfig}
 #: Keys of the tune's ``experiment`` block that belong to the tune itself (given once, at the top).
 TOP_LEVEL_KEYS = ("reference", "profile", "support")
+#: The largest budget (candidates evaluated). Each candidate is several rollouts of seconds each, so
+#: 100,000 is weeks of CPU time; the bound keeps a typo (an extra zero or three) from sizing the history
+#: and the saved state beyond any real tune.
+MAX_EVALUATIONS = 100_000
+#: The largest generation: CMA-ES samples a whole generation at once (memory and time in proportion).
+MAX_POPSIZE = 10_000
+#: The most candidate values (evaluations x parameters) a tune may record: its saved state holds every
+#: candidate evaluated (about 20 bytes a value in JSON), so this keeps the state under 40 MB, within the
+#: size a resumed tune reads back without raising a limit (``bipedsim.io.INPUT_LIMITS_MB["json"]``).
+MAX_STATE_VALUES = 2_000_000
 
 
 @dataclass(frozen=True)
@@ -46,10 +56,10 @@ class TuneSpec:
     #: dotted controller keys -> [low, high]
     parameters: dict[str, tuple[float, float]] = field(default_factory=dict)
     #: candidates evaluated by CMA-ES (the start controller is evaluated besides, as the baseline)
-    evaluations: int = field(default=96, metadata={"min": 1})
+    evaluations: int = field(default=96, metadata={"min": 1, "max": MAX_EVALUATIONS})
     seed: int = field(default=1, metadata={"min": 0})
-    #: candidates per generation; null: CMA-ES's default, 4 + 3 ln(parameters)
-    popsize: int | None = field(default=None, metadata={"min": 2})
+    #: candidates per generation (at most ``evaluations``); null: CMA-ES's default, 4 + 3 ln(parameters)
+    popsize: int | None = field(default=None, metadata={"min": 2, "max": MAX_POPSIZE})
     #: CMA-ES's initial step, as a fraction of each parameter's range
     sigma: float = field(default=0.3, metadata={"gt": 0.0, "max": 1.0})
     #: the rollouts that score each candidate (sweep format: grid, runs or random), besides an
@@ -64,6 +74,15 @@ class TuneSpec:
         for key, (lo, hi) in self.parameters.items():
             if not lo < hi:
                 raise ValueError(f"parameters.{key}: [low, high] must have low < high, got [{lo:g}, {hi:g}]")
+        if self.popsize is not None and self.popsize > self.evaluations:
+            # CMA-ES learns only from whole generations: one larger than the budget is never told
+            raise ValueError(f"popsize: {self.popsize} candidates per generation is more than the whole budget "
+                             f"(evaluations: {self.evaluations}); give popsize <= evaluations")
+        values = self.evaluations * len(self.parameters)
+        if values > MAX_STATE_VALUES:
+            raise ValueError(f"evaluations: {self.evaluations} candidates x {len(self.parameters)} parameters is "
+                             f"{values:,} values to record, above the {MAX_STATE_VALUES:,} a tune holds; give "
+                             "fewer evaluations or parameters")
         if self.experiment is None:
             raise ValueError("experiment: give the experiment whose rollouts score each candidate "
                              "(seconds and a grid, runs or random pushes, as in experiments/*.yaml)")
@@ -226,4 +245,5 @@ def load_tune(path: str | os.PathLike[str]) -> Tune:
     return tune
 
 
-__all__ = ["CONFIG_CLASSES", "Tune", "TuneSpec", "get_dotted", "load_tune", "set_dotted"]
+__all__ = ["CONFIG_CLASSES", "MAX_EVALUATIONS", "MAX_POPSIZE", "MAX_STATE_VALUES", "Tune", "TuneSpec", "get_dotted",
+           "load_tune", "set_dotted"]

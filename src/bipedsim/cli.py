@@ -368,7 +368,7 @@ def _add_tune(sub: argparse._SubParsersAction) -> None:
     p = _subparser(sub, "tune", cmd_tune, "tune controller values with CMA-ES over rollouts; parallel, resumable")
     p.add_argument("tune", help="tune YAML (experiments/tune_*.yaml; see docs/tuning.md)")
     p.add_argument("--out", required=True,
-                   help="output folder (best.yaml, history.csv, convergence.png, summary.json, state.pkl)")
+                   help="output folder (best.yaml, history.csv, convergence.png, summary.json, state.json)")
     _parallel_flags(p, "candidates scored in parallel")
 
 

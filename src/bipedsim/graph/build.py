@@ -32,7 +32,6 @@ import io
 import json
 import os
 import time
-import zipfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -53,6 +52,53 @@ from bipedsim.motion.skeleton import Skeleton
 FloatArray = npt.NDArray[np.float64]
 FULL = "Full-Body"
 
+# ---------------------------------------------------------------------- limits
+#: Highest graph frame rate (frames/s): motion capture runs at 30-240 fps; the distances between clips
+#: grow with the square of the frames, so a higher rate only costs memory and time.
+MAX_GRAPH_FPS = 240.0
+#: Longest comparison window k (frames): a third of a second is usual; 120 frames is half a second at 240 fps.
+MAX_K_FRAMES = 120
+#: Longest similarity segment (frames); a segment longer than a clip covers the clip.
+MAX_SEGMENT_FRAMES = 1000
+#: Largest blend playback rate change of a derived clip (``speed``; its inverse is the smallest).
+MAX_CLIP_SPEED = 10.0
+#: Most clips in a graph: every pair of clips is compared, per layer.
+MAX_GRAPH_CLIPS = 100
+#: Most part layers: each one compares every pair of clips again.
+MAX_GRAPH_PARTS = 8
+#: Most frames (all clips, at the graph's fps) a graph holds: the distance matrices take 8 bytes per pair
+#: of frames and time with the square of the frames (6000 frames, 200 s of motion at 30 fps: about 500 MB
+#: and half a minute per layer). Raised with ``BIPEDSIM_MAX_GRAPH_FRAMES``.
+MAX_GRAPH_FRAMES = 6000
+#: Most candidate transitions (local minima of the distances) per layer: real clips give a few per
+#: hundred frames; noise gives one in every few pairs of frames, and pruning them all takes minutes.
+MAX_CANDIDATES = 200_000
+#: Largest root coordinate (m) and joint offset (m) a graph file may hold.
+MAX_COORD_M = 1e6
+#: How far a rotation stored in a graph file may be from a unit quaternion.
+UNIT_QUAT_TOL = 1e-3
+
+
+def limit_from_env(name: str, default: int) -> int:
+    """A count limit, ``default`` unless the environment variable ``BIPEDSIM_MAX_<NAME>`` sets another
+    positive whole number (for one command on a machine that can afford more)."""
+    env = f"BIPEDSIM_MAX_{name.upper()}"
+    text = os.environ.get(env)
+    if not text:
+        return default
+    try:
+        value = int(text)
+    except ValueError:
+        raise ConfigError(f"{env}={text!r}: expected a positive whole number") from None
+    if value <= 0:
+        raise ConfigError(f"{env}={text!r}: expected a positive whole number")
+    return value
+
+
+def max_graph_frames() -> int:
+    """:data:`MAX_GRAPH_FRAMES`, or ``BIPEDSIM_MAX_GRAPH_FRAMES`` where set."""
+    return limit_from_env("graph_frames", MAX_GRAPH_FRAMES)
+
 
 @dataclass(frozen=True)
 class ClipSpec:
@@ -60,9 +106,14 @@ class ClipSpec:
     file: str
     tags: tuple[str, ...] = ()
     mirror: bool = False
-    start: float | None = None  #: s
-    end: float | None = None  #: s
-    speed: float = 1.0  #: playback rate of the source (a derived slower or faster clip)
+    start: float | None = field(default=None, metadata={"min": 0.0, "unit": "s"})
+    end: float | None = field(default=None, metadata={"gt": 0.0, "unit": "s"})
+    #: playback rate of the source (a derived slower or faster clip)
+    speed: float = field(default=1.0, metadata={"min": 1.0 / MAX_CLIP_SPEED, "max": MAX_CLIP_SPEED})
+
+    def validate(self) -> None:
+        if self.start is not None and self.end is not None and not self.end > self.start:
+            raise ValueError(f"end: must be after start ({self.start:g} s), got {self.end:g} s")
 
 
 @dataclass(frozen=True)
@@ -74,19 +125,29 @@ class PartSpec:
 @dataclass(frozen=True)
 class GraphConfig:
     name: str = "graph"
-    fps: float = field(default=30.0, metadata={"gt": 0.0})
-    k: int = field(default=20, metadata={"min": 2})
-    #: None: start at DEFAULT_QUANTILE and raise it until every tag keeps frames (with a warning)
+    fps: float = field(default=30.0, metadata={"min": 1.0, "max": MAX_GRAPH_FPS, "unit": "frames/s"})
+    k: int = field(default=20, metadata={"min": 2, "max": MAX_K_FRAMES, "unit": "frames"})
+    #: None (and no threshold): start at DEFAULT_QUANTILE and raise it until every tag keeps frames
     threshold_quantile: float | None = field(default=None, metadata={"gt": 0.0, "max": 1.0})
     threshold: float | None = field(default=None, metadata={"gt": 0.0})
     sigma: float | None = field(default=None, metadata={"gt": 0.0})
-    segment: int = field(default=10, metadata={"min": 1})
+    segment: int = field(default=10, metadata={"min": 1, "max": MAX_SEGMENT_FRAMES, "unit": "frames"})
     clips: tuple[ClipSpec, ...] = ()
     parts: dict[str, PartSpec] = field(default_factory=dict)
 
     def validate(self) -> None:
+        if self.threshold is not None and self.threshold_quantile is not None:
+            raise ValueError("threshold and threshold_quantile are both given: give one (threshold: a distance; "
+                             "threshold_quantile: a share of the candidate transitions) or neither (the builder "
+                             "then chooses one that keeps every tag)")
         if not self.clips:
             raise ValueError("clips: give at least one clip")
+        if len(self.clips) > MAX_GRAPH_CLIPS:
+            raise ValueError(f"clips: {len(self.clips)} clips; a graph holds at most {MAX_GRAPH_CLIPS} (every "
+                             "pair is compared)")
+        if len(self.parts) > MAX_GRAPH_PARTS:
+            raise ValueError(f"parts: {len(self.parts)} parts; a graph has at most {MAX_GRAPH_PARTS} part layers "
+                             "(each compares every pair of clips again)")
         names = [c.name for c in self.clips]
         if len(set(names)) != len(names):
             raise ValueError("clips: clip names must be unique")
@@ -122,7 +183,10 @@ class Layer:
             return []
         out = [b]
         while out[-1] != a:
-            out.append(int(self.predecessors[a, out[-1]]))
+            nxt = int(self.predecessors[a, out[-1]])
+            if nxt < 0 or len(out) > len(self.predecessors):  # no route, or a loop no shortest path has
+                return []
+            out.append(nxt)
         return out[::-1]
 
 
@@ -177,38 +241,11 @@ class MotionGraph:
 
     @staticmethod
     def load(path: str | os.PathLike[str]) -> MotionGraph:
-        if not Path(path).is_file():
-            raise BipedsimError(f"{path}: no such motion graph file (make one with `bipedsim graph build "
-                                "GRAPH.yaml -o GRAPH.npz`)")
-        try:
-            if not zipfile.is_zipfile(path):
-                raise ValueError("not an .npz archive")
-            with np.load(path, allow_pickle=False) as z:
-                meta = json.loads(str(z["meta"]))
-                if meta.get("format") != "bipedsim.MotionGraph/1":
-                    raise ValueError("not a motion graph")
-                cfg = config.from_dict(GraphConfig, meta["config"])
-                s = meta["skeleton"]
-                sk = Skeleton(names=tuple(s["names"]), parents=np.array(s["parents"]), offsets=np.array(s["offsets"]),
-                              channels=tuple(tuple(c) for c in s["channels"]),
-                              end_site_parents=np.array(s["end_site_parents"], dtype=np.int64),
-                              end_site_offsets=np.array(s["end_site_offsets"]).reshape(-1, 3))
-                clips = [Motion(skeleton=sk, frame_time=1.0 / cfg.fps, root_translation=z[f"clip{i}_root"],
-                                rotations=z[f"clip{i}_rot"], unit=1.0, up="z") for i in range(len(cfg.clips))]
-                layers = {}
-                for name, d in meta["layers"].items():
-                    layers[name] = Layer(name=name, joints=d["joints"], parent=d["parent"],
-                                         transitions=[Transition(**t) for t in d["transitions"]],
-                                         similarity=z[f"{name}_similarity"], path_cost=z[f"{name}_path_cost"],
-                                         predecessors=z[f"{name}_predecessors"], threshold=d["threshold"],
-                                         sigma=d["sigma"], kept_clips=d["kept_clips"], scc_nodes=d["scc_nodes"],
-                                         build_seconds=d.get("build_seconds", 0.0), report=d.get("report", {}))
-        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-            why = "it holds Python objects" if "allow_pickle" in str(exc) else str(exc)
-            raise BipedsimError(f"{path}: not a bipedsim motion graph ({why}); graph files are written by "
-                                "`bipedsim graph build GRAPH.yaml -o GRAPH.npz`") from None
-        return MotionGraph(config=cfg, skeleton=sk, clips=clips, tags=meta["tags"], layers=layers,
-                           timings=meta.get("timings", {}), folded_roots=meta.get("folded_roots", {}))
+        """The graph saved in ``path``, every array and index checked before use
+        (:func:`bipedsim.graph.store.read_graph`)."""
+        from bipedsim.graph.store import read_graph
+
+        return read_graph(path)  # type: ignore[no-any-return]
 
 
 # ---------------------------------------------------------------------- building
@@ -222,6 +259,7 @@ def load_clips(cfg: GraphConfig, base: Path, folded: dict[str, dict[str, str]] |
     from bipedsim.motion.bvh import load_bvh
 
     clips = []
+    total, limit = 0, max_graph_frames()
     for c in cfg.clips:
         p = Path(c.file)
         p = p if p.is_absolute() else (base / p)
@@ -234,6 +272,11 @@ def load_clips(cfg: GraphConfig, base: Path, folded: dict[str, dict[str, str]] |
             if not c.speed > 0:
                 raise ConfigError("speed must be > 0", key=f"clips.{c.name}.speed")
             m = m.copy(frame_time=m.frame_time / c.speed)
+        # counted before resampling, which would allocate them
+        span = min(m.duration, np.inf if c.end is None else c.end) - (c.start or 0.0)
+        total += int(max(span, 0.0) * cfg.fps) + 1
+        if total > limit:
+            raise ConfigError(_too_many_frames(cfg, total, limit), key=f"clips.{c.name}")
         m = m.resample(cfg.fps)
         a = 0 if c.start is None else int(round(c.start * cfg.fps))
         b = m.num_frames if c.end is None else int(round(c.end * cfg.fps))
@@ -247,6 +290,12 @@ def load_clips(cfg: GraphConfig, base: Path, folded: dict[str, dict[str, str]] |
         if not m.skeleton.same_structure(ref):
             raise ConfigError("all clips must share one skeleton (same joints, same tree)", key=f"clips.{c.name}")
     return clips
+
+
+def _too_many_frames(cfg: GraphConfig, total: int, limit: int) -> str:
+    return (f"the clips up to this one hold {total} frames at {cfg.fps:g} fps; a graph holds at most {limit} "
+            "(its distances take memory and time with the square of the frames): lower fps, cut clips with "
+            "start/end, or set BIPEDSIM_MAX_GRAPH_FRAMES to allow more")
 
 
 def _folded(name: str, m: Motion, folded: dict[str, dict[str, str]] | None) -> Motion:
@@ -291,21 +340,23 @@ def summed_part_distance(g: MotionGraph, replaced: int, start: int, chosen: int,
 
 
 def _local_minima(d: FloatArray) -> npt.NDArray[np.bool_]:
-    pad = np.pad(d, 1, constant_values=np.inf)
-    core = pad[1:-1, 1:-1]
-    m = np.ones_like(d, dtype=bool)
+    """Entries no greater than any of their 8 neighbours (the edges have fewer), compared in place --
+    no padded copy of ``d``."""
+    n, m = d.shape
+    out = np.ones_like(d, dtype=bool)
     for di in (-1, 0, 1):
         for dj in (-1, 0, 1):
             if di or dj:
-                m &= core <= pad[1 + di:pad.shape[0] - 1 + di, 1 + dj:pad.shape[1] - 1 + dj]
-    return m
+                rows, cols = slice(max(0, -di), n - max(0, di)), slice(max(0, -dj), m - max(0, dj))
+                nb = d[max(0, di):n - max(0, -di), max(0, dj):m - max(0, -dj)]
+                out[rows, cols] &= d[rows, cols] <= nb
+    return out
 
 
 def _segment_min(d: FloatArray, s: int) -> FloatArray:
-    na, nb = int(np.ceil(d.shape[0] / s)), int(np.ceil(d.shape[1] / s))
-    padded = np.full((na * s, nb * s), np.inf)
-    padded[:d.shape[0], :d.shape[1]] = d
-    return padded.reshape(na, s, nb, s).min(axis=(1, 3))
+    """The minimum of each s x s segment of ``d`` (the last ones shorter where ``s`` does not divide)."""
+    rows, cols = np.arange(0, d.shape[0], s), np.arange(0, d.shape[1], s)
+    return np.minimum.reduceat(np.minimum.reduceat(d, rows, axis=0), cols, axis=1)
 
 
 def build_layer(name: str, joints: list[int], parent: str | None, clips: list[Motion], cfg: GraphConfig,
@@ -320,11 +371,16 @@ def build_layer(name: str, joints: list[int], parent: str | None, clips: list[Mo
     cands: list[tuple[int, int, int, int, float]] = []
     for (a, b), d in dmats.items():
         mins = _local_minima(d)
-        if a == b:  # no trivial self-transitions
-            ii, jj = np.indices(d.shape)
-            mins &= np.abs(ii - jj) >= k
+        if a == b:  # no trivial self-transitions: clear the band |i - j| < k, a diagonal at a time
+            for off in range(-(k - 1), k):
+                np.fill_diagonal(mins[max(0, -off):, max(0, off):], False)
         # the blend runs k frames into the target and must leave room to go on
         mins[:, max(d.shape[1] - k, 0):] = False
+        if len(cands) + int(mins.sum()) > MAX_CANDIDATES:
+            raise BipedsimError(f"layer {name}: more than {MAX_CANDIDATES} candidate transitions (local minima of "
+                                f"the distances; clips {cfg.clips[a].name} and {cfg.clips[b].name} alone give "
+                                f"{int(mins.sum())}): the clips are too jittery to compare in windows of k = {k} "
+                                "frames; raise k or smooth the clips")
         for i, j in zip(*np.nonzero(mins)):
             cands.append((a, int(i), b, int(j), float(d[i, j])))
     if not cands:
@@ -365,6 +421,9 @@ def build_graph(cfg: GraphConfig, base: Path, clips: list[Motion] | None = None)
         clips = load_clips(cfg, base, folded)
     else:
         clips = [_folded(spec.name, m, folded) for spec, m in zip(cfg.clips, clips)]
+        total = sum(m.num_frames for m in clips)
+        if total > max_graph_frames():
+            raise ConfigError(_too_many_frames(cfg, total, max_graph_frames()), key="clips")
     t_load = time.perf_counter() - t0
     sk = clips[0].skeleton
     layers: dict[str, Layer] = {FULL: build_layer(FULL, list(range(sk.num_joints)), None, clips, cfg, relative=False)}

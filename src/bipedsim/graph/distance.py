@@ -53,12 +53,34 @@ def apply_2d(points: FloatArray, theta: float, x0: float, y0: float) -> FloatArr
     return points @ r.T + np.array([x0, y0, 0.0])
 
 
+#: Window values (windows x k x joints) compared at once: bounds the temporaries of one block of the
+#: distance matrix (about a dozen float64 arrays of this many values, 100 MB) whatever the clips' length.
+BLOCK_VALUES = 1_000_000
+
+
 def distance_matrix(pa: FloatArray, pb: FloatArray, k: int, weights: FloatArray | None = None) -> FloatArray:
     """D[i, j] between the window starting at frame i of ``pa`` and at frame j of ``pb``
-    ((T, J, 3) positions each); weights per joint (J,) or None."""
-    wa, wb = windows(pa, k), windows(pb, k)
+    ((T, J, 3) positions each); weights per joint (J,) or None. Computed in blocks of windows (at most
+    :data:`BLOCK_VALUES` window values each), so memory beyond the result does not grow with the clips."""
     j = pa.shape[1]
     w = np.tile(np.ones(j) if weights is None else np.asarray(weights, dtype=float), k)
+    na_, nb_ = pa.shape[0] - k + 1, pb.shape[0] - k + 1
+    if na_ < 1 or nb_ < 1:
+        raise ValueError(f"a clip of {min(pa.shape[0], pb.shape[0])} frames has no window of {k} frames")
+    block = max(1, BLOCK_VALUES // (k * j))
+    if na_ <= block and nb_ <= block:
+        return _block(windows(pa, k), windows(pb, k), w)
+    out = np.empty((na_, nb_))
+    for i0 in range(0, na_, block):
+        wa = windows(pa[i0:i0 + block + k - 1], k)
+        for j0 in range(0, nb_, block):
+            wb = windows(pb[j0:j0 + block + k - 1], k)
+            out[i0:i0 + len(wa), j0:j0 + len(wb)] = _block(wa, wb, w)
+    return out
+
+
+def _block(wa: FloatArray, wb: FloatArray, w: FloatArray) -> FloatArray:
+    """The distances between windows ``wa`` (Na, n, 3) and ``wb`` (Nb, n, 3), point weights ``w`` (n,)."""
     ws = float(w.sum())
     xa, ya, za = wa[..., 0] * w, wa[..., 1] * w, wa[..., 2] * w  # weighted (Na, n)
     xb, yb, zb = wb[..., 0], wb[..., 1], wb[..., 2]

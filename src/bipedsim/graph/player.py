@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import BipedsimError
 from bipedsim.graph.build import FULL, Layer, MotionGraph, Transition
@@ -32,6 +32,17 @@ from bipedsim.motion.motion import Motion, canonical_quat
 FloatArray = npt.NDArray[np.float64]
 #: How far ahead (s) a child layer may wait for a real transition before a forced blend.
 SYNC_SEARCH_S = 1.0
+#: Most frames one play may produce: about 5 KB each (a 20-joint skeleton) while playing and writing, so
+#: 100 000 frames take about 500 MB; 55 min at 30 fps, 7 min at 240 fps. Raised with
+#: ``BIPEDSIM_MAX_PLAY_FRAMES``.
+MAX_PLAY_FRAMES = 100_000
+
+
+def max_play_frames() -> int:
+    """:data:`MAX_PLAY_FRAMES`, or ``BIPEDSIM_MAX_PLAY_FRAMES`` where set."""
+    from bipedsim.graph.build import limit_from_env
+
+    return limit_from_env("play_frames", MAX_PLAY_FRAMES)
 
 
 class PlayError(BipedsimError):
@@ -103,6 +114,7 @@ class Player:
             self.clip = full.kept_clips[0]
         self.k = g.config.k
         self.fps = g.config.fps
+        self.max_frames = max_play_frames()
         span = kept_span(full.transitions, self.clip, g.clips[self.clip].num_frames, self.k)
         self.frame = 0 if span is None else span[0]  # a frame with a way on
 
@@ -142,8 +154,14 @@ class Player:
             if ps.fading < 0 and ps.weight <= 0:
                 del self.parts[name]
                 self.events.append(Event(self.time, name, "layer_end", "back on the body's motion"))
+        if len(self.roots) >= self.max_frames:
+            raise PlayError(self._too_long(len(self.roots) + 1))
         self.roots.append(root)
         self.rots.append(canonical_quat(rot))
+
+    def _too_long(self, frames: int) -> str:
+        return (f"the motion passes {self.max_frames} frames here ({frames / self.fps:.0f} s at {self.fps:g} fps), "
+                "the most one play writes; shorten the script or set BIPEDSIM_MAX_PLAY_FRAMES to allow more")
 
     def _play_frames(self, n: int) -> None:
         for _ in range(n):
@@ -168,9 +186,9 @@ class Player:
             a = (m + 1) / (self.k + 1)
             ra, qa = self._pose(self.clip, t.src_frame + m, self.xf)
             rb, qb = self._pose(t.dst, t.dst_frame + m, new_xf)
-            q = np.empty_like(qa)
-            for j in range(len(qa)):
-                q[j] = Slerp([0.0, 1.0], Rotation.from_quat([qa[j], qb[j]]))([a]).as_quat()[0]
+            # slerp of every joint at once: qa * exp(a log(qa^-1 qb)), as scipy's Slerp computes it
+            r0 = Rotation.from_quat(qa)
+            q = (r0 * Rotation.from_rotvec(a * (r0.inv() * Rotation.from_quat(qb)).as_rotvec())).as_quat()
             self._emit((1 - a) * ra + a * rb, q)
         self.events.append(Event(self.time, layer, "transition",
                                  f"{self.graph.clip_names[self.clip]}[{t.src_frame}] -> "
@@ -277,13 +295,29 @@ class Player:
         return None
 
     def run(self, commands: list[Command]) -> Motion:
+        """Play ``commands``; a script whose ``for N sec`` durations alone pass the frame limit is refused
+        before playing, at the line where they do. A progress bar shows on a terminal."""
+        from bipedsim.io import progress_bar
+
+        asked = 0.0
         for cmd in commands:
-            try:
-                self.command(cmd)
-            except PlayError as exc:  # name the script's file and the command's line
-                if exc.line is not None and exc.source == self.source:
-                    raise
-                raise PlayError(exc.reason, cmd.line if exc.line is None else exc.line, self.source) from None
+            asked += (cmd.seconds or 0.0) * self.fps
+            if asked > self.max_frames:
+                raise PlayError(self._too_long(int(asked)), cmd.line, self.source)
+        bar = progress_bar(len(commands), "playing", "command")
+        try:
+            for cmd in commands:
+                try:
+                    self.command(cmd)
+                except PlayError as exc:  # name the script's file and the command's line
+                    if exc.line is not None and exc.source == self.source:
+                        raise
+                    raise PlayError(exc.reason, cmd.line if exc.line is None else exc.line, self.source) from None
+                if bar is not None:
+                    bar.update(1)
+        finally:
+            if bar is not None:
+                bar.close()
         return self.motion()
 
     def command(self, cmd: Command) -> None:

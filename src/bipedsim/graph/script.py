@@ -41,6 +41,13 @@ class Command:
     line: int = 0
 
 
+#: Most commands a script may hold: a script is written by hand, a command a line (a thousand lines
+#: play for an hour or more).
+MAX_SCRIPT_COMMANDS = 10_000
+#: Longest total of the ``for N sec`` durations (s): a day of motion. What a script may really play is
+#: bounded in frames by the player (:data:`bipedsim.graph.player.MAX_PLAY_FRAMES`).
+MAX_SCRIPT_SECONDS = 86_400.0
+
 _TOKEN = re.compile(r"\s*(?:(?P<num>\d+(?:\.\d+)?)|(?P<word>[A-Za-z_][A-Za-z0-9_\-]*))")
 KEYWORDS = {"with", "and", "for", "sec", "s", "secs", "seconds"}
 
@@ -49,11 +56,15 @@ def parse(text: str, source: str = "<script>", layers: tuple[str, ...] = ()) -> 
     """Parse a script. ``layers``: known layer names (so ``Upper-Body TALK`` targets a layer; a
     second target ``with|and WORD TAG`` whose WORD is none of them is refused naming the parts)."""
     known = {name.lower(): name for name in layers}
-    out = []
-    for ln, raw in enumerate(text.splitlines(), 1):
-        line = raw.split("#", 1)[0]
+    out: list[Command] = []
+    total_s = 0.0
+    # lines end at a newline (a carriage return before it dropped), as an editor counts them
+    for ln, raw in enumerate(text.split("\n"), 1):
+        line = raw.removesuffix("\r").split("#", 1)[0]
         if not line.strip():
             continue
+        if len(out) >= MAX_SCRIPT_COMMANDS:
+            raise ScriptError(f"more than {MAX_SCRIPT_COMMANDS} commands; split the script", ln, 1, source)
         toks: list[tuple[str, str, int]] = []
         pos = 0
         while pos < len(line):
@@ -67,7 +78,13 @@ def parse(text: str, source: str = "<script>", layers: tuple[str, ...] = ()) -> 
             text_ = m.group(kind)
             toks.append((kind, text_, m.start(kind) + 1))
             pos = m.end()
-        out.append(_command(toks, ln, source, known, len(line)))
+        cmd = _command(toks, ln, source, known, len(line))
+        total_s += cmd.seconds or 0.0
+        if total_s > MAX_SCRIPT_SECONDS:
+            col = next((c for kind, _, c in toks if kind == "num"), 1)
+            raise ScriptError(f"the durations add up to {total_s:.6g} s by this line, more than "
+                              f"{MAX_SCRIPT_SECONDS:g} s (a day)", ln, col, source)
+        out.append(cmd)
     if not out:
         raise ScriptError("the script has no commands", 1, 1, source)
     return out
@@ -117,6 +134,8 @@ def _command(toks: list[tuple[str, str, int]], ln: int, source: str, known: dict
         seconds = float(toks[i][1])
         if seconds <= 0:
             raise err("duration must be positive")
+        if seconds > MAX_SCRIPT_SECONDS:
+            raise err(f"duration {toks[i][1][:20]} s is longer than {MAX_SCRIPT_SECONDS:g} s (a day)")
         i += 1
         if i < len(toks) and toks[i][1].lower() in ("sec", "s", "secs", "seconds"):
             i += 1

@@ -6,6 +6,7 @@ import json
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 from conftest import REPO
 
@@ -33,14 +34,16 @@ def readme_block(marker: str) -> str:
     return m.group(1).strip()
 
 
-def test_readme_main_command_runs() -> None:
+def test_readme_main_command_runs(tmp_path: Path) -> None:
     cmd = readme_block("main-command")
-    # the install part is what CI does already; run what follows it with this interpreter's bipedsim
+    # the install part is what CI does already; run what follows it with this interpreter's bipedsim,
+    # in a fresh folder (it writes its default output folder where it runs)
     run = cmd.split("&&", 1)[1].strip()
     assert run.startswith("bipedsim ")
     proc = subprocess.run([sys.executable, "-m", "bipedsim.cli", *run.split()[1:]], capture_output=True,
-                          text=True, cwd=REPO, timeout=900, check=False)
+                          text=True, cwd=tmp_path, timeout=900, check=False)
     assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "bipedsim_run" / "outcome.json").is_file()
 
 
 def test_readme_test_command_is_what_ci_runs() -> None:

@@ -1,6 +1,7 @@
-"""Issue 24, outputs: every output path that cannot be written is a one-line error before the work
-starts (nothing written), flags that mean nothing are refused, files respect the umask, a reused run
-folder holds no stale outputs, long jobs show progress on a terminal, and the recorder stays compact."""
+"""Outputs: every output path that cannot be written is a one-line error before the work starts
+(nothing written), flags that mean nothing are refused, files respect the umask, a reused run folder
+holds no stale outputs of bipedsim's, long jobs show progress on a terminal, and the recorder stays
+compact."""
 
 from __future__ import annotations
 
@@ -24,11 +25,12 @@ from bipedsim.data import builtin_walk_path
 from bipedsim.errors import OutputError
 from bipedsim.io import (
     FALLBACK_SIZE,
+    MANIFEST_FILE,
+    OutputFolder,
     atomic_write_bytes,
     check_output_file,
     prepare_output_dir,
     process_umask,
-    remove_stale,
     stderr_size,
 )
 from bipedsim.render.gl import RenderError, choose_backend
@@ -288,21 +290,24 @@ def test_run_outputs_are_readable_by_others_under_umask_022(tmp_path: Path) -> N
 
 # ---------------------------------------------------------------------- 6. stale outputs
 def test_a_reused_run_folder_keeps_no_stale_outputs(tmp_path: Path, capsys) -> None:
-    for name in ("joint_angles.png", "contacts.png", "rollout.mp4", "notes.txt", "my_plot.png"):
+    """What an earlier run wrote and this one does not rewrite is removed (the manifest proves it is
+    bipedsim's); the user's files, of any name, stay."""
+    for name in ("notes.txt", "my_plot.png", "rollout.mp4"):
         (tmp_path / name).write_text("from before")
+    assert main(["run", "--seconds", "0.3", "--out", str(tmp_path), "--plots"]) == 0
+    out = capsys.readouterr().out
+    assert "removed" not in out and f"left alone in {tmp_path}: rollout.mp4 (" in out
     assert main(["run", "--seconds", "0.3", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert f"removed from an earlier run in {tmp_path}: joint_angles.png, contacts.png, rollout.mp4\n" in out
+    assert f"removed from an earlier run in {tmp_path}: {', '.join(PLOT_FILES)}\n" in out
     assert sorted(p.name for p in tmp_path.iterdir()) == [
-        "model.xml", "my_plot.png", "notes.txt", "outcome.json", "trajectory.npz"]
+        MANIFEST_FILE, "model.xml", "my_plot.png", "notes.txt", "outcome.json", "rollout.mp4", "trajectory.npz"]
+    assert (tmp_path / "rollout.mp4").read_text() == "from before"
     # what this run writes again is not reported
-    (tmp_path / "rollout.mp4").write_text("from before")
     assert main(["run", "--seconds", "0.3", "--out", str(tmp_path), "--plots"]) == 0
-    out = capsys.readouterr().out
-    assert f"removed from an earlier run in {tmp_path}: rollout.mp4\n" in out
-    assert (tmp_path / "joint_angles.png").read_bytes()[:4] == b"\x89PNG"
     assert main(["run", "--seconds", "0.3", "--out", str(tmp_path), "--plots"]) == 0
     assert "removed" not in capsys.readouterr().out
+    assert (tmp_path / "joint_angles.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_a_creature_run_writes_the_run_files_and_takes_every_output_flag(tmp_path: Path, capsys) -> None:
@@ -313,19 +318,23 @@ def test_a_creature_run_writes_the_run_files_and_takes_every_output_flag(tmp_pat
     assert main(["run", "--profile", "creature", "--bvh", str(horse), "--seconds", "1.5", "--out", str(tmp_path / "r"),
                  "--push", "100:90:0.2:0.5", "--plots", "--csv", str(csv_path)]) == 0
     names = sorted(p.name for p in (tmp_path / "r").iterdir())
-    assert names == sorted(["model.xml", "outcome.json", "trajectory.npz", *PLOT_FILES])
+    assert names == sorted([MANIFEST_FILE, "model.xml", "outcome.json", "trajectory.npz", *PLOT_FILES])
     header = csv_path.read_text().splitlines()[0].split(",")
     assert header[0] == "time_s" and len(header) > 10 and header[-1].endswith("_ref")
     out = json.loads((tmp_path / "r" / "outcome.json").read_text())
     assert out["config"]["profile"] == "creature" and out["extra"]["push_start_s"] == pytest.approx(0.5, abs=0.01)
 
 
-def test_remove_stale_touches_only_known_names(tmp_path: Path) -> None:
-    (tmp_path / "a.png").write_text("x")
+def test_remove_stale_touches_only_known_names_the_manifest_proves(tmp_path: Path) -> None:
+    for name in ("a.png", "c.txt", "d.png"):
+        (tmp_path / name).write_text("x")
     (tmp_path / "b.png").mkdir()  # a folder by a known name is not a stale file
-    (tmp_path / "c.txt").write_text("x")
-    assert remove_stale(tmp_path, ["a.png", "b.png", "z.png"], keep=[]) == ["a.png"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["b.png", "c.txt"]
+    folder = OutputFolder(tmp_path)
+    folder.record(tmp_path / "a.png", tmp_path / "c.txt", tmp_path / "b.png")  # a folder is not recorded
+    assert set(folder.files) == {"a.png", "c.txt"}
+    assert folder.remove_stale(["a.png", "b.png", "d.png", "z.png"], keep=[]) == (["a.png"], ["b.png", "d.png"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == [MANIFEST_FILE, "b.png", "c.txt", "d.png"]
+    assert set(OutputFolder(tmp_path).files) == {"c.txt"}  # the removed file left the manifest
 
 
 # ---------------------------------------------------------------------- 7. progress on a terminal

@@ -14,6 +14,7 @@ import signal
 import sys
 import threading
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from bipedsim import __version__
@@ -203,7 +204,10 @@ def cmd_breed(args: argparse.Namespace) -> int:
     if args.world:  # creature files bred for a world: bipedsim.world's block below
         return cmd_breed_world(args)
     from bipedsim.breed import breed_files, format_breed_summary
+    from bipedsim.io import check_distinct_paths
 
+    check_distinct_paths([("-o", args.output), ("--report", args.report), ("--save-map", args.save_map)],
+                         [("PARENT_A", args.parent_a), ("PARENT_B", args.parent_b), ("--map", args.map)])
     kw = {} if args.mutations is None else {"mutations": args.mutations}  # None: breed_files' default
     rep = breed_files(args.parent_a, args.parent_b, args.output, x=args.x, weights=dict(args.weight or []),
                       map=args.map, report=args.report, save_map=args.save_map, **kw)
@@ -262,12 +266,20 @@ def _add_graph(sub: argparse._SubParsersAction) -> None:
 
 
 # ---------------------------------------------------------------------- sweep and regress
+#: The files ``bipedsim sweep`` writes into its --out folder (checked against its inputs).
+SWEEP_FILES = ("results.csv", "summary.json", "experiment.json", "push_polar.png")
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from bipedsim.io import prepare_output_dir
+    from bipedsim.io import check_distinct_paths, folder_files, prepare_output_dir
     from bipedsim.sim.experiment import load_experiment
     from bipedsim.sim.sweep import format_summary, interrupted_message, run_sweep
 
     exp = load_experiment(args.experiment)  # every check before any rollout
+    controllers = sorted({r.controller for r in exp.rows() if r.controller})
+    check_distinct_paths(folder_files("the --out file", args.out, SWEEP_FILES),
+                         [("the experiment file", args.experiment), ("its reference", exp.resolve(exp.spec.reference)),
+                          *(("its controller", c) for c in controllers)])
     prepare_output_dir(args.out, "--out")
     return _resumable("sweep", lambda: format_summary(run_sweep(exp, args.out, workers=args.workers,
                                                                 backend=args.backend, progress=sys.stderr.isatty()),
@@ -313,10 +325,51 @@ def _add_regress(sub: argparse._SubParsersAction) -> None:
 
 
 # ---------------------------------------------------------------------- world (motion-tile worlds)
+def _creature_file(path: str) -> tuple[str | None, list[Path]]:
+    """A creature file's name and the clip files it names (relative to its folder), read only for the
+    check of the outputs against the inputs: a file that does not read gives (None, []) and is
+    reported by the command's own reading."""
+    from bipedsim.config import load_yaml
+
+    try:
+        data = load_yaml(path)
+    except BipedsimError:
+        return None, []
+    if not isinstance(data, dict):
+        return None, []
+    clips = data.get("clips")
+    files = [Path(path).parent / str(f) for f in clips.values()] if isinstance(clips, dict) else []
+    name = data.get("name")
+    return (str(name) if name is not None else None), files
+
+
+def _creature_inputs(creatures: Sequence[str]) -> tuple[list[tuple[str, Any]], list[str | None]]:
+    """The files creature files name (themselves and their clips), for the check of a world command's
+    outputs against its inputs, and the creatures' names (None where a file does not read)."""
+    inputs: list[tuple[str, Any]] = []
+    names = []
+    for c in creatures:
+        name, clips = _creature_file(c)
+        names.append(name)
+        inputs += [("the creature file", c), *((f"{c}'s clip", f) for f in clips)]
+    return inputs, names
+
+
 def cmd_world(args: argparse.Namespace) -> int:
+    from bipedsim.io import check_distinct_paths
     from bipedsim.render.video import VideoOptions
     from bipedsim.world import run_world
+    from bipedsim.world.run import output_paths
 
+    inputs, names = _creature_inputs(args.creatures)
+    if None in names:  # a creature file that does not read: the command says so before writing anything
+        names = [""]
+    elif len(set(names)) != len(names):  # as run_world tells the creatures' files apart
+        names = [f"{n}{i}" for i, n in enumerate(names)]
+    videos = output_paths(args.video, names) if args.video else []
+    check_distinct_paths([*(("-o", o) for o in output_paths(args.output, names)), ("--report", args.report),
+                          ("--plot", args.plot), *(("--video", v) for v in videos)],
+                         [("the world file", args.world), *inputs])
     opts = VideoOptions(width=args.width, height=args.height, fps=args.fps, speed=args.speed,
                         distance=args.cam_distance, elevation=args.cam_elevation, azimuth=args.cam_azimuth,
                         label=False)
@@ -326,8 +379,15 @@ def cmd_world(args: argparse.Namespace) -> int:
 
 
 def cmd_breed_world(args: argparse.Namespace) -> int:
+    from bipedsim.io import check_distinct_paths
     from bipedsim.world import breed_world_files, format_world_breed_summary
+    from bipedsim.world.tiles import TRAVEL_MODES
 
+    inputs, _ = _creature_inputs([args.parent_a, args.parent_b])
+    out = Path(args.output)
+    check_distinct_paths([("-o", out), ("--report", args.report),
+                          *((f"the {m} clip beside -o", out.with_name(f"{out.stem}_{m}.bvh")) for m in TRAVEL_MODES)],
+                         [("--world", args.world), *inputs])
     kw = {} if args.mutations is None else {"mutations": args.mutations}
     rep = breed_world_files(args.parent_a, args.parent_b, args.world, args.output, report=args.report, **kw)
     print(format_world_breed_summary(rep, args.report))
@@ -354,10 +414,20 @@ WORLD_VIDEO_DEFAULTS = {"--cam-distance": 8.0, "--cam-elevation": -25.0}
 
 
 # ---------------------------------------------------------------------- tune
+#: The files ``bipedsim tune`` writes into its --out folder besides its history and state (checked
+#: against its inputs).
+TUNE_FILES = ("best.yaml", "convergence.png", "summary.json")
+
+
 def cmd_tune(args: argparse.Namespace) -> int:
+    from bipedsim.io import check_distinct_paths, folder_files
     from bipedsim.tune import format_tune_summary, interrupted_message, load_tune, run_tune
+    from bipedsim.tune.cmaes import HISTORY_FILE, STATE_FILE
 
     tune = load_tune(args.tune)  # every check before any rollout
+    check_distinct_paths(folder_files("the --out file", args.out, (*TUNE_FILES, HISTORY_FILE, STATE_FILE)),
+                         [("the tune file", args.tune), ("its controller", tune.controller_path),
+                          *(("its reference", r) for r in tune.references)])
     return _resumable("tune", lambda: format_tune_summary(run_tune(tune, args.out, workers=args.workers,
                                                                    backend=args.backend,
                                                                    progress=sys.stderr.isatty()), args.out),
@@ -393,11 +463,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    # a terminate signal (kill, a cluster's scheduler) stops a long job as Ctrl-C does: cleanly, with
-    # what it has written kept
-    old_term = None
+    # a terminate signal (kill, a cluster's scheduler) or a hang-up (the terminal closed) stops a job as
+    # Ctrl-C does: cleanly, with what it has written kept and no temporary file left. A signal ignored
+    # when the command started (`nohup` ignores SIGHUP) stays ignored.
+    old_handlers = {}
     if threading.current_thread() is threading.main_thread():
-        old_term = signal.signal(signal.SIGTERM, _terminate)
+        old_handlers = {sig: signal.signal(sig, _terminate) for sig in STOP_SIGNALS
+                        if signal.getsignal(sig) is not signal.SIG_IGN}
     try:
         return int(args.func(args))
     except BipedsimError as exc:
@@ -413,8 +485,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"bipedsim {args.command}: error: {describe_os_error(exc)}", file=sys.stderr)
         return 2
     finally:
-        if old_term is not None:
-            signal.signal(signal.SIGTERM, old_term)
+        for sig, handler in old_handlers.items():
+            signal.signal(sig, handler)
+
+
+#: The signals that stop a command as Ctrl-C (SIGINT) does: terminate, and hang-up where there is one.
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
 
 
 def _terminate(signum: int, frame: object) -> None:

@@ -1,12 +1,15 @@
 """Small file helpers: inputs checked and read within a size limit, output locations checked before long
-work, atomic writes that respect the umask, stale-output clean-up, terminal progress bars, and provenance
-(what made an output)."""
+work (outputs that would overwrite each other or an input refused), the manifest of what bipedsim wrote
+in an output folder (the only files it replaces or deletes unasked), atomic writes that respect the
+umask and leave no temporary file behind, terminal progress bars, and provenance (what made an
+output)."""
 
 from __future__ import annotations
 
 import contextlib
 import errno
 import functools
+import hashlib
 import json
 import os
 import platform
@@ -189,10 +192,12 @@ def _probe_writable(folder: Path, what: str) -> None:
     and access control alike (``os.access`` says yes to root on a read-only mount)."""
     try:
         fd, tmp = tempfile.mkstemp(prefix=".bipedsim-probe-", dir=folder)
-        os.close(fd)
-        os.unlink(tmp)
     except OSError as exc:
         raise OutputError(f"{what}: cannot write in {folder}: {os_reason(exc)}") from None
+    try:
+        os.close(fd)
+    finally:  # a signal between the two leaves no probe behind
+        _unlink_quietly(tmp)
 
 
 def prepare_output_dir(path: str | os.PathLike[str], flag: str) -> Path:
@@ -211,7 +216,11 @@ def prepare_output_dir(path: str | os.PathLike[str], flag: str) -> Path:
 def check_output_file(path: str | os.PathLike[str], flag: str, suffixes: tuple[str, ...] = ()) -> Path:
     """Make sure a file can be written at ``path``: not a folder, its folder creatable (created now, as
     every command creates missing output folders) and writable, and, when ``suffixes`` are given
-    (lower case, with the dot), ending in one of them. Raises :class:`OutputError` naming ``flag``."""
+    (lower case, with the dot), ending in one of them. Raises :class:`OutputError` naming ``flag``.
+
+    An existing regular file at ``path`` is no obstacle: a path given on the command line is the
+    user's request to write there (as with any Unix tool); only files a command would replace or
+    delete without being asked must be its own (:class:`OutputFolder`)."""
     p = Path(path)
     what = f"{flag} {p}"
     if p.is_dir():  # before the suffix: a folder named x.bvh is still a folder
@@ -226,22 +235,224 @@ def check_output_file(path: str | os.PathLike[str], flag: str, suffixes: tuple[s
     return p
 
 
-def remove_stale(folder: str | os.PathLike[str], known: Iterable[str], keep: Iterable[str]) -> list[str]:
-    """Delete the files named in ``known`` (plain names inside ``folder``) that are not in ``keep``:
-    what an earlier job wrote there and this one will not rewrite. Nothing else is touched. Returns the
-    names removed, in ``known``'s order."""
-    keep_set = set(keep)
-    removed = []
-    for name in known:
-        p = Path(folder) / name
-        if name in keep_set or not p.is_file():
-            continue
+# ---------------------------------------------------------------------- outputs that collide
+#: One path a command names, with how the message calls it: ``("--csv", "a.csv")``,
+#: ``("the --out file", "run/outcome.json")``; a path of None is not given and skipped.
+NamedPath = tuple[str, str | os.PathLike[str] | None]
+
+
+def _file_identity(path: str | os.PathLike[str]) -> tuple[str, tuple[int, int] | None]:
+    """The file ``path`` names: its absolute path with every link resolved (the file need not exist)
+    and, when it exists, its device and inode (a hard link, or a case-insensitive file system)."""
+    real = os.path.normcase(os.path.realpath(os.path.abspath(os.fspath(path))))
+    try:
+        st = os.stat(real)
+    except OSError:
+        return real, None
+    return real, (st.st_dev, st.st_ino)
+
+
+def _same(a: tuple[str, tuple[int, int] | None], b: tuple[str, tuple[int, int] | None]) -> bool:
+    return a[0] == b[0] or (a[1] is not None and a[1] == b[1])
+
+
+def check_distinct_paths(outputs: Iterable[NamedPath], inputs: Iterable[NamedPath] = ()) -> None:
+    """Refuse, before any work, a command whose outputs would overwrite each other or one of its inputs:
+    every pair of ``outputs`` and every output against every one of ``inputs`` are compared as the
+    files they name (links resolved, relative paths against the working folder). Raises
+    :class:`OutputError`, one line naming both (their labels and paths); writes and creates nothing."""
+    outs = [(label, p, _file_identity(p)) for label, p in outputs if p is not None and os.fspath(p) != ""]
+    ins = [(label, p, _file_identity(p)) for label, p in inputs if p is not None and os.fspath(p) != ""]
+    for i, (la, pa, ia) in enumerate(outs):
+        for lb, pb, ib in outs[:i]:
+            if _same(ia, ib):
+                raise OutputError(f"{lb} {pb} and {la} {pa} are the same file: one output would overwrite the "
+                                  "other; give each its own path")
+        for lb, pb, ib in ins:
+            if _same(ia, ib):
+                raise OutputError(f"{la} {pa} would overwrite {lb} {pb}, an input of this command; give the "
+                                  "output another path")
+
+
+def folder_files(label: str, folder: str | os.PathLike[str], names: Iterable[str]) -> list[NamedPath]:
+    """``(label, folder/name)`` for each of ``names``: the files a command writes into a folder, for
+    :func:`check_distinct_paths`."""
+    return [(label, Path(folder) / n) for n in names]
+
+
+# ---------------------------------------------------------------------- what bipedsim wrote in a folder
+#: The manifest in each output folder: the files bipedsim wrote there, with their SHA-256 and size.
+MANIFEST_FILE = ".bipedsim-manifest.json"
+MANIFEST_FORMAT = "bipedsim output manifest"
+MANIFEST_VERSION = 1
+#: The largest manifest read (bytes): an entry is about 120 bytes, a run folder holds about ten.
+MANIFEST_LIMIT_BYTES = 1 << 20
+_HASH_CHUNK = 1 << 20
+
+
+def file_digest(path: str | os.PathLike[str]) -> tuple[str, int]:
+    """The SHA-256 (hex) and size (bytes) of the file ``path``, read in chunks."""
+    h = hashlib.sha256()
+    size = 0
+    with open(path, "rb") as f:
+        while chunk := f.read(_HASH_CHUNK):
+            h.update(chunk)
+            size += len(chunk)
+    return h.hexdigest(), size
+
+
+def _plain_name(name: object) -> bool:
+    return (isinstance(name, str) and name not in ("", ".", "..", MANIFEST_FILE) and "/" not in name
+            and "\\" not in name and "\0" not in name)
+
+
+def _valid_entry(entry: object) -> bool:
+    if not isinstance(entry, dict):
+        return False
+    digest, size = entry.get("sha256"), entry.get("size")
+    return (isinstance(digest, str) and len(digest) == 64 and all(c in "0123456789abcdef" for c in digest)
+            and isinstance(size, int) and not isinstance(size, bool) and size >= 0)
+
+
+class OutputFolder:
+    """A folder a command writes files of fixed names into (``bipedsim run --out``, ``bipedsim render
+    RUN_DIR``), with its manifest (:data:`MANIFEST_FILE`): each file bipedsim wrote there, by name,
+    with its SHA-256 and size, recorded by the command that wrote it (the manifest is replaced
+    atomically).
+
+    A command replaces or deletes a file it was not asked for by name only when the manifest proves it
+    is bipedsim's: listed, a regular file, and the same bytes (the user has not replaced or edited it).
+    Anything else in the folder is left alone."""
+
+    def __init__(self, folder: str | os.PathLike[str], flag: str = "--out") -> None:
+        self.path = Path(folder)
+        self.flag = flag
+        self.files: dict[str, dict[str, Any]] = self._read()
+
+    @property
+    def manifest_path(self) -> Path:
+        return self.path / MANIFEST_FILE
+
+    def _refuse(self, why: str) -> OutputError:
+        return OutputError(f"{self.flag} {self.path}: {MANIFEST_FILE} {why}; move it away or choose another "
+                           f"{self.flag}")
+
+    def _read(self) -> dict[str, dict[str, Any]]:
+        """The manifest's entries (plain names only; an entry that is not a name, a SHA-256 and a size
+        proves nothing and is dropped). No manifest: none. A manifest that bipedsim did not write (a
+        link, a folder, other JSON) or a newer one is refused: replacing it would lose it."""
+        p = self.manifest_path
         try:
-            p.unlink()
+            st = os.lstat(p)
+        except FileNotFoundError:
+            return {}
         except OSError as exc:
-            raise OutputError(f"cannot remove stale {p} from an earlier run: {os_reason(exc)}") from None
-        removed.append(name)
-    return removed
+            raise self._refuse(f"cannot be read ({os_reason(exc)})") from None
+        if not stat.S_ISREG(st.st_mode):
+            raise self._refuse("is not a regular file")
+        if st.st_size > MANIFEST_LIMIT_BYTES:
+            raise self._refuse(f"is {st.st_size} bytes, more than a manifest holds")
+        try:
+            with open(p, "rb") as f:
+                data = json.loads(f.read(MANIFEST_LIMIT_BYTES + 1).decode("utf-8"))
+        except OSError as exc:
+            raise self._refuse(f"cannot be read ({os_reason(exc)})") from None
+        except (UnicodeDecodeError, ValueError, RecursionError):
+            raise self._refuse("is not a bipedsim manifest (not JSON)") from None
+        if not isinstance(data, dict) or data.get("format") != MANIFEST_FORMAT:
+            raise self._refuse("is not a bipedsim manifest")
+        version = data.get("version")
+        if not isinstance(version, int) or version > MANIFEST_VERSION:
+            raise self._refuse(f"is of a newer bipedsim (version {version!r}; this one reads {MANIFEST_VERSION})")
+        files = data.get("files")
+        if not isinstance(files, dict):
+            return {}
+        return {n: {"sha256": e["sha256"], "size": e["size"]} for n, e in files.items()
+                if _plain_name(n) and _valid_entry(e)}
+
+    def proves(self, name: str) -> bool:
+        """Whether the file ``name`` in the folder is one bipedsim wrote, unchanged since (a regular
+        file, not a link, whose size and SHA-256 are the manifest's)."""
+        entry = self.files.get(name)
+        if entry is None:
+            return False
+        p = self.path / name
+        try:
+            st = os.lstat(p)
+            if not stat.S_ISREG(st.st_mode) or st.st_size != entry["size"]:
+                return False
+            return file_digest(p)[0] == entry["sha256"]
+        except OSError:
+            return False
+
+    def check_replaceable(self, names: Iterable[str], *, hint: str = "") -> None:
+        """Refuse, before any work, to replace a file of ``names`` (plain names of files the command
+        writes into the folder without being asked by name) that bipedsim cannot prove it wrote:
+        :class:`OutputError` naming the folder's flag and the files. ``hint``: what else the user
+        can do, added to the message."""
+        foreign = [n for n in dict.fromkeys(names) if os.path.lexists(self.path / n) and not self.proves(n)]
+        if foreign:
+            them = "it" if len(foreign) == 1 else "them"
+            raise OutputError(f"{self.flag} {self.path}: would replace {', '.join(foreign)}, which bipedsim cannot "
+                              f"prove it wrote (not in {MANIFEST_FILE}, or changed since); move {them} away or "
+                              f"choose another {self.flag}{hint}")
+
+    def sort_stale(self, known: Iterable[str], keep: Iterable[str]) -> tuple[list[str], list[str]]:
+        """Of the files named in ``known`` (what a run writes into such a folder) that are present and
+        not in ``keep`` (what this run writes again): those bipedsim proves it wrote (stale: another
+        run's) and the others (left alone), each in ``known``'s order."""
+        keep_set = set(keep)
+        stale, foreign = [], []
+        for name in dict.fromkeys(known):
+            if name in keep_set or not os.path.lexists(self.path / name):
+                continue
+            (stale if self.proves(name) else foreign).append(name)
+        return stale, foreign
+
+    def remove_stale(self, known: Iterable[str], keep: Iterable[str]) -> tuple[list[str], list[str]]:
+        """Delete what an earlier run wrote here (named in ``known``, not in ``keep``) and the manifest
+        proves unchanged, so that the folder does not mix two runs' outputs; everything else is left
+        alone. Returns (names removed, names left alone), in ``known``'s order."""
+        stale, foreign = self.sort_stale(known, keep)
+        removed = []
+        for name in stale:
+            try:
+                (self.path / name).unlink()
+            except FileNotFoundError:
+                pass
+            except OSError as exc:
+                raise OutputError(f"cannot remove stale {self.path / name} from an earlier run: "
+                                  f"{os_reason(exc)}") from None
+            self.files.pop(name, None)
+            removed.append(name)
+        if removed:
+            self.save()
+        return removed, foreign
+
+    def record(self, *paths: str | os.PathLike[str]) -> None:
+        """Add the files ``paths`` (just written by this command) to the manifest, with their SHA-256 and
+        size, and save it; paths outside the folder are not its business and are skipped."""
+        here = os.path.realpath(self.path)
+        changed = False
+        for path in paths:
+            p = Path(path)
+            if os.path.realpath(p.parent) != here or not _plain_name(p.name):
+                continue
+            try:
+                if not stat.S_ISREG(os.lstat(p).st_mode):
+                    continue
+                digest, size = file_digest(p)
+            except OSError:
+                continue
+            self.files[p.name] = {"sha256": digest, "size": size}
+            changed = True
+        if changed:
+            self.save()
+
+    def save(self) -> None:
+        """Write the manifest (atomically: a reader sees the old one or the new one)."""
+        atomic_write_json(self.manifest_path, {"format": MANIFEST_FORMAT, "version": MANIFEST_VERSION,
+                                               "files": dict(sorted(self.files.items()))})
 
 
 # ---------------------------------------------------------------------- atomic writes
@@ -257,6 +468,8 @@ def atomic_writer(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
         fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
     except OSError as exc:
         raise OutputError(f"cannot write {p}: {os_reason(exc)}") from None
+    # removed on any way out but the rename: errors, Ctrl-C, and SIGTERM/SIGHUP (which the command line
+    # turns into KeyboardInterrupt)
     try:
         with os.fdopen(fd, "wb") as f:
             yield f

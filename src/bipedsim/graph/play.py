@@ -11,7 +11,7 @@ from bipedsim.errors import ConfigError
 from bipedsim.graph.build import FULL, MotionGraph, build_graph, load_graph_config
 from bipedsim.graph.player import Player
 from bipedsim.graph.script import parse
-from bipedsim.io import atomic_write_json, check_output_file, read_input_text
+from bipedsim.io import atomic_write_json, check_distinct_paths, check_output_file, read_input_text
 from bipedsim.motion.bvh import write_bvh
 
 PathLike = str | os.PathLike[str]
@@ -21,10 +21,15 @@ BVH_UNITS_PER_M = 100.0
 
 def build_graph_file(config: PathLike, output: PathLike, report: PathLike | None = None) -> MotionGraph:
     """Build the motion graph the YAML ``config`` describes (its clip files relative to its folder) and
-    save it to ``output`` (``.npz``; checked, naming ``-o``, before the build). ``report``: also write
-    the build report as JSON there (:func:`build_report`). Returns the graph."""
+    save it to ``output`` (``.npz``; checked, naming ``-o``, before the build; neither it nor ``report``
+    may be an input). ``report``: also write the build report as JSON there (:func:`build_report`).
+    Returns the graph."""
     path = Path(config)
+    check_distinct_paths([("-o", output), ("--report", report)], [("the graph YAML", config)])
     cfg = load_graph_config(path)
+    base = path.resolve().parent
+    check_distinct_paths([("-o", output), ("--report", report)],
+                         [(f"clip {c.name}'s file", base / c.file) for c in cfg.clips])
     check_output_file(output, "-o", (".npz",))
     if report:
         check_output_file(report, "--report")
@@ -84,9 +89,11 @@ def play_script(graph: PathLike, script: PathLike, output: PathLike, *, start: s
     """Play the Motion Script file ``script`` on the graph file ``graph`` (from :func:`build_graph_file`)
     and write the motion to ``output`` (BVH, Y up, centimetres). ``start``: the motion (name or tag)
     to start from; ``report``: also write the report as JSON there. Output locations are checked
-    (errors name ``-o`` and ``--report``) before playing. Returns the report: ``frames``, ``seconds``
+    (errors name ``-o`` and ``--report``; outputs that would overwrite each other or an input are
+    refused) before playing. Returns the report: ``frames``, ``seconds``
     (s) and the ``events`` of the path taken (time in s, layer, kind, detail, transition cost), with
     the graph's ``fps`` (frames/s) added (not in the JSON file)."""
+    check_distinct_paths([("-o", output), ("--report", report)], [("the graph", graph), ("the script", script)])
     g = MotionGraph.load(graph)
     cmds = parse(read_input_text(script, "script"), source=str(script), layers=tuple(g.layers))
     check_output_file(output, "-o", (".bvh",))

@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from bipedsim.io import check_output_file
+from bipedsim.io import check_distinct_paths, check_output_file
 from bipedsim.model.build import build_model, check_total_mass
 from bipedsim.model.creature_kind import AUTO
 from bipedsim.model.gait import read_for_build
@@ -32,10 +32,13 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = AUTO, profi
     ``scale``: metres per file unit or a unit name, ``up``: the file's up axis (``"y"``/``"z"``), both
     guessed when None; ``positions``: ``"absolute"``/``"offset"`` position channels (decided per
     joint when None); ``fps``: the capture's frame rate, replacing the file's Frame Time (None: the
-    file's). Output locations are checked (errors name ``-o`` and ``--clip``) before
-    anything is built. Returns the body's summary (bodies, DOFs, mass in kg, height in m, timestep in
-    s, ...) with ``source``, ``output``, ``unit``, ``up`` and, with ``clip``, the clip's frames,
-    trimmed frames and foot strikes."""
+    file's). Output locations are checked (errors name ``-o`` and ``--clip``; outputs that would
+    overwrite each other or an input are refused) before anything is built. Returns the body's
+    summary (bodies, DOFs, mass in kg, height in m, timestep in s, ...) with ``source``, ``output``,
+    ``unit``, ``up`` and, with ``clip``, the clip's frames, trimmed frames and foot strikes."""
+    # outputs that would overwrite each other or an input: refused before anything is read or written
+    check_distinct_paths([("-o", output), ("--clip", clip)],
+                         [("the input BVH", input), ("--profile-file", profile_file), ("--map", map)])
     check_total_mass(mass)
     if profile_file is not None:  # the profile file says which kind it builds
         kind = "humanoid" if isinstance(load_profile(profile_file), HumanoidProfile) else "creature"

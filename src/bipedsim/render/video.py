@@ -166,15 +166,25 @@ def _label(img: np.ndarray, text: str) -> np.ndarray:
     return np.asarray(im)
 
 
-def write_video(frames, path: str | os.PathLike[str], fps: float) -> int:  # noqa: ANN001
-    """Write frames to ``path`` (.mp4: H.264; .gif); returns the frame count."""
+def temp_video_path(path: str | os.PathLike[str], pid: int | None = None) -> Path:
+    """Where a video is written before it is renamed to ``path``: beside it (same file system for the
+    rename), hidden, named for the process ``pid`` (default this one) that renders it."""
+    p = Path(path)
+    return p.with_name(f".{p.stem}.{os.getpid() if pid is None else pid}.tmp{p.suffix}")
+
+
+def write_video(frames, path: str | os.PathLike[str], fps: float,  # noqa: ANN001
+                tmp: str | os.PathLike[str] | None = None) -> int:
+    """Write frames to ``path`` (.mp4: H.264; .gif) through the temporary file ``tmp`` (default
+    :func:`temp_video_path`); returns the frame count. On any error or interruption (Ctrl-C, and
+    SIGTERM/SIGHUP where they raise KeyboardInterrupt) the temporary file is removed and ``path`` is
+    left as it was."""
     import imageio.v2 as imageio
 
     p = Path(path)
-    # beside the output (same file system for the rename); removed if anything fails, so a failed
-    # render leaves neither half a video nor a temporary file
-    tmp = p.with_name(f".{p.stem}.{os.getpid()}.tmp{p.suffix}")
+    tmp = Path(tmp) if tmp is not None else temp_video_path(p)
     n = 0
+    writer = None
     try:
         # made here first so that a folder that cannot take it fails with the file and the reason,
         # not with imageio's "Broken pipe" from an ffmpeg that could not open it
@@ -184,16 +194,45 @@ def write_video(frames, path: str | os.PathLike[str], fps: float) -> int:  # noq
         else:
             writer = imageio.get_writer(tmp, fps=fps, codec="libx264", quality=7, macro_block_size=8,
                                         ffmpeg_log_level="error", pixelformat="yuv420p")
-        with writer as w:
-            for f in frames:
-                w.append_data(f)
-                n += 1
+        for f in frames:
+            writer.append_data(f)
+            n += 1
+        writer.close()
         os.replace(tmp, p)
     except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
+        try:
+            # imageio's writer is not closed by its own `with` on an error: its ffmpeg would go on and
+            # write the file again after it is removed here (when the writer is collected)
+            if writer is not None:
+                writer.close()
+        except Exception:  # the first error is the one to report
+            pass
+        finally:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
         raise
     return n
+
+
+#: Seconds an interrupted render child is given to remove its temporary file before it is killed.
+STOP_GRACE_S = 10.0
+
+
+def _stop_worker(proc: subprocess.Popen[str]) -> None:
+    """Stop the render child and what it started (ffmpeg): SIGTERM to its process group, which the child
+    turns into a clean exit, then SIGKILL after :data:`STOP_GRACE_S`. Signals go only while the child
+    is not yet reaped, so its group id is still its own."""
+    if proc.poll() is not None:
+        return
+    try:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGTERM)
+        proc.wait(timeout=STOP_GRACE_S)
+    except BaseException:  # a timeout, or a second Ctrl-C while waiting
+        if proc.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
 
 
 def render_video(run_dir: str | os.PathLike[str], out: str | os.PathLike[str], opts: VideoOptions | None = None,
@@ -203,7 +242,11 @@ def render_video(run_dir: str | os.PathLike[str], out: str | os.PathLike[str], o
     ``sys.stderr.isatty()``). Raises :class:`RenderError` naming the file and the cause when the run
     folder is incomplete or rendering fails (with the GL backends tried), with what to install when no
     backend works, and :class:`~bipedsim.errors.OutputError` (naming ``out_flag``) when ``out`` cannot
-    be written."""
+    be written.
+
+    The video is written to a temporary file beside ``out`` and renamed at the end; however the render
+    ends (an error, a crash of the child, Ctrl-C, SIGTERM or SIGHUP in this process: KeyboardInterrupt
+    from the command line) no temporary file is left."""
     opts = opts or VideoOptions()
     opts.validate()
     run = Path(run_dir)
@@ -212,17 +255,30 @@ def render_video(run_dir: str | os.PathLike[str], out: str | os.PathLike[str], o
             raise RenderError(f"{run}: no {f} -- render a folder written by `bipedsim run`")
     check_output_file(out, out_flag, VIDEO_SUFFIXES)
     backend = choose_backend()
-    args = json.dumps({"run_dir": str(run), "out": str(out), "opts": asdict(opts), "progress": progress})
+    tmp = temp_video_path(out)  # named here: this process removes it whatever happens to the child
+    args = json.dumps({"run_dir": str(run), "out": str(out), "tmp": str(tmp), "opts": asdict(opts),
+                       "progress": progress})
     # the child reports on its stdout (one JSON line: the frame count or the error); its stderr goes
-    # straight to the terminal with a progress bar (live), else it is kept for a crash's last words
-    p = subprocess.run([sys.executable, "-m", "bipedsim.render.worker", args], env=backend_env(backend),
-                       stdout=subprocess.PIPE, stderr=None if progress else subprocess.PIPE, text=True,
-                       check=False)
-    report = _worker_report(p.stdout)
-    if p.returncode == 0 and "frames" in report:
+    # straight to the terminal with a progress bar (live), else it is kept for a crash's last words.
+    # It runs in its own process group, so that stopping it stops the ffmpeg it starts as well; a
+    # terminal's Ctrl-C reaches this process, which stops it.
+    proc = subprocess.Popen([sys.executable, "-m", "bipedsim.render.worker", args], env=backend_env(backend),
+                            stdout=subprocess.PIPE, stderr=None if progress else subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        stdout, stderr = proc.communicate()
+    except BaseException:
+        _stop_worker(proc)
+        raise
+    finally:
+        with contextlib.suppress(OSError):
+            tmp.unlink()  # renamed away when the render succeeded; left by a child that crashed or was killed
+    report = _worker_report(stdout)
+    if proc.returncode == 0 and "frames" in report:
         return int(report["frames"])
-    why = report.get("error") or _crash_reason(p)
-    last = _last_line(p.stderr)
+    done = subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
+    why = report.get("error") or _crash_reason(done)
+    last = _last_line(stderr)
     if report.get("error") and last and last not in why:  # e.g. ffmpeg's reason after imageio's "Broken pipe"
         why = f"{why} ({last})"
     raise RenderError(f"cannot render {out}: {why} (GL backend {backends_tried(backend)})")

@@ -23,7 +23,16 @@ import numpy.typing as npt
 from bipedsim.control.reference import clip_speed, describe_clip, step_time
 from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
-from bipedsim.io import atomic_write_text, check_output_file, prepare_output_dir, progress_bar, remove_stale
+from bipedsim.io import (
+    NamedPath,
+    OutputFolder,
+    atomic_write_text,
+    check_distinct_paths,
+    check_output_file,
+    folder_files,
+    prepare_output_dir,
+    progress_bar,
+)
 from bipedsim.model.build import check_total_mass
 from bipedsim.model.humanoid import sides_note, toes_note
 from bipedsim.motion.describe import pace_note
@@ -57,15 +66,52 @@ PLOT_FEET = ("left", "right")
 PROGRESS_MIN_S = 5.0
 
 
+#: The files every run writes into its folder.
+RUN_FILES = (OUTCOME_FILE, TRAJECTORY_FILE, MODEL_FILE)
+#: Every file a run folder may hold from bipedsim by a fixed name, in the order they are reported.
+KNOWN_RUN_FILES = (*RUN_FILES, *PLOT_FILES, DEFAULT_VIDEO)
+#: How error messages call the files a command writes into a run folder without a flag of their own.
+FOLDER_FILE = "the --out file"
+RUN_DIR_FILE = "the RUN_DIR file"
+
+
+def run_outputs(out: PathLike, *, plots: bool = False, csv: PathLike | None = None,
+                export_bvh: PathLike | None = None, video: PathLike | None = None,
+                gif: PathLike | None = None) -> list[NamedPath]:
+    """Every file ``bipedsim run`` writes, each with the flag that names it: the run files (and the plots
+    with ``plots``) in the folder ``out``, then the optional files (None when not asked for)."""
+    return [*folder_files(FOLDER_FILE, out, (*RUN_FILES, *(PLOT_FILES if plots else ()))),
+            ("--csv", csv), ("--export-bvh", export_bvh), ("--video", video), ("--gif", gif)]
+
+
+def run_inputs(config: PathLike | None = None, bvh: PathLike | None = None,
+               events: PathLike | None = None) -> list[NamedPath]:
+    """The files ``bipedsim run`` reads, each with the argument that names it."""
+    return [("the controller file", config), ("--bvh", bvh), ("--events", events)]
+
+
+def named_in(folder: PathLike, paths: Iterable[PathLike | None]) -> set[str]:
+    """The names of those of ``paths`` that lie directly in ``folder`` (links resolved)."""
+    here = os.path.realpath(folder)
+    return {Path(p).name for p in paths if p and os.path.realpath(Path(p).parent) == here}
+
+
 def check_run_outputs(out: PathLike, *, csv: PathLike | None = None, export_bvh: PathLike | None = None,
-                      video: PathLike | None = None, gif: PathLike | None = None) -> Path:
+                      video: PathLike | None = None, gif: PathLike | None = None,
+                      plots: bool = False) -> OutputFolder:
     """Check (and create) every output location of a run before the simulation starts: the run folder
-    ``out`` and the optional files (each error names its flag); returns the run folder."""
-    folder = prepare_output_dir(out, "--out")
+    ``out`` and the optional files (each error names its flag), and that every file the run writes
+    into the folder without being asked by name (the run files; the plots with ``plots``) is absent or
+    one bipedsim wrote, unchanged (:class:`~bipedsim.io.OutputFolder`). Returns the folder, with its
+    manifest."""
+    prepare_output_dir(out, "--out")
     for flag, path, suffixes in (("--csv", csv, ()), ("--export-bvh", export_bvh, ()),
                                  ("--video", video, VIDEO_SUFFIXES), ("--gif", gif, (".gif",))):
         if path:
             check_output_file(path, flag, suffixes)
+    folder = OutputFolder(out, "--out")
+    asked = named_in(out, (csv, export_bvh, video, gif))  # named on the command line: the user's request
+    folder.check_replaceable(n for n in (*RUN_FILES, *(PLOT_FILES if plots else ())) if n not in asked)
     return folder
 
 
@@ -75,24 +121,23 @@ def run_files_kept(folder: PathLike, *, trajectory: bool = True, plots: bool = F
     the model always, the trajectory when ``trajectory``, the plots when ``plots``, and any of
     ``extra_files`` (videos, CSV, BVH) that land in ``folder``. The rest of the first list, when
     present, are stale."""
-    known = [OUTCOME_FILE, TRAJECTORY_FILE, MODEL_FILE, *PLOT_FILES, DEFAULT_VIDEO]
     keep = {OUTCOME_FILE, MODEL_FILE}
     if trajectory:
         keep.add(TRAJECTORY_FILE)
     if plots:
         keep.update(PLOT_FILES)
-    for extra in extra_files:
-        if extra and Path(extra).resolve().parent == Path(folder).resolve():
-            keep.add(Path(extra).name)
-    return known, keep
+    keep |= named_in(folder, extra_files)
+    return list(KNOWN_RUN_FILES), keep
 
 
-def clear_stale(folder: PathLike, *, trajectory: bool = True, plots: bool = False,
-                extra_files: Iterable[PathLike | None] = ()) -> list[str]:
+def clear_stale(folder: OutputFolder, *, trajectory: bool = True, plots: bool = False,
+                extra_files: Iterable[PathLike | None] = ()) -> tuple[list[str], list[str]]:
     """Remove what an earlier run left in ``folder`` that this run will not rewrite (only the known run
-    files, see :func:`run_files_kept`), so the folder never mixes two runs' outputs; returns the names
-    removed."""
-    return remove_stale(folder, *run_files_kept(folder, trajectory=trajectory, plots=plots, extra_files=extra_files))
+    files, see :func:`run_files_kept`, and only those its manifest proves bipedsim wrote, unchanged),
+    so the folder does not mix two runs' outputs. Returns (names removed, names left alone: files of a
+    run file's name that bipedsim did not write, or that changed since)."""
+    return folder.remove_stale(*run_files_kept(folder.path, trajectory=trajectory, plots=plots,
+                                               extra_files=extra_files))
 
 
 def hinge_table(model: mujoco.MjModel) -> tuple[list[str], list[int]]:
@@ -217,13 +262,31 @@ def render_folder(folder: PathLike, output: PathLike | None = None, video_option
     """Render the run recorded in ``folder`` (no re-simulation) to ``output`` (.mp4 or .gif; default
     ``folder/rollout.mp4``; errors name ``-o``) and, with ``plots``, write the PNG plots into the
     folder. ``progress``: a bar on stderr; ``on_write`` is called as each file is written (a video
-    with its frame count). Returns the paths written, in order."""
+    with its frame count). Returns the paths written, in order.
+
+    Before rendering, the outputs are checked against each other and the run's files, and the files
+    written into the folder without being named (the default video, the plots) must be absent or ones
+    bipedsim wrote there, unchanged; what is written into the folder is added to its manifest."""
     folder = Path(folder)
     out = output or str(folder / DEFAULT_VIDEO)
+    implicit = [*([] if output else [DEFAULT_VIDEO]), *(PLOT_FILES if plots else ())]
+    check_distinct_paths([("-o" if output else RUN_DIR_FILE, out), *folder_files(RUN_DIR_FILE, folder, PLOT_FILES
+                                                                                 if plots else ())],
+                         folder_files("the run's file", folder, (MODEL_FILE, TRAJECTORY_FILE, OUTCOME_FILE)))
+    record: OutputFolder | None = None
+    if implicit or named_in(folder, [out]):
+        record = OutputFolder(folder, "RUN_DIR")
+        record.check_replaceable(implicit, hint=" (or give -o)" if not output else "")
+
+    def wrote(path: PathLike, frames: int | None) -> None:
+        if record is not None:
+            record.record(path)
+        if on_write is not None:
+            on_write(path, frames)
+
     frames = render_video(folder, out, video_options or VideoOptions(), progress=progress, out_flag="-o")
-    if on_write is not None:
-        on_write(out, frames)
-    return [Path(out), *(finish_outputs(folder, plots=True, on_write=on_write) if plots else [])]
+    wrote(out, frames)
+    return [Path(out), *(finish_outputs(folder, plots=True, on_write=wrote) if plots else [])]
 
 
 # ---------------------------------------------------------------------- the whole run
@@ -336,14 +399,21 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     initial velocity std, rad/s and m/s) with ``pushes`` (``MAG:DIR:DUR:START`` strings or
     :class:`Push`), recording ``record_hz`` samples/s; write ``outcome.json``, ``trajectory.npz`` and
     ``model.xml`` into the folder ``out`` (removing what an earlier run left there that this one does
-    not rewrite), then the optional plots, ``csv``, ``export_bvh``, ``video`` and ``gif``.
+    not rewrite, when the folder's manifest proves bipedsim wrote it; see :func:`clear_stale`), then
+    the optional plots, ``csv``, ``export_bvh``, ``video`` and ``gif``; each file written into ``out``
+    is added to its manifest.
 
     Every option and output location is checked before the simulation (errors name the command
-    line's flags). ``progress``: bars on stderr (pass ``sys.stderr.isatty()``). ``say`` gets each line
+    line's flags): outputs that would overwrite each other or an input, and files of the folder the
+    run would replace without being asked that bipedsim cannot prove it wrote, are refused.
+    ``progress``: bars on stderr (pass ``sys.stderr.isatty()``). ``say`` gets each line
     the command prints, as it happens. A video that cannot be rendered raises :class:`RenderError`
     saying the results are in the folder."""
     say = say or (lambda line: None)
     options = video_options or VideoOptions()
+    # outputs that would overwrite each other or an input: refused before anything is read or made
+    check_distinct_paths(run_outputs(out, plots=plots, csv=csv, export_bvh=export_bvh, video=video, gif=gif),
+                         run_inputs(config, bvh, events))
     check_run_options(profile=profile, support=support, bvh=bvh, scale=scale, up=up, init_noise=init_noise,
                       seed=seed, positions=positions, mass=mass, fps=fps)
     options.validate()
@@ -358,18 +428,23 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     sc.check_pushes(pushes, probe)
     feet = sc.foot_names(probe)
     rec = Recorder(sc.built.model, record_hz=record_hz, seconds=seconds, key="--record-hz", feet=len(feet))
-    folder = check_run_outputs(out, csv=csv, export_bvh=export_bvh, video=video, gif=gif)
+    outdir = check_run_outputs(out, csv=csv, export_bvh=export_bvh, video=video, gif=gif, plots=plots)
+    folder = outdir.path
     tick, close = _timed_bar(seconds, progress)
     outcome, _ = runner.run_scenario(sc, RolloutSpec(seconds=seconds, seed=seed, init_noise=init_noise),
                                      progress=tick, hooks=[rec], pushes=pushes)
     close()
     if sc.profile == "humanoid":
         outcome.extra["clip_speed_mps"] = clip_speed(sc.clip)
-    removed = clear_stale(folder, plots=plots, extra_files=(video, gif, csv, export_bvh))
+    removed, left = clear_stale(outdir, plots=plots, extra_files=(video, gif, csv, export_bvh))
     if removed:
         say(f"removed from an earlier run in {folder}: {', '.join(removed)}")
+    if left:
+        say(f"left alone in {folder}: {', '.join(left)} (not written there by bipedsim, or changed since)")
     path = runner.write_outcome(outcome, folder)
+    outdir.record(path)
     tr = save_run_files(folder, sc, rec, outcome, feet)
+    outdir.record(folder / TRAJECTORY_FILE, folder / MODEL_FILE)
     del rec  # the trajectory holds the samples
     say(outcome_line(outcome, sc))
     for why in outcome.extra.get("pushes_not_applied", []):
@@ -380,7 +455,7 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     try:
         result.written += finish_outputs(folder, plots=plots, csv=csv, export_bvh=export_bvh, videos=videos,
                                          video_options=options, scenario=sc, trajectory=tr, progress=progress,
-                                         on_write=lambda p, n: say(written_line(p, n)))
+                                         on_write=lambda p, n: (outdir.record(p), say(written_line(p, n))))
     except RenderError as exc:
         raise RenderError(f"{exc} The simulation results were written to {folder}; render them later "
                           f"with `bipedsim render {folder}`.") from None

@@ -339,8 +339,8 @@ def test_a_clip_that_lifts_no_leg_walks_the_wave_order(bred_child: Path) -> None
 
 def test_a_seeds_initial_noise_reaches_a_creature_that_starts_standing() -> None:
     """The planned gait's reset poses the body standing (velocities zeroed); the seed's initial noise is
-    added to the velocities it starts from, so seeds give different creature rollouts (as for humanoids)
-    and seed 0 (no noise) stays the noiseless run."""
+    added to the velocities it starts from, so seeds give different creature rollouts (as for humanoids),
+    seed 0 included (its noise is drawn from seed 0)."""
     from bipedsim.sim.rollout import RolloutSpec
     from bipedsim.sim.runner import run_scenario
 

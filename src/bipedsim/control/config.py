@@ -19,6 +19,7 @@ from bipedsim import config
 from bipedsim.control.creature_config import CreatureControlConfig
 from bipedsim.errors import ConfigError
 from bipedsim.model.feasible import FeasibleConfig
+from bipedsim.model.profile import MASS_RANGE_KG
 
 PD_MODES = ("pd", "pd_ref_velocity")
 SOURCES = ("clip", "pose")
@@ -26,6 +27,11 @@ SOURCES = ("clip", "pose")
 #: rate the FSM would see a foot strike several centimetres late and the balance feedback would act
 #: on a step already over (``control_dt: 4`` walked with 0 foot strikes before this bound)
 MAX_CONTROL_DT = 0.05
+#: Leg lengths (m, hip to ankle) the settings may be said to be for (``body:``): the legs of the
+#: humanoids that can be built (0.6-3.0 m tall, :data:`~bipedsim.model.build.HUMANOID_BUILT_HEIGHT_M`;
+#: legs about half the height), with room. Scaling by a ratio to legs far outside them multiplies
+#: gains by absurd factors (1e-300 m overflowed).
+LEG_RANGE_M = (0.2, 2.0)
 
 
 @dataclass(frozen=True)
@@ -401,9 +407,9 @@ class BodyScaleConfig:
     changes nothing. ``scale: false``: every value as written."""
 
     scale: bool = True
-    leg_min: float = field(default=0.78, metadata={"gt": 0.0})  #: m
-    leg_max: float = field(default=0.94, metadata={"gt": 0.0})  #: m
-    mass: float = field(default=64.0, metadata={"gt": 0.0})  #: kg
+    leg_min: float = field(default=0.78, metadata={"min": LEG_RANGE_M[0], "max": LEG_RANGE_M[1]})  #: m
+    leg_max: float = field(default=0.94, metadata={"min": LEG_RANGE_M[0], "max": LEG_RANGE_M[1]})  #: m
+    mass: float = field(default=64.0, metadata={"min": MASS_RANGE_KG[0], "max": MASS_RANGE_KG[1]})  #: kg
     torque_scale: float = field(default=1.0, metadata={"gt": 0.0})
 
     def validate(self) -> None:
@@ -462,6 +468,59 @@ def load_controller(path: str | os.PathLike[str] | None = None) -> ControllerCon
     if not isinstance(data, dict):
         raise ConfigError(f"expected a mapping of keys, got {type(data).__name__}", path=path)
     return config.from_dict(ControllerConfig, merged(config.to_dict(ControllerConfig()), data), path=path)
+
+
+#: the top-level keys of a controller file every body's controller reads (the rest are read by one kind)
+SHARED_KEYS = frozenset({"name"})
+#: the section only a creature's controller reads; every other key but :data:`SHARED_KEYS` is read only
+#: by a humanoid's (SIMBICON) controller
+CREATURE_SECTION = "creature"
+#: most keys an error about unread settings lists (then "... and N more")
+_LISTED_KEYS = 8
+
+
+def changed_keys(a: Any, b: Any, prefix: str = "") -> list[str]:
+    """The dotted keys at which plain data ``a`` and ``b`` (mappings of mappings, as
+    :func:`~bipedsim.config.to_dict` makes) differ: a value in one and not the other, or unequal."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        out: list[str] = []
+        for k in [*a, *(k for k in b if k not in a)]:
+            key = f"{prefix}.{k}" if prefix else str(k)
+            out += changed_keys(a.get(k), b.get(k), key) if k in a and k in b else [key]
+        return out
+    return [] if a == b else [prefix]
+
+
+def unread_settings(cfg: ControllerConfig, profile: str) -> list[str]:
+    """The settings of ``cfg`` that a ``profile`` body's controller would not read, as dotted keys: on a
+    creature every key a humanoid's controller reads, on a humanoid the ``creature:`` section. Only values
+    that differ from the defaults count: those are what a file changed (``controllers/default.yaml``
+    restates every default, both kinds', and serves either)."""
+    changed = changed_keys(config.to_dict(cfg), config.to_dict(ControllerConfig()))
+    if profile == "creature":
+        return [k for k in changed if k.split(".")[0] not in SHARED_KEYS | {CREATURE_SECTION}]
+    return [k for k in changed if k.split(".")[0] == CREATURE_SECTION]
+
+
+def check_settings_for_body(cfg: ControllerConfig, profile: str, path: str | os.PathLike[str] | None = None,
+                            key: str | None = None) -> None:
+    """Refuse a controller (the file at ``path``; ``key``: where a file names it) that changes settings
+    the ``profile`` body's controller never reads (:func:`unread_settings`): they would be ignored without
+    a word. The error names every such key."""
+    unread = unread_settings(cfg, profile)
+    if not unread:
+        return
+    listed = ", ".join(unread[:_LISTED_KEYS]) + (f" and {len(unread) - _LISTED_KEYS} more"
+                                                  if len(unread) > _LISTED_KEYS else "")
+    if profile == "creature":
+        why = (f"sets {listed}, which only a humanoid's controller reads; this body is a creature, whose "
+               f"controller reads only the '{CREATURE_SECTION}:' section: drop them, or put a creature's "
+               f"settings under '{CREATURE_SECTION}:'")
+    else:
+        why = (f"sets {listed}, which only a creature's controller reads; this body is a humanoid, whose "
+               f"controller ignores the '{CREATURE_SECTION}:' section: drop it, or run a creature "
+               "(--profile creature)")
+    raise ConfigError(why, path=path, key=key)
 
 
 def for_reference(cfg: ControllerConfig, resolved: bool) -> ControllerConfig:

@@ -9,6 +9,7 @@ interface.
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -19,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.control.base import Controller
+from bipedsim.errors import ConfigError
 from bipedsim.model.creature import trunk_bodies
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
 
@@ -34,6 +36,32 @@ MAX_ROLLOUT_S = 3600.0
 
 #: Longest interval (s) between fall checks: past a second a fall is seen long after it happened.
 MAX_CHECK_EVERY_S = 1.0
+
+#: How far (a share of the physics timestep) a control period may lie from a whole number of physics
+#: steps and still count as that number: room for the rounding of decimal periods (0.006 / 0.002 is
+#: 2.9999999999999996), not for a different period.
+CONTROL_DT_TOLERANCE = 1e-6
+
+
+def control_every(period: float | None, timestep: float, *, path: str | os.PathLike[str] | None = None,
+                  key: str = "control_dt") -> int:
+    """Physics steps per control step for a control ``period`` (s; None: every physics step) on a model
+    whose physics runs at ``timestep`` (s). The controller acts between physics steps, so a period must be
+    a whole number (at least one) of them: a shorter one or one between two multiples would run at
+    another period than the one recorded with the run, and is a :class:`ConfigError` naming ``key`` (in
+    the file at ``path``) and the timestep."""
+    if period is None:
+        return 1
+    k = round(period / timestep) if math.isfinite(period) and period > 0 else 0
+    if k >= 1 and abs(k * timestep - period) <= CONTROL_DT_TOLERANCE * timestep:
+        return int(k)
+    what = "shorter than" if period < timestep else "not a whole multiple of"
+    steps = period / timestep if math.isfinite(period) else 1.0
+    near = sorted({max(1, math.floor(steps)), max(1, math.ceil(steps))})
+    raise ConfigError(f"a control period of {period:g} s is {what} the physics timestep {timestep:g} s: the "
+                      "controller acts between physics steps; give a multiple of the timestep ("
+                      + " or ".join(f"{n * timestep:g} s" for n in near) + ") or null (every physics step)",
+                      path=path, key=key)
 
 
 @dataclass(frozen=True)
@@ -270,6 +298,8 @@ class RolloutSpec:
     seed: int = 0
     #: standard deviation (rad/s, m/s) of noise added to the initial velocities, drawn from ``seed``
     init_noise: float = 0.0
+    #: seconds between control steps, a whole number of physics steps (:func:`control_every`); None: the
+    #: controller's own (``control_dt`` of its settings; None there: every physics step)
     control_dt: float | None = None
     #: ``None``: the body kind's default (:meth:`FallCriteria.for_body`)
     fall: FallCriteria | None = None
@@ -354,8 +384,7 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller,
         fall = spec.fall or FallCriteria.for_body(plan.profile)
         falls = FallDetector(model, plan, fall, data, root=ctrl.root_body)
         dt = model.opt.timestep
-        cdt = spec.control_dt or ctrl.control_dt or dt
-        every = max(1, int(round(cdt / dt)))
+        every = control_every(spec.control_dt if spec.control_dt is not None else ctrl.control_dt, dt)
         check_every = max(1, int(round(fall.check_every / dt)))
         n_steps = int(round(spec.seconds / dt))
         start_xy = data.qpos[0:2].copy()

@@ -12,7 +12,14 @@ import numpy as np
 
 from bipedsim.config import to_dict
 from bipedsim.control import CONTROLLERS, Controller, CreatureControlConfig
-from bipedsim.control.config import ControllerConfig, describe_body_scale, for_body, for_reference, load_controller
+from bipedsim.control.config import (
+    ControllerConfig,
+    check_settings_for_body,
+    describe_body_scale,
+    for_body,
+    for_reference,
+    load_controller,
+)
 from bipedsim.control.simbicon import body_mass, leg_length
 from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_json, versions
@@ -23,7 +30,7 @@ from bipedsim.model.feasible import feasible_clip, measure, resolve_because
 from bipedsim.model.gait import read_for_build
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
-from bipedsim.sim.rollout import FallCriteria, Outcome, RolloutSpec, rollout
+from bipedsim.sim.rollout import FallCriteria, FloatArray, Outcome, RolloutSpec, control_every, rollout
 
 #: body kinds a scenario can be built as (``--profile``); ``auto``: measured from the skeleton
 #: (:func:`~bipedsim.model.creature_kind.detect_body_kind`)
@@ -84,7 +91,10 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     how its reference is prepared (``reference:``), its ``creature:`` section a creature's controller;
     ``support`` (root support, or the section's ``support``) is a creature's. ``scale``, ``up``,
     ``positions`` and ``fps`` (the capture's frame rate) say how to read ``bvh``
-    (:func:`~bipedsim.motion.bvh.read_bvh`)."""
+    (:func:`~bipedsim.motion.bvh.read_bvh`). A controller file that changes settings the body's controller
+    never reads (:func:`~bipedsim.control.config.check_settings_for_body`) or a humanoid's ``control_dt``
+    that is no whole number of physics steps (:func:`~bipedsim.sim.rollout.control_every`) is refused,
+    naming the file and the keys."""
     from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
     from bipedsim.motion.bvh import read_bvh
 
@@ -104,6 +114,9 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
         raise ConfigError("root support holds a creature's root; it needs the creature profile", key="support")
     if profile == "creature" and bvh is None:
         raise ConfigError("the creature profile needs a motion: give a BVH (--bvh FILE)", key="profile")
+    config_path = None if config is None or isinstance(config, ControllerConfig) else str(config)
+    if config_path is not None:  # a file's settings this body's controller would not read
+        check_settings_for_body(cfg, profile, path=config_path)
     if bvh is None:
         raw, info = read_bvh(BUILTIN_WALK)
         motion = raw.to_project_frame()
@@ -116,6 +129,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
         src = str(bvh)
     extra: dict[str, Any] = {}
     if profile == "humanoid":  # the settings' lengths, times and torques scaled to this body
+        control_every(cfg.control_dt, float(built.model.opt.timestep), path=config_path)
         leg, kg = leg_length(built.model), body_mass(built.model)
         note = describe_body_scale(cfg.body, leg, kg)
         if note:
@@ -133,7 +147,6 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
             extra["feasible"] = why
             resolved = True
     cfg = for_reference(cfg, resolved)  # the "auto" modulation terms act on a re-solved reference
-    config_path = None if config is None or isinstance(config, ControllerConfig) else str(config)
     return Scenario(built=built, clip=clip, cfg=cfg, source_path=src, config_path=config_path, motion=motion,
                     bvh_info=info, extra=extra, creature_cfg=replace(cfg.creature, support=support))
 
@@ -163,15 +176,16 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
                    else spec.start_frame, fall=spec.fall or sc.fall_criteria())
     qpos0 = sc.clip.qpos[frame].copy()
     qvel0 = sc.clip.qvel[frame].copy() if ctrl.starts_moving else np.zeros(sc.built.model.nv)
-    noise = None
-    if spec.seed and spec.init_noise > 0:
-        noise = np.random.default_rng(spec.seed).normal(scale=spec.init_noise, size=qvel0.shape)
+    noise = seed_noise(spec, qvel0.shape)
+    if noise is not None:
         qvel0 = qvel0 + noise
     nominal = None
     if pushes:
-        # the same rollout without pushes, for the centre-of-mass deviation (cached per scenario)
-        # the seed only matters with initial noise: without it, rollouts of other seeds share one
-        key = (spec.seconds, spec.seed if spec.init_noise > 0 else 0, spec.init_noise, spec.start_frame)
+        # the same rollout without pushes, for the centre-of-mass deviation (cached per scenario);
+        # everything that changes that rollout is in the key. The seed only matters with initial
+        # noise: without it, rollouts of other seeds share one
+        key = (spec.seconds, spec.seed if noise is not None else 0, spec.init_noise, spec.start_frame, spec.fall,
+               spec.control_dt)
         cache = sc.extra.setdefault("nominal_com", {})
         if key not in cache:
             o, _ = rollout(sc.built.model, sc.built.plan, sc.controller(), spec, initial_qpos=qpos0,
@@ -188,6 +202,15 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
                   "pushes": [to_dict(p) for p in (pushes or [])], "reading": reading_record(sc.bvh_info)}
     out.versions = versions()
     return out, ctrl
+
+
+def seed_noise(spec: RolloutSpec, shape: tuple[int, ...]) -> FloatArray | None:
+    """The initial velocity noise of ``spec`` (rad/s, m/s): Gaussian with standard deviation
+    ``spec.init_noise``, drawn from a generator seeded with ``spec.seed`` -- every seed, 0 included, so a
+    sweep's rows all get the noise its file records; None without noise (``init_noise`` 0)."""
+    if not spec.init_noise > 0:
+        return None
+    return np.random.default_rng(spec.seed).normal(scale=spec.init_noise, size=shape)
 
 
 def reading_record(info: Any) -> dict[str, Any] | None:
@@ -224,4 +247,4 @@ def write_outcome(out: Outcome, folder: str | os.PathLike[str]) -> Path:
 
 
 __all__ = ["AUTO", "PROFILES", "SEED_NOISE", "resolve_profile", "Scenario", "load_scenario", "run_scenario",
-           "run_seeds", "write_outcome"]
+           "run_seeds", "seed_noise", "write_outcome"]

@@ -8,6 +8,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+#: Longest window (s) over which a clip's velocity is averaged: past a clip's loop the average is the
+#: whole clip's, and an absurd window (1e300 s) was an array too large to allocate.
+MAX_WINDOW_S = 10.0
+#: Highest standing root height, as a fraction of the clip's: the legs cannot reach the floor from much
+#: higher than the clip's own height (1e300 ended in NaN targets and a traceback).
+MAX_HEIGHT_FRACTION = 1.5
+#: Re-planning period (s) bounds. The plan's reference velocities are its change over the period, but
+#: the plan is only remade at a control step (a creature's: every physics step, 2 ms in the shipped
+#: profiles): a shorter period would divide a step's change by less than the step and inflate them. Past
+#: a second the plan no longer follows a step.
+MIN_PLAN_DT_S, MAX_PLAN_DT_S = 0.002, 1.0
+
 
 @dataclass(frozen=True)
 class CreatureBalanceConfig:
@@ -31,7 +43,7 @@ class CreatureBalanceConfig:
     #: PD on the velocity error kd (qdot_ref - qdot) instead of damping kd qdot alone
     velocity_feedforward: bool = True
     #: window (s) over which the clip's root velocity is averaged for the speed target
-    velocity_window_s: float = field(default=0.5, metadata={"gt": 0.0})
+    velocity_window_s: float = field(default=0.5, metadata={"gt": 0.0, "max": MAX_WINDOW_S})
     # ---- the planned gait (``gait: planned``, control/creature_gait.py); ``clip`` tracks the clip's timing
     gait: str = field(default="planned", metadata={"choices": ("planned", "clip")})
     #: walking speed as a fraction of the clip's mean root speed, at most (the legs' measured reach may
@@ -60,7 +72,7 @@ class CreatureBalanceConfig:
     #: ``min_swing_s`` then the floor; 0: ``min_swing_s`` alone)
     min_swing_froude: float = field(default=0.0, metadata={"min": 0.0})
     #: root height as a fraction of the clip's median
-    height_fraction: float = field(default=1.0, metadata={"gt": 0.0})
+    height_fraction: float = field(default=1.0, metadata={"gt": 0.0, "max": MAX_HEIGHT_FRACTION})
     #: each foot at least this multiple of its hip's lateral offset from the hips' mid-line
     stance_width: float = field(default=2.0, metadata={"min": 0.0})
     #: swing-foot lift as a fraction of the standing root height
@@ -122,7 +134,7 @@ class CreatureBalanceConfig:
     #: standing time before the first step (s), speed ramp (s), re-planning period (s)
     settle_s: float = field(default=0.5, metadata={"min": 0.0})
     speed_ramp_s: float = field(default=1.0, metadata={"gt": 0.0})
-    plan_dt_s: float = field(default=0.01, metadata={"gt": 0.0})
+    plan_dt_s: float = field(default=0.01, metadata={"min": MIN_PLAN_DT_S, "max": MAX_PLAN_DT_S})
 
 
 @dataclass(frozen=True)
@@ -140,7 +152,7 @@ class BipedGaitConfig:
     # ---- the planned gait's settings that differ on two legs (CreatureBalanceConfig's, for bipeds)
     #: root height as a fraction of the clip's: bent legs reach sideways (straight ones cannot follow
     #: the body off their foot)
-    height_fraction: float = field(default=0.85, metadata={"gt": 0.0})
+    height_fraction: float = field(default=0.85, metadata={"gt": 0.0, "max": MAX_HEIGHT_FRACTION})
     #: the IK's null-space pull toward the neutral leg pose: small, or it keeps feet off their targets
     #: (at 1.0 a stance foot missed by 4 cm with the root 10 cm to its side)
     posture_pull: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})

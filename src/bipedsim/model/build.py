@@ -13,7 +13,7 @@ import numpy as np
 
 from bipedsim.errors import ConfigError, ModelError
 from bipedsim.model.plan import BodyPlanSet, ModelBuilder, model_hash, plan_from_model
-from bipedsim.model.profile import CreatureProfile, HumanoidProfile, load_profile
+from bipedsim.model.profile import MASS_RANGE_KG, CreatureProfile, HumanoidProfile, load_profile
 from bipedsim.motion.motion import Motion
 
 
@@ -50,10 +50,23 @@ class BuiltModel:
         atomic_write_text(path, self.xml)
 
 
+def total_mass_problem(mass: float) -> str | None:
+    """What is wrong with a total body mass (kg), or None: a finite number within
+    :data:`~bipedsim.model.profile.MASS_RANGE_KG`."""
+    lo, hi = MASS_RANGE_KG
+    if isinstance(mass, bool) or not isinstance(mass, int | float) or not (math.isfinite(mass) and mass > 0):
+        return f"total mass must be a finite number > 0 kg, got {mass}"
+    if not lo <= mass <= hi:
+        return f"total mass must be {lo:g} to {hi:g} kg, got {mass:g} kg"
+    return None
+
+
 def check_total_mass(mass: float | None, flag: str = "--mass") -> None:
-    """Refuse a total mass (kg) that is not a finite number > 0, naming the command's ``flag``."""
-    if mass is not None and not (math.isfinite(mass) and mass > 0):
-        raise ConfigError(f"total mass must be a finite number > 0 kg, got {mass}", key=flag)
+    """Refuse a total mass (kg) that is not a finite number within
+    :data:`~bipedsim.model.profile.MASS_RANGE_KG`, naming the command's ``flag``."""
+    why = None if mass is None else total_mass_problem(mass)
+    if why:
+        raise ConfigError(why, key=flag)
 
 
 def build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfile | CreatureProfile = "humanoid",
@@ -76,8 +89,9 @@ def build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfil
 
 def _build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfile | CreatureProfile,
                  *, total_mass: float | None, mapping: Any, name: str | None) -> BuiltModel:
-    if total_mass is not None and not (math.isfinite(total_mass) and total_mass > 0):
-        raise ModelError(f"total mass must be a finite number > 0 kg, got {total_mass}")
+    why = None if total_mass is None else total_mass_problem(total_mass)
+    if why:
+        raise ModelError(why)
     prof = profile if isinstance(profile, HumanoidProfile | CreatureProfile) else load_profile(profile)
     if motion.up != "z" or motion.unit != 1.0:
         motion = motion.to_project_frame()
@@ -93,7 +107,10 @@ def _build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfi
         plan = creature_plan(motion, prof, total_mass=total_mass, name=name or "creature")
     _check_depth(plan)
     builder = ModelBuilder(plan)
-    xml = builder.xml()
+    try:
+        xml = builder.xml()  # MuJoCo compiles the spec to write it
+    except ValueError as exc:  # e.g. a body whose segments' masses round to nothing
+        raise ModelError(f"MuJoCo cannot build this body: {' '.join(str(exc).split())}") from None
     try:
         model = mujoco.MjModel.from_xml_string(xml)
     except ValueError as exc:  # pragma: no cover - a builder bug, not user input

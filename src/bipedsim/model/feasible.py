@@ -45,6 +45,14 @@ FloatArray = npt.NDArray[np.float64]
 SIDES = ("right", "left")
 
 
+#: Longest spread (s) of the pelvis lowering: past a few strides it is the whole clip's mean, and the
+#: window is counted in frames (1e300 s overflowed).
+MAX_SMOOTH_S = 10.0
+#: Largest weight of the pendulum term: far past the point where the least squares follow the pendulum's
+#: ZMP alone (1e4 and 1e6 walk the built-in walk alike); 1e300 overflowed the solve.
+MAX_PENDULUM_WEIGHT = 1e6
+
+
 @dataclass(frozen=True)
 class FeasibleConfig:
     """The controller YAML's ``reference:`` block: whether a real clip's legs are made feasible for the
@@ -63,11 +71,11 @@ class FeasibleConfig:
     #: the swing sole's least peak height above the floor as a fraction of the leg length
     clearance: float = field(default=0.11, metadata={"min": 0.0, "max": 0.5})
     #: seconds over which the pelvis lowering is spread
-    smooth_s: float = field(default=0.15, metadata={"min": 0.0})
+    smooth_s: float = field(default=0.15, metadata={"min": 0.0, "max": MAX_SMOOTH_S})
     #: weight of the linear inverted pendulum on the pelvis's horizontal path (0: the clip's path): the
     #: centre of mass moved so that its pendulum ZMP, c - c''/w^2, stays near the stance feet's centre of
     #: pressure (least squares against staying on the clip's path)
-    pendulum: float = field(default=0.0, metadata={"min": 0.0})
+    pendulum: float = field(default=0.0, metadata={"min": 0.0, "max": MAX_PENDULUM_WEIGHT})
 
 
 #: Share of a stance's frames (the sole's least tilted) whose ankle positions and headings make the

@@ -14,6 +14,11 @@ PROFILE_DIR = Path(__file__).resolve().parent.parent / "profiles"
 SEGMENTS = ("pelvis", "torso", "head", "upper_arm", "lower_arm", "thigh", "shin", "foot", "toe")
 JOINT_GROUPS = ("spine", "neck", "hip", "knee", "ankle", "toe", "shoulder", "elbow")
 AXIS_NAMES = ("x", "y", "z", "-x", "-y", "-z", "flex")
+#: Total body masses (kg) a body may be given (``--mass``, a profile's ``total_mass``): from a small
+#: animal to past the heaviest land animal. Each segment's share is written to the model rounded to a
+#: milligram (MJCF ``mass``), so far below the range a small segment rounds to nothing and MuJoCo
+#: refuses the body (``--mass 1e-6``); far above it, nothing built here was measured.
+MASS_RANGE_KG = (0.1, 100_000.0)
 
 
 @dataclass(frozen=True)
@@ -99,7 +104,8 @@ class HumanoidProfile:
     #: total mass (kg): a number; "auto", from the legs (:func:`~bipedsim.model.humanoid.mass_from_legs`: a
     #: person whose hip-to-ankle legs are ``leg_share`` of the height, at body-mass index ``mass_bmi``);
     #: null, the segments' masses as written
-    total_mass: float | Literal["auto"] | None = field(default="auto", metadata={"gt": 0.0})
+    total_mass: float | Literal["auto"] | None = field(default="auto", metadata={"min": MASS_RANGE_KG[0],
+                                                                                 "max": MASS_RANGE_KG[1]})
     mass_bmi: float = field(default=22.0, metadata={"gt": 0.0})
     leg_share: float = field(default=0.491, metadata={"gt": 0.0, "max": 1.0})
     joints: dict[str, JointSpec] = field(default_factory=dict)
@@ -145,7 +151,7 @@ class CreatureProfile:
     radius_min: float = field(default=0.012, metadata={"gt": 0.0})
     radius_max: float = field(default=0.06, metadata={"gt": 0.0})
     density: float = field(default=1000.0, metadata={"gt": 0.0})
-    total_mass: float | None = field(default=None, metadata={"gt": 0.0})
+    total_mass: float | None = field(default=None, metadata={"min": MASS_RANGE_KG[0], "max": MASS_RANGE_KG[1]})
     range_margin: float = field(default=0.35, metadata={"min": 0.0})
     range_min: float = field(default=0.5, metadata={"gt": 0.0})
     torque_scale: float = field(default=3.0, metadata={"gt": 0.0})

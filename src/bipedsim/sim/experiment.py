@@ -27,6 +27,25 @@ from bipedsim.sim.runner import PROFILES
 #: Most rollouts one experiment may expand to: 100 000 rollouts of a few seconds are days of CPU time
 #: and a results.csv of ~30 MB; a larger count is a typo (and would not fit in memory: 1e12 pushes).
 MAX_ROLLOUTS = 100_000
+#: Longest name (characters) of an experiment, a suite or a scenario: names head tables, progress bars
+#: and summaries, one line each.
+MAX_NAME_CHARS = 200
+
+
+def check_name(name: str, key: str = "name") -> None:
+    """Raise ``ValueError("KEY: ...")`` unless ``name`` is one printable line: not empty, at most
+    :data:`MAX_NAME_CHARS` characters, no control characters (a terminal escape sequence in a name
+    would recolour or rewrite the terminal it is printed to; a newline would split a table's row) and
+    no other character :meth:`str.isprintable` refuses (format characters such as a right-to-left
+    override, line separators). Every name an experiment or suite file gives is checked here."""
+    if not name.strip():
+        raise ValueError(f"{key}: must not be empty")
+    if len(name) > MAX_NAME_CHARS:
+        raise ValueError(f"{key}: {len(name)} characters; a name has at most {MAX_NAME_CHARS}")
+    bad = next((c for c in name if not c.isprintable()), None)
+    if bad is not None:
+        raise ValueError(f"{key}: holds the unprintable character U+{ord(bad):04X} (at {name.index(bad) + 1} of "
+                         f"{len(name)}); a name is printed as it is: give letters, digits, spaces and punctuation")
 
 
 @dataclass(frozen=True)
@@ -158,6 +177,7 @@ class ExperimentSpec:
     fall: FallCriteria | None = None
 
     def validate(self) -> None:
+        check_name(self.name)
         given = [k for k, v in (("grid", self.grid), ("runs", self.runs), ("random", self.random)) if v]
         if not given:
             raise ValueError("grid: give a grid, a list of runs or random pushes -- the experiment has no rollouts")
@@ -282,28 +302,55 @@ def check_experiment(exp: Experiment, path: str | os.PathLike[str], prefix: str 
     ref = exp.resolve(spec.reference)
     if ref is not None and not Path(ref).is_file():
         raise ConfigError(f"no such file {ref}", path=p, key=f"{prefix}reference")
-    from bipedsim.control.config import load_controller
-
-    for ctl in {r.controller for r in rows if r.controller}:
+    ctl_key = f"{prefix}random.controller" if spec.random else f"{prefix}grid.controller"
+    controllers = sorted({r.controller for r in rows if r.controller})
+    for ctl in controllers:
         if not Path(ctl).is_file():
-            raise ConfigError(f"no such controller file {ctl}", path=p,
-                              key=f"{prefix}random.controller" if spec.random else f"{prefix}grid.controller")
-        load_controller(ctl)
-    bodies = _body_names(ref, spec.profile)
+            raise ConfigError(f"no such controller file {ctl}", path=p, key=ctl_key)
+    bodies, kind = _body_names(ref, spec.profile, spec.support)
+    for ctl in controllers:
+        _check_controller(ctl, kind, p, ctl_key)
     if spec.body not in bodies and spec.body != DEFAULT_PUSH_BODY:
         raise ConfigError(f"unknown body {spec.body!r}; bodies are {', '.join(sorted(bodies))}", path=p,
                           key=f"{prefix}body")
     return exp
 
 
-def _body_names(reference: str | None, profile: str = "auto") -> set[str]:
+def _check_controller(ctl: str, kind: str, path: Path, key: str) -> None:
+    """Load the controller file ``ctl`` named at ``key`` of the file at ``path`` and refuse settings a
+    body of ``kind`` would not read (the error names both files)."""
+    from bipedsim.control.config import check_settings_for_body, load_controller
+
+    cfg = load_controller(ctl)
+    try:
+        check_settings_for_body(cfg, kind, path=ctl)
+    except ConfigError as exc:
+        raise ConfigError(str(exc), path=path, key=key) from None
+
+
+def _body_names(reference: str | None, profile: str = "auto", support: bool = False) -> tuple[set[str], str]:
+    """The names of the bodies built from ``reference`` (None: the built-in walk) as the rollouts build
+    them, and the body's kind (``humanoid`` or ``creature``)."""
     from bipedsim.data import BUILTIN_WALK
     from bipedsim.model.build import build_model
     from bipedsim.model.gait import read_for_build
 
-    _, _, motion, kind = read_for_build(reference or BUILTIN_WALK, profile=profile)  # as the rollouts read it
+    _, _, motion, kind = read_for_build(reference or BUILTIN_WALK, profile=profile,  # as the rollouts read it
+                                        support=support)
     built = build_model(motion, kind, source=reference or BUILTIN_WALK)
-    return {built.model.body(i).name for i in range(1, built.model.nbody)}
+    return {built.model.body(i).name for i in range(1, built.model.nbody)}, kind
+
+
+def _body_kind(reference: str | None, profile: str, support: bool) -> str:
+    """The kind of body a scenario builds: ``profile`` when given, else measured from ``reference`` as
+    the rollouts read it (None: the built-in walk, a humanoid)."""
+    if profile != "auto":
+        return profile
+    if reference is None:
+        return "humanoid"
+    from bipedsim.model.gait import read_for_build
+
+    return read_for_build(reference, profile=profile, support=support)[3]
 
 
 # ---------------------------------------------------------------------- regression suites
@@ -326,8 +373,7 @@ class SuiteScenario:
     pushes: tuple[PushItem, ...] = ()
 
     def validate(self) -> None:
-        if not self.name.strip():
-            raise ValueError("name: must not be empty")
+        check_name(self.name)
         for j, item in enumerate(self.pushes):
             if item.controller is not None:
                 raise ValueError(f"pushes[{j}].controller: a suite's pushes take the scenario's controller; "
@@ -345,6 +391,7 @@ class Suite:
     fall: FallCriteria | None = None
 
     def validate(self) -> None:
+        check_name(self.name)
         if not self.scenarios:
             raise ValueError("scenarios: the suite has no scenarios")
         names = [s.name for s in self.scenarios]
@@ -365,7 +412,7 @@ def resolve_relative(base: Path, rel: str | None) -> str | None:
 def load_suite(path: str | os.PathLike[str]) -> Suite:
     """Load and validate a suite: keys, values, the files it names and every push against its
     scenario's length, before any rollout."""
-    from bipedsim.control.config import load_controller
+    from bipedsim.control.config import check_settings_for_body, load_controller, unread_settings
 
     p = Path(path)
     suite = config.load(Suite, p)
@@ -380,5 +427,10 @@ def load_suite(path: str | os.PathLike[str]) -> Suite:
         if ctl is not None:
             if not Path(ctl).is_file():
                 raise ConfigError(f"no such controller file {ctl}", path=p, key=f"scenarios[{i}].controller")
-            load_controller(ctl)
+            cfg = load_controller(ctl)
+            if unread_settings(cfg, "humanoid") or unread_settings(cfg, "creature"):  # one kind's settings
+                try:
+                    check_settings_for_body(cfg, _body_kind(ref, sc.profile, sc.support), path=ctl)
+                except ConfigError as exc:
+                    raise ConfigError(str(exc), path=p, key=f"scenarios[{i}].controller") from None
     return suite

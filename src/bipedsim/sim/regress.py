@@ -11,14 +11,22 @@ import os
 from pathlib import Path
 from typing import Any, NamedTuple
 
-import yaml
-
+from bipedsim.config import parse_yaml
 from bipedsim.errors import BipedsimError
+from bipedsim.io import read_input_text
 from bipedsim.sim.experiment import EXPECTATIONS, Suite, load_suite, resolve_relative
 from bipedsim.sim.rollout import RolloutSpec
 
 #: Width (characters) past which ruamel.yaml would fold a long line; wide enough that it never does.
 _YAML_WIDTH = 4096
+
+
+def printable(text: str) -> str:
+    """``text`` with every character a terminal would not print as itself (control characters, escape
+    sequences' ESC, format characters) written as a Python escape (``\\x1b``): a table shows what the
+    file says and never what it would do to the terminal. Names are checked when a suite is loaded
+    (:func:`~bipedsim.sim.experiment.check_name`); this keeps every printed line safe whatever made it."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 class ScenarioResult(NamedTuple):
@@ -52,20 +60,22 @@ def run_suite(path: str | os.PathLike[str], update: bool = False) -> int:
     p = Path(path)
     suite = load_suite(p)  # every check before any rollout
     results = run_scenarios(suite, p.resolve().parent)
-    width = max(len(r.name) for r in results)
+    names = {r.name: printable(r.name) for r in results}
+    width = max(len(n) for n in names.values())
     print(f"{'scenario':{width}s}  {'expected':8s}  {'got':8s}  fall time")
     bad = [r for r in results if r.expected != r.got]
     for r in results:
         mark = "" if r.expected == r.got else "   <-- MISMATCH"
         ft = "" if r.fall_time_s is None else f"{r.fall_time_s:.2f} s"
-        print(f"{r.name:{width}s}  {r.expected:8s}  {r.got:8s}  {ft}{mark}")
+        print(f"{names[r.name]:{width}s}  {r.expected:8s}  {r.got:8s}  {ft}{mark}")
         if r.note:
-            print(f"{'':{width}s}  push not applied: {r.note}")
+            print(f"{'':{width}s}  push not applied: {printable(r.note)}")
     if update and bad:
         fixable = {r.name: r.got for r in bad if r.got in EXPECTATIONS}
         changed = update_expectations(p, fixable)
-        print(f"updated {len(changed)} expectation(s) in {p}" + (f": {', '.join(changed)}" if changed else ""))
-        unfixable = [r.name for r in bad if r.got not in EXPECTATIONS]
+        print(f"updated {len(changed)} expectation(s) in {printable(str(p))}"
+              + (f": {', '.join(map(printable, changed))}" if changed else ""))
+        unfixable = [names[r.name] for r in bad if r.got not in EXPECTATIONS]
         if unfixable:
             print(f"not updated: {', '.join(unfixable)}: a push did not happen; change the scenario (its "
                   "seconds, or the push's timing)")
@@ -87,7 +97,10 @@ def update_expectations(path: str | os.PathLike[str], outcomes: dict[str, str]) 
     from bipedsim.io import atomic_write_text
 
     p = Path(path)
-    text = p.read_text(encoding="utf-8")
+    # read and parsed as every input is (size, nesting, aliases, duplicate keys) before ruamel.yaml, which
+    # is here for the round-trip rewrite only, sees the text
+    text = read_input_text(p, "yaml")
+    parse_yaml(text, p)
     _, indent, seq_indent = load_yaml_guess_indent(text)
     rt = YAML()  # round trip: comments, order, flow style kept
     rt.preserve_quotes = True
@@ -112,10 +125,10 @@ def update_expectations(path: str | os.PathLike[str], outcomes: dict[str, str]) 
 
 def _check_round_trip(path: Path, old: str, new: str, changed: dict[str, str]) -> None:
     """Raise unless ``new`` parses to ``old``'s data with only the ``changed`` expectations different."""
-    want: Any = yaml.safe_load(old)
+    want: Any = parse_yaml(old, path)
     for item in want["scenarios"]:
         if str(item["name"]) in changed:
             item["expect"] = changed[str(item["name"])]
-    if yaml.safe_load(new) != want:
-        raise BipedsimError(f"{path}: cannot update the expectations without changing other content; "
-                            f"edit them by hand: {', '.join(f'{n}: {v}' for n, v in changed.items())}")
+    if parse_yaml(new, path) != want:
+        raise BipedsimError(f"{path}: cannot update the expectations without changing other content; edit them "
+                            f"by hand: {', '.join(f'{printable(n)}: {v}' for n, v in changed.items())}")

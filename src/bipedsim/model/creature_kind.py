@@ -255,9 +255,11 @@ def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = N
     guessed from its largest extent, not a standing human's height: a bred dog x horse with its head up
     had been read as a 1.3 m human in inches (2.54 x too large)."""
     from bipedsim.motion.bvh import read_bvh
+    from bipedsim.motion.motion import check_extent
     from bipedsim.motion.reroot import fold_static_root
 
     raw, info = read_bvh(path, scale=scale, up=up, positions=positions, fps=fps)
+    check_extent(raw, path)  # nothing below is computed from a corrupt or misread motion
     motion = raw.to_project_frame()
     forced = profile not in (None, AUTO)
     profile = resolve_profile(motion, profile, support=support, source=str(path))
@@ -266,6 +268,7 @@ def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = N
     shaped = profile == "creature" and (not forced or detect_body_kind(motion).kind == "creature")
     if shaped and info.unit_source == "guessed" and info.upright:
         raw, info = read_bvh(path, up=up, positions=positions, upright=False, fps=fps)
+        check_extent(raw, path)  # read at another unit
         motion = raw.to_project_frame()
     # a static root at the floor with the body's translation on its one child (a game-data layout):
     # the floor joint is folded away, not built as a bone

@@ -10,6 +10,7 @@ import numpy as np
 
 from bipedsim.motion.bvh import BVHInfo, read_bvh
 from bipedsim.motion.conventions import HIP_PER_STATURE, horizontal_axes
+from bipedsim.motion.motion import check_extent
 
 #: The Froude number v^2 / (g h) (v the speed, h the hip's height standing) above which people run rather
 #: than walk: the walk-run transition lies near 0.5 across body sizes (Alexander 1989, "Optimization and
@@ -60,6 +61,7 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
         raw, info, m, body = read_for_body(path, scale=scale, up=up, positions=positions, fps=fps)
     except ModelError:  # no body kind can be told: the file as read, its body unknown
         motion, info = read_bvh(path, scale=scale, up=up, positions=positions, fps=fps)
+        check_extent(motion, path)
         m, body = motion.to_project_frame(), None
     try:  # as `bipedsim run` prepares it: a loop repeated, a walk in place given its travel back
         built = motion_for_body(raw, m, body, info.notes) if body is not None else None

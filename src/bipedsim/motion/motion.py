@@ -9,14 +9,16 @@ position channels for joints that have them).
 
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation, Slerp
 
-from bipedsim.errors import ModelError
+from bipedsim.errors import BVHError, ModelError
 from bipedsim.motion.conventions import (
     PROJECT_UP,
     axis_index,
@@ -28,6 +30,44 @@ from bipedsim.motion.conventions import (
 from bipedsim.motion.skeleton import Skeleton
 
 FloatArray = npt.NDArray[np.float64]
+
+
+#: Farthest (m) any length of a motion may reach -- a joint's position on any frame, a bone or an End
+#: Site -- once in metres: 100 km, far past any capture volume or recorded walk. A value beyond it is a
+#: corrupt number or a wrong unit, and far beyond it (1e300) the fits and rotations computed from the
+#: positions overflow (an SVD that does not converge, speeds of inf m/s).
+MAX_POSITION_M = 1e5
+
+
+def check_extent(motion: Motion, source: str | os.PathLike[str] | None = None) -> None:
+    """Raise :class:`BVHError` naming ``source`` (the file the motion was read from) where a length of
+    ``motion`` -- the root's position, a position channel, an OFFSET or an End Site -- is not finite or
+    lies beyond :data:`MAX_POSITION_M` once in metres (``motion.unit`` metres per unit). Every command
+    that builds a body or describes a file checks the motion it read (before anything is computed from
+    it)."""
+    unit = float(motion.unit)
+    sk = motion.skeleton
+    names = sk.names
+    checks: list[tuple[str, FloatArray, Any]] = [
+        ("the root's position", motion.root_translation, lambda f, j: f"{names[0]}, frame {f + 1}"),
+        ("a joint's OFFSET", sk.offsets[None], lambda f, j: names[j]),
+        ("an End Site's OFFSET", np.asarray(sk.end_site_offsets)[None],
+         lambda f, j: f"below {names[sk.end_site_parents[j]]}")]
+    if motion.translations is not None:
+        checks.append(("a position channel", motion.translations, lambda f, j: f"{names[j]}, frame {f + 1}"))
+    for what, values, where in checks:
+        if values.size == 0:
+            continue
+        with np.errstate(over="ignore", invalid="ignore"):  # 1e308 in cm is inf m: beyond the bound too
+            size = np.abs(values).max(axis=-1) * unit  # largest coordinate (m) per frame (and joint)
+        bad = ~(size <= MAX_POSITION_M)  # also NaN
+        if bad.any():
+            at = np.unravel_index(int(np.argmax(bad)), bad.shape)
+            f, j = (int(at[0]), int(at[1]) if len(at) > 1 else 0)
+            value = float(size[at])
+            raise BVHError(f"{what} ({where(f, j)}) has a coordinate of {value:.3g} m (at {unit:g} m per file "
+                           f"unit); a motion stays within {MAX_POSITION_M:g} m of its origin: the file's numbers are "
+                           "corrupt, or its unit is wrong (--scale)", source)
 
 
 def canonical_quat(q: FloatArray) -> FloatArray:

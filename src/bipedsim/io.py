@@ -344,7 +344,7 @@ class OutputFolder:
         p = self.manifest_path
         try:
             st = os.lstat(p)
-        except FileNotFoundError:
+        except (FileNotFoundError, NotADirectoryError):  # no folder yet, or not a folder: its own check says so
             return {}
         except OSError as exc:
             raise self._refuse(f"cannot be read ({os_reason(exc)})") from None

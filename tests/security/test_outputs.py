@@ -23,6 +23,7 @@ from bipedsim.cli import main
 from bipedsim.data import builtin_walk_path
 from bipedsim.errors import OutputError
 from bipedsim.io import MANIFEST_FILE, OutputFolder, atomic_writer, check_distinct_paths
+from bipedsim.render import video
 from bipedsim.render.gl import RenderError, choose_backend
 from bipedsim.render.plots import PLOT_FILES
 from bipedsim.render.video import write_video
@@ -272,6 +273,33 @@ def test_the_command_line_stops_on_sigterm_and_sighup_but_keeps_an_ignored_one(m
     finally:
         for s, h in old.items():
             signal.signal(s, h)
+
+
+def test_a_renderer_that_does_not_stop_is_killed_with_what_it_started(tmp_path: Path, monkeypatch) -> None:
+    """The render child gets SIGTERM, and SIGKILL after the grace time; the signals reach its process
+    group (the ffmpeg it started), not only the child."""
+    monkeypatch.setattr(video, "STOP_GRACE_S", 0.5)
+    stubborn = ("import os, signal, subprocess, sys, time; signal.signal(signal.SIGTERM, signal.SIG_IGN); "
+                "c = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(60)']); "
+                "print(c.pid, flush=True); time.sleep(60)")
+    proc = subprocess.Popen([sys.executable, "-c", stubborn], stdout=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    grandchild = int(proc.stdout.readline())
+    t0 = time.monotonic()
+    video._stop_worker(proc)
+    assert proc.returncode == -signal.SIGKILL and time.monotonic() - t0 < 10
+    deadline = time.monotonic() + 10
+    while True:  # the grandchild (SIGTERM ends it) is gone too; its parent was killed, so nobody reaps it here
+        try:
+            os.kill(grandchild, 0)
+        except ProcessLookupError:
+            break
+        with open(f"/proc/{grandchild}/stat") as f:
+            if f.read().split(") ")[-1].startswith("Z"):  # ended, waiting for init to collect it
+                break
+        assert time.monotonic() < deadline, "the renderer's child outlived it"
+        time.sleep(0.05)
+    proc.stdout.close()
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT], ids=lambda s: s.name)

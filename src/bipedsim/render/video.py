@@ -225,14 +225,21 @@ def _stop_worker(proc: subprocess.Popen[str]) -> None:
     if proc.poll() is not None:
         return
     try:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(proc.pid, signal.SIGTERM)
+        _signal_group(proc, signal.SIGTERM)
         proc.wait(timeout=STOP_GRACE_S)
     except BaseException:  # a timeout, or a second Ctrl-C while waiting
         if proc.poll() is None:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(proc.pid, signal.SIGKILL)
+            _signal_group(proc, getattr(signal, "SIGKILL", signal.SIGTERM))
             proc.wait()
+
+
+def _signal_group(proc: subprocess.Popen[str], sig: int) -> None:
+    """Send ``sig`` to the process group ``proc`` leads (to ``proc`` alone where there are no groups)."""
+    with contextlib.suppress(ProcessLookupError):
+        if hasattr(os, "killpg"):
+            os.killpg(proc.pid, sig)
+        else:  # pragma: no cover -- Windows
+            proc.send_signal(sig)
 
 
 def render_video(run_dir: str | os.PathLike[str], out: str | os.PathLike[str], opts: VideoOptions | None = None,

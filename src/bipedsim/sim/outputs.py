@@ -269,10 +269,10 @@ def render_folder(folder: PathLike, output: PathLike | None = None, video_option
     bipedsim wrote there, unchanged; what is written into the folder is added to its manifest."""
     folder = Path(folder)
     out = output or str(folder / DEFAULT_VIDEO)
-    implicit = [*([] if output else [DEFAULT_VIDEO]), *(PLOT_FILES if plots else ())]
-    check_distinct_paths([("-o" if output else RUN_DIR_FILE, out), *folder_files(RUN_DIR_FILE, folder, PLOT_FILES
-                                                                                 if plots else ())],
-                         folder_files("the run's file", folder, (MODEL_FILE, TRAJECTORY_FILE, OUTCOME_FILE)))
+    plot_files = PLOT_FILES if plots else ()
+    implicit = [*([] if output else [DEFAULT_VIDEO]), *plot_files]  # written into the folder unasked by name
+    written = [("-o" if output else RUN_DIR_FILE, out), *folder_files(RUN_DIR_FILE, folder, plot_files)]
+    check_distinct_paths(written, folder_files("the run's file", folder, (MODEL_FILE, TRAJECTORY_FILE, OUTCOME_FILE)))
     record: OutputFolder | None = None
     if implicit or named_in(folder, [out]):
         record = OutputFolder(folder, "RUN_DIR")

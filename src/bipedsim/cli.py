@@ -273,8 +273,9 @@ SWEEP_FILES = ("results.csv", "summary.json", "experiment.json", "push_polar.png
 def cmd_sweep(args: argparse.Namespace) -> int:
     from bipedsim.io import check_distinct_paths, folder_files, prepare_output_dir
     from bipedsim.sim.experiment import load_experiment
-    from bipedsim.sim.sweep import format_summary, interrupted_message, run_sweep
+    from bipedsim.sim.sweep import check_backend, format_summary, interrupted_message, run_sweep
 
+    check_backend(args.backend)  # before the output folder is made
     exp = load_experiment(args.experiment)  # every check before any rollout
     controllers = sorted({r.controller for r in exp.rows() if r.controller})
     check_distinct_paths(folder_files("the --out file", args.out, SWEEP_FILES),

@@ -500,6 +500,13 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
+def save_figure(fig: Any, path: str | os.PathLike[str], dpi: float = 100) -> None:
+    """Write a matplotlib figure as a PNG at ``path`` atomically (see :func:`atomic_writer`): an
+    interrupted save leaves neither half a PNG nor a temporary file."""
+    with atomic_writer(path) as f:
+        fig.savefig(f, format="png", dpi=dpi)
+
+
 def atomic_write_json(path: str | os.PathLike[str], obj: Any) -> None:
     atomic_write_text(path, json.dumps(obj, indent=2, sort_keys=False, default=_json_default) + "\n")
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bipedsim.io import save_figure
 from bipedsim.sim.recorder import Trajectory
 
 DEFAULT_JOINTS = ("left_hip_y", "left_knee", "left_ankle", "right_hip_y", "right_knee", "right_ankle")
@@ -55,7 +56,7 @@ def plot_run(tr: Trajectory, hinge_names: list[str], q: np.ndarray, qr: np.ndarr
     axes[-1].set_xlabel("time (s)")
     fig.tight_layout()
     paths.append(out / JOINT_ANGLES)
-    fig.savefig(paths[-1], dpi=100)
+    save_figure(fig, paths[-1])
     plt.close(fig)
     # 2. tracking error
     err = np.sqrt(np.mean((q - qr) ** 2, axis=1))
@@ -67,7 +68,7 @@ def plot_run(tr: Trajectory, hinge_names: list[str], q: np.ndarray, qr: np.ndarr
     ax.set_title("joint tracking error against the reference")
     fig.tight_layout()
     paths.append(out / TRACKING_ERROR)
-    fig.savefig(paths[-1], dpi=100)
+    save_figure(fig, paths[-1])
     plt.close(fig)
     # 3. COM and support feet, top view
     fig, ax = plt.subplots(figsize=(9, 4))
@@ -84,7 +85,7 @@ def plot_run(tr: Trajectory, hinge_names: list[str], q: np.ndarray, qr: np.ndarr
     ax.set_title("top view")
     fig.tight_layout()
     paths.append(out / COM_TOP_VIEW)
-    fig.savefig(paths[-1], dpi=100)
+    save_figure(fig, paths[-1])
     plt.close(fig)
     # 4. contact timeline
     fig, ax = plt.subplots(figsize=(9, 1.2 + 0.4 * len(feet)))
@@ -100,6 +101,6 @@ def plot_run(tr: Trajectory, hinge_names: list[str], q: np.ndarray, qr: np.ndarr
     ax.set_title("foot contact")
     fig.tight_layout()
     paths.append(out / CONTACTS)
-    fig.savefig(paths[-1], dpi=100)
+    save_figure(fig, paths[-1])
     plt.close(fig)
     return paths

@@ -28,6 +28,7 @@ from bipedsim.io import (
     progress_bar,
     read_input_bytes,
     read_input_text,
+    save_figure,
 )
 from bipedsim.sim.experiment import Experiment, Row
 from bipedsim.sim.rollout import OUTCOMES, PUSH_NOT_APPLIED
@@ -566,7 +567,5 @@ def polar_plot(rows: list[dict[str, str]], path: Path, fan: bool = True) -> None
     if ax.get_legend_handles_labels()[0]:  # none when no push happened (every row push_not_applied)
         ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.1), fontsize=8)
     fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=100)
+    save_figure(fig, path)
     plt.close(fig)
-    os.replace(tmp, path)

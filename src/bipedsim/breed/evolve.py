@@ -28,6 +28,7 @@ All motions here are in the project frame (metres, Z up).
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from dataclasses import dataclass, field
@@ -51,6 +52,20 @@ X_RANGE = (0.0, 1.0)
 SAMPLE_EVERY = 5
 #: Half-width (frames) of the windows compared in the survivor step.
 WINDOW_HALF = 5
+#: Most frames of each parent (B at A's frame rate): the survivor step compares every frame of A with
+#: every frame of B (20 000 frames: about 3 min at 120 fps, 11 min at 30 fps; tens of seconds). Raised
+#: with ``BIPEDSIM_MAX_BREED_FRAMES``.
+MAX_BREED_FRAMES = 20_000
+#: Frame pairs (A x B) whose motion differences are held at once in the survivor step (32 MB of float64);
+#: longer parents are compared a block of A's frames at a time.
+PAIR_BLOCK = 4_000_000
+
+
+def max_breed_frames() -> int:
+    """:data:`MAX_BREED_FRAMES`, or ``BIPEDSIM_MAX_BREED_FRAMES`` where set."""
+    from bipedsim.graph.build import limit_from_env
+
+    return limit_from_env("breed_frames", MAX_BREED_FRAMES)
 
 
 class BreedError(BipedsimError):
@@ -212,6 +227,8 @@ def activity_scores(meta: MetaSkeleton, act_a: FloatArray, act_b: FloatArray,
         p = int(sk.parents[i])
         carried[p] = max(carried[p], carried[i])
     for name, w in (weights or {}).items():
+        if not (isinstance(w, int | float) and math.isfinite(w)):
+            raise BreedError(f"weight for joint {name!r} must be a finite number, got {w!r}")
         if name not in sk.names:
             raise BreedError(f"weight for unknown joint {name!r}; joints are {', '.join(sk.names)}")
         carried[sk.index(name)] += w
@@ -273,16 +290,24 @@ def survivor(meta: MetaSkeleton, a: Motion, b: Motion, x: float = 0.5, sample_ev
     # motion difference of windows: sum over joints and window frames of |R_a - R_b|_F^2 (= 4(1 - cos))
     fa = qa.reshape(t_a, -1)
     fb = qb.reshape(t_b, -1)
-    d2 = (np.sum(fa * fa, axis=1)[:, None] + np.sum(fb * fb, axis=1)[None, :] - 2.0 * fa @ fb.T)  # (Ta, Tb)
+    sq_a, sq_b = np.sum(fa * fa, axis=1), np.sum(fb * fb, axis=1)
     offs = np.arange(-WINDOW_HALF, WINDOW_HALF + 1)
     matched_s = np.zeros(len(samples), dtype=np.int64)
-    for k, s in enumerate(samples):
-        ia = np.clip(s + offs, 0, t_a - 1)
-        cost = np.zeros(t_b)
-        for o, i in zip(offs, ia):
-            ib = np.clip(np.arange(t_b) + o, 0, t_b - 1)
-            cost += d2[i, ib]
-        matched_s[k] = int(np.argmin(cost))
+    # the (Ta, Tb) differences at once when they are small, else a block of A's frames at a time (each
+    # block with the window's margin), so memory stays bounded whatever the parents' length
+    step = t_a if t_a * t_b <= PAIR_BLOCK else max(1, PAIR_BLOCK // t_b - 2 * WINDOW_HALF)
+    k = 0
+    for b0 in range(0, t_a, step):
+        lo, hi = max(0, b0 - WINDOW_HALF), min(t_a, b0 + step + WINDOW_HALF)
+        d2 = sq_a[lo:hi, None] + sq_b[None, :] - 2.0 * fa[lo:hi] @ fb.T  # (rows, Tb)
+        while k < len(samples) and samples[k] < b0 + step:
+            ia = np.clip(samples[k] + offs, 0, t_a - 1)
+            cost = np.zeros(t_b)
+            for o, i in zip(offs, ia):
+                ib = np.clip(np.arange(t_b) + o, 0, t_b - 1)
+                cost += d2[i - lo, ib]
+            matched_s[k] = int(np.argmin(cost))
+            k += 1
     matched = np.interp(np.arange(t_a), samples, matched_s).round().astype(np.int64)
     if correction is None:
         corr_s = np.zeros((len(samples), len(common), 3))
@@ -643,6 +668,13 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     the joint that carries the translation first (a mapping may name either)."""
     if not X_RANGE[0] <= x <= X_RANGE[1]:
         raise BreedError(f"x must be in [{X_RANGE[0]}, {X_RANGE[1]}] (0: parent A's motion, 1: B's), got {x}")
+    most = max_breed_frames()
+    for who, n in ((f"parent A {names[0]}", a.num_frames),
+                   (f"parent B {names[1]}", int(b.duration / a.frame_time) + 1)):  # B is played at A's rate
+        if n > most:
+            raise BreedError(f"{who} has {n} frames at parent A's frame rate ({1 / a.frame_time:g} fps); breeding "
+                             f"compares every frame of A with every frame of B, at most {most} frames each: cut "
+                             "the file, or set BIPEDSIM_MAX_BREED_FRAMES to allow more")
     tm: dict[str, float] = {}
     t0 = time.perf_counter()
     a, fold_a = fold_static_root(a.to_project_frame())

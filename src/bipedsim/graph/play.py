@@ -33,7 +33,12 @@ def build_graph_file(config: PathLike, output: PathLike, report: PathLike | None
     check_output_file(output, "-o", (".npz",))
     if report:
         check_output_file(report, "--report")
-    g = build_graph(cfg, path.resolve().parent)
+    try:
+        g = build_graph(cfg, path.resolve().parent)
+    except ConfigError as exc:  # a clip's key (a missing file, the frame limit): named in the graph YAML
+        if exc.path is not None:
+            raise
+        raise ConfigError(exc.reason, path=path, key=exc.key) from None
     full = g.layers[FULL]
     if full.scc_nodes == 0:  # nothing to play: refuse rather than write an empty graph
         given = "threshold" if cfg.threshold is not None else "threshold_quantile"

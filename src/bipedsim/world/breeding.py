@@ -12,13 +12,14 @@ mode when only one has it (x + (h_B - h_A) / 2, clipped to [0, 1]): a walk comes
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 from typing import Any
 
 from bipedsim.breed import breed
 from bipedsim.breed.files import CHILD_UNITS_PER_M
-from bipedsim.io import atomic_write_json, atomic_write_text, check_output_file
+from bipedsim.io import atomic_write_json, atomic_write_text, check_distinct_paths, check_output_file
 from bipedsim.motion.bvh import load_bvh, write_bvh
 from bipedsim.world.tiles import TRAVEL_MODES, World, WorldError, load_world
 
@@ -70,6 +71,12 @@ def _creature_clips(path: PathLike) -> tuple[str, dict[str, Path]]:
     return c.name, {m: Path(k.source) for m, k in c.clips.items()}
 
 
+def _printable(text: str) -> str:
+    """``text`` with every character that is not printable (a newline, a control code) made ``?``: safe
+    in a YAML comment and on a terminal."""
+    return "".join(ch if ch.isprintable() else "?" for ch in text)
+
+
 def breed_world_files(a: PathLike, b: PathLike, world: PathLike, output: PathLike, *, mutations: int = WORLD_MUTATIONS,
                       report: PathLike | None = None) -> dict[str, Any]:
     """Breed creature files ``a`` and ``b`` for ``world``; writes the child creature YAML ``output`` and one
@@ -82,13 +89,22 @@ def breed_world_files(a: PathLike, b: PathLike, world: PathLike, output: PathLik
     w = load_world(world)
     (name_a, clips_a), (name_b, clips_b) = _creature_clips(a), _creature_clips(b)
     out = Path(output)
-    check_output_file(out, "-o", (".yaml", ".yml"))
-    if report:
-        check_output_file(report, "--report")
     travel_a = [m for m in TRAVEL_MODES if m in clips_a]
     travel_b = [m for m in TRAVEL_MODES if m in clips_b]
     pw = parent_weights(w, travel_a, travel_b)
     modes = pw["child_modes"]
+    # every file written (the child, its clips beside it, the report) checked before any work
+    mode_files = {m: out.with_name(f"{out.stem}_{m}.bvh") for m in modes}
+    inputs = [("parent A", a), ("parent B", b), ("the world", world)]
+    inputs += [(f"parent {who}'s {m} clip", f) for who, clips in (("A", clips_a), ("B", clips_b))
+               for m, f in clips.items()]
+    check_distinct_paths([("-o", out), ("--report", report)]
+                         + [(f"the child's {m} clip", f) for m, f in mode_files.items()], inputs)
+    check_output_file(out, "-o", (".yaml", ".yml"))
+    for f in mode_files.values():
+        check_output_file(f, "-o")
+    if report:
+        check_output_file(report, "--report")
     first_a, first_b = clips_a[travel_a[0]], clips_b[travel_b[0]]
     files, per_mode, skeleton, forced = {}, {}, None, None
     for m in modes:
@@ -101,14 +117,16 @@ def breed_world_files(a: PathLike, b: PathLike, world: PathLike, output: PathLik
             skeleton, forced = child.skeleton, rep.removed
         elif not child.skeleton.same_structure(skeleton):
             raise WorldError(f"the {m} child has another skeleton than the {modes[0]} child", path=str(out))
-        f = out.with_name(f"{out.stem}_{m}.bvh")
+        f = mode_files[m]
         write_bvh(child.with_up("y").scaled(CHILD_UNITS_PER_M), f, precision=6)
         files[m] = f.name
         per_mode[m] = {"x": x, "parents": [str(fa), str(fb)], "removed": rep.removed, "joints": rep.child_joints,
                        "frames": rep.child_frames}
-    child_name = f"{name_a}_{name_b}"
-    text = (f"# bred by `bipedsim breed {a} {b} --world {world}`\nname: {child_name}\nclips:\n"
-            + "".join(f"  {m}: {f}\n" for m, f in files.items()))
+    child_name = f"{name_a}_{name_b}"[:64]  # a creature name (creature.NAME_PATTERN), as the parents' are
+    # values quoted as JSON strings (valid YAML); the comment made printable: a path cannot start a new line
+    text = (f"# bred by `bipedsim breed {_printable(f'{a} {b} --world {world}')}`\n"
+            f"name: {json.dumps(child_name)}\nclips:\n"
+            + "".join(f"  {m}: {json.dumps(f)}\n" for m, f in files.items()))
     atomic_write_text(out, text)
     result = {"child": str(out), "name": child_name, "parents": {"A": str(a), "B": str(b)}, "world": str(world),
               **pw, "modes": per_mode, "files": files}

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import inspect
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -43,6 +44,14 @@ TRAVEL_FRACTION = 0.5
 IDLE_FRACTION = 0.15
 #: A travel clip must cover at least this fraction of the creature's size per second.
 MIN_TRAVEL_SIZES_PER_S = 0.05
+#: The loop is searched within at most this many frames of the clip's longest travelling (or idle) run --
+#: a loop is a few seconds; every pair of frames is compared (17 s at 120 fps, 67 s at 30 fps).
+LOOP_SEARCH_MAX_FRAMES = 2000
+#: Pose values (frames x frames x joints) compared at once while searching the loop (32 MB of float64).
+POSE_BLOCK_VALUES = 4_000_000
+#: A creature's name names its output files (``OUT_<name>.bvh``): a letter, digit or ``_`` first, then
+#: those, ``.`` or ``-``; no folder separators, no ``..`` first, no control characters.
+NAME_PATTERN = re.compile(r"\w[\w.-]{0,63}")
 
 
 def retarget_default(name: str) -> float:
@@ -153,9 +162,21 @@ def load_creature(path: str | os.PathLike[str]) -> Creature:
         if not fp.is_file():
             raise WorldError(f"no BVH file {fp}", path=p, key=f"clips.{mode}")
         motions[mode] = (str(fp), load_bvh(fp, scale=data.get("scale"), up=data.get("up")).to_project_frame())
-    name = str(data.get("name") or p.stem)
+    name = creature_name(data.get("name"), p)
     return creature_from_motions(name, {m: mo for m, (_, mo) in motions.items()},
                                  {m: s for m, (s, _) in motions.items()}, path=str(p))
+
+
+def creature_name(raw: Any, path: Path) -> str:
+    """The creature's name: ``raw`` (the file's ``name:``), which must match :data:`NAME_PATTERN` since it
+    names output files, or else the file's stem with every other character made ``_``."""
+    if raw is None or raw == "":
+        stem = re.sub(r"[^\w.-]", "_", path.stem).lstrip(".-")[:64]
+        return stem or "creature"
+    if not (isinstance(raw, str) and NAME_PATTERN.fullmatch(raw)):
+        raise WorldError(f"must be 1 to 64 letters, digits, '_', '.' or '-' (starting with a letter, digit or "
+                         f"'_'), got {raw!r}: it names the output files", path=path, key="name")
+    return raw
 
 
 def creature_from_motions(name: str, motions: dict[str, Motion], sources: dict[str, str] | None = None,
@@ -245,16 +266,21 @@ def _pose_distance(motion: Motion, lo: int, hi: int) -> FloatArray:
     q = motion.rotations[lo:hi].copy()
     yaw = motion.heading()[lo:hi]
     q[:, 0] = (Rotation.from_euler("z", -yaw[:, None]) * Rotation.from_quat(q[:, 0])).as_quat()
-    d = 1.0 - np.einsum("ijq,kjq->ikj", q, q) ** 2
+    k = hi - lo
+    d = np.empty((k, k))
+    rows = max(1, POSE_BLOCK_VALUES // (k * q.shape[1]))
+    for i in range(0, k, rows):  # a block of rows at a time: (rows, k, J) values, not (k, k, J)
+        d[i:i + rows] = (1.0 - np.einsum("ijq,kjq->ikj", q[i:i + rows], q) ** 2).sum(axis=2)
     z = motion.root_translation[lo:hi, 2]
     size = max(float(np.ptp(motion.fk()[0][lo:hi].reshape(-1, 3), axis=0).max()), 1e-6)
-    return d.sum(axis=2) + ((z[:, None] - z[None, :]) / size) ** 2
+    return d + ((z[:, None] - z[None, :]) / size) ** 2
 
 
 def find_loop(motion: Motion, mode: str) -> tuple[int, int, float]:
     """The loop [a, b) cut from ``motion`` for ``mode``: within the longest run of travelling frames (idle
-    frames for ``idle``), the pair of frames at least :data:`LOOP_MIN_S` apart whose poses are closest
-    (ties: the longer loop). Returns a, b and the pose distance of frames a and b."""
+    frames for ``idle``; its first :data:`LOOP_SEARCH_MAX_FRAMES`), the pair of frames at least
+    :data:`LOOP_MIN_S` apart whose poses are closest (ties: the longer loop). Returns a, b and the pose
+    distance of frames a and b."""
     sp = _speed(motion)
     brisk = float(np.percentile(sp, 90))
     if mode == "idle":
@@ -265,12 +291,12 @@ def find_loop(motion: Motion, mode: str) -> tuple[int, int, float]:
     if hi - lo < 3:
         raise WorldError(f"no {'idle' if mode == 'idle' else 'travelling'} part of at least 3 frames "
                          f"(root speed 90th percentile {brisk:.3g} m/s)")
+    hi = min(hi, lo + LOOP_SEARCH_MAX_FRAMES)
     d = _pose_distance(motion, lo, hi)
     k = hi - lo
     min_len = min(k - 1, max(2, int(round(LOOP_MIN_S / motion.frame_time))))
-    i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
-    valid = (j - i) >= min_len
-    cost = np.where(valid, d + 1e-3 * (1.0 - (j - i) / k), np.inf)
+    gap = np.arange(k)[None, :] - np.arange(k)[:, None]  # j - i
+    cost = np.where(gap >= min_len, d + 1e-3 * (1.0 - gap / k), np.inf)
     a, b = np.unravel_index(int(np.argmin(cost)), cost.shape)
     return lo + int(a), lo + int(b), float(d[a, b])
 

@@ -13,6 +13,10 @@ from bipedsim.world.tiles import World
 TILE_COLOURS = {"ground": "#cfe3b4", "start": "#9fd39b", "goal": "#f2c879", "mountain": "#8c7b6b",
                 "water": "#7fb2e5", "wall": "#444444"}
 MODE_STYLES = {"walk": "-", "fly": "--", "swim": ":", "idle": "-"}
+#: Figure size: a tile's side (inches) on a small map, and the largest side of the figure (inches, at 90
+#: dpi 2700 pixels) -- a large map's tiles are drawn smaller.
+TILE_INCHES = 0.55
+MAX_FIGURE_INCHES = 30.0
 
 
 def plot_paths(world: World, tracks: dict[str, tuple[np.ndarray, list[str]]],
@@ -26,7 +30,8 @@ def plot_paths(world: World, tracks: dict[str, tuple[np.ndarray, list[str]]],
 
     rows, cols = world.shape
     t = world.tile
-    fig, ax = plt.subplots(figsize=(max(4.0, cols * 0.55), max(3.0, rows * 0.55 + 0.8)), dpi=90)
+    inch = min(TILE_INCHES, MAX_FIGURE_INCHES / max(rows, cols))
+    fig, ax = plt.subplots(figsize=(max(4.0, cols * inch), max(3.0, rows * inch + 0.8)), dpi=90)
     for r, row in enumerate(world.rows):
         for c, ch in enumerate(row):
             k = world.legend[ch]

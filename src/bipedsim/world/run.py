@@ -10,12 +10,12 @@ from typing import Any
 
 import numpy as np
 
-from bipedsim.io import atomic_write_json, check_output_file, versions
+from bipedsim.io import atomic_write_json, check_distinct_paths, check_output_file, versions
 from bipedsim.motion.bvh import write_bvh
-from bipedsim.world.creature import Creature, creature_summary, load_creature
+from bipedsim.world.creature import NAME_PATTERN, Creature, creature_summary, load_creature
 from bipedsim.world.path import find_path, path_modes
 from bipedsim.world.synth import Synthesis, body_points, synthesize
-from bipedsim.world.tiles import World, load_world
+from bipedsim.world.tiles import MIN_TILE_BODY_FRACTION, World, WorldError, load_world
 
 PathLike = str | os.PathLike[str]
 #: Up axis of the BVH files written (metres).
@@ -23,10 +23,16 @@ BVH_UP = "y"
 
 
 def output_paths(output: PathLike, names: list[str]) -> list[Path]:
-    """One BVH per creature: ``output`` itself for one, ``<stem>_<name>.bvh`` beside it for several."""
+    """One BVH per creature: ``output`` itself for one, ``<stem>_<name>.bvh`` beside it for several (the
+    names are checked file-name parts, :data:`~bipedsim.world.creature.NAME_PATTERN`: nothing is written
+    outside ``output``'s folder)."""
     out = Path(output)
     if len(names) == 1:
         return [out]
+    for n in names:
+        if not NAME_PATTERN.fullmatch(n):
+            raise WorldError(f"creature name {n!r} cannot be part of a file name: a name is letters, digits, "
+                             "'_', '.' or '-', starting with a letter, digit or '_'", path=str(output))
     return [out.with_name(f"{out.stem}_{n}{out.suffix or '.bvh'}") for n in names]
 
 
@@ -79,6 +85,11 @@ def motion_metrics(syn: Synthesis, creature: Creature, world: World) -> dict[str
 def cross_world(world: World, creature: Creature, weights: str = "quadratic") -> tuple[Synthesis, dict[str, Any]]:
     """Find the creature's path and synthesise its motion; returns the synthesis and its report entry."""
     t0 = time.perf_counter()
+    if world.tile < MIN_TILE_BODY_FRACTION * creature.size:
+        raise WorldError(f"{world.tile:g} m is too small for {creature.name}, whose body is {creature.size:.3g} m: "
+                         f"a tile must be at least {MIN_TILE_BODY_FRACTION:g} of the body "
+                         f"({MIN_TILE_BODY_FRACTION * creature.size:.3g} m) for a step to fit", path=world.path,
+                         key="tile")
     path = find_path(world, creature.travel_modes, creature.name)
     modes = path_modes(world, path, creature.travel_modes)
     t1 = time.perf_counter()
@@ -113,13 +124,17 @@ def run_world(world: PathLike, creatures: list[PathLike], output: PathLike, *, r
     if len(set(names)) != len(names):
         names = [f"{n}{i}" for i, n in enumerate(names)]
     outs = output_paths(output, names)
+    videos = output_paths(video, names) if video else []
+    inputs = [("the world", world)] + [(f"creature file {c}", c) for c in creatures]
+    inputs += [(f"{c.name}'s {m} clip", k.source) for c in cs for m, k in c.clips.items()]
+    check_distinct_paths([("-o", o) for o in outs] + [("--report", report), ("--plot", plot)]
+                         + [("--video", v) for v in videos], inputs)
     for o in outs:
         check_output_file(o, "-o", (".bvh",))
     if report:
         check_output_file(report, "--report")
     if plot:
         check_output_file(plot, "--plot", (".png",))
-    videos = output_paths(video, names) if video else []
     for v in videos:
         check_output_file(v, "--video", (".mp4", ".gif"))
     entries, tracks = [], {}

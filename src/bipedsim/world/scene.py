@@ -19,15 +19,28 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Height-field samples per tile side (fine enough for a gap of a tenth of a tile).
 SAMPLES_PER_TILE = 20
+#: Most height-field samples (1000 x 1000): a large world is sampled more coarsely, never under
+#: :data:`MIN_SAMPLES_PER_TILE` per tile side (the MJCF lists every sample as text).
+MAX_HFIELD_SAMPLES = 1_000_000
+MIN_SAMPLES_PER_TILE = 2
 #: Thickness (m) of the height field's base below its lowest point.
 HFIELD_BASE_M = 0.2
 WATER_RGBA = "0.2 0.45 0.85 0.55"
 FLOOR_LINE = '<geom name="floor"'
 
 
-def height_grid(world: World, samples: int = SAMPLES_PER_TILE) -> tuple[FloatArray, FloatArray, FloatArray]:
+def samples_per_tile(world: World) -> int:
+    """:data:`SAMPLES_PER_TILE`, fewer where the map would pass :data:`MAX_HFIELD_SAMPLES`."""
+    rows, cols = world.shape
+    fit = int(np.sqrt(MAX_HFIELD_SAMPLES / (rows * cols)))
+    return max(MIN_SAMPLES_PER_TILE, min(SAMPLES_PER_TILE, fit))
+
+
+def height_grid(world: World, samples: int | None = None) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Terrain heights (m) on a grid over the map, first row north (y = 0) as MuJoCo's ``elevation``
-    lists them; returns the grid and its x and y sample positions."""
+    lists them, ``samples`` per tile side (default :func:`samples_per_tile`); returns the grid and its x
+    and y sample positions."""
+    samples = samples_per_tile(world) if samples is None else samples
     rows, cols = world.shape
     xs = np.linspace(0.0, cols * world.tile, cols * samples + 1)
     ys = -np.linspace(0.0, rows * world.tile, rows * samples + 1)

@@ -20,7 +20,7 @@ from bipedsim.world.blend import WEIGHTS, slerp, warp_times
 from bipedsim.world.creature import Creature, ModeClip, retarget_default
 from bipedsim.world.events import JumpPlan, plan_jump, push_ik
 from bipedsim.world.path import Path
-from bipedsim.world.tiles import World
+from bipedsim.world.tiles import World, WorldError
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -34,6 +34,16 @@ IDLE_END_S = 2.0
 FLY_CLEARANCE_M = 0.3
 #: Safety stop: at most this many times the frames the path needs at the slowest clip speed.
 MAX_FRAMES_FACTOR = 4.0
+#: Most frames one creature's motion may have: about 5 KB each while it is made, so 100 000 frames take
+#: about 500 MB (30 min of motion at 55 fps). Raised with ``BIPEDSIM_MAX_WORLD_FRAMES``.
+MAX_WORLD_FRAMES = 100_000
+
+
+def max_world_frames() -> int:
+    """:data:`MAX_WORLD_FRAMES`, or ``BIPEDSIM_MAX_WORLD_FRAMES`` where set."""
+    from bipedsim.graph.build import limit_from_env
+
+    return limit_from_env("world_frames", MAX_WORLD_FRAMES)
 
 
 @dataclass
@@ -213,7 +223,14 @@ def synthesize(world: World, creature: Creature, path: Path, modes: list[str], *
     jumps = [j for j in (plan_jump(world, ev_tile, curve, clips["walk"], creature)
                          for ev_tile in _walk_events(world, path, modes)) if j is not None] if "walk" in clips else []
     speeds = [c.speed for c in clips.values() if c.speed > 0]
-    limit = int(MAX_FRAMES_FACTOR * (curve.length / min(speeds) + idle_s + 5.0) / dt) + 10
+    most = max_world_frames()
+    needed = (curve.length / min(speeds) + idle_s) / dt  # at the slowest clip's speed
+    if needed > most:  # refused before any frame is made
+        raise WorldError(f"{creature.name} would need about {needed:.0f} frames ({needed * dt:.0f} s) to cross "
+                         f"the {curve.length:.0f} m path at {min(speeds):.3g} m/s; a crossing has at most {most} "
+                         "frames: make the world smaller or set BIPEDSIM_MAX_WORLD_FRAMES to allow more",
+                         path=world.path, key="rows")
+    limit = min(int(MAX_FRAMES_FACTOR * (curve.length / min(speeds) + idle_s + 5.0) / dt) + 10, most)
     rots, offs, ss, labels, jz = [], [], [], [], []
     s, idle_left, frame = 0.0, None, 0
     while frame < limit:
@@ -238,7 +255,8 @@ def synthesize(world: World, creature: Creature, path: Path, modes: list[str], *
         s = min(s + v * dt, curve.length)
         frame += 1
     if frame >= limit:
-        raise BipedsimError(f"{creature.name}: the motion did not reach the goal in {limit} frames")
+        raise BipedsimError(f"{creature.name}: the motion did not reach the goal in {limit} frames"
+                            + (" (BIPEDSIM_MAX_WORLD_FRAMES)" if limit == most else ""))
     motion = _place(creature, curve, np.array(rots), np.array(offs), np.array(ss), np.array(jz), dt, world, modes,
                     path)
     ss_arr = np.array(ss)

@@ -5,8 +5,9 @@ Tile ``(r, c)`` has its centre at ``x = (c + 0.5) * tile``, ``y = -(r + 0.5) * t
 
 from __future__ import annotations
 
+import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +30,34 @@ GAP_DEPTH_M = 1.0
 #: Event kinds a world file may place.
 EVENT_KINDS = ("jump",)
 
+# ---------------------------------------------------------------------- limits
+#: Tile side (m): from a tenth of a metre (smaller than any creature's foot) to 100 m (a crossing of a
+#: few such tiles already takes minutes of motion). A creature also needs tiles of at least
+#: :data:`MIN_TILE_BODY_FRACTION` of its body (checked when it crosses).
+TILE_MIN_M, TILE_MAX_M = 0.1, 100.0
+#: A tile kind's cost factor per step: from a hundredth to a hundred ordinary steps.
+COST_MIN, COST_MAX = 0.01, 100.0
+#: Terrain height (m) of a tile kind, above or below the ground: higher than any creature climbs or flies
+#: in a clip.
+HEIGHT_LIMIT_M = 100.0
+#: Most tiles (rows x columns) a world may have: path finding takes about 3 s and 400 MB for 200 x 200
+#: tiles (400 m a side at 2 m). Raised with ``BIPEDSIM_MAX_WORLD_CELLS``.
+MAX_WORLD_CELLS = 40_000
+#: A tile must be at least this fraction of a creature's body (its size, m) for the creature to cross it:
+#: smaller tiles make a path shorter than a step and a motion of a few frames.
+MIN_TILE_BODY_FRACTION = 0.25
+#: Most events a world may place (at most one per tile; each is searched when the terrain is sampled).
+MAX_EVENTS = 1000
+#: Longest tile kind name (characters).
+MAX_NAME_CHARS = 64
+
+
+def max_world_cells() -> int:
+    """:data:`MAX_WORLD_CELLS`, or ``BIPEDSIM_MAX_WORLD_CELLS`` where set."""
+    from bipedsim.graph.build import limit_from_env
+
+    return limit_from_env("world_cells", MAX_WORLD_CELLS)
+
 
 class WorldError(ConfigError):
     """A world or creature file that cannot be used, or a world a creature cannot cross."""
@@ -41,8 +70,8 @@ class TileKind:
 
     name: str
     modes: tuple[str, ...]
-    cost: float = 1.0
-    height: float = 0.0
+    cost: float = field(default=1.0, metadata={"min": COST_MIN, "max": COST_MAX, "unit": "x a step"})
+    height: float = field(default=0.0, metadata={"min": -HEIGHT_LIMIT_M, "max": HEIGHT_LIMIT_M, "unit": "m"})
     water: bool = False
 
 
@@ -72,9 +101,9 @@ class World:
     """A parsed world file."""
 
     path: str
-    tile: float
-    rows: list[str]
-    legend: dict[str, TileKind]
+    tile: float = field(metadata={"min": TILE_MIN_M, "max": TILE_MAX_M, "unit": "m"})
+    rows: list[str] = field(default_factory=list)
+    legend: dict[str, TileKind] = field(default_factory=dict)
     events: list[Event] = field(default_factory=list)
 
     @property
@@ -140,6 +169,23 @@ class World:
 
 
 # ---------------------------------------------------------------------- parsing
+def _bounded(raw: Any, cls: type, name: str, path: str, key: str) -> float:
+    """``raw`` as a number within the bounds of field ``name`` of dataclass ``cls`` (its metadata
+    ``min``, ``max`` and ``unit``); else a :class:`WorldError` naming ``key``."""
+    meta = next(f.metadata for f in fields(cls) if f.name == name)
+    unit = meta.get("unit", "")
+    try:
+        if isinstance(raw, bool):
+            raise TypeError
+        value = float(raw)
+    except (TypeError, ValueError):
+        raise WorldError(f"must be a number ({unit}), got {raw!r}", path=path, key=key) from None
+    if not (math.isfinite(value) and meta["min"] <= value <= meta["max"]):
+        raise WorldError(f"must be between {meta['min']:g} and {meta['max']:g} {unit}, got {raw!r}", path=path,
+                         key=key)
+    return value
+
+
 def _legend(raw: Any, path: str) -> dict[str, TileKind]:
     legend = dict(DEFAULT_LEGEND)
     if raw is None:
@@ -158,18 +204,24 @@ def _legend(raw: Any, path: str) -> dict[str, TileKind]:
             raise WorldError(f"unknown key; allowed keys here: {', '.join(allowed)}", path=path,
                              key=f"{key}.{unknown[0]}")
         base = legend.get(ch, TileKind(name=ch, modes=()))
-        modes = tuple(spec.get("modes", base.modes))
+        raw_modes = spec.get("modes", list(base.modes))
+        if not isinstance(raw_modes, list) or not all(isinstance(m, str) for m in raw_modes):
+            raise WorldError(f"must be a list of travel modes ({', '.join(TRAVEL_MODES)}), got {raw_modes!r}",
+                             path=path, key=f"{key}.modes")
+        modes = tuple(raw_modes)
         bad = [m for m in modes if m not in TRAVEL_MODES]
         if bad:
             raise WorldError(f"unknown mode {bad[0]!r}; allowed: {', '.join(TRAVEL_MODES)}", path=path, key=key)
-        try:
-            cost, height = float(spec.get("cost", base.cost)), float(spec.get("height", base.height))
-        except (TypeError, ValueError):
-            raise WorldError("cost and height must be numbers", path=path, key=key) from None
-        if not cost > 0:
-            raise WorldError(f"cost must be > 0, got {cost}", path=path, key=key)
-        legend[ch] = TileKind(str(spec.get("name", base.name)), modes, cost, height,
-                              bool(spec.get("water", base.water)))
+        cost = _bounded(spec.get("cost", base.cost), TileKind, "cost", path, f"{key}.cost")
+        height = _bounded(spec.get("height", base.height), TileKind, "height", path, f"{key}.height")
+        water = spec.get("water", base.water)
+        if not isinstance(water, bool):
+            raise WorldError(f"must be true or false, got {water!r}", path=path, key=f"{key}.water")
+        name = spec.get("name", base.name)
+        if not (isinstance(name, str) and 0 < len(name) <= MAX_NAME_CHARS and name.isprintable()):
+            raise WorldError(f"must be printable text of 1 to {MAX_NAME_CHARS} characters, got {name!r}",
+                             path=path, key=f"{key}.name")
+        legend[ch] = TileKind(name, modes, cost, height, water)
     return legend
 
 
@@ -181,6 +233,11 @@ def _rows(raw: Any, legend: dict[str, TileKind], path: str) -> list[str]:
     if not isinstance(raw, list) or not raw or not all(isinstance(r, str) for r in raw):
         raise WorldError("must be a list of strings, one per row of tiles (first row north)", path=path, key="rows")
     width = len(raw[0])
+    limit = max_world_cells()
+    if len(raw) * width > limit:  # before any per-tile work
+        raise WorldError(f"{len(raw)} rows x {width} columns = {len(raw) * width} tiles; a world has at most {limit} "
+                         "(path finding takes time and memory with every tile): use larger tiles, or set "
+                         "BIPEDSIM_MAX_WORLD_CELLS to allow more", path=path, key="rows")
     for r, row in enumerate(raw):
         if len(row) != width:
             raise WorldError(f"row {r} has {len(row)} tiles, row 0 has {width}: every row must have the same "
@@ -211,7 +268,10 @@ def _events(raw: Any, rows: list[str], legend: dict[str, TileKind], tile: float,
         return []
     if not isinstance(raw, list):
         raise WorldError("must be a list of {kind, at: [row, column], width}", path=path, key="events")
-    out = []
+    if len(raw) > MAX_EVENTS:
+        raise WorldError(f"{len(raw)} events; a world places at most {MAX_EVENTS}", path=path, key="events")
+    out: list[Event] = []
+    placed: dict[tuple[int, int], int] = {}
     n_rows, n_cols = len(rows), len(rows[0])
     for i, ev in enumerate(raw):
         key = f"events[{i}]"
@@ -224,9 +284,14 @@ def _events(raw: Any, rows: list[str], legend: dict[str, TileKind], tile: float,
         if kind not in EVENT_KINDS:
             raise WorldError(f"unknown kind {kind!r}; allowed: {', '.join(EVENT_KINDS)}", path=path, key=key)
         at = ev["at"]
-        if not (isinstance(at, list) and len(at) == 2 and all(isinstance(v, int) for v in at)):
+        if not (isinstance(at, list) and len(at) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
+                                                              for v in at)):
             raise WorldError(f"at must be [row, column] (integers), got {at!r}", path=path, key=key)
         r, c = at
+        if (r, c) in placed:
+            raise WorldError(f"at [{r}, {c}]: events[{placed[r, c]}] is already there; one event per tile",
+                             path=path, key=key)
+        placed[r, c] = i
         if not (0 <= r < n_rows and 0 <= c < n_cols):
             raise WorldError(f"at [{r}, {c}] is off the map: rows 0..{n_rows - 1}, columns 0..{n_cols - 1}",
                              path=path, key=key)
@@ -234,6 +299,8 @@ def _events(raw: Any, rows: list[str], legend: dict[str, TileKind], tile: float,
             raise WorldError(f"row {r}, column {c}: a jump needs a walkable tile, found {rows[r][c]!r} "
                              f"({legend[rows[r][c]].name})", path=path, key=key)
         try:
+            if isinstance(ev.get("width"), bool):
+                raise TypeError
             width = float(ev.get("width", tile / 2))
         except (TypeError, ValueError):
             raise WorldError("width must be a number (m)", path=path, key=key) from None
@@ -251,12 +318,7 @@ def parse_world(data: Any, path: str = "<world>") -> World:
     unknown = set(data) - {"tile", "rows", "legend", "events"}
     if unknown:
         raise WorldError(f"unknown key {sorted(unknown)[0]!r}; allowed: tile, rows, legend, events", path=path)
-    try:
-        tile = float(data.get("tile", 2.0))
-    except (TypeError, ValueError):
-        raise WorldError("must be a number (metres per tile side)", path=path, key="tile") from None
-    if not 0 < tile < 1e4:
-        raise WorldError(f"must be > 0 m, got {tile}", path=path, key="tile")
+    tile = _bounded(data.get("tile", 2.0), World, "tile", path, "tile")
     legend = _legend(data.get("legend"), path)
     rows = _rows(data.get("rows"), legend, path)
     return World(path=path, tile=tile, rows=rows, legend=legend,

@@ -286,6 +286,30 @@ def test_a_creature_name_that_is_no_file_name_is_refused_and_nothing_written_out
     assert not list(tmp_path.rglob("*.bvh")) and not (tmp_path / "out" / "c.yaml").exists()
 
 
+@pytest.mark.parametrize("line, key, says", [
+    ("scale: [1, 2]", "scale", "must be a number of metres per unit or a unit name"),
+    ("up: 5", "up", "must be y or z, got 5"),
+    ("up: x", "up", "must be y or z, got 'x'"),
+])
+def test_creature_file_keys_of_the_wrong_type_are_one_line(tmp_path: Path, capsys, line: str, key: str,
+                                                           says: str) -> None:
+    """A list as scale or a number as up axis were tracebacks."""
+    c = tmp_path / "c.yaml"
+    c.write_text(f"name: c\n{line}\nclips:\n  walk: {HORSE_BVH}\n")
+    w = world_yaml(tmp_path, "tile: 2\nrows: ['S..G']\n")
+    assert main(["world", str(w), str(c), "-o", str(tmp_path / "o.bvh")]) == 2
+    assert f"{c}: {key}: {says}" in one_line(capsys, "world")
+
+
+@pytest.mark.parametrize("clip", ["[a, b]", "5", "''"])
+def test_a_creature_clip_that_is_no_file_name_is_one_line(tmp_path: Path, capsys, clip: str) -> None:
+    c = tmp_path / "c.yaml"
+    c.write_text(f"name: c\nclips:\n  walk: {clip}\n")
+    w = world_yaml(tmp_path, "tile: 2\nrows: ['S..G']\n")
+    assert main(["world", str(w), str(c), "-o", str(tmp_path / "o.bvh")]) == 2
+    assert f"{c}: clips.walk: must be a BVH file name" in one_line(capsys, "world")
+
+
 def test_a_creature_file_without_a_name_is_named_by_its_file_made_safe(tmp_path: Path) -> None:
     from bipedsim.world import load_creature
 
@@ -338,6 +362,15 @@ def test_graph_sizes_are_bounded(tmp_path: Path, capsys, extra: str, key: str) -
     g.write_text(text.replace("k: 10\n", "").replace("fps: 30\n", "") + extra)
     assert main(["graph", "build", str(g), "-o", str(tmp_path / "g.npz")]) == 2
     assert f"{g}: {key}: must be" in one_line(capsys, "graph")
+
+
+@pytest.mark.parametrize("part", ["a b", "a/b", "x" * 65, "\x1b[2J"])
+def test_a_part_name_no_script_can_write_is_refused(tmp_path: Path, capsys, part: str) -> None:
+    """A part's name is a script word and names arrays in the graph file."""
+    g = graph_yaml(tmp_path, extra=f"parts:\n  {json.dumps(part)}: {{root: Hips}}\n")
+    assert main(["graph", "build", str(g), "-o", str(tmp_path / "g.npz")]) == 2
+    line = one_line(capsys, "graph")
+    assert f"{g}: parts: " in line and "cannot be named in a Motion Script" in line and "\x1b" not in line
 
 
 @pytest.mark.parametrize("speed, says", [(1e-9, "clips[2].speed: must be >= 0.1"),

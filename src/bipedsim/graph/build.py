@@ -31,6 +31,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import re
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -73,6 +74,8 @@ MAX_GRAPH_FRAMES = 6000
 #: Most candidate transitions (local minima of the distances) per layer: real clips give a few per
 #: hundred frames; noise gives one in every few pairs of frames, and pruning them all takes minutes.
 MAX_CANDIDATES = 200_000
+#: A part layer's name: a word of the Motion Script (:mod:`bipedsim.graph.script`), at most 64 characters.
+PART_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]{0,63}")
 #: Largest root coordinate (m) and joint offset (m) a graph file may hold.
 MAX_COORD_M = 1e6
 #: How far a rotation stored in a graph file may be from a unit quaternion.
@@ -153,6 +156,10 @@ class GraphConfig:
             raise ValueError("clips: clip names must be unique")
         if FULL in self.parts:
             raise ValueError(f"parts: {FULL!r} is the whole body's layer; name parts otherwise")
+        for name in self.parts:  # a part is named in scripts and in the graph file's array names
+            if not PART_NAME.fullmatch(name):
+                raise ValueError(f"parts: {name!r} cannot be named in a Motion Script: a part's name is a letter "
+                                 "or '_', then letters, digits, '_' or '-' (at most 64)")
 
 
 @dataclass

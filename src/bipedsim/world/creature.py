@@ -156,13 +156,21 @@ def load_creature(path: str | os.PathLike[str]) -> Creature:
         raise WorldError(f"unknown mode {bad[0]!r}; allowed: {', '.join(CLIP_MODES)}", path=p, key="clips")
     if not any(m in clips for m in TRAVEL_MODES):
         raise WorldError(f"needs at least one travel mode ({', '.join(TRAVEL_MODES)})", path=p, key="clips")
+    scale, up = data.get("scale"), data.get("up")
+    if scale is not None and (isinstance(scale, bool) or not isinstance(scale, int | float | str)):
+        raise WorldError(f"must be a number of metres per unit or a unit name (cm, inch...), got {scale!r}",
+                         path=p, key="scale")
+    if up is not None and not (isinstance(up, str) and up.lower() in ("y", "z")):
+        raise WorldError(f"must be y or z, got {up!r}", path=p, key="up")
+    name = creature_name(data.get("name"), p)  # before the clips are read
     motions = {}
     for mode, f in clips.items():
-        fp = (p.parent / str(f)).resolve() if not Path(str(f)).is_absolute() else Path(str(f))
+        if not isinstance(f, str) or not f:
+            raise WorldError(f"must be a BVH file name, got {f!r}", path=p, key=f"clips.{mode}")
+        fp = (p.parent / f).resolve() if not Path(f).is_absolute() else Path(f)
         if not fp.is_file():
             raise WorldError(f"no BVH file {fp}", path=p, key=f"clips.{mode}")
-        motions[mode] = (str(fp), load_bvh(fp, scale=data.get("scale"), up=data.get("up")).to_project_frame())
-    name = creature_name(data.get("name"), p)
+        motions[mode] = (str(fp), load_bvh(fp, scale=scale, up=up).to_project_frame())
     return creature_from_motions(name, {m: mo for m, (_, mo) in motions.items()},
                                  {m: s for m, (s, _) in motions.items()}, path=str(p))
 

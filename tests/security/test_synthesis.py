@@ -373,6 +373,17 @@ def test_a_part_name_no_script_can_write_is_refused(tmp_path: Path, capsys, part
     assert f"{g}: parts: " in line and "cannot be named in a Motion Script" in line and "\x1b" not in line
 
 
+@pytest.mark.parametrize("clip", ['{name: "\\e[2Jwipe", file: W}', '{name: x, file: W, tags: ["\\e]0;title\\a"]}',
+                                  '{name: "", file: W}'])
+def test_clip_names_and_tags_with_control_characters_are_refused(tmp_path: Path, capsys, clip: str) -> None:
+    """They are printed in the build summary and in play errors: no control code reaches the terminal."""
+    g = graph_yaml(tmp_path, extra="")
+    g.write_text(g.read_text() + "  - " + clip.replace("W", str(builtin_walk_path())) + "\n")
+    assert main(["graph", "build", str(g), "-o", str(tmp_path / "g.npz")]) == 2
+    line = one_line(capsys, "graph")
+    assert f"{g}: clips: " in line and "printable text" in line and "\x1b" not in line and "\x07" not in line
+
+
 @pytest.mark.parametrize("speed, says", [(1e-9, "clips[2].speed: must be >= 0.1"),
                                          (1e9, "clips[2].speed: must be <= 10.0")])
 def test_a_derived_clip_speed_is_bounded(tmp_path: Path, capsys, speed: float, says: str) -> None:
@@ -426,6 +437,7 @@ def _meta(path: list, value: object):  # noqa: ANN202
     (_meta(["skeleton", "parents"], [99] * 21), "a skeleton parent = 99 is out of range"),
     (_meta(["skeleton", "parents"], [5] * 21), "joint 0 must be the only root"),
     (_meta(["skeleton", "offsets", 0], [0, 0, float("nan")]), "skeleton offsets"),
+    (_meta(["skeleton", "names", 3], "\x1b[2J"), "a skeleton name holds control characters"),
     (_meta(["config", "fps"], 1e6), "its config"),
     (_meta(["tags"], [["WALK"]]), "its tags do not match its clips"),
     (_meta(["layers", "Full-Body", "report"], {"tags": {"WALK": {"kept_frames": "x"}}}), "report kept frames"),

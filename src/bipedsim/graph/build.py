@@ -74,6 +74,8 @@ MAX_GRAPH_FRAMES = 6000
 #: Most candidate transitions (local minima of the distances) per layer: real clips give a few per
 #: hundred frames; noise gives one in every few pairs of frames, and pruning them all takes minutes.
 MAX_CANDIDATES = 200_000
+#: Longest clip name or tag (characters).
+MAX_LABEL_CHARS = 64
 #: A part layer's name: a word of the Motion Script (:mod:`bipedsim.graph.script`), at most 64 characters.
 PART_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]{0,63}")
 #: Largest root coordinate (m) and joint offset (m) a graph file may hold.
@@ -154,6 +156,11 @@ class GraphConfig:
         names = [c.name for c in self.clips]
         if len(set(names)) != len(names):
             raise ValueError("clips: clip names must be unique")
+        for c in self.clips:  # printed in reports and errors: no control characters reach a terminal
+            for text in (c.name, *c.tags):
+                if not (0 < len(text) <= MAX_LABEL_CHARS and text.isprintable()):
+                    raise ValueError(f"clips: {text!r}: a clip's name and tags are printable text of 1 to "
+                                     f"{MAX_LABEL_CHARS} characters")
         if FULL in self.parts:
             raise ValueError(f"parts: {FULL!r} is the whole body's layer; name parts otherwise")
         for name in self.parts:  # a part is named in scripts and in the graph file's array names

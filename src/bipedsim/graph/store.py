@@ -119,6 +119,7 @@ def _skeleton(s: Any) -> Skeleton:
 
     _need(isinstance(s, dict), "its skeleton is not a mapping")
     names = _str_list(s.get("names"), "skeleton names")
+    _need(all(n.isprintable() for n in names), "a skeleton name holds control characters")
     _need(0 < len(names) <= MAX_GRAPH_JOINTS, f"its skeleton has {len(names)} joints (at most {MAX_GRAPH_JOINTS})")
     n = len(names)
     parents = [_int(p, "a skeleton parent", -1, n) for p in s.get("parents") or []]

@@ -36,6 +36,8 @@ SYNC_SEARCH_S = 1.0
 #: 100 000 frames take about 500 MB; 55 min at 30 fps, 7 min at 240 fps. Raised with
 #: ``BIPEDSIM_MAX_PLAY_FRAMES``.
 MAX_PLAY_FRAMES = 100_000
+#: Frames between two updates of the progress bar.
+PROGRESS_EVERY = 100
 
 
 def max_play_frames() -> int:
@@ -96,6 +98,7 @@ class Player:
     parts: dict[str, PartState] = field(default_factory=dict)
     #: the script's file name, put before the line number in errors (``FILE:LINE: ...``)
     source: str | None = None
+    _bar: Any = field(default=None, init=False, repr=False)  #: the progress bar while :meth:`run` plays
 
     def __post_init__(self) -> None:
         g = self.graph
@@ -158,6 +161,8 @@ class Player:
             raise PlayError(self._too_long(len(self.roots) + 1))
         self.roots.append(root)
         self.rots.append(canonical_quat(rot))
+        if self._bar is not None and len(self.roots) % PROGRESS_EVERY == 0:
+            self._bar.update(PROGRESS_EVERY)
 
     def _too_long(self, frames: int) -> str:
         return (f"the motion passes {self.max_frames} frames here ({frames / self.fps:.0f} s at {self.fps:g} fps), "
@@ -304,7 +309,8 @@ class Player:
             asked += (cmd.seconds or 0.0) * self.fps
             if asked > self.max_frames:
                 raise PlayError(self._too_long(int(asked)), cmd.line, self.source)
-        bar = progress_bar(len(commands), "playing", "command")
+        # in frames: out of those asked when every command says how long, else counted as they come
+        self._bar = progress_bar(int(asked) if all(c.seconds for c in commands) else None, "playing", "frame")
         try:
             for cmd in commands:
                 try:
@@ -313,11 +319,10 @@ class Player:
                     if exc.line is not None and exc.source == self.source:
                         raise
                     raise PlayError(exc.reason, cmd.line if exc.line is None else exc.line, self.source) from None
-                if bar is not None:
-                    bar.update(1)
         finally:
-            if bar is not None:
-                bar.close()
+            if self._bar is not None:
+                self._bar.close()
+                self._bar = None
         return self.motion()
 
     def command(self, cmd: Command) -> None:

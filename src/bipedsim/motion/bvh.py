@@ -13,18 +13,21 @@ project frame (metres, Z up). :func:`write_bvh` writes a motion exactly as it is
 
 from __future__ import annotations
 
+import codecs
 import math
 import os
+import re
 import warnings
 from collections import Counter
 from dataclasses import asdict, dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import BVHError, InputError
-from bipedsim.io import read_input_bytes
+from bipedsim.io import progress_bar, read_input_bytes
 from bipedsim.motion.conventions import (
     AMBIGUOUS_SCORE_MARGIN,
     UNIT_SCALES,
@@ -93,41 +96,292 @@ class BVHInfo:
 
 
 # ---------------------------------------------------------------------- reading
-class _Lines:
-    """The header's non-empty lines as token lists, with 1-based line numbers."""
+#: Bytes of the motion section parsed at a time: the temporary arrays of one window are a few times
+#: its size, so reading stays within a small multiple of the file's own size whatever its length.
+WINDOW_BYTES = 1 << 20
+#: A BVH larger than this (bytes) shows a progress bar while its frames are read, on a terminal.
+PROGRESS_MIN_BYTES = 5 << 20
+#: The longest header line (bytes) read: a joint name or keyword line is a few dozen bytes; a longer
+#: line is not a BVH header, and splitting it into words could take many times its size.
+MAX_HEADER_LINE_BYTES = 1 << 20
 
-    def __init__(self, lines: list[str], path: str) -> None:
-        self.lines = lines
+#: The bytes frame values are separated by (ASCII whitespace, as ``bytes.split()`` has it).
+_SEPARATORS = b" \t\n\r\x0b\x0c"
+_IS_SEPARATOR = np.zeros(256, dtype=bool)
+_IS_SEPARATOR[list(_SEPARATORS)] = True
+#: Bytes the fast path reads: printable ASCII and separators. A window with any other byte is read
+#: value by value with ``float`` (the reference behaviour), so both paths accept the same files.
+_IS_PLAIN = _IS_SEPARATOR.copy()
+_IS_PLAIN[33:127] = True
+_NOT_SPACE = re.compile(rb"[^ \t\n\r\x0b\x0c]")
+_NOT_PLAIN = re.compile(rb"[^\x20-\x7e\t\n\r\x0b\x0c]")
+_WORD = re.compile(r"\S+")
+#: Lines longer than this (characters) have their words counted without splitting them into a list.
+_SPLIT_MAX_CHARS = 1 << 16
+_NON_ASCII = re.compile(rb"[\x80-\xff]")
+_CONTROL = re.compile(rb"[\x00-\x08\x0e-\x1f]")
+
+
+class _Lines:
+    """The file's lines from ``start`` on, decoded one at a time as they are asked for (the header is
+    small; the motion section is read by :class:`_FrameReader` from the bytes), with 1-based line
+    numbers. A line ends at LF, CRLF or a lone CR."""
+
+    def __init__(self, raw: bytes, start: int, path: str, encoding: str, has_cr: bool, total: int) -> None:
+        self.raw = raw
+        self.pos = start  # byte offset of the next line; len(raw) + 1 once the last line is read
         self.path = path
-        self.i = 0
+        self.encoding = encoding
+        self.total = total  # lines in the file, as splitting its text at every line break counts them
+        self.i = 0  # lines read
+        # the next LF and CR at or after pos, found once and reused (-1: none left): looking for a CR
+        # from every line of an LF file would scan the rest of the file each time
+        self._lf = -2
+        self._cr = -2 if has_cr else -1
+
+    def _read_line(self) -> str | None:
+        raw, pos = self.raw, self.pos
+        if pos > len(raw):
+            return None
+        if -1 < self._lf < pos or self._lf == -2:
+            self._lf = raw.find(b"\n", pos)
+        if -1 < self._cr < pos or self._cr == -2:
+            self._cr = raw.find(b"\r", pos)
+        ends = [p for p in (self._lf, self._cr) if p >= 0]
+        end = min(ends) if ends else len(raw)
+        self.i += 1
+        if end - pos > MAX_HEADER_LINE_BYTES:
+            raise BVHError(f"line is {end - pos} bytes long, more than any BVH header line "
+                           f"({MAX_HEADER_LINE_BYTES} at most)", self.path, self.i)
+        self.pos = end + 2 if raw[end:end + 2] == b"\r\n" else end + 1
+        return raw[pos:end].decode(self.encoding)
 
     def next(self, expected: str) -> tuple[list[str], int]:
-        while self.i < len(self.lines):
-            toks = self.lines[self.i].split()
-            self.i += 1
+        while (line := self._read_line()) is not None:
+            toks = line.split()
             if toks:
                 return toks, self.i
-        raise BVHError(f"unexpected end of file: expected {expected}", self.path, len(self.lines))
+        raise BVHError(f"unexpected end of file: expected {expected}", self.path, self.total)
 
 
-def _decode(raw: bytes, path: str) -> str:
-    if not raw.strip():
+def _text_encoding(raw: bytes, start: int, path: str) -> str:
+    """How to decode the file's text from ``start`` on: ``"utf-8"``, or ``"latin-1"`` for the old files
+    with latin-1 names. Empty files and binary data (NUL or control bytes in text that is not UTF-8)
+    raise :class:`BVHError`; offsets in the messages count from ``start``. Nothing is copied: UTF-8 is
+    checked a window at a time."""
+    if _NOT_SPACE.search(raw, start) is None:
         raise BVHError("file is empty: expected 'HIERARCHY'", path, 1)
-    nul = raw.find(b"\x00")
+    nul = raw.find(b"\x00", start)
     if nul >= 0:
-        line = raw.count(b"\n", 0, nul) + 1
-        raise BVHError(f"binary data (NUL byte at offset {nul}): not a text BVH file", path, line)
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw.count(b"\n", 0, exc.start) + 1
-        bad = raw[exc.start:exc.start + 1]
-        # latin-1 names occur in old files; anything with control bytes is garbage
-        text = raw.decode("latin-1")
-        if any(ord(c) < 32 and c not in "\t\r\n\f\v" for c in text):
-            raise BVHError(f"binary data (byte {bad!r} at offset {exc.start}): not a text BVH file",
-                           path, line) from None
-        return text
+        line = raw.count(b"\n", start, nul) + 1
+        raise BVHError(f"binary data (NUL byte at offset {nul - start}): not a text BVH file", path, line)
+    if _NON_ASCII.search(raw, start) is None:
+        return "utf-8"
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    view = memoryview(raw)
+    for a in range(start, len(raw), WINDOW_BYTES):
+        pending = len(decoder.getstate()[0])  # bytes of a character split at the last window's end
+        try:
+            decoder.decode(view[a:a + WINDOW_BYTES], final=a + WINDOW_BYTES >= len(raw))
+        except UnicodeDecodeError as exc:
+            bad_at = a - pending + exc.start
+            break
+    else:
+        return "utf-8"
+    # latin-1 names occur in old files; anything with control bytes is garbage
+    if _CONTROL.search(raw, start) is not None:
+        line = raw.count(b"\n", start, bad_at) + 1
+        raise BVHError(f"binary data (byte {raw[bad_at:bad_at + 1]!r} at offset {bad_at - start}): not a text "
+                       "BVH file", path, line)
+    return "latin-1"
+
+
+def _line_endings(raw: bytes, start: int) -> tuple[str, int, bool]:
+    """The file's line endings ("LF", "CRLF", "CR", "mixed (...)" or "none"), the number of lines (as
+    splitting at every line break counts them) and whether any line ends in a CR."""
+    crlf = raw.count(b"\r\n", start)
+    cr = raw.count(b"\r", start) - crlf
+    lf = raw.count(b"\n", start) - crlf
+    kinds = [k for k, n in (("CRLF", crlf), ("LF", lf), ("CR", cr)) if n]
+    endings = "+".join(kinds) if len(kinds) > 1 else (kinds[0] if kinds else "none")
+    if len(kinds) > 1:
+        endings = "mixed (" + endings + ")"
+    return endings, crlf + cr + lf + 1, crlf + cr > 0
+
+
+class _FrameReader:
+    """The motion section's frame lines read straight from the file's bytes into one float array.
+
+    The bytes are read a window (:data:`WINDOW_BYTES`) at a time: separators and line breaks found with
+    numpy, the values of the window's complete lines parsed by ``np.fromstring``; a window that is not
+    plain ASCII numbers (or holds a value that is not finite) is read again value by value with ``float``
+    to find what is wrong and where. The rows are allocated from what the file holds (its lines, and
+    the values its bytes can hold), never from the ``Frames:`` count alone. Errors keep the order a
+    reader going through the whole file would report: too few frame lines, then the first line with
+    the wrong count of values, then the first value that is not a number (or not finite).
+    """
+
+    def __init__(self, raw: bytes, lines: _Lines, n_frames: int, n_ch: int, frames_line: int) -> None:
+        self.raw, self.path, self.encoding = raw, lines.path, lines.encoding
+        self.start = min(lines.pos, len(raw))
+        self.first_line = lines.i + 1  # the line number of the first line after the header
+        self.n_frames, self.n_ch, self.frames_line = n_frames, n_ch, frames_line
+        size = len(raw) - self.start
+        # each row holds n_ch values, each followed by a separator but the file's last
+        self.max_rows = (size + 1) // (2 * n_ch) if n_ch else 0
+        breaks = raw.count(b"\n", self.start) + raw.count(b"\r", self.start) - raw.count(b"\r\n", self.start)
+        self.rows = np.empty((min(n_frames, breaks + 1, self.max_rows), n_ch))
+        self.n_rows = 0  # frame (non-blank) lines so far
+        self.last_line = 0  # line number of the last frame line
+        self.extra_line = 0  # line number of the first frame line past the Frames: count
+        self.bad_count: tuple[int, int] | None = None  # (line, values) of the first line with a wrong count
+        self.bad_value: tuple[int, int, str] | None = None  # (line, index, token): the first non-number
+        self.not_finite: tuple[int, int, str] | None = None  # (line, index, token): the first inf or nan
+
+    def read(self, bar: Any = None) -> tuple[FloatArray, list[str]]:
+        """The (frames, channels) values and the notes on them; raises :class:`BVHError`."""
+        if _NOT_PLAIN.search(self.raw, self.start) is not None:
+            return self._read_text(bar)
+        raw, end = self.raw, len(self.raw)
+        line_start, line_no = self.start, self.first_line  # the line the next window continues
+        carry_count, carry_sep = 0, True  # values so far on that line; whether the byte before is a separator
+        for a in range(self.start, end, WINDOW_BYTES):
+            b = min(a + WINDOW_BYTES, end)
+            arr = np.frombuffer(raw, dtype=np.uint8, count=b - a, offset=a)
+            sep = _IS_SEPARATOR[arr]
+            starts = ~sep
+            starts[1:] &= sep[:-1]
+            starts[0] &= carry_sep
+            breaks = arr == 10
+            lone_cr = arr == 13
+            lone_cr[:-1] &= arr[1:] != 10
+            if b < end and raw[b] == 10:
+                lone_cr[-1] = False  # the LF of this CRLF begins the next window
+            breaks |= lone_cr
+            at = np.flatnonzero(breaks)
+            counts = np.bincount(np.searchsorted(at, np.flatnonzero(starts)), minlength=len(at) + 1)
+            counts[0] += carry_count
+            carry_sep = bool(sep[-1])
+            carry_count = int(counts[-1])
+            if len(at):
+                span_end = a + int(at[-1]) + 1
+                self._take(counts[:-1], line_start, span_end, line_no)
+                line_no += len(at)
+                line_start = span_end
+            if bar is not None:
+                bar.update((b - a) / 2**20)
+        if line_start < end:  # a last line without a line break
+            self._take(np.array([carry_count]), line_start, end, line_no)
+        return self._result()
+
+    def _read_text(self, bar: Any) -> tuple[FloatArray, list[str]]:
+        """:meth:`read` for a motion section that is not plain ASCII (other whitespace, other letters):
+        a window of whole lines at a time is decoded and its words counted as ``str.split`` finds them."""
+        raw, end = self.raw, len(self.raw)
+        a, line_no = self.start, self.first_line
+        has_cr = raw.find(b"\r", a) >= 0
+        while a < end:
+            q = min(a + WINDOW_BYTES, end)
+            found = [i for i in (raw.find(b"\n", q), raw.find(b"\r", q) if has_cr else -1) if i >= 0]
+            b = min(found) + 1 if found else end
+            if raw[b - 1:b + 1] == b"\r\n":
+                b += 1
+            lines = raw[a:b].decode(self.encoding).replace("\r\n", "\n").replace("\r", "\n").split("\n")
+            if b < end or raw[b - 1] in b"\r\n":
+                lines.pop()  # what follows the window's last line break: the next window's first line
+            counts = np.array([len(x.split()) if len(x) <= _SPLIT_MAX_CHARS else sum(1 for _ in _WORD.finditer(x))
+                               for x in lines], dtype=np.int64)
+            del lines
+            self._take(counts, a, b, line_no)
+            line_no += len(counts)
+            if bar is not None:
+                bar.update((b - a) / 2**20)
+            a = b
+        return self._result()
+
+    def _take(self, counts: npt.NDArray[np.int64], start: int, end: int, first: int) -> None:
+        """Take the complete lines in bytes ``start:end``, with ``counts`` values each, the first
+        numbered ``first``."""
+        idx = np.flatnonzero(counts)
+        m = len(idx)
+        if not m:
+            return
+        if not self.extra_line and self.n_rows + m > self.n_frames:
+            self.extra_line = first + int(idx[max(self.n_frames - self.n_rows, 0)])
+        self.last_line = first + int(idx[-1])
+        if self.bad_count is None:
+            wrong = np.flatnonzero(counts[idx] != self.n_ch)
+            if len(wrong):
+                k = int(idx[wrong[0]])
+                self.bad_count = (first + k, int(counts[k]))
+        if self.bad_count is None and self.bad_value is None:
+            self._grow(self.n_rows + m)
+            self._values(start, end, first, m)
+        self.n_rows += m
+
+    def _grow(self, rows: int) -> None:
+        if rows <= len(self.rows):
+            return
+        bigger = np.empty((min(max(rows, 2 * len(self.rows)), max(rows, self.max_rows)), self.n_ch))
+        bigger[:self.n_rows] = self.rows[:self.n_rows]
+        self.rows = bigger
+
+    def _values(self, start: int, end: int, first: int, m: int) -> None:
+        """Parse the values of the m frame lines in bytes ``start:end`` into the next m rows."""
+        chunk = self.raw[start:end]
+        out = self.rows[self.n_rows:self.n_rows + m]
+        if _IS_PLAIN[np.frombuffer(chunk, dtype=np.uint8)].all():
+            try:
+                with warnings.catch_warnings():
+                    # numpy < 2.3 warns, and returns what it read, where it meets a word that is no number
+                    warnings.simplefilter("ignore", DeprecationWarning)
+                    values = np.fromstring(chunk, sep=" ")
+            except ValueError:
+                values = None
+            if values is not None and values.size == out.size and np.isfinite(values).all():
+                out[:] = values.reshape(out.shape)
+                return
+        # not plain numbers: value by value, as float() reads them, to find the first that is wrong
+        r = 0
+        text = chunk.decode(self.encoding).replace("\r\n", "\n").replace("\r", "\n")
+        del chunk
+        for k, line in enumerate(text.split("\n")):
+            toks = line.split()
+            if not toks:
+                continue
+            for c, word in enumerate(toks):
+                try:
+                    out[r, c] = v = float(word)
+                except ValueError:
+                    self.bad_value = (first + k, c, word)
+                    return
+                if self.not_finite is None and not math.isfinite(v):
+                    self.not_finite = (first + k, c, word)
+            r += 1
+
+    def _result(self) -> tuple[FloatArray, list[str]]:
+        path, n_frames, n_rows = self.path, self.n_frames, self.n_rows
+        if n_rows < n_frames:
+            raise BVHError(f"truncated motion: 'Frames: {n_frames}' but only {n_rows} frame lines follow", path,
+                           self.last_line or self.frames_line)
+        if self.bad_count is not None:
+            line, got = self.bad_count
+            raise BVHError(f"expected {self.n_ch} values on a frame line (the hierarchy's channel count), got {got}",
+                           path, line)
+        notes = []
+        if n_rows > n_frames:
+            # every extra line is a whole frame (checked above): an exporter's count off by a frame or a few
+            # (one take exported twice, 418 and 1392 declared, one more row each); the rows are the motion
+            notes.append(f"'Frames: {n_frames}' but {n_rows} whole frame lines follow (line {self.extra_line} on): "
+                         f"all {n_rows} read")
+        bad, inf = self.bad_value, self.not_finite
+        if bad is not None and inf is not None and inf[:2] < bad[:2]:
+            raise BVHError(f"a frame value must be finite, got {inf[2]!r}", path, inf[0])
+        if bad is not None:
+            raise BVHError(f"expected a number for a frame value, got {bad[2]!r}", path, bad[0])
+        if inf is not None:
+            raise BVHError(f"frame values must be finite, got {inf[2]!r}", path, inf[0])
+        return (self.rows if len(self.rows) == n_rows else self.rows[:n_rows].copy()), notes
 
 
 def _float(tok: str, path: str, line: int, what: str) -> float:
@@ -245,23 +499,14 @@ def _parse_hierarchy(lines: _Lines) -> tuple[list[str], list[int], list[list[flo
     return names, parents, offsets, channels, es_par, es_off
 
 
-def _split_text(raw_text: str) -> tuple[list[str], str]:
-    crlf = raw_text.count("\r\n")
-    cr = raw_text.count("\r") - crlf
-    lf = raw_text.count("\n") - crlf
-    kinds = [k for k, n in (("CRLF", crlf), ("LF", lf), ("CR", cr)) if n]
-    endings = "+".join(kinds) if len(kinds) > 1 else (kinds[0] if kinds else "none")
-    if len(kinds) > 1:
-        endings = "mixed (" + endings + ")"
-    text = raw_text.replace("\r\n", "\n").replace("\r", "\n")
-    return text.split("\n"), endings
-
-
-def _parse(path: str, raw: bytes) -> tuple[Skeleton, float, FloatArray, BVHInfo, list[tuple[str, int]]]:
-    text = _decode(raw, path)
-    lines, endings = _split_text(text)
-    final_newline = text.endswith("\n")
-    hl = _Lines(lines, path)
+def _parse(path: str, raw: bytes, start: int = 0,
+           bar: Any = None) -> tuple[Skeleton, float, FloatArray, BVHInfo, list[tuple[str, int]]]:
+    """Read the BVH file whose bytes are ``raw[start:]`` (``start`` skips a byte-order mark without
+    copying the file); ``bar``: a progress bar (MiB) the frame lines advance, or None."""
+    encoding = _text_encoding(raw, start, path)
+    endings, n_lines, has_cr = _line_endings(raw, start)
+    final_newline = len(raw) > start and raw[-1] in b"\r\n"
+    hl = _Lines(raw, start, path, encoding, has_cr, n_lines)
     names, parents, offsets, channels, es_par, es_off = _parse_hierarchy(hl)
 
     toks, ln = hl.next("'MOTION'")
@@ -287,36 +532,8 @@ def _parse(path: str, raw: bytes) -> tuple[Skeleton, float, FloatArray, BVHInfo,
                        f"({1 / hi:g} to {1 / lo:g} frames per second)", path, ln)
 
     n_ch = sum(len(c) for c in channels)
-    start = hl.i  # index of the first data line
-    data_lines: list[int] = [i for i in range(start, len(lines)) if lines[i].strip()]
-    if len(data_lines) < n_frames:
-        last = data_lines[-1] + 1 if data_lines else ln
-        raise BVHError(f"truncated motion: 'Frames: {n_frames}' but only {len(data_lines)} frame lines "
-                       f"follow", path, last)
-    rows = [lines[i].split() for i in data_lines]
-    for r, i in zip(rows, data_lines):
-        if len(r) != n_ch:
-            raise BVHError(f"expected {n_ch} values on a frame line (the hierarchy's channel count), "
-                           f"got {len(r)}", path, i + 1)
-    notes = []
-    if len(data_lines) > n_frames:
-        # every extra line is a whole frame (checked above): an exporter's count off by a frame or a few
-        # (one take exported twice, 418 and 1392 declared, one more row each); the rows are the motion
-        notes.append(f"'Frames: {n_frames}' but {len(data_lines)} whole frame lines follow (line "
-                     f"{data_lines[n_frames] + 1} on): all {len(data_lines)} read")
-        n_frames = len(data_lines)
-    flat = [x for r in rows for x in r]
-    try:
-        data = np.array(flat, dtype=np.float64).reshape(n_frames, max(n_ch, 0))
-    except ValueError:
-        for r, i in zip(rows, data_lines):
-            for x in r:
-                _float(x, path, i + 1, "a frame value")
-        raise  # pragma: no cover - every bad token is found above
-    if not np.all(np.isfinite(data)):
-        bad_row = int(np.flatnonzero(~np.all(np.isfinite(data), axis=1))[0])
-        bad_tok = next(x for x in rows[bad_row] if not np.isfinite(float(x)))
-        raise BVHError(f"frame values must be finite, got {bad_tok!r}", path, data_lines[bad_row] + 1)
+    data, notes = _FrameReader(raw, hl, n_frames, n_ch, ln).read(bar)
+    n_frames = len(data)
 
     sk0 = Skeleton(names=tuple(names), parents=np.array(parents), offsets=np.array(offsets),
                    channels=tuple(channels), end_site_parents=np.array(es_par, dtype=np.int64),
@@ -412,6 +629,11 @@ def _column_starts(sk: Skeleton) -> list[int]:
     return col
 
 
+#: Frames converted to rotations at a time: the temporaries of the Euler-to-quaternion products stay a
+#: few MiB however long the clip (all at once they were several times the size of the rotations).
+FRAME_BLOCK = 4096
+
+
 def _channels_to_motion(sk: Skeleton, frame_time: float, data: FloatArray) -> Motion:
     t, j = data.shape[0], sk.num_joints
     col = _column_starts(sk)
@@ -422,28 +644,25 @@ def _channels_to_motion(sk: Skeleton, frame_time: float, data: FloatArray) -> Mo
         order = sk.rotation_order(i)
         if order:
             by_order.setdefault(order, []).append(i)
-    for order, joints in by_order.items():
-        idx = np.array([[col[i] + k for k, c in enumerate(sk.channels[i]) if c in ROTATION_CHANNELS]
-                        for i in joints])  # (n, len(order))
-        ang = data[:, idx]  # (t, n, k)
-        quats[:, joints] = euler_to_quat(order, ang)
-    quats = canonical_quat(quats)
-    trans = np.broadcast_to(sk.offsets, (t, j, 3)).copy()
-    moving = False
+    columns = {order: np.array([[col[i] + k for k, c in enumerate(sk.channels[i]) if c in ROTATION_CHANNELS]
+                                for i in joints]) for order, joints in by_order.items()}  # (n, len(order))
+    for s in range(0, t, FRAME_BLOCK):
+        block = quats[s:s + FRAME_BLOCK]
+        for order, joints in by_order.items():
+            block[:, joints] = euler_to_quat(order, data[s:s + FRAME_BLOCK][:, columns[order]])
+        block[:] = canonical_quat(block)
+    moving = [i for i in range(1, j) if sk.has_positions(i)]
+    # local translations of every joint only where a joint below the root moves: else the root's alone
+    trans = np.broadcast_to(sk.offsets, (t, j, 3)).copy() if moving else np.tile(sk.offsets[0], (t, 1))[:, None]
     for i in range(j):
         if not sk.has_positions(i):
             continue
-        base = np.zeros(3) if sk.position_modes[i] == "replace" else sk.offsets[i]
-        vals = np.tile(base, (t, 1))
-        if sk.position_modes[i] == "replace":
-            vals[:] = sk.offsets[i]  # an axis without a channel keeps the OFFSET component
+        vals = trans[:, i]  # a view: written in place
+        vals[:] = sk.offsets[i]  # in either mode an axis without a channel keeps the OFFSET component
         for k, c in enumerate(sk.channels[i]):
             if c in POSITION_CHANNELS:
                 a = POSITION_CHANNELS.index(c)
                 vals[:, a] = data[:, col[i] + k] + (sk.offsets[i][a] if sk.position_modes[i] == "add" else 0.0)
-        trans[:, i] = vals
-        if i > 0:
-            moving = True
     return Motion(skeleton=sk, frame_time=frame_time, root_translation=trans[:, 0].copy(),
                   rotations=quats, translations=trans if moving else None, unit=1.0, up="y")
 
@@ -558,10 +777,17 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
     """
     p = str(path)
     try:
-        raw = read_input_bytes(p, "bvh").removeprefix(UTF8_BOM)
+        raw = read_input_bytes(p, "bvh")
     except InputError as exc:
         raise BVHError(exc.reason, p) from None
-    sk, frame_time, data, info, _ = _parse(p, raw)
+    bar = (progress_bar(round(len(raw) / 2**20, 1), f"reading {os.path.basename(p)}", "MiB")
+           if len(raw) > PROGRESS_MIN_BYTES else None)
+    try:
+        sk, frame_time, data, info, _ = _parse(p, raw, len(UTF8_BOM) if raw.startswith(UTF8_BOM) else 0, bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    del raw  # the values are read: the file's bytes need not stay while the readings are compared
     info.file_frame_time = frame_time
     if fps is not None:
         frame_time = info.frame_time = _given_frame_time(fps, p)

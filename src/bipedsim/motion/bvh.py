@@ -239,7 +239,10 @@ class _FrameReader:
         self.not_finite: tuple[int, int, str] | None = None  # (line, index, token): the first inf or nan
 
     def read(self, bar: Any = None) -> tuple[FloatArray, list[str]]:
-        """The (frames, channels) values and the notes on them; raises :class:`BVHError`."""
+        """The (frames, channels) values and the notes on them; raises :class:`BVHError`. ``bar``: a
+        progress bar counting the file's bytes, or None."""
+        if bar is not None:
+            bar.update(self.start)  # the header
         if _NOT_PLAIN.search(self.raw, self.start) is not None:
             return self._read_text(bar)
         raw, end = self.raw, len(self.raw)
@@ -269,7 +272,7 @@ class _FrameReader:
                 line_no += len(at)
                 line_start = span_end
             if bar is not None:
-                bar.update((b - a) / 2**20)
+                bar.update(b - a)
         if line_start < end:  # a last line without a line break
             self._take(np.array([carry_count]), line_start, end, line_no)
         return self._result()
@@ -295,7 +298,7 @@ class _FrameReader:
             self._take(counts, a, b, line_no)
             line_no += len(counts)
             if bar is not None:
-                bar.update((b - a) / 2**20)
+                bar.update(b - a)
             a = b
         return self._result()
 
@@ -502,7 +505,7 @@ def _parse_hierarchy(lines: _Lines) -> tuple[list[str], list[int], list[list[flo
 def _parse(path: str, raw: bytes, start: int = 0,
            bar: Any = None) -> tuple[Skeleton, float, FloatArray, BVHInfo, list[tuple[str, int]]]:
     """Read the BVH file whose bytes are ``raw[start:]`` (``start`` skips a byte-order mark without
-    copying the file); ``bar``: a progress bar (MiB) the frame lines advance, or None."""
+    copying the file); ``bar``: a progress bar counting the file's bytes, or None."""
     encoding = _text_encoding(raw, start, path)
     endings, n_lines, has_cr = _line_endings(raw, start)
     final_newline = len(raw) > start and raw[-1] in b"\r\n"
@@ -630,8 +633,8 @@ def _column_starts(sk: Skeleton) -> list[int]:
 
 
 #: Frames converted to rotations at a time: the temporaries of the Euler-to-quaternion products stay a
-#: few MiB however long the clip (all at once they were several times the size of the rotations).
-FRAME_BLOCK = 4096
+#: few MiB however long the clip (a whole clip at once would need several times the rotations' size).
+FRAME_BLOCK = 1024
 
 
 def _channels_to_motion(sk: Skeleton, frame_time: float, data: FloatArray) -> Motion:
@@ -780,8 +783,10 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
         raw = read_input_bytes(p, "bvh")
     except InputError as exc:
         raise BVHError(exc.reason, p) from None
-    bar = (progress_bar(round(len(raw) / 2**20, 1), f"reading {os.path.basename(p)}", "MiB")
-           if len(raw) > PROGRESS_MIN_BYTES else None)
+    bar = progress_bar(len(raw), f"reading {os.path.basename(p)}", "B") if len(raw) > PROGRESS_MIN_BYTES else None
+    if bar is not None:  # bytes shown as KiB, MiB
+        bar.unit_scale, bar.unit_divisor = True, 1024
+        bar.refresh()
     try:
         sk, frame_time, data, info, _ = _parse(p, raw, len(UTF8_BOM) if raw.startswith(UTF8_BOM) else 0, bar)
     finally:

@@ -149,10 +149,6 @@ class CreatureController(Controller):
                     out[k] += abs(f6[0] * con.frame[2])
         return out
 
-    def tracked_joints(self) -> tuple[list[str], list[int]]:
-        """No hinges: the ball joints' errors are in ``tracking_error`` (rad per joint)."""
-        return [], []
-
     def metrics(self) -> dict[str, object]:
         out: dict[str, object] = {"profile": "creature", "support_mode": self.cfg.support, "weight_n": self.weight}
         if self._support:
@@ -162,9 +158,4 @@ class CreatureController(Controller):
         return out
 
 
-def make_creature(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
-                  cfg: CreatureControlConfig | None = None) -> CreatureController:
-    return CreatureController(model, plan, clip, cfg)
-
-
-__all__ = ["CreatureControlConfig", "CreatureController", "make_creature", "quat_error_rotvecs"]
+__all__ = ["CreatureControlConfig", "CreatureController", "quat_error_rotvecs"]

@@ -400,10 +400,5 @@ class CreatureBalanceController(CreatureController):
         return out
 
 
-def make_creature_balance(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
-                          cfg: CreatureControlConfig | None = None) -> CreatureBalanceController:
-    return CreatureBalanceController(model, plan, clip, cfg)
-
-
 __all__ = ["CreatureBalanceConfig", "CreatureBalanceController", "distribute_wrench", "geom_bottom",
-           "make_creature_balance", "yaw_between"]
+           "yaw_between"]

@@ -79,16 +79,3 @@ def sample_texts() -> dict[Path, str]:
     return {HORSE_WALK: bvh_text(horse_walk().with_up("y").scaled(100.0), precision=SHIPPED_BVH_PRECISION),
             PTEROSAUR_FLIGHT: bvh_text(pterosaur_flight().with_up("y").scaled(100.0),
                                        precision=SHIPPED_BVH_PRECISION)}
-
-
-def regenerate(folder: Path = DATA_DIR, models: Path | None = None) -> list[Path]:
-    """Write every generated data file (the walk into ``folder``, the humanoid into ``models``)."""
-    from bipedsim.io import atomic_write_text
-
-    for p, text in sample_texts().items():
-        atomic_write_text(folder / p.name, text)
-    out = folder / BUILTIN_WALK.name
-    atomic_write_text(out, builtin_walk_text())
-    hum = (models or BUILTIN_HUMANOID.parent) / BUILTIN_HUMANOID.name
-    atomic_write_text(hum, builtin_humanoid_xml())
-    return [out, hum]

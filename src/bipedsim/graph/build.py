@@ -186,9 +186,6 @@ class Layer:
     #: how the threshold was chosen, warnings, per clip and per tag the frames kept and dropped (why)
     report: dict[str, Any] = field(default_factory=dict)
 
-    def exits(self, clip: int) -> list[Transition]:
-        return sorted((t for t in self.transitions if t.src == clip), key=lambda t: t.src_frame)
-
     def path(self, a: int, b: int) -> list[int]:
         """Clips on the cheapest route from motion a to motion b (a and b included)."""
         if a == b:

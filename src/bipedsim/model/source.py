@@ -50,9 +50,6 @@ class SourcePoints:
         rot = None if self.rotations is None else np.einsum("ij,...jk,lk->...il", r, self.rotations, r)
         return SourcePoints(self.skeleton, self.positions @ r.T, rot)
 
-    def shifted(self, delta: FloatArray) -> SourcePoints:
-        return SourcePoints(self.skeleton, self.positions + delta, self.rotations)
-
     def below(self, joint: str) -> list[str]:
         """``joint``, its descendant joints and the End Sites of all of them, in point order."""
         sub = set(self.skeleton.subtree(self.skeleton.index(joint)))

@@ -60,8 +60,3 @@ def slerp(q0: FloatArray, q1: FloatArray, t: FloatArray | float) -> FloatArray:
     b = np.where(small, t, np.sin(t * theta) / s)
     out = a * q0 + b * q1
     return out / np.linalg.norm(out, axis=-1, keepdims=True)
-
-
-def blend_poses(fi: FloatArray, ti: FloatArray, p: FloatArray | float) -> FloatArray:
-    """``fi * p + ti * (1 - p)`` for rotations (..., 4): the slerp from ``ti`` toward ``fi`` by ``p``."""
-    return slerp(ti, fi, p)

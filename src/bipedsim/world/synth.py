@@ -64,11 +64,6 @@ class Curve:
         xy = np.stack([np.interp(s, self.s, self.xy[:, 0]), np.interp(s, self.s, self.xy[:, 1])], axis=-1)
         return xy, np.interp(s, self.s, self.yaw)
 
-    def tile_index(self, s: float) -> int:
-        """The path tile that owns arc length ``s`` (the nearest tile centre along the path)."""
-        mids = (self.tile_s[1:] + self.tile_s[:-1]) / 2
-        return int(np.searchsorted(mids, s, side="right"))
-
 
 def make_curve(world: World, path: Path) -> Curve:
     """A smoothed curve through the path's tile centres (moving average over :data:`CORNER_WINDOW_TILES`,

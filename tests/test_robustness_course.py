@@ -79,36 +79,22 @@ def _controller(walk, over: dict | None = None) -> tuple[Controller, mujoco.MjDa
 def test_steering_in_the_controller_follows_the_law(walk) -> None:
     """``Controller._steer``, the code the control step runs, on a COM placed off the built-in walk's
     straight course: the heading target is the course's heading plus ``course_turn`` of the offset beyond
-    the deadband, 0 inside it; the placement angle is 0 while its gains are 0."""
+    the deadband, 0 inside it."""
     ctrl, data = _controller(walk)
     cc = ctrl.cfg.balance.course
     try:
         x0, y0 = data.subtree_com[ctrl.pelvis, :2].tolist()
         for e in (0.3, 1.0, -1.2, 4.0):
             ctrl._rate_f = 0.0
-            place = ctrl._steer(x0 + 0.5, y0 + e, 0.9, 0.0)
+            ctrl._steer(x0 + 0.5, y0 + e, 0.9, 0.0)
             assert ctrl.state.course_offset == pytest.approx(e, abs=0.02)  # the course passes the start COM
             want = course_turn(beyond(ctrl.state.course_offset, cc.deadband), 0.0, cc.steer_gain, cc.steer_damping,
                                cc.max_turn)
             assert ctrl.heading_target == pytest.approx(want, abs=1e-3)  # the built-in course heads along +x
-            assert (want == 0.0) == (abs(e) <= cc.deadband) and place == 0.0
+            assert (want == 0.0) == (abs(e) <= cc.deadband)
             # the torso law's heading matrix is the target's yaw
             assert math.atan2(ctrl._r_heading[1, 0], ctrl._r_heading[0, 0]) == pytest.approx(ctrl.heading_target)
         assert ctrl.heading_target == pytest.approx(-cc.max_turn, abs=1e-3)  # 4 m off: clamped
-    finally:
-        ctrl.restore_model()
-
-
-def test_placement_term_sign_and_clamp(walk) -> None:
-    """The optional coronal placement: a body left of the course places its swing foot further left
-    (positive angle, the foot pushes it back right), clamped to ``max_placement``."""
-    ctrl, data = _controller(walk, {"balance": {"course": {"placement_gain": 0.1, "max_placement": 0.05}}})
-    try:
-        x0, y0 = data.subtree_com[ctrl.pelvis, :2].tolist()
-        ctrl._rate_f = 0.0
-        assert ctrl._steer(x0, y0 + 0.8, 0.9, 0.0) == pytest.approx(0.1 * (ctrl.state.course_offset - 0.5))
-        assert ctrl._steer(x0, y0 - 3.0, 0.9, 0.0) == pytest.approx(-0.05)
-        assert ctrl._steer(x0, y0 + 0.2, 0.9, 0.0) == 0.0  # inside the deadband
     finally:
         ctrl.restore_model()
 

@@ -28,17 +28,6 @@ def froude(speed: float, leg: float, g: float = 9.81) -> float:
     return speed * speed / (g * leg)
 
 
-def sagittal_cv(balance: BalanceConfig, speed: float, leg: float, g: float = 9.81) -> float:
-    """The sagittal c_v (rad per m/s) for a walk of mean ``speed`` (m/s) on legs ``leg`` m long: the
-    configured one, scaled by ``cv_froude / Fr`` above the Froude number ``balance.cv_froude`` (no scaling
-    when that is null)."""
-    cv = balance.sagittal.cv
-    if balance.cv_froude is None or leg <= 0.0:
-        return cv
-    fr = froude(speed, leg, g)
-    return cv if fr <= balance.cv_froude else cv * balance.cv_froude / fr
-
-
 def sagittal_cd(balance: BalanceConfig, speed: float, leg: float, g: float = 9.81) -> float:
     """The sagittal c_d (rad per m) for a walk of mean ``speed`` (m/s) on legs ``leg`` m long: the
     configured one, scaled by ``(cd_froude / Fr) ** cd_froude_power`` above the Froude number

@@ -132,10 +132,10 @@ class PlaneGains:
 @dataclass(frozen=True)
 class VelocityConfig:
     """Velocity tuning by a virtual force on the centre of mass (Coros et al. 2010, sec. 5):
-    F = kv (v_target - v), produced by the legs in contact in proportion to their loads through their
-    knee and ankle hinges (Jacobian transpose of the chain from the fixed foot up to the COM). Sagittal
-    target: the reference's mean walking speed, against the COM velocity low-passed over ``filter_s``;
-    coronal: 0 (raw velocity). 0 gains switch it off."""
+    F = kv (v_target - v) forward in the heading frame, produced by the legs in contact in proportion to
+    their loads through their knee and ankle hinges (Jacobian transpose of the chain from the fixed foot
+    up to the COM). The target is the reference's mean walking speed, against the COM velocity
+    low-passed over ``filter_s``. A 0 gain switches it off."""
 
     #: 90 N per m/s on the low-passed speed: a body that walks slower than its reference is pushed on
     #: (3 seeds x 7 shared walks: 174 s walked -> 203 s at 75 N per m/s, CMU 02_01 at 0.49-0.58 ->
@@ -143,7 +143,6 @@ class VelocityConfig:
     #: the four walking captures at >= 70 % of their speed; the built-in walk's 60 s, 32/32 200 N
     #: pushes and 7/7 regression suite kept; docs/controller.md "Speed deficit")
     kv_sagittal: float = field(default=90.0, metadata={"min": 0.0})  #: N per m/s
-    kv_coronal: float = field(default=0.0, metadata={"min": 0.0})  #: N per m/s
     max_force: float = field(default=150.0, metadata={"gt": 0.0})  #: N, the horizontal force's norm
     #: the sagittal velocity is low-passed with this time constant (s) before it is compared (0: raw):
     #: the force answers the walk's lasting speed, not a push's transient (raw, 50 N per m/s cost 2 of
@@ -166,9 +165,8 @@ class CourseConfig:
 
         heading_target = heading_ref + clamp(-steer_gain e_b - steer_damping e_dot, +-max_turn)
 
-    and the swing hip's coronal feedback adds ``clamp(placement_gain e_b + placement_damping e_dot,
-    +-max_placement)`` (off by default: measured, it costs push recovery). ``enabled: false``: the
-    heading target stays the pelvis heading at the start, as before (a veering clip is walked straight).
+    ``enabled: false``: the heading target stays the pelvis heading at the start (a veering clip is
+    walked straight).
     Measured on the built-in walk (docs/controller.md): the 60 s walk's COM ends 0.45 m from the
     reference's line (1.42 m at most), the walk bent on a 10 m radius turns the body 103 degrees in 20 s
     (0.72 m off the arc; straight on with the law off)."""
@@ -179,9 +177,6 @@ class CourseConfig:
     steer_gain: float = field(default=0.15, metadata={"min": 0.0})  #: rad of turn per m of offset
     steer_damping: float = field(default=0.6, metadata={"min": 0.0})  #: rad of turn per m/s
     max_turn: float = field(default=0.25, metadata={"min": 0.0, "max": 1.5})  #: rad
-    placement_gain: float = field(default=0.0, metadata={"min": 0.0})  #: rad of swing hip per m
-    placement_damping: float = field(default=0.0, metadata={"min": 0.0})  #: rad of swing hip per m/s
-    max_placement: float = field(default=0.05, metadata={"min": 0.0})  #: rad
 
 
 @dataclass(frozen=True)
@@ -205,16 +200,6 @@ class BalanceConfig:
     #: 250 (CMU 131 falls at 0.7 s; stable at 500 Hz), so 175 keeps a margin (docs/controller.md, "Torso
     #: damping")
     torso_kd: float = field(default=175.0, metadata={"min": 0.0})
-    #: the yaw of the frame the balance law works in (feedback axes, the COM's d and v, the swing thigh's
-    #: and the feet's world targets, the torso's yaw target): ``pelvis``: the pelvis's heading now;
-    #: ``course``: the course law's heading target plus the reference pelvis's own yaw about its course at
-    #: this frame (``reference.yaw_offset``), and the swing hip's twist from the world target, so a pelvis
-    #: twisting within each step does not turn where the feet land. Opt-in: the shared 02_01/02_02 walks
-    #: hold their course with it, but the falling walks fall sooner and the built-in walk crabs 20 m off in
-    #: 60 s (docs/controller.md, *Progress along the course*)
-    heading_frame: str = field(default="pelvis", metadata={"choices": ("pelvis", "course")})
-    #: rad: how far the ``course`` frame follows the pelvis's yaw off the course frame (0: not at all)
-    course_frame_follow: float = field(default=0.3, metadata={"min": 0.0, "max": 3.15})
     heading_kp: float = field(default=300.0, metadata={"min": 0.0})
     #: rad: the torso law's yaw target kept within this of the stance foot's yaw plus the reference pelvis's
     #: own yaw from that foot (null: no limit). The ankles have no yaw hinge, so the stance hip's yaw torque
@@ -229,30 +214,12 @@ class BalanceConfig:
     #: example, GAMES-105's walk and turn left): public walks x seeds 0-9 at >= 70 % along the course 42 ->
     #: 59 of 160, the shared walks unchanged (docs/controller.md, "Torso damping")
     stance_yaw_limit: float | None = field(default=0.6, metadata={"gt": 0.0})
-    #: in the ``pelvis`` frame, the torso law's yaw target is the course law's heading target plus the
-    #: reference pelvis's own twist about its course at this frame (``reference.yaw_offset``; the
-    #: ``course`` frame has it already), so the heading frame the balance law measures d and v and places
-    #: the feet in is the one the reference's own quantities are expressed in (a capture's pelvis twists
-    #: +-4-22 degrees per step). Over 2-20 s CMU 02_01's pelvis then stays 3 degrees off the reference's
-    #: yaw on average instead of 37 (its crab). Off: 7 shared walks x seeds 0-8 808.7 s / 33 runs at >= 70 %
-    #: -> 877.6 s / 37 with it, but seeds 0-2 alone 309.8 s / 12 -> 291.0 s / 12 (docs/controller.md,
-    #: "Bandai: the sole's roll is forced, the pelvis's yaw comes first"). The built-in walk's pelvis does
-    #: not twist (yaw_offset 0): unchanged
-    torso_twist: bool = False
     swing_hip_world: bool = True
     #: ankles aim the feet at the reference's world (heading-frame) orientation, so a foot lands and
     #: stays flat whatever the leg's tilt
     feet_world: bool = True
     redistribution: bool = True
     max_feedback: float = field(default=0.6, metadata={"gt": 0.0})
-    #: speed scheduling of the sagittal c_v: for a walk faster than this Froude number, Fr = v^2 / (g L)
-    #: (v the reference's mean walking speed, L the body's leg length, hip to ankle), the sagittal c_v is
-    #: scaled by cv_froude / Fr; null (default): c_v as given at every speed. At 0.1 (0.96 m/s on the
-    #: built-in body's 0.93 m legs) 25 of 36 generated walks 0.6-1.5 m/s walk 20 s at >= 70 % of their
-    #: speed, 17 with it off (benchmarks/speed_range.py), but the shared real walks with their feasible
-    #: references fall sooner (3 seeds x 7 walks: 56 s of walking in all against 174 s), so it is off
-    #: (docs/controller.md, "Speed range")
-    cv_froude: float | None = field(default=None, metadata={"gt": 0.0})
     #: speed scheduling of the sagittal c_d: above this Froude number the sagittal c_d is scaled by
     #: (cd_froude / Fr) ** cd_froude_power. The raw d (COM from the stance ankle) swings by about a step
     #: length through every stance, so on a long-striding fast walk c_d d pulls each swing leg back early
@@ -263,10 +230,6 @@ class BalanceConfig:
     #: deficit"); null: c_d as given at every speed
     cd_froude: float | None = field(default=0.13, metadata={"gt": 0.0})
     cd_froude_power: float = field(default=0.3, metadata={"min": 0.0})
-    #: the sagittal d measured against this share of the reference's own sagittal d on the current frame
-    #: (relative: lateral_reference only; 0: the raw d, 1: as "full"). Off: at 0.5 the games105 walk
-    #: walks 20 s on 3 seeds, every other shared walk falls sooner (docs/controller.md)
-    sagittal_reference: float = field(default=0.0, metadata={"min": 0.0, "max": 1.0})
     velocity: VelocityConfig = field(default_factory=VelocityConfig)
     #: what d and v are measured against: "none" (SIMBICON: raw COM offset from the stance ankle and
     #: raw COM velocity), "mean_velocity" (velocity relative to the reference's mean walking velocity),
@@ -305,19 +268,6 @@ class ResyncConfig:
 
 
 @dataclass(frozen=True)
-class SyncConfig:
-    """Synchronisation at the real swing-foot contact (Lee, Kim & Lee 2010): the swing foot's touch
-    ends a step only once the reference is ``accept`` of the way through that step (from the stance
-    foot's strike to the swing foot's); an early touch then moves the reference on to its strike frame
-    over ``blend`` s; a late one holds the reference at the strike frame (up to ``fsm.max_wait``)."""
-
-    enabled: bool = False
-    accept: float = field(default=0.7, metadata={"min": 0.0, "max": 1.0})
-    blend: float = field(default=0.1, metadata={"min": 0.0})  #: s
-    hold: bool = True
-
-
-@dataclass(frozen=True)
 class SwingFootConfig:
     """Swing-foot height by two-link leg IK (Lee, Kim & Lee 2010): the swing ankle's target, the
     reference's hip-to-ankle vector, is raised by ``height_gain`` x (the reference foot's height above
@@ -338,10 +288,6 @@ class SwingFootConfig:
     #: of the 48 pushes on CMU 02_01 survived; at 0.02 m 38, 29 and 27 (docs/controller.md, *Public walks
     #: we do not ship*)
     deadband: float = field(default=0.01, metadata={"min": 0.0})
-    #: the ankle target also moved forward by ``placement_gain`` x its lag behind the reference's
-    #: (hip to ankle, heading frame), clipped to +-``max_placement`` m: the swing leg's lag made up
-    placement_gain: float = field(default=0.0, metadata={"min": 0.0})
-    max_placement: float = field(default=0.2, metadata={"min": 0.0})  #: m
 
 
 @dataclass(frozen=True)
@@ -361,11 +307,6 @@ class StanceAnkleConfig:
 class ModulationConfig:
     """Reference modulation for tracking real captures (Lee, Kim & Lee 2010), each term switchable."""
 
-    sync: SyncConfig = field(default_factory=SyncConfig)
-    #: the swing leg's hip and knee damped against the reference's velocity, kd (qdot_d - qdot), not
-    #: -kd qdot: with absolute damping a leg swinging at w rad/s lags its target by kd/kp w (0.1 s of
-    #: motion at the default gains, 25 cm of foot on a 1.5 m/s walk)
-    swing_velocity: bool = False
     swing_foot: SwingFootConfig = field(default_factory=SwingFootConfig)
     stance_ankle: StanceAnkleConfig = field(default_factory=StanceAnkleConfig)
 
@@ -557,15 +498,13 @@ BODY_SCALED: dict[str, str] = {
     "balance.coronal.cd": "per_length", "balance.coronal.cv": "per_speed",
     "balance.torso_kp": "stiffness", "balance.roll_kp": "stiffness", "balance.torso_kd": "damping",
     "balance.heading_kp": "stiffness",
-    "balance.velocity.kv_sagittal": "force_per_speed", "balance.velocity.kv_coronal": "force_per_speed",
+    "balance.velocity.kv_sagittal": "force_per_speed",
     "balance.velocity.max_force": "force", "balance.velocity.filter_s": "time",
     "balance.course.deadband": "length", "balance.course.rate_filter": "time",
     "balance.course.steer_gain": "per_length", "balance.course.steer_damping": "per_speed",
-    "balance.course.placement_gain": "per_length", "balance.course.placement_damping": "per_speed",
-    "fade.fade_in": "time", "resync.spread": "time", "modulation.sync.blend": "time",
+    "fade.fade_in": "time", "resync.spread": "time",
     "modulation.swing_foot.lift": "length", "modulation.swing_foot.max_raise": "length",
     "modulation.swing_foot.max_drop": "length", "modulation.swing_foot.deadband": "length",
-    "modulation.swing_foot.max_placement": "length",
     "modulation.stance_ankle.kv": "per_speed", "modulation.stance_ankle.kd": "per_length",
     "reference.smooth_s": "time", "pose_gait.state_a_time": "time"}
 
@@ -574,12 +513,10 @@ BODY_SCALED: dict[str, str] = {
 #: physics timestep (neither is scaled)
 BODY_UNSCALED: frozenset[str] = frozenset({
     "control_dt", "fsm.tempo.min", "fsm.tempo.max", "balance.max_feedback", "balance.stance_yaw_limit",
-    "balance.course_frame_follow", "balance.cv_froude", "balance.cd_froude", "balance.cd_froude_power",
-    "balance.sagittal_reference", "balance.course.max_turn", "balance.course.max_placement",
-    "fade.min_scale", "resync.gain", "resync.max_frames", "modulation.sync.accept",
-    "modulation.swing_foot.height_gain", "modulation.swing_foot.placement_gain",
-    "modulation.stance_ankle.max_angle", "reference.blend", "reference.max_extension", "reference.clearance",
-    "reference.pendulum", "body.leg_min", "body.leg_max", "body.mass", "body.torque_scale"})
+    "balance.cd_froude", "balance.cd_froude_power", "balance.course.max_turn", "fade.min_scale", "resync.gain",
+    "resync.max_frames", "modulation.swing_foot.height_gain", "modulation.stance_ankle.max_angle",
+    "reference.blend", "reference.max_extension", "reference.clearance", "reference.pendulum", "body.leg_min",
+    "body.leg_max", "body.mass", "body.torque_scale"})
 
 
 def _scaled_gain(g: Gain, f_kp: float, f_kd: float) -> Gain:

@@ -340,11 +340,6 @@ class GaitSource:
         start (a 1 m segment repeated, heading 0)."""
         return Course(xy=((0.0, 0.0), (1.0, 0.0)), heading=(0.0, 0.0), cycle=(0.0, 1.0, 0.0))
 
-    def yaw_offset(self, f: float) -> float:
-        """The reference pelvis's heading at frame ``f`` less its course's heading there (rad): the
-        yaw the pelvis swings through within a cycle (0 for a source without a path)."""
-        return 0.0
-
     def course_start(self, f: float) -> tuple[tuple[float, float, float], int]:
         """Where the reference is at frame ``f`` in its course's coordinates (the first cycle): root
         (x, y) (m) and pelvis heading (rad), and the course segment the frame falls in."""
@@ -646,17 +641,9 @@ class ClipSource(GaitSource):
         self._step = float(np.mean(np.diff(np.append(steps, self.b)))) * self.frame_time
         self._heading = heading
         self._course = clip_course(com[:, :2], np.unwrap(heading), clip.qpos[:, :2], int(self.a), int(self.b))
-        # the pelvis's yaw about its course per frame (frames outside the loop: the loop's nearest end's)
-        a, b = int(self.a), int(self.b)
-        off = np.unwrap(heading)[a:b + 1] - np.asarray(self._course.heading)
-        off = (off + np.pi) % (2.0 * np.pi) - np.pi
-        self._yaw_off = np.concatenate([np.full(a, off[0]), off, np.full(n - b - 1, off[-1])]).reshape(-1, 1)
 
     def course(self) -> Course:
         return self._course
-
-    def yaw_offset(self, f: float) -> float:
-        return float(self._interp(self._yaw_off, f)[0])
 
     def course_start(self, f: float) -> tuple[tuple[float, float, float], int]:
         w = self.wrap(f)

@@ -34,7 +34,6 @@ from bipedsim.control.balance import (
     hinges_to_world3,
     hip_torques3,
     sagittal_cd,
-    sagittal_cv,
     stance_share,
     world_to_hinges3,
     yaw_matrix,
@@ -165,7 +164,6 @@ class SimbiconController(Controller):
                             float(np.linalg.norm(model.body_pos[model.body(f"{s}_foot").id]))) for s in SIDES}
         self.knee = {s: self.hinges.index(f"{s}_knee") for s in SIDES}
         self._foot_pts = {s: foot_points(model, s) for s in SIDES}
-        self.thigh_body = {s: model.body(f"{s}_thigh").id for s in SIDES}
 
     def _model_tables(self) -> None:
         """What the controller changes in the model (damping, actuator fields), saved to restore."""
@@ -241,7 +239,7 @@ class SimbiconController(Controller):
         self._speed = float(source.speed())
         # the sagittal c_v and c_d scheduled by the walk's Froude number (legs: hip to ankle, both sides' mean)
         leg, g = leg_length(model), -float(model.opt.gravity[2])
-        self._cv_sagittal = sagittal_cv(cfg.balance, self._speed, leg, g)
+        self._cv_sagittal = cfg.balance.sagittal.cv
         self._cd_sagittal = sagittal_cd(cfg.balance, self._speed, leg, g)
         self._tempo_on = cfg.fsm.tempo.gain > 0.0
         self._v_sag = self._speed  #: the last control step's sagittal COM velocity (heading frame)
@@ -251,17 +249,12 @@ class SimbiconController(Controller):
         self._r_heading = np.eye(3)
         self._r_torso = np.eye(3)  #: scratch: the torso law's heading when the stance foot's yaw limits it
         self._stance_yaw_limit = cfg.balance.stance_yaw_limit
-        self._torso_twist = cfg.balance.torso_twist
-        self._r_twist = np.eye(3)  #: scratch: the torso's yaw target turned by the reference's twist
         self.course = CourseTracker(source.course())
         self._course_from: tuple[float, float] | None = None  #: the COM's place on the course at reset
         self._course_on = cfg.balance.enabled and cfg.balance.course.enabled
-        self._frame_course = cfg.balance.heading_frame == "course"
-        self._frame_follow = cfg.balance.course_frame_follow
         self._rate_f = 0.0  #: the course offset's rate, low-passed (m/s)
         cc = cfg.balance.course
-        self._course_gains = (cc.deadband, cc.rate_filter, cc.steer_gain, cc.steer_damping, cc.max_turn,
-                              cc.placement_gain, cc.placement_damping, cc.max_placement)
+        self._course_gains = (cc.deadband, cc.rate_filter, cc.steer_gain, cc.steer_damping, cc.max_turn)
         self._dt = model.opt.timestep  #: the last control step's length (s)
         # scratch 3x3s refilled on every step (building a fresh array costs more than the product)
         self._ry = np.eye(3)
@@ -278,9 +271,6 @@ class SimbiconController(Controller):
                                 None if len(self.ankle[s][1]) < 2 else hinge_basis(self.ankle[s][1])[2])
                             for s in SIDES}
         mod = cfg.modulation
-        self._sync_on = mod.sync.enabled
-        self._swing_vel_on = mod.swing_velocity and not self._ref_vel and self.implicit
-        self._swing_leg = {s: [*self.hip[s][0].tolist(), self.knee[s]] for s in SIDES}
         # "auto" is resolved for the reference when a scenario is loaded (control.config.for_reference);
         # left unresolved, it is off
         self._ik_on = mod.swing_foot.enabled is True and source.swing_leg(source.loop_start, "left") is not None
@@ -289,7 +279,7 @@ class SimbiconController(Controller):
         vel = cfg.balance.velocity
         # the sagittal target is the source's walking speed: a source without one (key poses) has none
         self._kv_sag = vel.kv_sagittal if self._speed > 0.0 else 0.0
-        self._vel_on = cfg.balance.enabled and (self._kv_sag > 0 or vel.kv_coronal > 0)
+        self._vel_on = cfg.balance.enabled and self._kv_sag > 0
         #: per side: (hinge index, joint id) of the knee and ankle hinges, the stance leg's chain below
         #: the hip (which belongs to the torso law) for velocity tuning
         self._vf_joints = {s: [(int(i), int(self.hinges.jid[i])) for i in self.leg_low[s]
@@ -493,20 +483,10 @@ class SimbiconController(Controller):
         dt_ref = dt * rate
         self.clock += dt_ref
         swing_force = float(sd[self.touch[fsm.swing][0]])
-        if self._sync_on and fsm.state in (2, 4):
-            # a touch ends the step only once the reference is far enough through it
-            ph = src.swing_phase(self.frame, fsm.swing)
-            if ph is not None and ph < cfg.modulation.sync.accept:
-                swing_force = 0.0
         struck = fsm.update(dt_ref, t, swing_force)
         if struck is not None:
             self._resync(struck, t)
             self.wait_time = 0.0
-            if self._sync_on:
-                # an early touch: the reference moves on to its strike frame (over sync.blend s)
-                tgt = src.next_strike(self.frame, struck)
-                if tgt is not None and tgt - self.frame < 0.5 * src.step_time() / src.frame_time:
-                    self.pending_shift, self._shift_spread = tgt - self.frame, cfg.modulation.sync.blend
         # advance the reference, holding at the swing foot's strike frame while it has not landed
         nxt = self.frame + dt_ref / src.frame_time
         if self.pending_shift:
@@ -516,7 +496,7 @@ class SimbiconController(Controller):
             nxt += step
             self.pending_shift -= step
         holding = False
-        if (cfg.resync.hold or (self._sync_on and cfg.modulation.sync.hold)) and fsm.state in (2, 4):
+        if cfg.resync.hold and fsm.state in (2, 4):
             exp = src.next_strike(self.frame, fsm.swing)
             if exp is not None and nxt >= exp and self.wait_time < cfg.fsm.max_wait:
                 nxt = exp - 1e-6
@@ -543,10 +523,6 @@ class SimbiconController(Controller):
             tau += self._ff
         st = self.state
         st.frame, st.fsm_state, st.fade, st.holding, st.tempo = self.frame, fsm.state, a, holding, rate
-        if self._swing_vel_on:
-            # the swing leg's damping against the reference's velocity (implicit -kd qdot stays)
-            for i in self._swing_leg[fsm.swing]:
-                tau[i] += self._akd[i] * qd_d[i]
         if cfg.balance.enabled:
             self._dt = dt
             self._balance(data, q, qd, q_d, qd_d, tau, forces)
@@ -602,28 +578,15 @@ class SimbiconController(Controller):
         mujoco.mj_subtreeVel(self.model, data)
         cx, cy, _ = data.subtree_com[self.pelvis].tolist()
         vx, vy, _ = data.subtree_linvel[self.pelvis].tolist()
-        if self._frame_course:
-            # the frame: the course's heading (turned by the course law) plus the reference pelvis's
-            # own twist about its course at this frame, following the pelvis's yaw up to +-follow
-            place = self._steer(cx, cy, vx, vy, self._course_on)
-            heading = self.heading_target + self.source.yaw_offset(self.frame)
-            follow = self._frame_follow
-            if follow > 0.0:
-                dev = math.remainder(math.atan2(pm[3], pm[0]) - heading, 2.0 * math.pi)
-                heading += follow if dev > follow else -follow if dev < -follow else dev
-            c, s = math.cos(heading), math.sin(heading)
-            rh = self._r_heading
-            rh[0, 0], rh[0, 1], rh[1, 0], rh[1, 1] = c, -s, s, c
-        else:
-            heading = math.atan2(pm[3], pm[0])
-            c, s = math.cos(heading), math.sin(heading)
-            place = self._steer(cx, cy, vx, vy) if self._course_on else 0.0
+        heading = math.atan2(pm[3], pm[0])
+        c, s = math.cos(heading), math.sin(heading)
+        if self._course_on:
+            self._steer(cx, cy, vx, vy)
         ry = self._ry
         ry[0, 0], ry[0, 1], ry[1, 0], ry[1, 1] = c, -s, s, c
-        tau_torso = self._torso_torque(r_p, pm, data.qvel[3:6].tolist(), c, s,
-                                       self._torso_heading(data, forces, self._torso_target()))
+        tau_torso = self._torso_torque(r_p, pm, data.qvel[3:6].tolist(), c, s, self._torso_heading(data, forces))
         ax, ay, _ = data.xpos[self.foot_body[stance]].tolist()
-        fs, fc, vh0, vh1 = self._feedback(cx - ax, cy - ay, vx, vy, c, s, place)
+        fs, fc, vh0, vh1 = self._feedback(cx - ax, cy - ay, vx, vy, c, s)
         if self._ik_on:
             fs += self._swing_foot_ik(data, q_d, tau)
         if b.swing_hip_world:
@@ -635,27 +598,14 @@ class SimbiconController(Controller):
             self._feet_world(data, q, qd, q_d, qd_d, tau)
         self._hips(data, tau, tau_torso, tb, forces)
         if self._vel_on:  # last: the feet's world targets above set the ankle torques outright
-            self._virtual_force(data, tau, forces, c, s, vh0, vh1)
+            self._virtual_force(data, tau, forces, c, s, vh0)
 
-    def _torso_target(self) -> FloatArray:
-        """The torso law's heading rotation before the stance foot's limit: the heading target's
-        (``_r_heading``), with ``balance.torso_twist`` (pelvis frame) turned by the reference pelvis's own
-        twist about its course at this frame (the course frame has that twist in ``_r_heading``)."""
-        if not self._torso_twist or self._frame_course:
-            return self._r_heading
-        h_t = self.heading_target + self.source.yaw_offset(self.frame)
-        r, ch, sh = self._r_twist, math.cos(h_t), math.sin(h_t)
-        r[0, 0], r[0, 1], r[1, 0], r[1, 1] = ch, -sh, sh, ch
-        return r
-
-    def _torso_heading(self, data: mujoco.MjData, forces: dict[str, float], base: FloatArray | None = None
-                       ) -> FloatArray:
-        """The torso law's heading rotation: ``base``'s (the heading target's, ``_r_heading``, when None;
-        with ``balance.torso_twist`` the target turned by the reference pelvis's twist), its yaw kept
-        within ``balance.stance_yaw_limit`` of the loaded stance foot's yaw less the reference foot's own
-        yaw from its pelvis (the pelvis's yaw over that foot as the reference has it)."""
+    def _torso_heading(self, data: mujoco.MjData, forces: dict[str, float]) -> FloatArray:
+        """The torso law's heading rotation: the heading target's (``_r_heading``), its yaw kept within
+        ``balance.stance_yaw_limit`` of the loaded stance foot's yaw less the reference foot's own yaw
+        from its pelvis (the pelvis's yaw over that foot as the reference has it)."""
         lim, stance = self._stance_yaw_limit, self.fsm.stance
-        rh = self._r_heading if base is None else base
+        rh = self._r_heading
         if lim is None or forces[stance] <= 0.0:
             return rh
         f_ref = self.source.foot_target(self.frame, self.fsm.state, stance)
@@ -693,12 +643,12 @@ class SimbiconController(Controller):
         h1 = b.torso_kp * e1 - b.torso_kd * o1
         return (c * h0 - s * h1, s * h0 + c * h1, b.heading_kp * w2 - b.torso_kd * ow2)
 
-    def _feedback(self, dx: float, dy: float, vx: float, vy: float, c: float, s: float, place: float
+    def _feedback(self, dx: float, dy: float, vx: float, vy: float, c: float, s: float
                   ) -> tuple[float, float, float, float]:
-        """Eq. 6's feedback angles (rad) theta_d0 + c_d d + c_v v, sagittal and coronal, from the COM's
-        offset (dx, dy) m from the stance ankle and velocity (vx, vy) m/s (world), measured against the
-        walk's own as ``balance.relative`` says; ``place``: the course law's coronal term. Also returns
-        the COM velocity in the heading frame (for velocity tuning)."""
+        """Eq. 6's feedback angles (rad) c_d d + c_v v, sagittal and coronal, from the COM's offset
+        (dx, dy) m from the stance ankle and velocity (vx, vy) m/s (world), measured against the walk's
+        own as ``balance.relative`` says. Also returns the COM velocity in the heading frame (for
+        velocity tuning)."""
         b, src, stance, frame = self.cfg.balance, self.source, self.fsm.stance, self.frame
         d0, d1 = c * dx + s * dy, -s * dx + c * dy
         v0, v1 = c * vx + s * vy, -s * vx + c * vy
@@ -713,11 +663,9 @@ class SimbiconController(Controller):
         elif b.relative == "lateral_reference":
             d1 -= src.lateral_reference(frame, stance)
             v0 -= self._speed
-            if b.sagittal_reference > 0.0:  # a share of the reference's own sagittal d
-                d0 -= b.sagittal_reference * float(src.com_reference(frame, stance)[0][0])
         if b.feedback:
             fs = feedback_angle(0.0, self._cd_sagittal, self._cv_sagittal, d0, v0, b.max_feedback)
-            fc = feedback_angle(place, b.coronal.cd, b.coronal.cv, d1, v1, b.max_feedback)
+            fc = feedback_angle(0.0, b.coronal.cd, b.coronal.cv, d1, v1, b.max_feedback)
         else:
             fs = fc = 0.0
         self.state.feedback_sagittal, self.state.feedback_coronal = fs, fc
@@ -746,14 +694,8 @@ class SimbiconController(Controller):
         v0 = min(max(ang[0] * sign_b[0], tlo[i0]), thi[i0])
         v1 = min(max(ang[1] * sign_b[1], tlo[i1]), thi[i1])
         q_d[i0], q_d[i1] = v0, v1
-        if self._frame_course:
-            # in the course frame the twist is the world target's too: it sets the yaw the foot lands
-            # at, which a joint-space twist would take from the pelvis's yaw of the moment
-            q_d[i2] = min(max(ang[2] * sign_b[2], tlo[i2]), thi[i2])
         qb = q[sl_b].tolist() if isinstance(sl_b, slice) else [float(q[i]) for i in idx_b]
         tb = [kp[i0] * (v0 - qb[0]), kp[i1] * (v1 - qb[1]), kp[i2] * (float(q_d[i2]) - qb[2])]
-        if self._swing_vel_on:
-            tb = [x + kd[i] * float(qd_d[i]) for x, i in zip(tb, idx_b)]
         if not implicit or ref_vel:
             for k, i in enumerate(idx_b):
                 vel = (0.0 if implicit else float(qd[i])) - (float(qd_d[i]) if ref_vel else 0.0)
@@ -790,20 +732,14 @@ class SimbiconController(Controller):
         else:
             lift = sf.lift
         dz = min(max(sf.height_gain * err + lift * math.sin(math.pi * ph), -sf.max_drop), sf.max_raise)
-        dx = 0.0
-        if sf.placement_gain > 0.0:
-            # the ankle's forward lag behind the reference's, from the hip, in the heading frame
-            fx, fy, _ = (data.xpos[self.foot_body[swing]] - data.xpos[self.thigh_body[swing]]).tolist()
-            lag = x - (self._ry[0, 0] * fx + self._ry[1, 0] * fy)
-            dx = min(max(sf.placement_gain * lag, -sf.max_placement), sf.max_placement)
         l1, l2 = self.leg_len[swing]
         k0, b0 = _two_link(l1, l2, math.hypot(x, z))
-        k1, b1 = _two_link(l1, l2, math.hypot(x + dx, z + dz))
+        k1, b1 = _two_link(l1, l2, math.hypot(x, z + dz))
         i = self.knee[swing]
         new = min(max(float(q_d[i]) + k1 - k0, self._tlo_l[i]), self._thi_l[i])
         tau[i] += self._akp[i] * (new - float(q_d[i]))
         q_d[i] = new
-        return math.atan2(x + dx, -(z + dz)) - math.atan2(x, -z) + b1 - b0
+        return math.atan2(x, -(z + dz)) - math.atan2(x, -z) + b1 - b0
 
     def _feet_world(self, data: mujoco.MjData, q: FloatArray, qd: FloatArray, q_d: FloatArray, qd_d: FloatArray,
                     tau: FloatArray) -> None:
@@ -862,13 +798,11 @@ class SimbiconController(Controller):
         self.state.gamma = gamma
         self.state.tau_torso = tau_torso
 
-    def _steer(self, cx: float, cy: float, vx: float, vy: float, steer: bool = True) -> float:
+    def _steer(self, cx: float, cy: float, vx: float, vy: float) -> None:
         """Course control (``balance.course``): the COM at (cx, cy) m moving at (vx, vy) m/s (world) is
         placed on the reference's course; the torso law's heading target becomes the course's heading
-        turned back toward it, ``h_ref + clamp(-k_y e - k_v e_dot, +-max_turn)``. Returns the swing
-        hip's coronal placement angle (rad), ``clamp(k_p e + k_d e_dot, +-max_placement)``. ``steer``
-        false: the target is the course's heading, unturned, and no placement."""
-        band, tau, ky, kv, max_turn, kp, kd, max_place = self._course_gains
+        turned back toward it, ``h_ref + clamp(-k_y e - k_v e_dot, +-max_turn)``."""
+        band, tau, ky, kv, max_turn = self._course_gains
         offset, rate, h_ref = self.course.update(cx, cy, vx, vy)
         self.state.course_offset = offset
         # the rate is low-passed: the walk's own sway swings it by about 0.1 m/s within every cycle
@@ -877,17 +811,13 @@ class SimbiconController(Controller):
         # inside the band the law is silent (damping included): the balance law keeps the walk's sway
         offset = beyond(offset, band)
         rate = self._rate_f if offset != 0.0 else 0.0
-        h_t = h_ref + course_turn(offset, rate, ky, kv, max_turn) if steer else h_ref
+        h_t = h_ref + course_turn(offset, rate, ky, kv, max_turn)
         self.heading_target = self.state.heading_target = h_t
         rh, ch, sh = self._r_heading, math.cos(h_t), math.sin(h_t)
         rh[0, 0], rh[0, 1], rh[1, 0], rh[1, 1] = ch, -sh, sh, ch
-        if (kp == 0.0 and kd == 0.0) or not steer:
-            return 0.0
-        # a foot placed further out on the side the body should leave pushes it back toward the course
-        return feedback_angle(0.0, kp, kd, offset, rate, max_place)
 
     def _virtual_force(self, data: mujoco.MjData, tau: FloatArray, forces: dict[str, float], c: float, s: float,
-                       v0: float, v1: float) -> None:
+                       v0: float) -> None:
         """Velocity tuning: a virtual force F = kv (v_target - v) (heading frame, clipped to ``max_force``)
         on the centre of mass, produced by the loaded legs with the foot as the chain's fixed end: each
         knee and ankle hinge adds -share a . ((com - anchor) x F) (Jacobian transpose of the reversed
@@ -897,12 +827,10 @@ class SimbiconController(Controller):
             self._vf_v += (v0 - self._vf_v) * min(1.0, self._dt / vc.filter_s)
             v0 = self._vf_v
         f0 = self._kv_sag * (self._speed - v0)
-        f1 = vc.kv_coronal * (0.0 - v1)
-        norm = math.hypot(f0, f1)
-        if norm > vc.max_force:
-            f0, f1 = f0 * vc.max_force / norm, f1 * vc.max_force / norm
-        fx, fy = c * f0 - s * f1, s * f0 + c * f1
-        self.state.virtual_force = (f0, f1)
+        if abs(f0) > vc.max_force:
+            f0 = f0 * vc.max_force / abs(f0)
+        fx, fy = c * f0, s * f0
+        self.state.virtual_force = (f0, 0.0)
         total = forces["left"] + forces["right"]
         if total <= 1e-6:
             return

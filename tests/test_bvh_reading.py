@@ -11,9 +11,10 @@ from conftest import SHARED_BVH, need_shared
 
 from bipedsim.cli import main
 from bipedsim.errors import BVHError
-from bipedsim.model import build_model
-from bipedsim.motion import describe_bvh, read_bvh
+from bipedsim.model import build_model, describe_bvh
+from bipedsim.motion import read_bvh
 from bipedsim.motion.conventions import score_reading
+from bipedsim.motion.rest import standing_rest
 
 BANDAI = "human/bandai2_walk_exhausted_001.bvh"
 
@@ -55,13 +56,13 @@ def test_forced_readings_are_obeyed_and_checked(tmp_path: Path) -> None:
 
 def test_rebased_rest_pose_keeps_every_frame_and_builds_a_standing_humanoid() -> None:
     motion = read_bvh(shared_dir() / BANDAI)[0].to_project_frame()
-    standing = motion.with_standing_rest()
+    standing = standing_rest(motion)
     assert standing is not motion  # bone-aligned joint frames: the identity pose lies along +X
     assert np.abs(motion.fk()[0] - standing.fk()[0]).max() < 1e-9
     assert np.abs(motion.end_site_positions() - standing.end_site_positions()).max() < 1e-9
     assert 1.2 < build_model(standing).summary()["height_m"] < 2.0
     cmu = read_bvh(shared_dir() / "human/cmu_02_01_walk__holden31_crlf.bvh")[0].to_project_frame()
-    assert cmu.with_standing_rest() is cmu  # a standing rest pose is kept
+    assert standing_rest(cmu) is cmu  # a standing rest pose is kept
 
 
 def test_a_head_joint_on_the_neck_does_not_stop_the_build(tmp_path: Path) -> None:
@@ -69,7 +70,7 @@ def test_a_head_joint_on_the_neck_does_not_stop_the_build(tmp_path: Path) -> Non
     text = (shared_dir() / BANDAI).read_text().replace("OFFSET 6.45672 0.0 0.0", "OFFSET 0.0 0.0 0.0")
     f = tmp_path / "headless.bvh"
     f.write_text(text)
-    motion = read_bvh(f)[0].to_project_frame().with_standing_rest()
+    motion = standing_rest(read_bvh(f)[0].to_project_frame())
     assert build_model(motion).summary()["bodies"] >= 10
 
 
@@ -79,7 +80,7 @@ def test_rebased_limbs_rest_straight_so_the_walk_stays_within_the_knee_range() -
     from bipedsim.control.reference import Hinges
     from bipedsim.model import retarget
 
-    m = read_bvh(shared_dir() / BANDAI)[0].to_project_frame().with_standing_rest()
+    m = standing_rest(read_bvh(shared_dir() / BANDAI)[0].to_project_frame())
     b = build_model(m)
     clip = retarget(m, b.model, plan=b.plan, xml=b.xml)
     h = Hinges.of(b.model, b.plan)
@@ -130,8 +131,8 @@ def test_a_clip_faster_than_a_walk_says_so_and_names_the_flag() -> None:
     (the Froude number from its own speed and hip height) and names ``--clip-fps``; at its own rate, or
     given its rate back, it says nothing."""
     from bipedsim.data import builtin_walk_path
+    from bipedsim.model.describe import GRAVITY, WALK_FROUDE_MAX
     from bipedsim.motion.conventions import HIP_PER_STATURE
-    from bipedsim.motion.describe import GRAVITY, WALK_FROUDE_MAX
 
     path = builtin_walk_path()
     d0 = describe_bvh(path)

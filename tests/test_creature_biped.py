@@ -1,6 +1,6 @@
 """Creatures on two legs: soles measured from the skeleton (model/creature_sole.py), the two-legged
 planned gait (control/creature_biped.py) chosen by leg count, and an in-place creature walk's travel
-rebuilt from its feet (model.gait.creature_motion)."""
+rebuilt from its feet (model.prepare.creature_motion)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from bipedsim.control.creature_gait import CreatureGaitController
 from bipedsim.data import HORSE_WALK
 from bipedsim.errors import BipedsimError
 from bipedsim.model.creature_sole import BIPED_LEG_SHARE
-from bipedsim.model.gait import creature_motion
+from bipedsim.model.prepare import creature_motion
 from bipedsim.motion.bvh import read_bvh
 from bipedsim.sim.runner import load_scenario
 

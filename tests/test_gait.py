@@ -11,8 +11,10 @@ from conftest import SHARED_BVH, need_shared
 
 from bipedsim.errors import ConfigError
 from bipedsim.model import build_model, retarget
-from bipedsim.model.gait import contacts_from_strikes, humanoid_motion, in_place, load_events, point_contacts
+from bipedsim.model.gait import contacts_from_strikes, load_events, point_contacts
+from bipedsim.model.prepare import humanoid_motion, in_place
 from bipedsim.motion import read_bvh
+from bipedsim.motion.rest import standing_rest
 
 #: Strikes per foot counted by hand from each clip's heel/toe heights and speeds (the contact that is
 #: under way when a clip starts is no strike). Start-walk-stop: the left foot slides twice (a pivot, a
@@ -30,7 +32,7 @@ HAND_COUNTS = {
 
 def _clip(name: str):
     need_shared()
-    m = read_bvh(SHARED_BVH / "human" / f"{name}.bvh")[0].to_project_frame().with_standing_rest()
+    m = standing_rest(read_bvh(SHARED_BVH / "human" / f"{name}.bvh")[0].to_project_frame())
     b = build_model(m)
     return m, b, retarget(m, b.model, plan=b.plan, xml=b.xml)
 

@@ -51,7 +51,7 @@ def test_a_walk_that_comes_back_is_not_in_place() -> None:
     The public Emilya figure-eight walk (15 m of path, 0.35 m net) had been taken for a walk in place and
     its real root travel replaced by one rebuilt from its feet; in place is now the root's path (smoothed
     over a stride), not its net displacement."""
-    from bipedsim.model.gait import humanoid_motion, in_place
+    from bipedsim.model.prepare import humanoid_motion, in_place
 
     need_shared()
     m = read_bvh(SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")[0]
@@ -67,7 +67,8 @@ def test_in_place_travel_rebuilt_from_rolling_feet(name: str) -> None:
     """Every shared steady walk with its translation removed: the rebuilt travel is within 10 % of the
     original's and its speed within a step follows the original's (the lowest foot joint alone had rebuilt
     CMU 02_02's 19-joint walk at 71 % of its travel, 0.9 m/s off on average)."""
-    from bipedsim.model.gait import humanoid_motion, in_place, reconstruct_root, smooth
+    from bipedsim.model.gait import smooth
+    from bipedsim.model.prepare import humanoid_motion, in_place, reconstruct_root
 
     need_shared()
     m = humanoid_motion(read_bvh(SHARED_BVH / "human" / f"{name}.bvh")[0])
@@ -105,7 +106,7 @@ def test_a_walk_in_place_is_tracked(name: str, tmp_path: Path) -> None:
 def test_an_experiment_reads_a_file_as_run_does(tmp_path: Path) -> None:
     """An experiment naming the Bandai walk is accepted: its body-name check had built the body from the
     file's identity pose (no standing body: 'stands 0.38 m tall') instead of the standing rest pose
-    `bipedsim run` uses (model.gait.read_for_build); and a build error names its file."""
+    `bipedsim run` uses (model.prepare.read_for_build); and a build error names its file."""
     from bipedsim.errors import ModelError
     from bipedsim.model.build import build_model
     from bipedsim.motion.bvh import load_bvh
@@ -134,7 +135,7 @@ def test_a_walk_cycle_is_repeated_seamlessly(tmp_path: Path) -> None:
     """One gait cycle cut from a shared walk and put in place (a game animation's walk cycle: one strike
     per foot) is recognised as a loop and repeated with its seam closed; it had been refused ("1 right and
     1 left foot strikes"). A clip that is no loop is left as it is."""
-    from bipedsim.model.gait import LOOP_REPEAT_S, repeat_loop
+    from bipedsim.model.prepare import LOOP_REPEAT_S, repeat_loop
 
     need_shared()
     path = _variant("cmu_02_02_walk__daz43", "cycle", tmp_path)
@@ -170,7 +171,7 @@ def test_a_one_cycle_game_walk_is_not_refused() -> None:
 def test_info_reports_the_speed_a_walk_in_place_walks(tmp_path: Path) -> None:
     """`bipedsim info` on a walk in place reports its root as still (as the file has it) and the speed it
     walks at, its travel rebuilt from its feet: within 10 % of the original walk's root speed."""
-    from bipedsim.motion.describe import describe_bvh, format_description
+    from bipedsim.model.describe import describe_bvh, format_description
 
     need_shared()
     original = describe_bvh(SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
@@ -229,7 +230,7 @@ def test_side_names_that_contradict_the_legs(name: str, tmp_path: Path) -> None:
     np.testing.assert_allclose(b.built.model.body_pos, a.built.model.body_pos, atol=1e-9)
     np.testing.assert_allclose(b.built.model.jnt_axis, a.built.model.jnt_axis, atol=1e-9)
     np.testing.assert_allclose(b.clip.qpos, a.clip.qpos, atol=1e-6)
-    from bipedsim.motion import describe_bvh
+    from bipedsim.model import describe_bvh
 
     assert describe_bvh(swapped)["sides_note"] == note and "sides_note" not in describe_bvh(src)  # info says so
 
@@ -342,7 +343,7 @@ def test_rig_prefixes_are_told_from_role_words() -> None:
 def test_a_held_tail_is_dropped_only_when_it_is_padding() -> None:
     """Frames that repeat the last moving frame exactly for at least HELD_TAIL_S are padding; one repeated
     frame (CMU 131's last in its metres copy) or a wholly still clip is left as it is."""
-    from bipedsim.model.gait import HELD_TAIL_S, trim_held_tail
+    from bipedsim.model.prepare import HELD_TAIL_S, trim_held_tail
 
     need_shared()
     m = read_bvh(SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")[0].to_project_frame()

@@ -26,6 +26,7 @@ from bipedsim.model.retarget import (
     source_marker_positions,
 )
 from bipedsim.motion import Motion, Skeleton, load_bvh
+from bipedsim.motion.rest import standing_rest
 
 #: Replay tolerance (m): pelvis, knees, ankles, shoulders, elbows, wrists on every frame.
 REPLAY_TOL = 0.02
@@ -163,7 +164,7 @@ def test_shared_humans_convert_simulate_and_replay(path: Path) -> None:
     from bipedsim.model.build import HUMANOID_BUILT_HEIGHT_M
     from bipedsim.motion import read_bvh
 
-    m = load_bvh(path).with_standing_rest()
+    m = standing_rest(load_bvh(path))
     try:
         b = build_model(m)
     except ModelError as exc:

@@ -16,8 +16,7 @@ from bipedsim.breed import breed_files, format_breed_summary
 from bipedsim.data import builtin_walk_path
 from bipedsim.errors import ConfigError, OutputError
 from bipedsim.graph import build_graph_file, format_graph_summary, format_play_summary, play_script
-from bipedsim.model import convert_bvh, format_convert_summary
-from bipedsim.motion import describe_bvh, format_description
+from bipedsim.model import convert_bvh, describe_bvh, format_convert_summary, format_description
 from bipedsim.render.gl import RenderError, choose_backend
 from bipedsim.render.video import VideoOptions
 from bipedsim.sim import outputs
@@ -27,7 +26,7 @@ from bipedsim.sim.sweep import format_summary, interrupted_message
 DATA = REPO / "src" / "bipedsim" / "data"
 
 
-def test_describe_bvh_is_exported_from_motion() -> None:
+def test_describe_bvh_is_exported_from_model() -> None:
     d = describe_bvh(str(builtin_walk_path()))
     assert d["num_frames"] == 201 and "joints      21" in format_description(d)
 

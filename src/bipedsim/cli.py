@@ -87,7 +87,7 @@ def _subparser(sub: argparse._SubParsersAction, name: str, func: Callable[[argpa
 # ---------------------------------------------------------------------- info and convert
 def cmd_info(args: argparse.Namespace) -> int:
     from bipedsim.data import builtin_walk_path
-    from bipedsim.motion import describe_bvh, format_description
+    from bipedsim.model import describe_bvh, format_description
 
     d = describe_bvh(args.file or str(builtin_walk_path()), scale=args.scale, up=args.up, positions=args.positions,
                      fps=args.clip_fps)

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from bipedsim.motion.bvh import BVHInfo, bvh_text, load_bvh, read_bvh, write_bvh
 from bipedsim.motion.conventions import UNIT_SCALES, up_basis
-from bipedsim.motion.describe import describe_bvh, format_description
 from bipedsim.motion.motion import (
     Motion,
     canonical_quat,
@@ -25,8 +24,6 @@ __all__ = [
     "bvh_text",
     "canonical_quat",
     "concatenate",
-    "describe_bvh",
-    "format_description",
     "forward_kinematics",
     "left_right_pairs",
     "load_bvh",

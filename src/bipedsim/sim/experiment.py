@@ -19,7 +19,11 @@ from pathlib import Path
 from typing import Any
 
 from bipedsim import config
+from bipedsim.control.config import check_settings_for_body, load_controller, unread_settings
+from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
+from bipedsim.model.build import build_model
+from bipedsim.model.prepare import read_for_build
 from bipedsim.sim.push import DEFAULT_AFTER_S, DEFAULT_PUSH_BODY, Push, check_pushes, random_pushes
 from bipedsim.sim.rollout import MAX_ROLLOUT_S, FallCriteria
 from bipedsim.sim.runner import PROFILES
@@ -319,8 +323,6 @@ def check_experiment(exp: Experiment, path: str | os.PathLike[str], prefix: str 
 def _check_controller(ctl: str, kind: str, path: Path, key: str) -> None:
     """Load the controller file ``ctl`` named at ``key`` of the file at ``path`` and refuse settings a
     body of ``kind`` would not read (the error names both files)."""
-    from bipedsim.control.config import check_settings_for_body, load_controller
-
     cfg = load_controller(ctl)
     try:
         check_settings_for_body(cfg, kind, path=ctl)
@@ -331,10 +333,6 @@ def _check_controller(ctl: str, kind: str, path: Path, key: str) -> None:
 def _body_names(reference: str | None, profile: str = "auto", support: bool = False) -> tuple[set[str], str]:
     """The names of the bodies built from ``reference`` (None: the built-in walk) as the rollouts build
     them, and the body's kind (``humanoid`` or ``creature``)."""
-    from bipedsim.data import BUILTIN_WALK
-    from bipedsim.model.build import build_model
-    from bipedsim.model.gait import read_for_build
-
     _, _, motion, kind = read_for_build(reference or BUILTIN_WALK, profile=profile,  # as the rollouts read it
                                         support=support)
     built = build_model(motion, kind, source=reference or BUILTIN_WALK)
@@ -348,8 +346,6 @@ def _body_kind(reference: str | None, profile: str, support: bool) -> str:
         return profile
     if reference is None:
         return "humanoid"
-    from bipedsim.model.gait import read_for_build
-
     return read_for_build(reference, profile=profile, support=support)[3]
 
 
@@ -412,8 +408,6 @@ def resolve_relative(base: Path, rel: str | None) -> str | None:
 def load_suite(path: str | os.PathLike[str]) -> Suite:
     """Load and validate a suite: keys, values, the files it names and every push against its
     scenario's length, before any rollout."""
-    from bipedsim.control.config import check_settings_for_body, load_controller, unread_settings
-
     p = Path(path)
     suite = config.load(Suite, p)
     base = p.resolve().parent

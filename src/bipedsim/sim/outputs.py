@@ -34,8 +34,8 @@ from bipedsim.io import (
     progress_bar,
 )
 from bipedsim.model.build import check_total_mass
+from bipedsim.model.describe import pace_note
 from bipedsim.model.humanoid import sides_note, toes_note
-from bipedsim.motion.describe import pace_note
 from bipedsim.render.gl import RenderError
 from bipedsim.render.plots import PLOT_FILES, plot_run
 from bipedsim.render.video import (

@@ -27,7 +27,7 @@ from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature_kind import AUTO, resolve_profile
 from bipedsim.model.feasible import feasible_clip, measure, resolve_because
-from bipedsim.model.gait import read_for_build
+from bipedsim.model.prepare import read_for_build
 from bipedsim.model.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, FloatArray, Outcome, RolloutSpec, control_every, rollout

@@ -8,6 +8,12 @@ from typing import Any
 
 import numpy as np
 
+from bipedsim.errors import BipedsimError, ModelError
+from bipedsim.model.creature_kind import read_for_body
+from bipedsim.model.humanoid import check_sides, sides_note
+from bipedsim.model.naming import recognise_humanoid
+from bipedsim.model.prepare import motion_for_body
+from bipedsim.model.source import motion_points
 from bipedsim.motion.bvh import BVHInfo, read_bvh
 from bipedsim.motion.conventions import HIP_PER_STATURE, horizontal_axes
 from bipedsim.motion.motion import check_extent
@@ -52,10 +58,6 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
     where none can be told); a walk in place or a short walk cycle also gets ``walked_speed_mps`` (its
     travel rebuilt from its feet) and ``walked_note`` (what was done); a humanoid clip faster than people
     walk gets ``pace_note`` (:func:`pace_note`)."""
-    from bipedsim.errors import BipedsimError, ModelError
-    from bipedsim.model.creature_kind import read_for_body
-    from bipedsim.model.gait import motion_for_body
-
     built = None
     try:
         raw, info, m, body = read_for_body(path, scale=scale, up=up, positions=positions, fps=fps)
@@ -83,7 +85,7 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
         "root_displacement_m": net,
         "root_speed_mps": path_len / m.duration if m.duration > 0 else 0.0,
     })
-    # a walk cycle repeated, a walk in place given its travel back (model.gait): the speed it walks at
+    # a walk cycle repeated, a walk in place given its travel back (model.prepare): the speed it walks at
     made = [n for n in info.notes if n.startswith(("a loop:", "walks in place:"))]
     if built is not None and made and built.duration > 0:
         d["walked_speed_mps"] = travel(built)[0] / built.duration
@@ -101,11 +103,6 @@ def _sides_note(m: Any) -> str | None:
     """What the humanoid builder will say of a skeleton whose side names contradict its legs
     (:func:`~bipedsim.model.humanoid.check_sides`), for ``info``; None when they agree or no roles are
     found by name."""
-    from bipedsim.errors import ModelError
-    from bipedsim.model.humanoid import check_sides, sides_note
-    from bipedsim.model.naming import recognise_humanoid
-    from bipedsim.model.source import motion_points
-
     try:
         hm = recognise_humanoid(m.skeleton)
     except ModelError:

@@ -15,9 +15,10 @@ from bipedsim.cli import main
 from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.sim import sweep
 from bipedsim.sim.experiment import MAX_ROLLOUTS, load_experiment, load_suite
+from bipedsim.sim.limits import MAX_ROLLOUT_S
 from bipedsim.sim.push import MAX_PUSH_N, Push, check_pushes
 from bipedsim.sim.regress import run_suite, update_expectations
-from bipedsim.sim.rollout import MAX_ROLLOUT_S, PUSH_NOT_APPLIED, RolloutSpec
+from bipedsim.sim.rollout import PUSH_NOT_APPLIED, RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
 from bipedsim.sim.sweep import RESULT_COLUMNS, load_results, run_sweep, worker_count
 

@@ -2,7 +2,7 @@
 phases and controller configurations, with repeats and seeds; and regression suites.
 
 Everything is validated before any rollout starts: unknown keys, negative durations, unknown bodies,
-empty grids, repeated values, missing files, run lengths past :data:`~bipedsim.sim.rollout.MAX_ROLLOUT_S`,
+empty grids, repeated values, missing files, run lengths past :data:`~bipedsim.sim.limits.MAX_ROLLOUT_S`,
 more rollouts than :data:`MAX_ROLLOUTS`, pushes that would not lie inside the run -- each error names the
 file and the key.
 """
@@ -24,8 +24,9 @@ from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.model.build import build_model
 from bipedsim.model.prepare import read_for_build
+from bipedsim.sim.limits import MAX_ROLLOUT_S
 from bipedsim.sim.push import DEFAULT_AFTER_S, DEFAULT_PUSH_BODY, Push, check_pushes, random_pushes
-from bipedsim.sim.rollout import MAX_ROLLOUT_S, FallCriteria
+from bipedsim.sim.rollout import FallCriteria
 from bipedsim.sim.runner import PROFILES
 
 #: Most rollouts one experiment may expand to: 100 000 rollouts of a few seconds are days of CPU time

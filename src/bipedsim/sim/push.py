@@ -25,7 +25,7 @@ import numpy as np
 
 from bipedsim.control.base import Controller
 from bipedsim.errors import ConfigError
-from bipedsim.sim.rollout import MAX_ROLLOUT_S
+from bipedsim.sim.limits import MAX_ROLLOUT_S
 
 #: Seconds of walking before a phase-timed push may start (the gait settles first).
 DEFAULT_AFTER_S = 2.0

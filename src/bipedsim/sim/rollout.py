@@ -12,7 +12,7 @@ import math
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import mujoco
@@ -23,15 +23,13 @@ from bipedsim.control.base import Controller
 from bipedsim.errors import ConfigError
 from bipedsim.model.creature import trunk_bodies
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
+from bipedsim.sim.push import PushSchedule
 
 FloatArray = npt.NDArray[np.float64]
 #: A rollout with pushes that walked to its end without one of them (a phase-timed push whose gait
 #: state never came in time, or that the end of the run cut short): not a survived push.
 PUSH_NOT_APPLIED = "push_not_applied"
 OUTCOMES = ("no_fall", "fall", "diverged", PUSH_NOT_APPLIED)
-#: Longest rollout accepted (s): an hour of simulated walking is far past any experiment here (the
-#: longest test walks 60 s) and takes minutes; a larger value is a typo that would run for days.
-MAX_ROLLOUT_S = 3600.0
 
 
 #: Longest interval (s) between fall checks: past a second a fall is seen long after it happened.
@@ -129,8 +127,6 @@ class Outcome:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        from dataclasses import asdict
-
         return asdict(self)
 
 
@@ -311,8 +307,6 @@ def _push_schedule(model: mujoco.MjModel, pushes: list[Any] | None, ctrl: Contro
     """The pushes' schedule, first of the hooks run before each physics step (None without pushes)."""
     if not pushes:
         return None
-    from bipedsim.sim.push import PushSchedule
-
     schedule = PushSchedule(model, list(pushes))
     schedule.check_controller(ctrl)
     before_step.insert(0, schedule)

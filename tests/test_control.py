@@ -27,7 +27,7 @@ from bipedsim.control.balance import (
     stance_share,
     world_to_hinges,
 )
-from bipedsim.control.config import ControllerConfig, load_controller
+from bipedsim.control.config import ControllerConfig, controller_yaml, load_controller
 from bipedsim.control.fsm import GaitFSM
 from bipedsim.control.simbicon import SimbiconController as Controller
 from bipedsim.control.simbicon import gait_source
@@ -289,8 +289,8 @@ def test_run_seeds_is_seed_0_clean_then_noisy_seeds(scenario) -> None:
 
 
 # ---------------------------------------------------------------------- configuration
-def write_cfg(tmp_path: Path, text: str) -> Path:
-    p = tmp_path / "c.yaml"
+def write_cfg(tmp_path: Path, text: str, name: str = "c.yaml") -> Path:
+    p = tmp_path / name
     p.write_text(text)
     return p
 
@@ -320,6 +320,27 @@ def test_shipped_controllers_load_and_default_yaml_restates_the_code_defaults() 
         assert isinstance(load_controller(p), ControllerConfig)
     # one source of defaults: the dataclasses; the YAML restates every one of them
     assert load_controller(REPO / "controllers" / "default.yaml") == ControllerConfig() == load_controller(None)
+
+
+def test_default_yaml_is_generated_by_bipedsim_config(capsys) -> None:
+    """``controllers/default.yaml`` is exactly what ``bipedsim config`` prints (regenerate it with
+    ``bipedsim config > controllers/default.yaml``)."""
+    assert main(["config"]) == 0
+    out = capsys.readouterr().out
+    assert out == controller_yaml() == (REPO / "controllers" / "default.yaml").read_text()
+
+
+def test_config_prints_a_file_merged_over_the_defaults(tmp_path: Path, capsys) -> None:
+    """``bipedsim config FILE``: every key, the file's values over the defaults; read back, the same settings."""
+    p = write_cfg(tmp_path, "name: mine\npd:\n  gains:\n    hip: {kp: 700.0}\n")
+    assert main(["config", str(p)]) == 0
+    text = capsys.readouterr().out
+    back = write_cfg(tmp_path, text, "back.yaml")
+    cfg = load_controller(back)
+    assert cfg == load_controller(p)
+    assert cfg.pd.gains["hip"].kp == 700.0 and cfg.pd.gains["hip"].kd == ControllerConfig().pd.gains["hip"].kd
+    assert cfg.name == "mine" and cfg.balance == ControllerConfig().balance
+    assert main(["config", str(tmp_path / "missing.yaml")]) == 2  # a user's error: one line, exit 2
 
 
 def test_run_cli_writes_outcome(tmp_path: Path, capsys) -> None:

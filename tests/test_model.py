@@ -333,7 +333,7 @@ def test_mapping_errors_and_use(walk_model, tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("yaml_text,message", [
     ("joints:\n  knee: {axes: [y], range: [[2.5, 0.0]], torque: 400}\n", "limits reversed"),
-    ("gains:\n  hip: [-5, 1]\n", "kp and kd must be >= 0"),
+    ("gains:\n  hip: [-5, 1]\n", "unknown key"),  # PD gains are the controller's (pd.gains)
     ("masses:\n  pelvis: 0\n", "must be > 0 kg"),
     ("colour: red\n", "unknown key"),
     ("sim:\n  timestep: -1\n", "must be > 0.0"),

@@ -127,7 +127,22 @@ def _add_convert(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
 
 
-# ---------------------------------------------------------------------- run and render
+# ---------------------------------------------------------------------- config, run and render
+def cmd_config(args: argparse.Namespace) -> int:
+    from bipedsim.control.config import controller_yaml
+
+    sys.stdout.write(controller_yaml(args.controller))
+    return 0
+
+
+def _add_config(sub: argparse._SubParsersAction) -> None:
+    p = _subparser(sub, "config", cmd_config,
+                   "print the controller settings as YAML: the built-in defaults, or a file merged over them")
+    p.add_argument("controller", nargs="?", default=None,
+                   help="controller YAML (default: none, the built-in defaults; controllers/default.yaml is "
+                        "this output)")
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from bipedsim.sim.outputs import run_to_folder
 
@@ -143,7 +158,9 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def _add_run(sub: argparse._SubParsersAction) -> None:
     p = _subparser(sub, "run", cmd_run, "track a reference walk with the balance controller and report the outcome")
-    p.add_argument("config", nargs="?", default=None, help="controller YAML (default: controllers/default.yaml)")
+    p.add_argument("config", nargs="?", default=None,
+                   help="controller YAML, layered over the built-in defaults (default: the defaults alone, which "
+                        "`bipedsim config` prints)")
     p.add_argument("--bvh", default=None, help="reference BVH (default: the built-in walk on the built-in humanoid)")
     p.add_argument("--seconds", type=float, default=10.0, help="simulated seconds (default 10)")
     p.add_argument("--seed", type=int, default=0, help="random seed, recorded with the outcome")
@@ -445,8 +462,8 @@ def _add_tune(sub: argparse._SubParsersAction) -> None:
 
 #: Subcommand registrars, in the order ``--help`` lists them.
 COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_info, _add_convert, _add_run, _add_render, _add_sweep, _add_regress, _add_tune, _add_breed, _add_graph,
-    _add_world]
+    _add_info, _add_convert, _add_config, _add_run, _add_render, _add_sweep, _add_regress, _add_tune, _add_breed,
+    _add_graph, _add_world]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,9 +1,10 @@
 """Controller configuration: ``controllers/*.yaml`` validated into typed objects.
 
-The defaults live here, once: the dataclasses' defaults *are* the default controller, and
-``controllers/default.yaml`` restates them (a test keeps the two equal). A controller file is layered
-over these defaults: a file that names only ``pd.gains.hip.kp`` is the default controller with that one
-value changed (mappings are merged key by key; lists and scalars replace).
+The defaults live here, once: the dataclasses' defaults *are* the default controller.
+``controllers/default.yaml`` is generated from them (``bipedsim config``, :func:`controller_yaml`; a test
+keeps the two equal). A controller file is layered over these defaults: a file that names only
+``pd.gains.hip.kp`` is the default controller with that one value changed (mappings are merged key by
+key; lists and scalars replace).
 
 Every key is checked; unknown keys, wrong types and impossible values (negative gains, reversed
 limits, a fade that never ends) are rejected with the file and the dotted key named.
@@ -12,8 +13,12 @@ limits, a fade that never ends) are rejected with the file and the dotted key na
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field, replace
+import re
+import textwrap
+from dataclasses import dataclass, field, fields, is_dataclass, replace
 from typing import Any, Literal
+
+import yaml
 
 from bipedsim import config
 from bipedsim.control.creature_config import CreatureControlConfig
@@ -23,14 +28,12 @@ from bipedsim.model.profile import MASS_RANGE_KG
 
 PD_MODES = ("pd", "pd_ref_velocity")
 SOURCES = ("clip", "pose")
-#: the slowest control step accepted (s): 20 Hz. A walking body's stance lasts 0.3-0.4 s; at a slower
-#: rate the FSM would see a foot strike several centimetres late and the balance feedback would act
-#: on a step already over (``control_dt: 4`` walked with 0 foot strikes before this bound)
+#: the slowest control step accepted (s): 20 Hz. A stance lasts 0.3-0.4 s; at a slower rate the FSM
+#: sees a foot strike late and the balance feedback acts on a step already over
 MAX_CONTROL_DT = 0.05
-#: Leg lengths (m, hip to ankle) the settings may be said to be for (``body:``): the legs of the
-#: humanoids that can be built (0.6-3.0 m tall, :data:`~bipedsim.model.build.HUMANOID_BUILT_HEIGHT_M`;
-#: legs about half the height), with room. Scaling by a ratio to legs far outside them multiplies
-#: gains by absurd factors (1e-300 m overflowed).
+#: leg lengths (m, hip to ankle) the settings may be said to be for (``body:``): the legs of the
+#: humanoids that can be built (0.6-3.0 m tall, :data:`~bipedsim.model.build.HUMANOID_BUILT_HEIGHT_M`),
+#: with room; scaling to legs far outside them would multiply gains by absurd factors
 LEG_RANGE_M = (0.2, 2.0)
 
 
@@ -44,7 +47,8 @@ class Gain:
     torque_limit: float | None = field(default=None, metadata={"gt": 0.0})
 
 
-#: the default controller's PD gains per joint group (kp N*m/rad, kd N*m*s/rad)
+#: the default controller's PD gains per joint group (kp N*m/rad, kd N*m*s/rad); the body's torque
+#: limits are its profile's (``profiles/humanoid.yaml``, ``joints.<group>.torque``)
 DEFAULT_GAINS: dict[str, Gain] = {
     "spine": Gain(1000.0, 100.0), "neck": Gain(100.0, 10.0), "hip": Gain(1000.0, 100.0),
     "knee": Gain(1000.0, 100.0), "ankle": Gain(300.0, 30.0), "toe": Gain(60.0, 6.0),
@@ -53,36 +57,35 @@ DEFAULT_GAINS: dict[str, Gain] = {
 
 @dataclass(frozen=True)
 class PDConfig:
-    """Eq. 1: tau = kp (theta_d - theta) - kd theta_dot (``pd``, the paper's absolute damping) or
-    - kd (theta_dot - theta_dot_d) (``pd_ref_velocity``). With ``implicit_damping`` the -kd theta_dot
-    term is MuJoCo joint damping, integrated implicitly (``implicitfast``): it lets kd grow without
-    shrinking the timestep (explicit damping of a thigh's twist, whose inertia is tiny, is unstable at
-    2 ms). That damping is passive: it acts on the stance hip too, beside the balance law's torque,
-    and is not cut by torque limits."""
+    """PD tracking, eq. 1: tau = kp (theta_d - theta) - kd theta_dot.
+
+    ``mode``: ``pd`` (the paper's absolute damping) or ``pd_ref_velocity`` (- kd (theta_dot -
+    theta_dot_d)). With ``implicit_damping`` the -kd theta_dot term is MuJoCo joint damping, integrated
+    implicitly (``implicitfast``), so kd can grow without shrinking the timestep (explicit damping of a
+    thigh's twist, whose inertia is tiny, is unstable at 2 ms). That damping is passive: it acts on the
+    stance hip too, beside the balance law's torque, and is not cut by torque limits."""
 
     mode: str = field(default="pd", metadata={"choices": PD_MODES})
     implicit_damping: bool = True
-    #: the kp (theta_d - theta) term runs inside MuJoCo's actuators: each is a position servo,
-    #: force = kp (u - theta) clamped to the torque limit, whose target u = theta + tau / kp gives the
-    #: controller's torque tau (PD, feedforward, balance) at the control step, and keeps acting as a
-    #: spring as theta moves until the next one. So the stiffness is evaluated on every physics step
-    #: even when the controller runs less often (``control_dt``). At ``control_dt`` = the timestep
-    #: this is exactly the torque law; ``false``: plain torque motors, held between control steps.
+    #: the kp (theta_d - theta) term runs inside MuJoCo's position servos (force = kp (u - theta), clamped
+    #: to the torque limit; target u = theta + tau / kp gives the controller's torque tau at the control
+    #: step), so the stiffness acts on every physics step between control steps; ``false``: plain torque
+    #: motors, held between control steps
     servo: bool = True
-    #: with implicit damping, which joints' torque limits bound their net drive, actuator and damping
-    #: together, while the joint is driven the way it moves (the actuator may give up to limit + kd
-    #: |theta_dot|, of which the damping takes kd |theta_dot|): ``all``, ``swing`` (the swing leg's hip and
-    #: knee), ``swing_hip``; ``off``: the limit bounds the actuator alone, so a joint driven at its limit tops
-    #: out at limit / kd (366 / 91 = 4 rad/s for a 58 kg body's hip and knee), and a fast walk's swing lags
-    #: (docs/controller.md, "The swing's speed limit")
+    #: with implicit damping, which joints' torque limits bound actuator and damping together while the
+    #: joint is driven the way it moves (the actuator may give up to limit + kd |theta_dot|): ``all``,
+    #: ``swing`` (the swing hip and knee), ``swing_hip``; ``off``: the limit bounds the actuator alone, so a
+    #: joint driven at its limit tops out at limit / kd rad/s and a fast walk's swing lags
     net_limit: str = field(default="swing_hip", metadata={"choices": ("off", "swing", "swing_hip", "all")})
-    #: feedforward: hold every swinging part against gravity (MuJoCo's bias forces) and let the
-    #: stance knee and ankle carry their share (gamma) of the body weight (J^T f); not in the paper
+    #: feedforward (not in the paper): hold every swinging part against gravity (MuJoCo's bias forces) and
+    #: let each loaded leg's knee and ankle carry its share of the body weight (J^T f)
     gravity_compensation: bool = True
-    #: per joint group; a group not named here keeps the gains the body's profile wrote into the model
+    #: per joint group (:data:`DEFAULT_GAINS`); a group missing from a config built in Python takes its
+    #: :data:`DEFAULT_GAINS` entry, unscaled
     gains: dict[str, Gain] = field(default_factory=lambda: dict(DEFAULT_GAINS))
+    #: per joint, replacing its group's gains
     joint_gains: dict[str, Gain] = field(default_factory=dict)
-    #: per joint, targets are clipped to [lo, hi] rad
+    #: per joint, targets are clipped to [lo, hi] rad (default: the joint's range)
     target_limits: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def validate(self) -> None:
@@ -93,68 +96,68 @@ class PDConfig:
 
 @dataclass(frozen=True)
 class TempoConfig:
-    """Step tempo (not in the paper): the gait clock -- the reference's playback and the FSM's timers
-    -- runs at ``rate = clamp(1 + gain (e), min, max)`` times real time, where ``e`` is the sagittal
-    COM velocity's excess over the reference's mean speed beyond a ``deadband`` (m/s). A body pushed
-    forward steps sooner and swings its leg faster, so its legs stay under it: with a fixed swing
-    time it covers 0.6 m per step at 2 m/s, lands with the legs 65 degrees apart and the impact takes
-    half its speed, leaving it stalled between two loaded feet. ``gain`` 0 switches it off; ``min``
-    below 1 also slows the gait clock when the body is slower than the reference. The velocity is
-    measured by the balance law, so with ``balance.enabled: false`` the clock stays at real time."""
+    """Step tempo (not in the paper): the gait clock runs faster while the body outruns the reference.
+
+    The reference's playback and the FSM's timers run at ``rate = clamp(1 + gain e, min, max)`` times
+    real time, ``e`` the sagittal COM velocity's excess over the reference's mean speed beyond a
+    ``deadband``. A body pushed forward steps sooner and swings its leg faster, so its legs stay under
+    it. ``gain`` 0 switches it off; ``min`` below 1 also slows the clock for a body slower than the
+    reference. The velocity is measured by the balance law: with ``balance.enabled: false`` the clock
+    stays at real time."""
 
     gain: float = field(default=4.0, metadata={"min": 0.0})  #: rate per m/s of excess speed
     deadband: float = field(default=0.1, metadata={"min": 0.0})  #: m/s
-    min: float = field(default=1.0, metadata={"gt": 0.0, "max": 1.0})
-    max: float = field(default=1.5, metadata={"min": 1.0})
+    min: float = field(default=1.0, metadata={"gt": 0.0, "max": 1.0})  #: slowest rate (x real time)
+    max: float = field(default=1.5, metadata={"min": 1.0})  #: fastest rate (x real time)
 
 
 @dataclass(frozen=True)
 class FSMConfig:
-    """Four states: 1-2 right stance / left swing, 3-4 left stance / right swing. States 1 and 3
-    last ``state1_time`` s (``null``: the reference's double-support-to-mid-swing share); 2 and 4 end
-    when the swing foot's vertical force exceeds ``contact_force`` N, after at least
-    ``min_swing_time`` s. Those two times are on the gait clock, which runs at the ``tempo`` rate;
-    ``max_wait`` is real time."""
+    """The gait machine: states 1-2 right stance / left swing, 3-4 left stance / right swing.
 
+    States 1 and 3 last ``state1_time``; 2 and 4 end when the swing foot's vertical force exceeds
+    ``contact_force``, after at least ``min_swing_time``. Those two times are on the gait clock, which
+    runs at the ``tempo`` rate; ``max_wait`` is real time."""
+
+    #: s (null: half the reference's mean step time)
     state1_time: float | None = field(default=0.3, metadata={"gt": 0.0})
-    min_swing_time: float = field(default=0.2, metadata={"min": 0.0})
-    contact_force: float = field(default=30.0, metadata={"gt": 0.0})
+    min_swing_time: float = field(default=0.2, metadata={"min": 0.0})  #: s, so a toe's brush is no strike
+    contact_force: float = field(default=30.0, metadata={"gt": 0.0})  #: N on the swing sole's touch sensor
+    #: s: longest hold of the reference at a strike frame while the swing foot is late (``resync.hold``)
     max_wait: float = field(default=0.4, metadata={"min": 0.0})
     tempo: TempoConfig = field(default_factory=lambda: TempoConfig())
 
 
 @dataclass(frozen=True)
 class PlaneGains:
+    """Eq. 6's feedback gains in one plane: c_d (rad per m of COM offset), c_v (rad per m/s)."""
+
     cd: float = 0.5
     cv: float = 0.2
 
 
 @dataclass(frozen=True)
 class VelocityConfig:
-    """Velocity tuning by a virtual force on the centre of mass (Coros et al. 2010, sec. 5):
+    """Velocity tuning (Coros et al. 2010, sec. 5): a virtual force on the centre of mass.
+
     F = kv (v_target - v) forward in the heading frame, produced by the legs in contact in proportion to
     their loads through their knee and ankle hinges (Jacobian transpose of the chain from the fixed foot
     up to the COM). The target is the reference's mean walking speed, against the COM velocity
     low-passed over ``filter_s``. A 0 gain switches it off."""
 
-    #: 90 N per m/s on the low-passed speed: a body that walks slower than its reference is pushed on
-    #: (3 seeds x 7 shared walks: 174 s walked -> 203 s at 75 N per m/s, CMU 02_01 at 0.49-0.58 ->
-    #: 0.77-0.78 of its speed; re-measured on the current controller, 75 -> 90: 17 -> 22 of 24 runs of
-    #: the four walking captures at >= 70 % of their speed; the built-in walk's 60 s, 32/32 200 N
-    #: pushes and 7/7 regression suite kept; docs/controller.md "Speed deficit")
+    #: N per m/s of speed deficit: a body that walks slower than its reference is pushed on
     kv_sagittal: float = field(default=90.0, metadata={"min": 0.0})  #: N per m/s
     max_force: float = field(default=150.0, metadata={"gt": 0.0})  #: N, the horizontal force's norm
-    #: the sagittal velocity is low-passed with this time constant (s) before it is compared (0: raw):
-    #: the force answers the walk's lasting speed, not a push's transient (raw, 50 N per m/s cost 2 of
-    #: the 32 200 N pushes). 1.0 s (was 0.75; session 15): the CMU 02_01 pushes reach 6 of 8 in both
-    #: stances, the walks as before (docs/controller.md, "Pushes on a real capture")
+    #: s, time constant of the sagittal velocity's low-pass (0: raw), so the force answers the walk's
+    #: lasting speed, not a push's transient
     filter_s: float = field(default=1.0, metadata={"min": 0.0})
 
 
 @dataclass(frozen=True)
 class CourseConfig:
-    """Heading and course control (not in the paper; the heading-frame steering of SIMBICON's and
-    Coros et al.'s controllers, here on the reference's own path).
+    """Course control (not in the paper): the torso's heading target follows the reference's own path.
+
+    The heading-frame steering of SIMBICON's and Coros et al.'s controllers, on the reference's path.
 
     The course is the reference's centre of mass averaged over the clip's loop (no sway, any veer kept),
     repeated with the loop's displacement and turn, laid at the start on the body's root and
@@ -166,10 +169,7 @@ class CourseConfig:
         heading_target = heading_ref + clamp(-steer_gain e_b - steer_damping e_dot, +-max_turn)
 
     ``enabled: false``: the heading target stays the pelvis heading at the start (a veering clip is
-    walked straight).
-    Measured on the built-in walk (docs/controller.md): the 60 s walk's COM ends 0.45 m from the
-    reference's line (1.42 m at most), the walk bent on a 10 m radius turns the body 103 degrees in 20 s
-    (0.72 m off the arc; straight on with the law off)."""
+    walked straight)."""
 
     enabled: bool = True
     deadband: float = field(default=0.5, metadata={"min": 0.0})  #: m
@@ -181,55 +181,40 @@ class CourseConfig:
 
 @dataclass(frozen=True)
 class BalanceConfig:
-    """SIMBICON balance: world-frame torso (pelvis) control through the stance hip, swing-hip
-    feedback theta_d = theta_d0 + c_d d + c_v v per plane, contact-weighted redistribution."""
+    """SIMBICON balance: the torso (pelvis) held in the world frame through the hips, and the swing hip.
+
+    The swing hip's target is turned by the feedback theta_d = theta_d0 + c_d d + c_v v per plane (eq. 6);
+    the hips' torques are split by the feet's loads (eq. 2-5)."""
 
     enabled: bool = True
     feedback: bool = True
-    #: sagittal c_d 0.55 rad/m: at 0.6 and 0.65 the built-in walk limps (a foot lands behind the COM, the
-    #: next far ahead) and crabs off its heading, 27 m off the line in 60 s at 0.65 (docs/controller.md)
+    #: eq. 6 in the sagittal plane; a c_d above about 0.6 makes the built-in walk limp and crab
     sagittal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.15))
-    coronal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.3))
-    torso_kp: float = field(default=1000.0, metadata={"min": 0.0})
-    roll_kp: float | None = field(default=None, metadata={"min": 0.0})  #: null: torso_kp
-    #: the torso law's damping, N*m*s/rad (roll, pitch and yaw). 175 (was 100): the pelvis's yaw is damped
-    #: against the swing leg's yaw reaction, so the real walks hold their course (CMU 02_01 from 0.62 to 0.75
-    #: of its clip's speed along it) and CMU 12_03 overshoots less (1.46 -> 1.30 of its speed): shared walks
-    #: x seeds 0-9 at >= 70 % along the course 37 -> 50 of 70, public walks 30 -> 42 of 160. The damping is
-    #: explicit (the measured rate, once per control step): at 250 Hz control it turns unstable from about
-    #: 250 (CMU 131 falls at 0.7 s; stable at 500 Hz), so 175 keeps a margin (docs/controller.md, "Torso
-    #: damping")
+    coronal: PlaneGains = field(default_factory=lambda: PlaneGains(0.55, 0.3))  #: eq. 6 sideways
+    torso_kp: float = field(default=1000.0, metadata={"min": 0.0})  #: N*m/rad, the torso law's pitch
+    roll_kp: float | None = field(default=None, metadata={"min": 0.0})  #: N*m/rad, roll (null: torso_kp)
+    #: N*m*s/rad, the torso law's damping (roll, pitch and yaw), enough to hold the pelvis's yaw against
+    #: the swing leg's reaction; it is explicit (once per control step) and turns unstable from about 250
+    #: at 250 Hz control
     torso_kd: float = field(default=175.0, metadata={"min": 0.0})
-    heading_kp: float = field(default=300.0, metadata={"min": 0.0})
-    #: rad: the torso law's yaw target kept within this of the stance foot's yaw plus the reference pelvis's
-    #: own yaw from that foot (null: no limit). The ankles have no yaw hinge, so the stance hip's yaw torque
-    #: goes down the leg to the sole, which holds only a few tens of N m by friction (on its edge, as the
-    #: one-hinge ankle leaves it, on one contact point: none); asked to turn the pelvis back against its
-    #: feet, the stance foot spins instead and the hip's twist limit drags the pelvis round with it (Bandai,
-    #: CMU 12_03: 300-650 N m, the stance foot turning 100-130 degrees in one stance, then a sideways fall).
-    #: With it the pelvis turns with its feet and the course law steers by where they land: 3 seeds x 7
-    #: shared walks 275 s -> 319 s walked, Bandai and 12_03 from 2-9 s to 8-19 s (docs/controller.md,
-    #: "The stance foot spins"). 0.6 since the torso damping of 175 (was 0.35): the steadier pelvis needs
-    #: less binding, and at 0.35 a walk whose feet turn away holds its pelvis to them and circles (the dme
-    #: example, GAMES-105's walk and turn left): public walks x seeds 0-9 at >= 70 % along the course 42 ->
-    #: 59 of 160, the shared walks unchanged (docs/controller.md, "Torso damping")
+    heading_kp: float = field(default=300.0, metadata={"min": 0.0})  #: N*m/rad, the torso law's yaw
+    #: rad: the torso law's yaw target kept within this of the loaded stance foot's yaw plus the reference
+    #: pelvis's own yaw from that foot (null: no limit). The ankles have no yaw hinge and a sole holds
+    #: little torque about the vertical, so a pelvis turned far against its feet would spin the stance foot
     stance_yaw_limit: float | None = field(default=0.6, metadata={"gt": 0.0})
+    #: the swing thigh tracks the reference thigh's heading-frame orientation, turned by eq. 6's feedback
     swing_hip_world: bool = True
     #: ankles aim the feet at the reference's world (heading-frame) orientation, so a foot lands and
     #: stays flat whatever the leg's tilt
     feet_world: bool = True
+    #: the stance hip's torque split by the feet's loads (eq. 2-5); false: the stance hip takes all of it
     redistribution: bool = True
-    max_feedback: float = field(default=0.6, metadata={"gt": 0.0})
-    #: speed scheduling of the sagittal c_d: above this Froude number the sagittal c_d is scaled by
-    #: (cd_froude / Fr) ** cd_froude_power. The raw d (COM from the stance ankle) swings by about a step
-    #: length through every stance, so on a long-striding fast walk c_d d pulls each swing leg back early
-    #: in its swing and the foot lands late and short (a period-2 limp at half the clip's speed). At
-    #: 0.13 / 0.3 (the built-in walk, Fr 0.098, and the slower captures keep 0.55; CMU 02_01 Fr 0.19 gets
-    #: 0.49, CMU 02_02 Fr 0.32 0.42): 3 seeds x 7 shared walks 203 s walked -> 221 s, runs at >= 70 % of
-    #: their speed 3 -> 6, the 02_02 walks 0.53 -> 0.68-0.76 of their speed (docs/controller.md, "Speed
-    #: deficit"); null: c_d as given at every speed
+    max_feedback: float = field(default=0.6, metadata={"gt": 0.0})  #: rad, eq. 6's feedback angle at most
+    #: Froude number Fr = v^2 / (g L) above which the sagittal c_d is scaled by (cd_froude / Fr) **
+    #: cd_froude_power (null: c_d as given at every speed): on a long-striding fast walk the raw c_d d holds
+    #: each swing leg back and the foot lands late and short
     cd_froude: float | None = field(default=0.13, metadata={"gt": 0.0})
-    cd_froude_power: float = field(default=0.3, metadata={"min": 0.0})
+    cd_froude_power: float = field(default=0.3, metadata={"min": 0.0})  #: the schedule's exponent
     velocity: VelocityConfig = field(default_factory=VelocityConfig)
     #: what d and v are measured against: "none" (SIMBICON: raw COM offset from the stance ankle and
     #: raw COM velocity), "mean_velocity" (velocity relative to the reference's mean walking velocity),
@@ -243,24 +228,28 @@ class BalanceConfig:
 
 @dataclass(frozen=True)
 class FadeConfig:
-    """Sec. 4.4: while an external force acts, tracking gains drop to ``min_scale`` of their value;
-    afterwards they return linearly over ``fade_in`` s. Balance stays on."""
+    """Gain fade (sec. 4.4): tracking gains drop while an external force acts.
+
+    While a push acts the tracking gains are ``min_scale`` of their value; afterwards they return
+    linearly over ``fade_in``. Balance stays on."""
 
     enabled: bool = False
-    min_scale: float = field(default=0.3, metadata={"min": 0.0, "max": 1.0})
-    fade_in: float = field(default=0.5, metadata={"gt": 0.0})
+    min_scale: float = field(default=0.3, metadata={"min": 0.0, "max": 1.0})  #: share of the gains kept
+    fade_in: float = field(default=0.5, metadata={"gt": 0.0})  #: s back to full gains
 
 
 @dataclass(frozen=True)
 class ResyncConfig:
-    """Eq. 7-8, at every foot strike: M = P_c / P_r (simulated step time over the reference's).
-    M > 1 moves the reference back, M < 1 forward, by ``gain`` x the distance (frames) to the
-    reference's strike frame of that foot, at most ``max_frames``; ``hold`` pauses the reference at a
-    strike frame while the swing foot has not landed (up to the FSM's ``max_wait``)."""
+    """Resynchronisation (eq. 7-8): the reference's frame corrected at every foot strike.
+
+    At every strike M = P_c / P_r (simulated step time over the reference's) is recorded. With
+    ``enabled``, M > 1 moves the reference back and M < 1 forward, by ``gain`` x the distance (frames)
+    to the reference's strike frame of that foot, at most ``max_frames``; ``hold`` pauses the reference
+    at a strike frame while the swing foot has not landed (up to ``fsm.max_wait``)."""
 
     enabled: bool = False
-    gain: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
-    max_frames: float = field(default=25.0, metadata={"min": 0.0})
+    gain: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})  #: share of the frame difference
+    max_frames: float = field(default=25.0, metadata={"min": 0.0})  #: clip frames per strike at most
     #: seconds over which the shift is applied (the reference plays faster or slower meanwhile);
     #: 0 jumps at once, which jerks every target
     spread: float = field(default=0.25, metadata={"min": 0.0})
@@ -269,38 +258,37 @@ class ResyncConfig:
 
 @dataclass(frozen=True)
 class SwingFootConfig:
-    """Swing-foot height by two-link leg IK (Lee, Kim & Lee 2010): the swing ankle's target, the
-    reference's hip-to-ankle vector, is raised by ``height_gain`` x (the reference foot's height above
-    the stance foot - the simulated one's) + ``lift`` sin(pi phase) (m, phase 0-1 through the step),
-    clipped to [-``max_drop``, ``max_raise``]; the swing knee and the world thigh target follow (law of
-    cosines on the thigh and shin lengths). ``enabled``: true, false, or "auto" -- on where the clip's
-    legs are re-solved for the body (``reference: {feasible: auto}``: every capture measured here, not the
-    built-in walk generated for it; resolved by :func:`for_reference`)."""
+    """Swing-foot height by two-link leg IK (Lee, Kim & Lee 2010).
+
+    The swing ankle's target, the reference's hip-to-ankle vector, is raised by ``height_gain`` x (the
+    reference foot's height above the stance foot - the simulated one's) + ``lift`` sin(pi phase) (m,
+    phase 0-1 through the step), clipped to [-``max_drop``, ``max_raise``]; the swing knee and the world
+    thigh target follow (law of cosines on the thigh and shin lengths). ``enabled``: true, false, or
+    "auto" -- on where the clip's legs are re-solved for the body (``reference: {feasible: auto}``: every
+    capture, not the built-in walk generated for it; resolved by :func:`for_reference`)."""
 
     enabled: bool | Literal["auto"] = "auto"
-    height_gain: float = field(default=0.5, metadata={"min": 0.0})
+    height_gain: float = field(default=0.5, metadata={"min": 0.0})  #: m of raise per m of height deficit
     lift: float = field(default=0.04, metadata={"min": 0.0})  #: m
     max_raise: float = field(default=0.15, metadata={"min": 0.0})  #: m
     max_drop: float = field(default=0.05, metadata={"min": 0.0})  #: m
-    #: m: acts only while the swing foot is more than this below its reference height (0: always);
-    #: 0.01 m: a swing that clears the floor as its reference does is left alone. With the stance-ankle
-    #: feedback, 7 shared + 15 public walks x seeds 0-9: 36 of 70 and 26 of 160 runs at the goal, and 36
-    #: of the 48 pushes on CMU 02_01 survived; at 0.02 m 38, 29 and 27 (docs/controller.md, *Public walks
-    #: we do not ship*)
+    #: m: acts only while the swing foot is more than this below its reference height (0: always), so a
+    #: swing that clears the floor as its reference does is left alone
     deadband: float = field(default=0.01, metadata={"min": 0.0})
 
 
 @dataclass(frozen=True)
 class StanceAnkleConfig:
-    """Stance-ankle feedback (Lee, Kim & Lee 2010): the stance foot's world target pitched toe-down by
-    ``kv`` x (COM velocity - the reference's) + ``kd`` x (COM offset from the stance ankle - the
-    reference's) (rad per m/s, rad per m; sagittal and coronal), clipped to +-``max_angle`` rad.
-    ``enabled``: as :class:`SwingFootConfig`'s."""
+    """Stance-ankle feedback (Lee, Kim & Lee 2010): the stance foot tilted by the COM's error.
+
+    The stance foot's world target is pitched toe-down by ``kv`` x (COM velocity - the reference's) +
+    ``kd`` x (COM offset from the stance ankle - the reference's) (rad per m/s, rad per m; sagittal and
+    coronal), clipped to +-``max_angle`` rad. ``enabled``: as :class:`SwingFootConfig`'s."""
 
     enabled: bool | Literal["auto"] = "auto"
-    kv: float = field(default=0.1, metadata={"min": 0.0})
-    kd: float = field(default=0.1, metadata={"min": 0.0})
-    max_angle: float = field(default=0.2, metadata={"min": 0.0})
+    kv: float = field(default=0.1, metadata={"min": 0.0})  #: rad per m/s
+    kd: float = field(default=0.1, metadata={"min": 0.0})  #: rad per m
+    max_angle: float = field(default=0.2, metadata={"min": 0.0})  #: rad
 
 
 @dataclass(frozen=True)
@@ -325,24 +313,25 @@ class PoseState:
 
 @dataclass(frozen=True)
 class PoseGait:
-    """SIMBICON's classic per-state key poses: state A (timed) then state B (until contact)."""
+    """SIMBICON's key-pose gait (``source: pose``): state A (timed), then state B (until contact)."""
 
     state_a: PoseState = field(default_factory=lambda: PoseState(0.5, 1.1, -0.2, 0.05, 0.0, 0.0))
     state_b: PoseState = field(default_factory=lambda: PoseState(-0.1, 0.05, -0.15, 0.1, 0.0, 0.0))
-    state_a_time: float = field(default=0.3, metadata={"gt": 0.0})
-    elbow: float = -0.3
+    state_a_time: float = field(default=0.3, metadata={"gt": 0.0})  #: s
+    elbow: float = -0.3  #: rad, both elbows' target
 
 
 @dataclass(frozen=True)
 class BodyScaleConfig:
-    """The bodies the settings above hold for, and their scaling to a body outside them (dynamic
-    similarity). Every setting with a unit of length, time, force or torque was measured on bodies whose
-    legs (hip to ankle, the two legs' mean) are ``leg_min`` to ``leg_max`` m long and which weigh
-    ``mass`` kg. Run on another body (legs L, mass m), each is scaled by the powers of the leg ratio and
+    """The bodies the settings hold for, and their scaling to another body (dynamic similarity).
+
+    Every setting with a unit of length, time, force or torque holds for bodies whose legs (hip to ankle,
+    the two legs' mean) are ``leg_min`` to ``leg_max`` m long and which weigh ``mass`` kg. Run on another
+    body (legs L, mass m), each is scaled by the powers of the leg ratio and
     of m / ``mass`` its unit has (:data:`BODY_UNITS`: a length by the leg ratio, a time by its square
     root, a torque or a PD stiffness by the mass ratio times the leg ratio, ...); the leg ratio is L over
     the nearer end of the range (1 inside it). So a child's or a giant's body walking its clip at the
-    same Froude number as a measured one gets the same control. ``torque_scale`` multiplies the model's
+    same Froude number gets the same control. ``torque_scale`` multiplies the model's
     own joint torque limits (a group's ``pd.gains`` limit, when set, is scaled instead). A config
     recorded with a run has been scaled and names that run's body, so running it again on that body
     changes nothing. ``scale: false``: every value as written."""
@@ -351,7 +340,7 @@ class BodyScaleConfig:
     leg_min: float = field(default=0.78, metadata={"min": LEG_RANGE_M[0], "max": LEG_RANGE_M[1]})  #: m
     leg_max: float = field(default=0.94, metadata={"min": LEG_RANGE_M[0], "max": LEG_RANGE_M[1]})  #: m
     mass: float = field(default=64.0, metadata={"min": MASS_RANGE_KG[0], "max": MASS_RANGE_KG[1]})  #: kg
-    torque_scale: float = field(default=1.0, metadata={"gt": 0.0})
+    torque_scale: float = field(default=1.0, metadata={"gt": 0.0})  #: x the model's torque limits
 
     def validate(self) -> None:
         if self.leg_min > self.leg_max:
@@ -360,17 +349,19 @@ class BodyScaleConfig:
 
 @dataclass(frozen=True)
 class ControllerConfig:
-    """The whole controller."""
+    """The whole controller: a humanoid's sections, and a creature's (``creature:``)."""
 
     name: str = "default"
+    #: what the humanoid tracks: the reference ``clip``, or SIMBICON's key ``pose`` gait (``pose_gait``)
     source: str = field(default="clip", metadata={"choices": SOURCES})
     #: seconds between control steps (null: every physics step); physics runs at the model's timestep
     control_dt: float | None = field(default=0.004, metadata={"gt": 0.0, "max": MAX_CONTROL_DT})
     pd: PDConfig = field(default_factory=PDConfig)
-    fsm: FSMConfig = field(default_factory=FSMConfig)
+    fsm: FSMConfig = field(default_factory=FSMConfig)  #: the gait machine and its clock
     balance: BalanceConfig = field(default_factory=BalanceConfig)
     fade: FadeConfig = field(default_factory=FadeConfig)
     resync: ResyncConfig = field(default_factory=ResyncConfig)
+    #: corrections of a capture's reference to the body (Lee, Kim & Lee 2010)
     modulation: ModulationConfig = field(default_factory=ModulationConfig)
     #: the reference made feasible for the built body before tracking (model/feasible.py)
     reference: FeasibleConfig = field(default_factory=FeasibleConfig)
@@ -409,6 +400,65 @@ def load_controller(path: str | os.PathLike[str] | None = None) -> ControllerCon
     if not isinstance(data, dict):
         raise ConfigError(f"expected a mapping of keys, got {type(data).__name__}", path=path)
     return config.from_dict(ControllerConfig, merged(config.to_dict(ControllerConfig()), data), path=path)
+
+
+#: the width (characters) of the YAML :func:`controller_yaml` writes
+YAML_WIDTH = 120
+#: what :func:`controller_yaml` writes above the default controller
+DEFAULT_YAML_HEADER = """\
+# The default controller: every key with its default value. Generated from the typed settings in
+# src/bipedsim/control/config.py by `bipedsim config > controllers/default.yaml`; do not edit (a test
+# keeps the two equal). What each term computes: docs/controller.md. A controller file of your own names
+# only the keys it changes; `bipedsim config FILE` prints it merged over these defaults.
+"""
+
+
+def controller_yaml(path: str | os.PathLike[str] | None = None) -> str:
+    """The controller file ``path`` merged over the defaults (``None``: the defaults alone) as YAML text:
+    every key, each section headed by its one-line summary. Reading the text back
+    (:func:`load_controller`) gives the same settings."""
+    cfg = load_controller(path)
+    head = DEFAULT_YAML_HEADER if path is None else f"# {path} merged over the defaults (bipedsim config)\n"
+    return head + "\n".join(_yaml_lines(cfg, "")) + "\n"
+
+
+def _yaml_lines(obj: Any, pad: str) -> list[str]:
+    """The fields of dataclass ``obj`` as YAML lines indented by ``pad``."""
+    out: list[str] = []
+    above: type | None = None  # the class summarised by the last comment (a run of one class gets one)
+    for f in fields(obj):
+        value = getattr(obj, f.name)
+        if is_dataclass(value) and type(value) is not above:
+            width = YAML_WIDTH - len(pad) - 2
+            out += [f"{pad}# {line}" for line in textwrap.wrap(_summary(type(value)), width)]
+        above = type(value) if is_dataclass(value) else None
+        out += _yaml_entry(f.name, value, pad)
+    return out
+
+
+def _yaml_entry(key: str, value: Any, pad: str) -> list[str]:
+    """One key: on one line when its value is a scalar, a list, or a mapping of those that fits in
+    :data:`YAML_WIDTH`; else the key and its entries below, indented."""
+    data = config.to_dict(value)
+    line = f"{pad}{key}: {_flow(data)}"
+    nested = isinstance(data, dict) and any(isinstance(v, dict) for v in data.values())
+    if not isinstance(data, dict) or not data or (not nested and len(line) <= YAML_WIDTH):
+        return [line]
+    if is_dataclass(value):
+        return [f"{pad}{key}:", *_yaml_lines(value, pad + "  ")]
+    return [f"{pad}{key}:", *(x for k, v in value.items() for x in _yaml_entry(k, v, pad + "  "))]
+
+
+def _flow(data: Any) -> str:
+    """``data`` in YAML's one-line (flow) form."""
+    return yaml.safe_dump([data], default_flow_style=True, width=10**9, sort_keys=False).strip()[1:-1]
+
+
+def _summary(cls: type) -> str:
+    """The first sentence of a settings class's docstring, on one line, without reST markup."""
+    text = " ".join((cls.__doc__ or "").split("\n\n")[0].split())
+    text = re.sub(r":\w+:`~?([^`]+)`", r"\1", text).replace("``", "`")
+    return re.split(r"(?<=\.)\s+(?=[A-Z`])", text)[0]
 
 
 #: the top-level keys of a controller file every body's controller reads (the rest are read by one kind)
@@ -468,12 +518,9 @@ def for_reference(cfg: ControllerConfig, resolved: bool) -> ControllerConfig:
     """``cfg`` with every ``"auto"`` reference-modulation switch (``modulation.swing_foot``,
     ``modulation.stance_ankle``) made true for a reference whose legs were ``resolved`` for the body
     (``reference: {feasible: auto}`` re-solves every capture, :func:`bipedsim.model.feasible.resolve_because`),
-    false otherwise (the built-in walk generated for
-    the body; a clip tracked as it is, ``feasible: false``). Measured on 7 shared and 15 public walks x
-    seeds 0-9, the swing-foot IK (deadband 0.01 m) with the stance-ankle feedback: runs at >= 70 % of the
-    clip's speed 37 -> 36 of 70 on the shared walks, 6 -> 26 of 160 on the public ones
-    (docs/controller.md, *Public walks we do not ship*); on the built-in walk the swing-foot IK moves its
-    course by up to 1.8 m in 60 s, so it stays off there."""
+    false otherwise (the built-in walk generated for the body; a clip tracked as it is, ``feasible:
+    false``): the modulation corrects a capture's legs to the body, and would only move the built-in
+    walk off its course."""
     mod = cfg.modulation
     sf, sa = mod.swing_foot, mod.stance_ankle
     if sf.enabled != "auto" and sa.enabled != "auto":

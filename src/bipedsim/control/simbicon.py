@@ -40,7 +40,7 @@ from bipedsim.control.balance import (
     yaw_within,
 )
 from bipedsim.control.base import Controller, register
-from bipedsim.control.config import ControllerConfig, for_body
+from bipedsim.control.config import DEFAULT_GAINS, ControllerConfig, for_body
 from bipedsim.control.fsm import GaitFSM
 from bipedsim.control.reference import SIDES, ClipSource, CourseTracker, GaitSource, Hinges, PoseSource, foot_points
 from bipedsim.errors import ConfigError, ModelError
@@ -111,7 +111,8 @@ class SimbiconController(Controller):
 
     def _gain_table(self, jplan: dict) -> None:
         """kp, kd (N*m/rad, N*m*s/rad) and torque limits (N*m) per hinge: the joint's own entry in
-        ``pd.joint_gains``, else its group's in ``pd.gains``, else the body profile's; target ranges."""
+        ``pd.joint_gains``, else its group's in ``pd.gains`` (or :data:`DEFAULT_GAINS`, for a config built
+        in Python without it), else the joint plan's; target ranges."""
         model, cfg = self.model, self.cfg
         n = len(self.hinges.names)
         self.kp = np.zeros(n)
@@ -119,7 +120,7 @@ class SimbiconController(Controller):
         # the model's limits are the profile's, for any body: scaled to this one (``body.torque_scale``)
         self.limit = np.abs(model.actuator_ctrlrange[self.hinges.actuator, 1]) * cfg.body.torque_scale
         for i, name in enumerate(self.hinges.names):
-            g = cfg.pd.gains.get(self.hinges.groups[i])
+            g = cfg.pd.gains.get(self.hinges.groups[i]) or DEFAULT_GAINS.get(self.hinges.groups[i])
             kp, kd = (g.kp, g.kd) if g else (jplan[name].kp, jplan[name].kd)
             lim = g.torque_limit if g and g.torque_limit else None
             jg = cfg.pd.joint_gains.get(name)

@@ -636,10 +636,10 @@ class _HumanoidBuilder:
 
     def _group_hinges(self, prefix: str, group: str, bone: FloatArray, mirror: bool = False, *,
                       spec: JointSpec | None = None, parent_bone: FloatArray | None = None) -> list[JointPlan]:
-        """The hinges of one joint group, with the group's spec (unless ``spec``) and gains."""
-        kp, kd = self.profile.gains[group]
+        """The hinges of one joint group, with the group's spec (unless ``spec``). They carry no PD gains
+        (0): a humanoid's are its controller's (``pd.gains``, :data:`bipedsim.control.config.DEFAULT_GAINS`)."""
         spec = spec if spec is not None else self.profile.joints[group]
-        return _hinges(prefix, spec, bone, mirror, float(kp), float(kd), group, parent_bone=parent_bone)
+        return _hinges(prefix, spec, bone, mirror, 0.0, 0.0, group, parent_bone=parent_bone)
 
     # ----------------------------------------------------------------- rigid layouts (q)
     def fit_pelvis(self) -> None:

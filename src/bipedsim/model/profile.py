@@ -116,7 +116,6 @@ class HumanoidProfile:
     #: shoulders by more than ``spine_split_tol`` (m) on some frame
     spine_segments: Any = field(default="auto", metadata={"choices": ("auto", 1, 2)})
     spine_split_tol: float = field(default=0.015, metadata={"gt": 0.0})
-    gains: dict[str, tuple[float, float]] = field(default_factory=dict)
     geometry: Geometry = field(default_factory=Geometry)
     sim: SimOptions = field(default_factory=SimOptions)
 
@@ -130,16 +129,11 @@ class HumanoidProfile:
         for s, m in self.masses.items():
             if not m > 0:
                 raise ValueError(f"masses.{s}: must be > 0 kg, got {m}")
-        for group in (self.joints, self.gains):
-            missing = [g for g in JOINT_GROUPS if g not in group]
-            extra = [g for g in group if g not in JOINT_GROUPS]
-            if missing or extra:
-                name = "joints" if group is self.joints else "gains"
-                what = f"missing {missing}" if missing else f"unknown {extra}"
-                raise ValueError(f"{name}: {what}; joint groups are {', '.join(JOINT_GROUPS)}")
-        for g, (kp, kd) in self.gains.items():
-            if kp < 0 or kd < 0:
-                raise ValueError(f"gains.{g}: kp and kd must be >= 0, got [{kp}, {kd}]")
+        missing = [g for g in JOINT_GROUPS if g not in self.joints]
+        extra = [g for g in self.joints if g not in JOINT_GROUPS]
+        if missing or extra:
+            what = f"missing {missing}" if missing else f"unknown {extra}"
+            raise ValueError(f"joints: {what}; joint groups are {', '.join(JOINT_GROUPS)}")
         if self.ankle_x_range[0] >= self.ankle_x_range[1]:
             raise ValueError("ankle_x_range: limits reversed (need lo < hi)")
 

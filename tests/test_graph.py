@@ -11,7 +11,7 @@ from conftest import SHARED_BVH, need_shared
 from scipy.optimize import minimize
 
 from bipedsim.cli import main
-from bipedsim.graph import FULL, MotionGraph, Player, ScriptError, build_graph, load_graph_config, parse
+from bipedsim.graph import FULL, MotionGraph, Player, ScriptError, build_graph, load_graph_config, parse, read_graph
 from bipedsim.graph.build import summed_part_distance
 from bipedsim.graph.distance import align_2d, apply_2d, distance_matrix, windows
 from bipedsim.graph.prune import prune
@@ -173,7 +173,7 @@ def test_walk_with_upper_body_wave_and_walk_and_wave(graph: MotionGraph, tmp_pat
 def test_cli_build_play_and_run(graph: MotionGraph, tmp_path: Path) -> None:
     g, out = tmp_path / "g.npz", tmp_path / "out.bvh"
     assert main(["graph", "build", str(CONFIG), "-o", str(g)]) == 0
-    again = MotionGraph.load(g)
+    again = read_graph(g)
     assert again.layers[FULL].transitions[0] == graph.layers[FULL].transitions[0]
     script = REPO / "examples" / "graphs" / "walk_and_wave.txt"
     assert main(["graph", "play", str(g), str(script), "-o", str(out), "--start", "walk",

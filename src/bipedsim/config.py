@@ -271,3 +271,20 @@ def to_dict(obj: Any) -> Any:
 def load(cls: type[T], path: str | os.PathLike[str]) -> T:
     """Load and validate a YAML file into ``cls``."""
     return from_dict(cls, load_yaml(path), path=path)
+
+
+# ---------------------------------------------------------------------- limits from the environment
+def limit_from_env(name: str, default: int) -> int:
+    """A count limit, ``default`` unless the environment variable ``BIPEDSIM_MAX_<NAME>`` sets another
+    positive whole number (for one command on a machine that can afford more)."""
+    env = f"BIPEDSIM_MAX_{name.upper()}"
+    text = os.environ.get(env)
+    if not text:
+        return default
+    try:
+        value = int(text)
+    except ValueError:
+        raise ConfigError(f"{env}={text!r}: expected a positive whole number") from None
+    if value <= 0:
+        raise ConfigError(f"{env}={text!r}: expected a positive whole number")
+    return value

@@ -39,6 +39,7 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim import config
+from bipedsim.config import limit_from_env
 from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.motion.motion import Motion, canonical_quat
 from bipedsim.motion.reroot import fold_static_root
@@ -63,8 +64,6 @@ PAIR_BLOCK = 4_000_000
 
 def max_breed_frames() -> int:
     """:data:`MAX_BREED_FRAMES`, or ``BIPEDSIM_MAX_BREED_FRAMES`` where set."""
-    from bipedsim.graph.build import limit_from_env
-
     return limit_from_env("breed_frames", MAX_BREED_FRAMES)
 
 

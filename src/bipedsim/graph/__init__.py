@@ -7,7 +7,8 @@ from bipedsim.graph.distance import align_2d, distance_matrix
 from bipedsim.graph.play import build_graph_file, format_graph_summary, format_play_summary, play_script
 from bipedsim.graph.player import Player, PlayError
 from bipedsim.graph.script import ScriptError, parse
+from bipedsim.graph.store import read_graph
 
 __all__ = ["FULL", "GraphConfig", "MotionGraph", "PlayError", "Player", "ScriptError", "align_2d", "build_graph",
            "build_graph_file", "distance_matrix", "format_graph_summary", "format_play_summary",
-           "load_graph_config", "parse", "play_script"]
+           "load_graph_config", "parse", "play_script", "read_graph"]

@@ -43,9 +43,12 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import floyd_warshall
 
 from bipedsim import config
+from bipedsim.config import limit_from_env
 from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.graph.distance import distance_matrix
 from bipedsim.graph.prune import Transition, choose_threshold, labels_of
+from bipedsim.io import atomic_write_bytes
+from bipedsim.motion.bvh import load_bvh
 from bipedsim.motion.motion import Motion
 from bipedsim.motion.reroot import fold_static_root
 from bipedsim.motion.skeleton import Skeleton
@@ -82,22 +85,6 @@ PART_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-]{0,63}")
 MAX_COORD_M = 1e6
 #: How far a rotation stored in a graph file may be from a unit quaternion.
 UNIT_QUAT_TOL = 1e-3
-
-
-def limit_from_env(name: str, default: int) -> int:
-    """A count limit, ``default`` unless the environment variable ``BIPEDSIM_MAX_<NAME>`` sets another
-    positive whole number (for one command on a machine that can afford more)."""
-    env = f"BIPEDSIM_MAX_{name.upper()}"
-    text = os.environ.get(env)
-    if not text:
-        return default
-    try:
-        value = int(text)
-    except ValueError:
-        raise ConfigError(f"{env}={text!r}: expected a positive whole number") from None
-    if value <= 0:
-        raise ConfigError(f"{env}={text!r}: expected a positive whole number")
-    return value
 
 
 def max_graph_frames() -> int:
@@ -225,8 +212,6 @@ class MotionGraph:
 
     # ------------------------------------------------------------------ persistence
     def save(self, path: str | os.PathLike[str]) -> None:
-        from bipedsim.io import atomic_write_bytes
-
         arrays: dict[str, Any] = {}
         for i, c in enumerate(self.clips):
             arrays[f"clip{i}_root"] = c.root_translation
@@ -250,15 +235,6 @@ class MotionGraph:
         np.savez_compressed(buf, meta=np.array(json.dumps(meta)), **arrays)
         atomic_write_bytes(path, buf.getvalue())
 
-    @staticmethod
-    def load(path: str | os.PathLike[str]) -> MotionGraph:
-        """The graph saved in ``path``, every array and index checked before use
-        (:func:`bipedsim.graph.store.read_graph`)."""
-        from bipedsim.graph.store import read_graph
-
-        return read_graph(path)  # type: ignore[no-any-return]
-
-
 # ---------------------------------------------------------------------- building
 def load_graph_config(path: str | os.PathLike[str]) -> GraphConfig:
     return config.load(GraphConfig, path)
@@ -267,8 +243,6 @@ def load_graph_config(path: str | os.PathLike[str]) -> GraphConfig:
 def load_clips(cfg: GraphConfig, base: Path, folded: dict[str, dict[str, str]] | None = None) -> list[Motion]:
     """The clips of ``cfg`` (files relative to ``base``) in the project frame at the graph's fps, a
     static root at the floor folded into the joint carrying the motion (recorded in ``folded``)."""
-    from bipedsim.motion.bvh import load_bvh
-
     clips = []
     total, limit = 0, max_graph_frames()
     for c in cfg.clips:

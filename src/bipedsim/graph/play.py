@@ -11,6 +11,7 @@ from bipedsim.errors import ConfigError
 from bipedsim.graph.build import FULL, MotionGraph, build_graph, load_graph_config
 from bipedsim.graph.player import Player
 from bipedsim.graph.script import parse
+from bipedsim.graph.store import read_graph
 from bipedsim.io import atomic_write_json, check_distinct_paths, check_output_file, read_input_text
 from bipedsim.motion.bvh import write_bvh
 
@@ -99,7 +100,7 @@ def play_script(graph: PathLike, script: PathLike, output: PathLike, *, start: s
     (s) and the ``events`` of the path taken (time in s, layer, kind, detail, transition cost), with
     the graph's ``fps`` (frames/s) added (not in the JSON file)."""
     check_distinct_paths([("-o", output), ("--report", report)], [("the graph", graph), ("the script", script)])
-    g = MotionGraph.load(graph)
+    g = read_graph(graph)
     cmds = parse(read_input_text(script, "script"), source=str(script), layers=tuple(g.layers))
     check_output_file(output, "-o", (".bvh",))
     if report:

@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
+from bipedsim.config import limit_from_env
 from bipedsim.errors import BipedsimError
 from bipedsim.graph.build import FULL, Layer, MotionGraph, Transition
 from bipedsim.graph.distance import align_2d, apply_2d
@@ -42,8 +43,6 @@ PROGRESS_EVERY = 100
 
 def max_play_frames() -> int:
     """:data:`MAX_PLAY_FRAMES`, or ``BIPEDSIM_MAX_PLAY_FRAMES`` where set."""
-    from bipedsim.graph.build import limit_from_env
-
     return limit_from_env("play_frames", MAX_PLAY_FRAMES)
 
 

@@ -22,6 +22,18 @@ import numpy.typing as npt
 
 from bipedsim import config
 from bipedsim.errors import BipedsimError, InputError
+from bipedsim.graph.build import (
+    FULL,
+    MAX_CANDIDATES,
+    MAX_COORD_M,
+    UNIT_QUAT_TOL,
+    GraphConfig,
+    Layer,
+    MotionGraph,
+    max_graph_frames,
+)
+from bipedsim.graph.prune import Transition
+from bipedsim.io import check_input_file
 from bipedsim.motion.motion import Motion
 from bipedsim.motion.skeleton import Skeleton
 
@@ -115,8 +127,6 @@ def _finite(a: npt.NDArray[Any], name: str, bound: float | None = None) -> None:
 
 # ---------------------------------------------------------------------- the description
 def _skeleton(s: Any) -> Skeleton:
-    from bipedsim.graph.build import MAX_COORD_M
-
     _need(isinstance(s, dict), "its skeleton is not a mapping")
     names = _str_list(s.get("names"), "skeleton names")
     _need(all(n.isprintable() for n in names), "a skeleton name holds control characters")
@@ -168,8 +178,6 @@ def _report(rep: Any, clip_names: list[str], layer: str) -> dict[str, Any]:
 
 
 def _config(raw: Any) -> Any:
-    from bipedsim.graph.build import GraphConfig
-
     _need(isinstance(raw, dict), "its config is not a mapping")
     if raw.get("threshold") is not None and raw.get("threshold_quantile") is not None:
         raw = {**raw, "threshold_quantile": None}  # built before both were refused: the threshold won
@@ -180,21 +188,9 @@ def _config(raw: Any) -> Any:
 
 
 # ---------------------------------------------------------------------- the graph
-def read_graph(path: str | os.PathLike[str]) -> Any:
+def read_graph(path: str | os.PathLike[str]) -> MotionGraph:
     """The :class:`~bipedsim.graph.build.MotionGraph` in the file ``path``, every part checked (see the
     module docstring). Raises :class:`GraphFileError` naming the file and what is wrong."""
-    from bipedsim.graph.build import (
-        FULL,
-        MAX_CANDIDATES,
-        MAX_COORD_M,
-        UNIT_QUAT_TOL,
-        Layer,
-        MotionGraph,
-        max_graph_frames,
-    )
-    from bipedsim.graph.prune import Transition
-    from bipedsim.io import check_input_file
-
     try:
         check_input_file(path, "npz")
     except InputError as exc:

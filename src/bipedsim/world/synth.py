@@ -14,6 +14,7 @@ import numpy.typing as npt
 from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
+from bipedsim.config import limit_from_env
 from bipedsim.errors import BipedsimError
 from bipedsim.motion.motion import Motion, canonical_quat
 from bipedsim.world.blend import WEIGHTS, slerp, warp_times
@@ -41,8 +42,6 @@ MAX_WORLD_FRAMES = 100_000
 
 def max_world_frames() -> int:
     """:data:`MAX_WORLD_FRAMES`, or ``BIPEDSIM_MAX_WORLD_FRAMES`` where set."""
-    from bipedsim.graph.build import limit_from_env
-
     return limit_from_env("world_frames", MAX_WORLD_FRAMES)
 
 

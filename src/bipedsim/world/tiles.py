@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.config import load_yaml
+from bipedsim.config import limit_from_env, load_yaml
 from bipedsim.errors import ConfigError
 
 FloatArray = npt.NDArray[np.float64]
@@ -54,8 +54,6 @@ MAX_NAME_CHARS = 64
 
 def max_world_cells() -> int:
     """:data:`MAX_WORLD_CELLS`, or ``BIPEDSIM_MAX_WORLD_CELLS`` where set."""
-    from bipedsim.graph.build import limit_from_env
-
     return limit_from_env("world_cells", MAX_WORLD_CELLS)
 
 

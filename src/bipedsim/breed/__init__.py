@@ -15,7 +15,7 @@ from bipedsim.breed.evolve import (
                                       survivor,
 )
 from bipedsim.breed.files import breed_files, format_breed_summary
-from bipedsim.breed.samples import horse_walk, pterosaur_flight
+from bipedsim.motion.samples import horse_walk, pterosaur_flight
 
 __all__ = ["BreedError", "BreedReport", "MetaSkeleton", "breed", "breed_files", "crossover", "floor_constraint",
            "format_breed_summary", "horse_walk", "joint_activity", "load_joint_map", "mutate", "pterosaur_flight",

@@ -22,6 +22,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
+import bipedsim
 from bipedsim.errors import InputError, OutputError
 
 #: Permissions a new file gets before the umask, as ``open(path, "w")`` would give it.
@@ -553,8 +554,6 @@ def versions() -> dict[str, str]:
     import mujoco
     import numpy
     import scipy
-
-    import bipedsim
 
     return {"bipedsim": bipedsim.__version__, "mujoco": mujoco.__version__, "numpy": numpy.__version__,
             "scipy": scipy.__version__, "python": platform.python_version()}

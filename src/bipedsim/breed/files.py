@@ -10,6 +10,8 @@ from pathlib import Path
 from bipedsim.breed.evolve import X_RANGE, BreedReport, breed, load_joint_map
 from bipedsim.errors import ConfigError, ModelError
 from bipedsim.io import atomic_write_json, atomic_write_text, check_output_file
+from bipedsim.model.build import build_model
+from bipedsim.model.creature_kind import detect_body_kind
 from bipedsim.motion.bvh import load_bvh, write_bvh
 from bipedsim.motion.motion import Motion
 
@@ -58,9 +60,6 @@ def body_kind(child: Motion) -> tuple[str, bool]:
     The kind is the one ``bipedsim run`` measures (:func:`~bipedsim.model.creature_kind.detect_body_kind`);
     a child measured as a humanoid whose humanoid body does not build (a mutation took a foot), or in
     which fewer than two legs are found, runs as a creature, given with ``--profile creature``."""
-    from bipedsim.model.build import build_model
-    from bipedsim.model.creature_kind import detect_body_kind
-
     kind = detect_body_kind(child)
     if len(kind.legs) < 2:
         return "creature", False

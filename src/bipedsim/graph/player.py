@@ -15,7 +15,7 @@ body's current motion is in the part's graph (rule 1).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -28,6 +28,7 @@ from bipedsim.graph.build import FULL, Layer, MotionGraph, Transition
 from bipedsim.graph.distance import align_2d, apply_2d
 from bipedsim.graph.prune import describe_loss, kept_span
 from bipedsim.graph.script import Command, Target
+from bipedsim.io import progress_bar
 from bipedsim.motion.motion import Motion, canonical_quat
 
 FloatArray = npt.NDArray[np.float64]
@@ -301,8 +302,6 @@ class Player:
     def run(self, commands: list[Command]) -> Motion:
         """Play ``commands``; a script whose ``for N sec`` durations alone pass the frame limit is refused
         before playing, at the line where they do. A progress bar shows on a terminal."""
-        from bipedsim.io import progress_bar
-
         asked = 0.0
         for cmd in commands:
             asked += (cmd.seconds or 0.0) * self.fps
@@ -428,6 +427,4 @@ class Player:
                       rotations=np.array(self.rots), unit=1.0, up="z")
 
     def report(self) -> dict[str, Any]:
-        from dataclasses import asdict
-
         return {"frames": len(self.roots), "seconds": self.time, "events": [asdict(e) for e in self.events]}

@@ -12,6 +12,9 @@ import mujoco
 import numpy as np
 
 from bipedsim.errors import ConfigError, ModelError
+from bipedsim.io import atomic_write_text
+from bipedsim.model.creature import creature_plan
+from bipedsim.model.humanoid import humanoid_plan
 from bipedsim.model.plan import BodyPlanSet, ModelBuilder, model_hash, plan_from_model
 from bipedsim.model.profile import MASS_RANGE_KG, CreatureProfile, HumanoidProfile, load_profile
 from bipedsim.motion.motion import Motion
@@ -45,8 +48,6 @@ class BuiltModel:
                 "timestep_s": float(m.opt.timestep), "hash": self.hash}
 
     def write(self, path: str | os.PathLike[str]) -> None:
-        from bipedsim.io import atomic_write_text
-
         atomic_write_text(path, self.xml)
 
 
@@ -96,14 +97,10 @@ def _build_model(motion: Motion, profile: str | os.PathLike[str] | HumanoidProfi
     if motion.up != "z" or motion.unit != 1.0:
         motion = motion.to_project_frame()
     if isinstance(prof, HumanoidProfile):
-        from bipedsim.model.humanoid import humanoid_plan
-
         plan = humanoid_plan(motion, prof, mapping=mapping, total_mass=total_mass, name=name or "humanoid")
     else:
         if mapping is not None:
             raise ModelError("a joint mapping applies to the humanoid profile only")
-        from bipedsim.model.creature import creature_plan
-
         plan = creature_plan(motion, prof, total_mass=total_mass, name=name or "creature")
     _check_depth(plan)
     builder = ModelBuilder(plan)

@@ -11,6 +11,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.errors import ModelError
+from bipedsim.io import atomic_write_bytes
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -60,8 +61,6 @@ class ReferenceClip:
 
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write as ``.npz`` (atomically)."""
-        from bipedsim.io import atomic_write_bytes
-
         meta = {"frame_time": self.frame_time, "foot_names": self.foot_names, "events": self.events,
                 "model_hash": self.model_hash, "joint_names": self.joint_names, "source": self.source,
                 "vertical_shift": self.vertical_shift, "trimmed_frames": self.trimmed_frames,

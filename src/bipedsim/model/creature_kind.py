@@ -28,7 +28,9 @@ import numpy as np
 
 from bipedsim.errors import ModelError
 from bipedsim.model.source import motion_points
-from bipedsim.motion.motion import Motion
+from bipedsim.motion.bvh import read_bvh
+from bipedsim.motion.motion import Motion, check_extent
+from bipedsim.motion.reroot import fold_static_root
 
 if TYPE_CHECKING:
     from bipedsim.motion.bvh import BVHInfo
@@ -254,10 +256,6 @@ def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = N
     the project frame, and the body kind (:func:`resolve_profile`). A creature's unit, when guessed, is
     guessed from its largest extent, not a standing human's height: a bred dog x horse with its head up
     had been read as a 1.3 m human in inches (2.54 x too large)."""
-    from bipedsim.motion.bvh import read_bvh
-    from bipedsim.motion.motion import check_extent
-    from bipedsim.motion.reroot import fold_static_root
-
     raw, info = read_bvh(path, scale=scale, up=up, positions=positions, fps=fps)
     check_extent(raw, path)  # nothing below is computed from a corrupt or misread motion
     motion = raw.to_project_frame()

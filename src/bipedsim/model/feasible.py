@@ -36,10 +36,14 @@ from typing import Literal
 import mujoco
 import numpy as np
 import numpy.typing as npt
+from scipy.ndimage import maximum_filter1d, uniform_filter1d
+from scipy.sparse import diags, vstack
+from scipy.sparse.linalg import spsolve
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip
+from bipedsim.model.retarget import velocities
 
 FloatArray = npt.NDArray[np.float64]
 SIDES = ("right", "left")
@@ -347,9 +351,6 @@ def pendulum_shift(com: FloatArray, feet: dict[str, FootPlan], dt: float, weight
     pendulum ZMP, c - c''/w^2 (w^2 = g / the mean COM height), follow the stance feet's centre of pressure
     (one foot's in single support; in double support moving from the trailing foot's to the leading
     one's): least squares of ``weight`` x the ZMP's error against the shift itself, per axis."""
-    from scipy.sparse import diags, vstack
-    from scipy.sparse.linalg import spsolve
-
     n = len(com)
     w2 = GRAVITY / max(float(np.mean(com[:, 2])), 0.1)
     cops = np.stack([f.cop for f in feet.values()], axis=0)  # (S, T, 3)
@@ -396,8 +397,6 @@ def pelvis_drop(kin: dict[str, dict[str, FloatArray]], feet: dict[str, FootPlan]
         need = np.maximum(need, dz - ok)
     w = max(1, int(round(smooth_s / dt)))
     if w > 1:
-        from scipy.ndimage import maximum_filter1d, uniform_filter1d
-
         need = uniform_filter1d(maximum_filter1d(need, size=w, mode="nearest"), size=w, mode="nearest")
     return need
 
@@ -496,8 +495,6 @@ def solve_reaching(model: mujoco.MjModel, data: mujoco.MjData, leg: _Leg, q0: Fl
 def feasible_clip(clip: ReferenceClip, model: mujoco.MjModel, cfg: FeasibleConfig | None = None) -> ReferenceClip:
     """The clip with its lower body made feasible for ``model`` (module docstring); the upper body,
     contacts, events and timing are kept. ``cfg.blend`` mixes the clip's legs (0) and the feasible ones."""
-    from bipedsim.model.retarget import velocities
-
     cfg = cfg or FeasibleConfig(feasible=True)
     if set(SIDES) - set(clip.foot_names):
         raise ModelError(f"the feasible reference needs left and right feet, the clip has {clip.foot_names}")

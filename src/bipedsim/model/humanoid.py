@@ -19,8 +19,8 @@ from scipy.spatial.transform import Rotation
 from bipedsim.errors import ModelError
 from bipedsim.model.naming import HumanoidMap, MapFile, map_from_roles, recognise_humanoid
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
-from bipedsim.model.profile import HumanoidProfile, JointSpec
-from bipedsim.model.retarget import kabsch
+from bipedsim.model.profile import HumanoidProfile, JointSpec, load_profile
+from bipedsim.model.retarget import _min_rotation, kabsch
 from bipedsim.model.source import SourcePoints, motion_points, rest_points
 from bipedsim.motion.motion import Motion
 
@@ -551,8 +551,6 @@ def with_tips(motion: Motion, notes: list[str] | None = None, profile: HumanoidP
 
 
 def _default_profile() -> HumanoidProfile:
-    from bipedsim.model.profile import load_profile
-
     prof = load_profile("humanoid")
     assert isinstance(prof, HumanoidProfile)
     return prof
@@ -836,8 +834,6 @@ class _HumanoidBuilder:
         None for a 1-DOF ankle, whose foot rolls with the leg's plane, or without captured rotations."""
         if not self.profile.ankle_2dof or self.moving.rotations is None:
             return None
-        from bipedsim.model.retarget import _min_rotation
-
         ref = self.moving.rotation(ankle)
         g = _min_rotation(np.einsum("tij,j->ti", ref, rest_bone), self.moving[front] - self.moving[ankle]) @ ref
         return np.einsum("tij,j->ti", g, np.asarray(axis, dtype=float))

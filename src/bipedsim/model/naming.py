@@ -19,7 +19,8 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from bipedsim import config
-from bipedsim.errors import ModelError
+from bipedsim.errors import ConfigError, ModelError
+from bipedsim.motion.roles import find_roles
 from bipedsim.motion.skeleton import Skeleton
 
 if TYPE_CHECKING:
@@ -153,8 +154,6 @@ def load_map(path: str | os.PathLike[str], skeleton: Skeleton) -> MapFile:
     named += [(f"{s}.{r}", v) for s in SIDES for r, v in getattr(m, s).items()]
     for key, joint in named:
         if joint not in names:
-            from bipedsim.errors import ConfigError
-
             close = sorted(n for n in names if n.lower()[:3] == str(joint).lower()[:3])[:5]
             hint = f"; similar: {', '.join(close)}" if close else ""
             raise ConfigError(f"names joint {joint!r}, which the skeleton does not have{hint}",
@@ -273,8 +272,6 @@ def map_from_roles(motion: Motion) -> MapFile | None:
     (:func:`~bipedsim.motion.roles.find_roles`: limbs as pairs of sibling chains, the legs the pair whose
     ends stay lowest, left of the direction of travel), for a skeleton whose names say nothing; None
     when it does not find two legs."""
-    from bipedsim.motion.roles import find_roles
-
     try:
         r = find_roles(motion if motion.up == "z" and motion.unit == 1.0 else motion.to_project_frame())
     except (ValueError, IndexError, ModelError):

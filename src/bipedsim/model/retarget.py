@@ -19,6 +19,7 @@ quaternions. Velocities come from ``mj_differentiatePos`` (central differences o
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable
 
 import mujoco
@@ -274,8 +275,6 @@ def _hinge_angles(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
     seq, signs, basis = hinge_basis(axes)
     if basis is not None:  # a rotation about basis @ e_i is basis R_i basis^T
         local = np.einsum("ji,tjk,kl->til", basis, local, basis)
-    import warnings
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
         eul = Rotation.from_matrix(local).as_euler(seq.upper())

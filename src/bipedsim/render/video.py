@@ -18,11 +18,13 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.io import check_output_file, progress_bar
 from bipedsim.render.gl import RenderError, backend_env, backends_tried, choose_backend
+from bipedsim.sim.recorder import Trajectory
 
 MODEL_FILE = "model.xml"
 TRAJECTORY_FILE = "trajectory.npz"
@@ -78,10 +80,6 @@ def frame_times(t0: float, t1: float, opts: VideoOptions) -> np.ndarray:
 
 def render_frames(run_dir: str | os.PathLike[str], opts: VideoOptions, progress: bool = False):  # noqa: ANN201
     """Yield RGB frames (H, W, 3 uint8). Must run in a process whose MUJOCO_GL works."""
-    import mujoco
-
-    from bipedsim.sim.recorder import Trajectory
-
     run = Path(run_dir)
     model = mujoco.MjModel.from_xml_path(str(run / MODEL_FILE))
     tr = Trajectory.load(run / TRAJECTORY_FILE)

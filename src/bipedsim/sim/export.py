@@ -20,8 +20,10 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
+from bipedsim.io import atomic_write_text
 from bipedsim.model.plan import BodyPlanSet
 from bipedsim.model.source import rest_points
+from bipedsim.motion.bvh import write_bvh
 from bipedsim.motion.motion import Motion, canonical_quat
 from bipedsim.sim.recorder import Trajectory
 
@@ -94,8 +96,6 @@ def simulated_motion(tr: Trajectory, model: mujoco.MjModel, plan: BodyPlanSet, s
 
 def write_motion_bvh(motion: Motion, path: str | os.PathLike[str], unit: float = 1.0, up: str = "y") -> None:
     """Write a project-frame motion as BVH in ``unit`` (metres per file unit) with ``up`` up."""
-    from bipedsim.motion.bvh import write_bvh
-
     write_bvh(motion.with_up(up).scaled(1.0 / unit), path, precision=6)
 
 
@@ -103,8 +103,6 @@ def write_joint_csv(tr: Trajectory, names: list[str], q: FloatArray, q_ref: Floa
                     path: str | os.PathLike[str]) -> None:
     """Time and every joint angle (rad), simulated and reference, one row per sample (``q``, ``q_ref``:
     (T, J), from :func:`bipedsim.sim.outputs.joint_series`)."""
-    from bipedsim.io import atomic_write_text
-
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(["time_s"] + names + [f"{n}_ref" for n in names])

@@ -26,6 +26,7 @@ import numpy.typing as npt
 
 from bipedsim.control.base import Controller
 from bipedsim.errors import BipedsimError, ConfigError
+from bipedsim.io import atomic_writer
 
 FloatArray = npt.NDArray[np.floating]
 FORMAT = "bipedsim.Trajectory/1"
@@ -86,8 +87,6 @@ class Trajectory:
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write ``path`` (.npz, compressed), atomically. Fields are stored in :data:`SAMPLE_DTYPES`;
         the archive is streamed into the file, never built whole in memory."""
-        from bipedsim.io import atomic_writer
-
         arrays = {k: np.asarray(v, dtype=SAMPLE_DTYPES[k]) for k, v in self.arrays().items()}
         arrays["meta"] = np.array(json.dumps(dict(self.meta, format=FORMAT), default=str))
         with atomic_writer(path) as f:

@@ -11,11 +11,15 @@ import os
 from pathlib import Path
 from typing import Any, NamedTuple
 
+from ruamel.yaml import YAML
+from ruamel.yaml.util import load_yaml_guess_indent
+
 from bipedsim.config import parse_yaml
 from bipedsim.errors import BipedsimError
-from bipedsim.io import read_input_text
+from bipedsim.io import atomic_write_text, read_input_text
 from bipedsim.sim.experiment import EXPECTATIONS, Suite, load_suite, resolve_relative
 from bipedsim.sim.rollout import RolloutSpec
+from bipedsim.sim.runner import load_scenario, run_scenario
 
 #: Width (characters) past which ruamel.yaml would fold a long line; wide enough that it never does.
 _YAML_WIDTH = 4096
@@ -39,8 +43,6 @@ class ScenarioResult(NamedTuple):
 
 def run_scenarios(suite: Suite, base: Path) -> list[ScenarioResult]:
     """Run every scenario of ``suite`` (paths in it are relative to ``base``)."""
-    from bipedsim.sim.runner import load_scenario, run_scenario
-
     out = []
     for sc_spec in suite.scenarios:
         sc = load_scenario(resolve_relative(base, sc_spec.controller), resolve_relative(base, sc_spec.reference),
@@ -91,11 +93,6 @@ def update_expectations(path: str | os.PathLike[str], outcomes: dict[str, str]) 
     changed in the file (an ``expect`` key is added where the scenario had none and the value
     differs from the default ``no_fall``). Written atomically, and only after a check that the new
     text reads back as the old one with just those expectations changed."""
-    from ruamel.yaml import YAML
-    from ruamel.yaml.util import load_yaml_guess_indent
-
-    from bipedsim.io import atomic_write_text
-
     p = Path(path)
     # read and parsed as every input is (size, nesting, aliases, duplicate keys) before ruamel.yaml, which
     # is here for the round-trip rewrite only, sees the text

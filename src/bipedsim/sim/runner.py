@@ -21,6 +21,7 @@ from bipedsim.control.config import (
     load_controller,
 )
 from bipedsim.control.simbicon import body_mass, leg_length
+from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
 from bipedsim.errors import ConfigError
 from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
@@ -29,6 +30,7 @@ from bipedsim.model.creature_kind import AUTO, resolve_profile
 from bipedsim.model.feasible import feasible_clip, measure, resolve_because
 from bipedsim.model.prepare import read_for_build
 from bipedsim.model.retarget import retarget
+from bipedsim.motion.bvh import read_bvh
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, FloatArray, Outcome, RolloutSpec, control_every, rollout
 
@@ -95,9 +97,6 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     never reads (:func:`~bipedsim.control.config.check_settings_for_body`) or a humanoid's ``control_dt``
     that is no whole number of physics steps (:func:`~bipedsim.sim.rollout.control_every`) is refused,
     naming the file and the keys."""
-    from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
-    from bipedsim.motion.bvh import read_bvh
-
     profile = AUTO if profile is None else profile
     if profile not in PROFILES:
         raise ConfigError(f"unknown body profile {profile!r}; profiles: {', '.join(PROFILES)}", key="profile")

@@ -13,12 +13,16 @@ import csv
 import io
 import json
 import math
+import multiprocessing as mp
 import os
+import signal
 import sys
 from collections.abc import Callable, Iterator
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from bipedsim.errors import BipedsimError, ConfigError, InputError, OutputError
 from bipedsim.io import (
@@ -31,7 +35,8 @@ from bipedsim.io import (
     save_figure,
 )
 from bipedsim.sim.experiment import Experiment, Row
-from bipedsim.sim.rollout import OUTCOMES, PUSH_NOT_APPLIED
+from bipedsim.sim.rollout import OUTCOMES, PUSH_NOT_APPLIED, FallCriteria, RolloutSpec
+from bipedsim.sim.runner import load_scenario, run_scenario
 
 RESULT_COLUMNS = ["index", "key", "controller", "magnitude", "direction", "duration", "state", "fraction", "start",
                   "vertical", "body", "repeat", "seed", "outcome", "fall_time_s", "fall_reason", "foot_strikes",
@@ -50,8 +55,6 @@ Task = tuple[Row, tuple[str | None, str, bool], float, float, dict[str, Any] | N
 
 def _scenario(body: tuple[str | None, str, bool], controller: str | None) -> Any:
     """The scenario of a (reference, profile, support) body and a controller, built once per process."""
-    from bipedsim.sim.runner import load_scenario
-
     reference, profile, support = body
     key = (reference, profile, support, controller)
     if key not in _CACHE:
@@ -61,9 +64,6 @@ def _scenario(body: tuple[str | None, str, bool], controller: str | None) -> Any
 
 def run_row(task: Task) -> dict[str, Any]:
     """Run one rollout of an experiment (in whichever process); returns its result row."""
-    from bipedsim.sim.rollout import FallCriteria, RolloutSpec
-    from bipedsim.sim.runner import run_scenario
-
     row, body, seconds, init_noise, fall = task
     sc = _scenario(body, row.controller)
     crit = None if fall is None else FallCriteria(**fall)
@@ -205,8 +205,6 @@ def _append(path: Path, row: dict[str, Any]) -> None:
 
 
 def _tasks(exp: Experiment, rows: list[Row]) -> list[Task]:
-    from dataclasses import asdict
-
     s = exp.spec
     fall = None if s.fall is None else asdict(s.fall)
     body = (exp.resolve(s.reference), s.profile, s.support)
@@ -214,8 +212,6 @@ def _tasks(exp: Experiment, rows: list[Row]) -> list[Task]:
 
 
 def _ignore_sigint() -> None:
-    import signal
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
@@ -227,8 +223,6 @@ def _local(tasks: list, workers: int, fn: Callable[[Any], Any] | None = None) ->
         for t in tasks:
             yield fn(t)
         return
-    import multiprocessing as mp
-
     ctx = mp.get_context("spawn")  # a clean interpreter per worker: no inherited MuJoCo or GL state
     # workers leave Ctrl-C to the parent, which stops the pool (no traceback from every worker)
     with ctx.Pool(workers, initializer=_ignore_sigint) as pool:
@@ -289,8 +283,6 @@ def backend_session(backend: str, workers: int) -> Iterator[Callable[[list, Call
     elif workers <= 1:
         yield lambda tasks, fn: (fn(t) for t in tasks)
     else:
-        import multiprocessing as mp
-
         with mp.get_context("spawn").Pool(workers, initializer=_ignore_sigint) as pool:
             yield lambda tasks, fn: pool.imap_unordered(fn, tasks)
 
@@ -540,7 +532,6 @@ def polar_plot(rows: list[dict[str, str]], path: Path, fan: bool = True) -> None
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
 
     fig = plt.figure(figsize=(6, 6))
     ax = fig.add_subplot(projection="polar")

@@ -25,10 +25,11 @@ import math
 import os
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cma
 import numpy as np
 import yaml
 
@@ -135,8 +136,6 @@ class TuneState:
 def _new_state(tune: Tune) -> TuneState:
     """A fresh optimiser for ``tune``: CMA-ES from the start controller's values (clipped into the
     ranges), with the tune's step, population and seed."""
-    import cma
-
     s = tune.spec
     lo, hi = _bounds(tune)
     x0 = np.clip((np.array([tune.start_values()[k] for k in tune.keys]) - lo) / (hi - lo), 0.0, 1.0)
@@ -190,8 +189,6 @@ def _replay(state: TuneState, generations: list[Generation], path: Path, written
     """Move a fresh ``state`` on through the recorded ``generations`` as the tune that wrote them did
     (ask; tell when whole), in this process: the same seed gives the same candidates, which each replayed
     ask must give exactly (another cma or NumPy may sample otherwise: then the tune cannot resume)."""
-    import cma
-
     es = state.es
     for number, gen in enumerate(generations, start=1):
         es.stop()  # as the tune's loop checks it before each generation (pycma updates its record of it)
@@ -365,8 +362,6 @@ def _record(result: dict[str, Any], generation: int, values: dict[str, float]) -
 
 
 def _setup(tune: Tune) -> Setup:
-    from dataclasses import asdict
-
     e = tune.spec.experiment
     assert e is not None
     return Setup(references=tune.references, profile=tune.spec.profile, support=tune.spec.support,
@@ -527,8 +522,6 @@ def write_outputs(tune: Tune, out: Path, history: dict[int, dict[str, str]], sta
 
 def summarize(tune: Tune, history: dict[int, dict[str, str]], state: TuneState) -> dict[str, Any]:
     """The summary (what summary.json holds) of the history so far."""
-    import cma
-
     best_n = min(history, key=lambda n: (float(history[n]["score"]), n))
     best, start = history[best_n], history[0]
     stop = {k: str(v) for k, v in state.es.stop().items()}

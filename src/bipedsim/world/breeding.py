@@ -21,6 +21,7 @@ from bipedsim.breed import breed
 from bipedsim.breed.files import CHILD_UNITS_PER_M
 from bipedsim.io import atomic_write_json, atomic_write_text, check_distinct_paths, check_output_file
 from bipedsim.motion.bvh import load_bvh, write_bvh
+from bipedsim.world.creature import load_creature
 from bipedsim.world.tiles import TRAVEL_MODES, World, WorldError, load_world
 
 PathLike = str | os.PathLike[str]
@@ -65,8 +66,6 @@ def mode_x(mode: str, has_a: bool, has_b: bool, x_b: float) -> float:
 
 def _creature_clips(path: PathLike) -> tuple[str, dict[str, Path]]:
     """A creature file's name and its clip files per mode (checked by :func:`load_creature`)."""
-    from bipedsim.world.creature import load_creature
-
     c = load_creature(path)
     return c.name, {m: Path(k.source) for m, k in c.clips.items()}
 

@@ -26,8 +26,13 @@ from scipy.spatial.transform import Rotation
 from bipedsim.config import load_yaml
 from bipedsim.errors import BipedsimError
 from bipedsim.model.clip import STANCE_LEVEL_PERCENTILE, contact_labels, debounce, foot_speeds, gait_events
+from bipedsim.model.creature import creature_plan
+from bipedsim.model.profile import load_profile
+from bipedsim.model.retarget import retarget
+from bipedsim.model.source import motion_points
 from bipedsim.motion.bvh import load_bvh
 from bipedsim.motion.motion import Motion, canonical_quat
+from bipedsim.world.blend import slerp
 from bipedsim.world.tiles import TRAVEL_MODES, WorldError
 
 FloatArray = npt.NDArray[np.float64]
@@ -56,8 +61,6 @@ NAME_PATTERN = re.compile(r"\w[\w.-]{0,63}")
 
 def retarget_default(name: str) -> float:
     """The contact thresholds the project retargets with (model.retarget's defaults): one source."""
-    from bipedsim.model.retarget import retarget
-
     return float(inspect.signature(retarget).parameters[name].default)
 
 
@@ -105,8 +108,6 @@ class ModeClip:
 
     def sample(self, phase: float) -> tuple[FloatArray, FloatArray]:
         """Rotations (J, 4) and root offset (3,) at fractional loop frame ``phase`` (wraps)."""
-        from bipedsim.world.blend import slerp
-
         i0 = int(np.floor(phase))
         f = phase - i0
         a, b = i0 % self.n, (i0 + 1) % self.n
@@ -190,9 +191,6 @@ def creature_name(raw: Any, path: Path) -> str:
 def creature_from_motions(name: str, motions: dict[str, Motion], sources: dict[str, str] | None = None,
                           path: str = "<creature>") -> Creature:
     """A :class:`Creature` from one motion per mode (project frame, one skeleton)."""
-    from bipedsim.model.creature import creature_plan
-    from bipedsim.model.profile import load_profile
-
     sources = sources or {m: m for m in motions}
     first_mode = next(m for m in (*TRAVEL_MODES, "idle", "jump") if m in motions)
     template = motions[first_mode]
@@ -225,8 +223,6 @@ def foot_tips(motion: Motion, feet: list[str]) -> list[int]:
     """Per foot, the point (index into :func:`~bipedsim.model.source.motion_points`: joints, then End
     Sites) of its subtree that is lowest over the motion (median height): the sole (a merged hand's hoof,
     not its wrist)."""
-    from bipedsim.model.source import motion_points
-
     sk = motion.skeleton
     med = np.median(motion_points(motion).positions[..., 2], axis=0)
     idx = []
@@ -248,8 +244,6 @@ def tip_joint(motion: Motion, point: int) -> tuple[int, FloatArray]:
 
 def _foot_points(motion: Motion, feet: list[str]) -> tuple[FloatArray, list[int]]:
     """All points (joints and End Sites) per frame, and each foot's tip (:func:`foot_tips`)."""
-    from bipedsim.model.source import motion_points
-
     return motion_points(motion).positions, foot_tips(motion, feet)
 
 

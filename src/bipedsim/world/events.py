@@ -19,6 +19,7 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.motion.motion import Motion, canonical_quat
+from bipedsim.world.creature import foot_tips, tip_joint
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -160,8 +161,6 @@ def push_ik(motion: Motion, frames: npt.NDArray[np.int64], feet: list[str], cont
     positions there through ``frames``; returns the motion and the feet locked."""
     if len(frames) == 0:
         return motion, []
-    from bipedsim.world.creature import foot_tips, tip_joint
-
     m = motion.copy(rotations=motion.rotations.copy(), root_translation=motion.root_translation.copy())
     first = m[int(frames[0]):int(frames[0]) + 1]
     pos, g = first.fk()

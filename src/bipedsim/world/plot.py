@@ -7,6 +7,7 @@ import os
 
 import numpy as np
 
+from bipedsim.io import atomic_writer
 from bipedsim.world.tiles import World
 
 #: Tile colours by kind name (other kinds: grey by height).
@@ -62,8 +63,6 @@ def plot_paths(world: World, tracks: dict[str, tuple[np.ndarray, list[str]]],
     ax.set_title("paths (solid: walk, dashed: fly, dotted: swim)", fontsize=9)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.15), ncol=max(1, len(tracks)), fontsize=8, frameon=False)
     fig.tight_layout()
-    from bipedsim.io import atomic_writer
-
     with atomic_writer(out) as f:
         fig.savefig(f, format="png")
     plt.close(fig)

@@ -11,8 +11,9 @@ from typing import Any
 import numpy as np
 
 from bipedsim.io import atomic_write_json, check_distinct_paths, check_output_file, versions
+from bipedsim.model.clip import STANCE_LEVEL_PERCENTILE
 from bipedsim.motion.bvh import write_bvh
-from bipedsim.world.creature import NAME_PATTERN, Creature, creature_summary, load_creature
+from bipedsim.world.creature import NAME_PATTERN, Creature, _foot_points, creature_summary, load_creature
 from bipedsim.world.path import find_path, path_modes
 from bipedsim.world.synth import Synthesis, body_points, synthesize
 from bipedsim.world.tiles import MIN_TILE_BODY_FRACTION, World, WorldError, load_world
@@ -45,8 +46,6 @@ def foot_skate(tips: np.ndarray, ground: np.ndarray | float, dt: float, frames: 
     """Mean horizontal speed (m/s) of foot tips (T, F, 3) on the frames where a tip is within ``height``
     of its resting level (its 5th-percentile height above ``ground``, as contact labels measure it);
     ``frames``: a (T,) mask of the frames to measure (speeds come from the whole sequence)."""
-    from bipedsim.model.clip import STANCE_LEVEL_PERCENTILE
-
     keep = np.ones(len(tips), bool) if frames is None else np.asarray(frames, bool)
     if keep.sum() < 1 or len(tips) < 2:
         return 0.0
@@ -60,8 +59,6 @@ def motion_metrics(syn: Synthesis, creature: Creature, world: World) -> dict[str
     """Foot skating of the output and, measured alike, of the source walk loop (m/s); the lowest clearance
     of any point above the terrain (m; negative = penetration); how close the root passes each path tile's
     centre (m)."""
-    from bipedsim.world.creature import _foot_points
-
     m = syn.motion
     pts = body_points(m)
     clearance = pts[..., 2] - world.terrain(pts[..., :2])

@@ -12,7 +12,11 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from bipedsim.model.build import build_model
+from bipedsim.model.retarget import retarget
 from bipedsim.motion.motion import Motion
+from bipedsim.render.video import MODEL_FILE, TRAJECTORY_FILE, VideoOptions, render_video
+from bipedsim.sim.recorder import SAMPLE_DTYPES, Trajectory
 from bipedsim.world.tiles import World
 
 FloatArray = npt.NDArray[np.float64]
@@ -86,11 +90,6 @@ def scene_xml(body_xml: str, world: World) -> str:
 def write_scene(folder: str | os.PathLike[str], motion: Motion, world: World) -> None:
     """A folder :func:`bipedsim.render.video.render_video` reads: ``model.xml`` (body + terrain) and
     ``trajectory.npz`` (the motion retargeted onto the body, root kept where the world put it)."""
-    from bipedsim.model.build import build_model
-    from bipedsim.model.retarget import retarget
-    from bipedsim.render.video import MODEL_FILE, TRAJECTORY_FILE
-    from bipedsim.sim.recorder import SAMPLE_DTYPES, Trajectory
-
     built = build_model(motion, "creature")
     clip = retarget(motion, built.model, plan=built.plan, trim_glitches=False)
     qpos = clip.qpos.copy()
@@ -111,8 +110,6 @@ def write_scene(folder: str | os.PathLike[str], motion: Motion, world: World) ->
 def render_world_video(motion: Motion, world: World, out: str | os.PathLike[str], opts: object | None = None,
                        progress: bool = False) -> int:
     """Render ``motion`` on ``world`` to ``out`` (.mp4/.gif); returns the frame count."""
-    from bipedsim.render.video import VideoOptions, render_video
-
     o = opts if opts is not None else VideoOptions(distance=8.0, elevation=-25.0, label=False)
     with tempfile.TemporaryDirectory(prefix="bipedsim-world-") as tmp:
         write_scene(tmp, motion, world)

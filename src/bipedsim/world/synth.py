@@ -16,6 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.config import limit_from_env
 from bipedsim.errors import BipedsimError
+from bipedsim.model.source import motion_points
 from bipedsim.motion.motion import Motion, canonical_quat
 from bipedsim.world.blend import WEIGHTS, slerp, warp_times
 from bipedsim.world.creature import Creature, ModeClip, retarget_default
@@ -313,8 +314,6 @@ def _place(creature: Creature, curve: Curve, rots: FloatArray, offs: FloatArray,
 
 def body_points(motion: Motion) -> FloatArray:
     """(T, N, 3) joints and End Sites (m)."""
-    from bipedsim.model.source import motion_points
-
     return motion_points(motion).positions
 
 

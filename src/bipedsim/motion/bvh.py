@@ -27,7 +27,7 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import BVHError, InputError
-from bipedsim.io import progress_bar, read_input_bytes
+from bipedsim.io import atomic_write_text, progress_bar, read_input_bytes
 from bipedsim.motion.conventions import (
     AMBIGUOUS_SCORE_MARGIN,
     UNIT_SCALES,
@@ -1001,6 +1001,4 @@ def bvh_text(motion: Motion, *, precision: int | None = None) -> str:
 def write_bvh(motion: Motion, path: str | os.PathLike[str], *, precision: int | None = None) -> None:
     """Write a motion as BVH, atomically (temporary file + rename), in the motion's own units and
     axes, with each joint's channel order preserved."""
-    from bipedsim.io import atomic_write_text
-
     atomic_write_text(path, bvh_text(motion, precision=precision))

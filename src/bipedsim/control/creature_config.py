@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 #: Longest window (s) over which a clip's velocity is averaged: past a clip's loop the average is the
-#: whole clip's, and an absurd window (1e300 s) was an array too large to allocate.
+#: whole clip's, and an absurd window (1e300 s) would be an array too large to allocate.
 MAX_WINDOW_S = 10.0
 #: Highest standing root height, as a fraction of the clip's: the legs cannot reach the floor from much
 #: higher than the clip's own height (1e300 ended in NaN targets and a traceback).
@@ -50,9 +50,8 @@ class CreatureBalanceConfig:
     #: lower it, control/creature_gait.py)
     speed_fraction: float = field(default=0.8, metadata={"min": 0.0})
     #: the legs' swings in one cycle, summed, as a share of the cycle (each leg swings share/n: 0.9/4, a
-    #: duty factor of 0.775; with the sideways shift scaled to the gait's cycle, com_shift_dynamic, the
-    #: dog, the horse and the bred child walk 12 of 12 seeds at 60 / 64 / 56 % of their clips' speed,
-    #: 0.8 gave the child 49 %: docs/creatures.md, "The plan's speed limit")
+    #: duty factor of 0.775; a shorter total swing slows the planned walk: docs/creatures.md, "The plan's
+    #: speed limit")
     swing_share: float = field(default=0.9, metadata={"gt": 0.0, "max": 1.0})
     #: footfall pattern: ``sequence`` (one leg after another in the clip's order, swing_share/n each) or
     #: ``clip`` (the clip's own phases and swing share, e.g. a trot's diagonal pairs)
@@ -63,8 +62,8 @@ class CreatureBalanceConfig:
     footfall_fallback: str = field(default="wave", metadata={"choices": ("wave", "legs")})
     #: largest swing as a share of the cycle
     max_swing_fraction: float = field(default=0.45, metadata={"gt": 0.0, "max": 0.9})
-    #: longest stride as a fraction of the standing root height (0.75: at swing_share 0.9 the dog, whose
-    #: speed the stride holds, keeps its speed; 0.8 fell it on 4 of 12 seeds before com_shift_dynamic)
+    #: longest stride as a fraction of the standing root height (0.75: at swing_share 0.9 a body whose
+    #: speed the stride limits keeps its speed; a longer stride overreaches the legs)
     stride_fraction: float = field(default=0.75, metadata={"gt": 0.0})
     #: shortest swing (s)
     min_swing_s: float = field(default=0.12, metadata={"gt": 0.0})

@@ -46,9 +46,8 @@ MIN_CAPSULE_M = 1e-3
 
 #: The joints' passive damping and rotor inertia (the profile's ``sim.joint_damping``, ``sim.armature``:
 #: absolute values) at most these shares of the body's own scales, M s^2 sqrt(g/s) (N m s) and M s^2
-#: (kg m^2), M its mass, s its size: a 0.7 kg dog (the shared dog at 1/2.54 of its size) had 1.1 times
-#: its own scale of damping on every joint and fell at 2.7 s; the shared dog has 0.017 and 0.0011, the
-#: horse 0.0004, the flamingo 0.089 and 0.007 (unchanged by the caps).
+#: (kg m^2), M its mass, s its size: a small creature given a profile's absolute values would be damped
+#: past its own scale on every joint and stiffen; bodies of ordinary size stay well under the caps.
 DAMPING_SHARE = 0.1
 ARMATURE_SHARE = 0.01
 

@@ -49,8 +49,8 @@ LEG_BRANCH_FRACTION = 0.15
 #: roll and share bones, mesh helpers: ActorCore's CalfTwist and KneeShareBone, HumanIK's LegRoll,
 #: MotionBuilder's *_RIGMESH), no branch of its own: the leg is walked up past it
 HELPER_FRACTION = 0.05
-#: largest angle (rad) from vertical of the hips -> upper-body-centroid line of an upright trunk: the
-#: shared human walks measure 3-16 deg, a crouch 50, the flamingo 101 (the bones' length-weighted
+#: largest angle (rad) from vertical of the hips -> upper-body-centroid line of an upright trunk: a
+#: human walk leans 3-16 deg, a crouch 50, a flamingo's body 101 (the bones' length-weighted
 #: centroid, :func:`_trunk_centroid`)
 UPRIGHT_MAX_RAD = np.radians(60.0)
 #: hip height as a fraction of the standing height (top of the body) for human proportions: 0.53 of
@@ -255,7 +255,7 @@ def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = N
     """A BVH file read for the body it will build: the raw motion and what reading found, the motion in
     the project frame, and the body kind (:func:`resolve_profile`). A creature's unit, when guessed, is
     guessed from its largest extent, not a standing human's height: a bred dog x horse with its head up
-    had been read as a 1.3 m human in inches (2.54 x too large)."""
+    would otherwise read as a 1.3 m human in inches (2.54 x too large)."""
     raw, info = read_bvh(path, scale=scale, up=up, positions=positions, fps=fps)
     check_extent(raw, path)  # nothing below is computed from a corrupt or misread motion
     motion = raw.to_project_frame()

@@ -50,8 +50,8 @@ def lighten_legs(bodies: list[BodyPlan], legs: list) -> float:
     of the whole; returns the factor (1: unchanged, or more than SOLE_MAX_LEGS legs).
 
     Capsules sized from bone lengths (radius 0.18 x length) make a bird's long, thin legs the heaviest
-    part of it: the shared flamingo's came to 60 % of its mass, its 55 cm tarsus alone 19 kg, so that
-    swinging one leg (30 % of the body) pushed the body off its foot."""
+    part of it: a flamingo's would come to 60 % of its mass, its 55 cm tarsus alone 19 kg, and swinging
+    one leg (30 % of the body) would push the body off its foot."""
     if not legs or len(legs) > SOLE_MAX_LEGS:
         return 1.0
     leg_bodies = {b for leg in legs for b in leg.bodies}

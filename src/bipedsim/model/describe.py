@@ -20,7 +20,7 @@ from bipedsim.motion.motion import check_extent
 
 #: The Froude number v^2 / (g h) (v the speed, h the hip's height standing) above which people run rather
 #: than walk: the walk-run transition lies near 0.5 across body sizes (Alexander 1989, "Optimization and
-#: gaits in the locomotion of vertebrates"). The shared and public walks measure 0.03-0.37.
+#: gaits in the locomotion of vertebrates"); ordinary walks lie well below it.
 WALK_FROUDE_MAX = 0.5
 GRAVITY = 9.81
 

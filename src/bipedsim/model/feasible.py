@@ -1,4 +1,4 @@
-"""A feasible lower-body reference built from a real walk (issue 19): what the controller is asked to
+"""A feasible lower-body reference built from a real walk: what the controller is asked to
 track made physically possible for the built body.
 
 A capture's legs cannot be replayed as they are by a box-footed body: its stance feet roll from heel
@@ -539,9 +539,7 @@ def resolve_because(measured: dict[str, float], cfg: FeasibleConfig, generated: 
     """Why ``feasible: auto`` re-solves a clip's legs (empty: it tracks them as they are). A clip
     ``generated`` for the body (the built-in walk) is re-solved only where it measures infeasible
     (:func:`infeasible_because`); a capture always is, since the body was built from its skeleton, not
-    posed by it: Bandai-Namco's elderly_002 measures within the tolerances (0 %, a leg 0.989 straight,
-    stance feet 0.4-2.7 cm up) and fell at 1.1 s as it was, where re-solved it walks 20 s at 0.87 of its
-    speed (docs/controller.md, *A capture within the tolerances*)."""
+    posed by it: a capture within the tolerances can still be untrackable as it is."""
     why = infeasible_because(measured, cfg)
     if why or generated:
         return why

@@ -95,12 +95,8 @@ def reconstruct_root(motion: Motion, feet: list[int] | None = None) -> Motion:
     tell stance from swing here (in place, a stance foot moves back as fast as a swing foot moves
     forward), height, continuity and the weight's way forward can.
     The floor is the clip's 5th-percentile lowest foot point. ``motion`` in the project frame (m, Z up);
-    the vertical stays as it is.
-
-    Measured on the shared walks with their translation removed (``tests/test_layouts.py``): the rebuilt
-    travel 93-102 % of the original's (the lowest joint alone: 70-98 %), the path within 0.10-0.41 m of
-    it, the velocity within 0.08-0.35 m/s RMS. Where a capture's feet slide the rebuilt speed dips at the
-    strikes."""
+    the vertical stays as it is. Where a capture's feet slide the rebuilt speed dips at the strikes
+    (``tests/test_layouts.py`` compares the rebuilt travel with a walk's own)."""
     sk = motion.skeleton
     feet = foot_joints(sk.names) if feet is None else feet
     dt = motion.frame_time
@@ -184,8 +180,8 @@ HELD_TAIL_S = 0.25
 def trim_held_tail(motion: Motion, notes: list[str] | None = None) -> Motion:
     """``motion`` without the trailing frames that repeat its last moving frame exactly (every rotation
     and the root's translation equal), when there are at least :data:`HELD_TAIL_S` of them and something
-    moves before them: four Mixamo exports of 250 frames walk 30-90 and hold the last pose for the rest,
-    which had made their clip's speed a fifth of their walk's and hid a loop (a note says what was
+    moves before them: an export that walks 30-90 of its 250 frames and holds the last pose for the
+    rest would otherwise move at a fifth of its walk's speed and hide its loop (a note says what was
     dropped)."""
     n = motion.num_frames
     if n < 3:
@@ -209,8 +205,8 @@ def trim_held_tail(motion: Motion, notes: list[str] | None = None) -> Motion:
 
 def repeat_loop(motion: Motion, notes: list[str] | None = None) -> Motion:
     """A short clip that is itself one loop of a cycle, repeated to :data:`LOOP_REPEAT_S` (else the
-    clip unchanged). The cut shared walks (one gait cycle, both strikes' frames kept) close within
-    0.04-0.08 m against pose changes of 0.04-0.16 m per 1/30 s. The last frame is taken as the next
+    clip unchanged): a cut gait cycle (both strikes' frames kept) closes within a few centimetres, about
+    one stride's pose change (:data:`LOOP_SEAM_FRACTION`). The last frame is taken as the next
     loop's first and the pose it misses it by is spread over the loop (loop closure). Each copy is shifted
     by the loop's horizontal travel (a cycle exported with its root motion walks on; one exported in
     place stays, and its travel is rebuilt from its feet afterwards); a turn over the loop is not

@@ -447,8 +447,8 @@ def leading_glitch_frames(motion: Motion, jump: float = 5.0, settle: float = 3.0
     of one, as some releases start with): the pose change over :data:`GLITCH_STRIDE_S` (the largest
     joint displacement relative to the root) from the first frame must exceed ``jump`` x the clip's
     median change over that stride, and frames are dropped while the change to the next frame stays
-    above ``settle`` x its median, for at most ``limit_s`` seconds. Measured on the shared walks at 30-120 fps: the
-    first change is 9.6-14.4 x the median on the three takes that start so, at most 1.6 x on the rest."""
+    above ``settle`` x its median, for at most ``limit_s`` seconds: a glitch's first change is about ten
+    times the median, a take's own first change a small multiple of it."""
     dt = motion.frame_time
     k = max(1, int(round(GLITCH_STRIDE_S / dt)))
     limit = max(1, int(round(limit_s / dt)))

@@ -65,9 +65,8 @@ def standing_rest(motion: Motion) -> Motion:
     if standing:
         return motion
     # the trunk from the frame whose feet are closest together, each limb from the frame where it
-    # is straightest: joint limits are measured from this pose (tried: one frame for the whole body,
-    # the feet closest together -- the Bandai walk's rest knee bent, its references 1.15 rad beyond
-    # the knee's range, replays 4 cm off; the frame with the straightest legs -- bent elbows, 9 cm)
+    # is straightest: joint limits are measured from this pose, and one frame for the whole body
+    # leaves a bent knee or elbow at rest (references beyond the joint's range)
     allpos = motion.fk()[0]
     pos = allpos[:, feet][..., list(horizontal_axes(motion.up))]  # (T, F, 2)
     spread = np.linalg.norm(pos - pos.mean(axis=1, keepdims=True), axis=2).sum(axis=1)

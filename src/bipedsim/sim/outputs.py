@@ -297,7 +297,7 @@ def check_run_options(*, profile: str | None = None, support: bool = False, bvh:
     """Refuse run options that would be ignored or meaningless, before anything runs: each error names
     the flag and what is allowed. Ranges of the run length and pushes are checked by
     :func:`~bipedsim.sim.push.check_pushes`, the video options by :meth:`VideoOptions.validate`."""
-    if support and (profile == "humanoid" or bvh is None):  # a creature's, given or detected (issue 20)
+    if support and (profile == "humanoid" or bvh is None):  # a creature's, given or detected
         raise ConfigError("holds a creature's root; it needs --profile creature", key="--support")
     if bvh is None:
         for flag, value, what in (("--scale", scale, "unit"), ("--up", up, "up axis"),

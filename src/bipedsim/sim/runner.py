@@ -222,7 +222,7 @@ def reading_record(info: Any) -> dict[str, Any] | None:
 
 
 #: the initial velocity noise (rad/s, m/s; standard deviation) of seeds 1.. in :func:`run_seeds`:
-#: a human walk's (the shared walks' yardstick, docs/controller.md) and a creature's
+#: a human walk's and a creature's (docs/controller.md)
 SEED_NOISE = {"humanoid": 0.02, "creature": 0.05}
 
 

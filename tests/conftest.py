@@ -83,10 +83,10 @@ def without_modulation(cfg: ControllerConfig) -> ControllerConfig:
 
 @contextmanager
 def toes_as_measured() -> Iterator[None]:
-    """Bodies built inside it get the toes they had before session 13: a toe whose skeleton gives no tip
-    (Bandai-Namco's, the Holden CMU layouts') stops at its 3 cm minimum instead of reaching a person's foot
-    length. The counterfactual tests measured on such bodies build their scenario in it: with the
-    real-length toes both sides of some contrasts walk (docs/controller.md, *Real-length toes*)."""
+    """Bodies built inside it get short toes: a toe whose skeleton gives no tip (Bandai-Namco's, the
+    Holden CMU layouts') stops at its 3 cm minimum instead of reaching a person's foot length. The
+    counterfactual tests whose contrast shows on such bodies build their scenario in it: with the
+    real-length toes both sides of some contrasts walk."""
     from bipedsim.model import humanoid
 
     builder = humanoid._HumanoidBuilder
@@ -99,12 +99,12 @@ def toes_as_measured() -> Iterator[None]:
 
 
 def swing_as_measured(cfg: ControllerConfig) -> ControllerConfig:
-    """``cfg`` with the swing as it was before session 14 -- the hips' torque limits on the actuator alone
-    (``pd.net_limit: off``, so a hip driven at its limit tops out at limit / kd) and the sagittal c_v 0.2
-    (scaled to the body as the rest: the ratio to the default's 0.15) -- where the counterfactual tests of
-    the step tempo, the velocity tuning, the Froude-scheduled c_d, the sync and the course law were
-    measured. With the swing hip's net limit the swing reaches its reference, and some of those contrasts
-    no longer fail on their weaker side (docs/controller.md, *The swing's speed limit*)."""
+    """``cfg`` with a slower swing -- the hips' torque limits on the actuator alone (``pd.net_limit:
+    off``, so a hip driven at its limit tops out at limit / kd) and the sagittal c_v 0.2 (scaled to the
+    body as the rest: the ratio to the default's 0.15) -- the setting in which the counterfactual tests
+    of the step tempo, the velocity tuning, the Froude-scheduled c_d, the sync and the course law show
+    their contrast. With the swing hip's net limit the swing reaches its reference, and some of those
+    contrasts do not fail on their weaker side."""
     from dataclasses import replace
 
     from bipedsim.control.config import ControllerConfig
@@ -116,9 +116,9 @@ def swing_as_measured(cfg: ControllerConfig) -> ControllerConfig:
 
 
 def velocity_as_measured(cfg: ControllerConfig) -> ControllerConfig:
-    """``cfg`` with the velocity tuning's speed low-pass as it was before session 15 -- 0.75 s (scaled to
-    the body as the rest: the ratio to the default's 1.0 s) -- where the counterfactual tests of the
-    velocity tuning and the torso law were measured (docs/controller.md, *Pushes on a real capture*)."""
+    """``cfg`` with a faster speed low-pass for the velocity tuning -- 0.75 s (scaled to the body as the
+    rest: the ratio to the default's 1.0 s) -- the setting in which the counterfactual tests of the
+    velocity tuning and the torso law show their contrast."""
     from dataclasses import replace
 
     from bipedsim.control.config import ControllerConfig
@@ -129,11 +129,11 @@ def velocity_as_measured(cfg: ControllerConfig) -> ControllerConfig:
 
 
 def torso_as_measured(cfg: ControllerConfig) -> ControllerConfig:
-    """``cfg`` with the torso law as it was before session 12 -- damping 100 (scaled to the body as the
-    rest: the ratio to the default's 175) and the stance foot's yaw limit 0.35 rad -- where the
-    counterfactual tests of the step tempo, the velocity tuning, the Froude-scheduled c_d, the stance foot's
-    yaw limit and the torso twist were measured. With today's torso law (175, 0.6) the body is steadier and
-    both sides of these contrasts survive or keep their speed (docs/controller.md, *Torso damping*)."""
+    """``cfg`` with a softer torso law -- damping 100 (scaled to the body as the rest: the ratio to the
+    default's 175) and the stance foot's yaw limit 0.35 rad -- the setting in which the counterfactual
+    tests of the step tempo, the velocity tuning, the Froude-scheduled c_d, the stance foot's yaw limit and
+    the torso twist show their contrast. With the default torso law (175, 0.6) the body is steadier and
+    both sides of these contrasts survive or keep their speed."""
     from dataclasses import replace
 
     from bipedsim.control.config import ControllerConfig

@@ -170,7 +170,7 @@ def test_horse_pterosaur_child_converts_and_simulates(tmp_path: Path) -> None:
 @pytest.mark.parametrize("animal", shared_params("animal"))
 def test_human_animal_child(animal: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """Every shared animal breeds with the human walk without a map, whatever its naming convention:
-    the joints are paired by role (issue 22), the printout lists the pairs, the child simulates."""
+    the joints are paired by role, the printout lists the pairs, the child simulates."""
     out = tmp_path / "child.bvh"
     argv = ["breed", str(BUILTIN_WALK), str(animal), "-o", str(out), "--report", str(tmp_path / "r.json")]
     assert main(argv) == 0
@@ -223,7 +223,7 @@ def _heights_over_body(m: Motion) -> tuple[list[str], np.ndarray]:
 
 @pytest.mark.parametrize("x", [0.25, 0.5, 0.75])
 def test_child_of_two_standing_quadrupeds_stands_on_four_feet(x: float) -> None:
-    """Issue 20: a child of the shared dog (rest pose along X, large local rotations) and the shipped
+    """A child of the shared dog (rest pose along X, large local rotations) and the shipped
     horse (standing rest pose), no mutation, stands on its four paws as both parents do: each paw is
     near the floor in stance (10th percentile of its height <= 3 % of the body height) and low over
     the clip (median <= 12 %), the lowest point of nearly every frame is a paw, and the head is well
@@ -262,11 +262,11 @@ def test_rest_alignment_keeps_every_point_where_it_was() -> None:
 
 
 def test_bred_child_is_read_back_at_its_parents_size_and_speed(tmp_path: Path) -> None:
-    """Issue 20: the child of the shared dog and the horse travels as its first parent does (its root
+    """The child of the shared dog and the horse travels as its first parent does (its root
     translation is the dog's, in metres, on the dog's bones). Written in centimetres and read back
-    without flags, its head up made it 'upright' by its extents and its unit was guessed from a human's
-    height: inches, the whole child 2.54 x too large (1.37 m root height, 2.83 m/s). A body measured as
-    a creature has its unit guessed from its largest extent: centimetres, the dog's size and speed."""
+    without flags, its head up makes it 'upright' by its extents, and a unit guessed from a human's
+    height would be inches (the whole child 2.54 x too large); a body measured as a creature has its
+    unit guessed from its largest extent: centimetres, the dog's size and speed."""
     from bipedsim.breed.files import breed_files
     from bipedsim.sim.runner import load_scenario
 

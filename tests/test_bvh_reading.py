@@ -1,4 +1,4 @@
-"""Reading real files right (issue 19): position-channel mode, up axis and unit chosen together by a
+"""Reading real files right: position-channel mode, up axis and unit chosen together by a
 plausible body; root-on-a-child layouts; skeletons whose identity pose is no body."""
 
 from __future__ import annotations
@@ -107,7 +107,7 @@ def test_info_reads_a_creature_as_run_builds_it() -> None:
     assert human["body"] == "humanoid"
 
 
-# ---------------------------------------------------------------------- the frame rate (session 14)
+# ---------------------------------------------------------------------- the frame rate
 def test_a_given_frame_rate_replaces_the_file_s_frame_time_and_is_checked(tmp_path: Path) -> None:
     """``fps`` (``--clip-fps``) sets the capture's rate for a file whose Frame Time is not it: every frame
     kept, the time between them changed, the file's own Frame Time recorded beside it."""

@@ -1,4 +1,4 @@
-"""The legged creature (issue 20): body kind measured from the skeleton, legs, the virtual-wrench
+"""The legged creature: body kind measured from the skeleton, legs, the virtual-wrench
 distribution and its Jacobian-transpose torques, the tilt rule against the clip's own root, the
 trunk-contact rule."""
 

@@ -145,7 +145,7 @@ def test_the_swing_lands_at_the_steady_walks_capture_offset(flamingo) -> None:
 
 @pytest.mark.slow
 def test_the_flamingo_walks_20_s_at_half_its_clip_speed(flamingo) -> None:
-    """Issue 20's flamingo: 20 s without a fall, without support or flags, at >= 50 % of its clip's
+    """The flamingo: 20 s without a fall, without support or flags, at >= 50 % of its clip's
     speed (its travel rebuilt from its feet: about 0.19 m/s, read in centimetres)."""
     from bipedsim.sim.rollout import RolloutSpec
     from bipedsim.sim.runner import run_scenario

@@ -154,7 +154,7 @@ def test_the_reposed_dog_stands() -> None:
 
 @pytest.mark.slow
 def test_the_dog_walks_20_s_at_half_its_clip_speed() -> None:
-    """Issue 20's first clip: the shared dog, no flags, 20 s without a fall at >= 50 % of the clip's
+    """The shared dog, no flags, 20 s without a fall at >= 50 % of the clip's
     mean root speed over its loop."""
     sc = load_scenario(bvh=_clip(DOG))
     out, ctrl = run_scenario(sc, RolloutSpec(seconds=20.0))
@@ -164,7 +164,7 @@ def test_the_dog_walks_20_s_at_half_its_clip_speed() -> None:
 
 @pytest.mark.slow
 def test_the_horse_walks_20_s_at_half_its_clip_speed() -> None:
-    """Issue 20's shipped horse, no flags: 20 s without a fall at >= 50 % of its clip's mean root speed
+    """The shipped horse, no flags: 20 s without a fall at >= 50 % of its clip's mean root speed
     (its stride held to the reach of its legs)."""
     sc = load_scenario(bvh=HORSE_WALK)
     out, ctrl = run_scenario(sc, RolloutSpec(seconds=20.0))
@@ -173,10 +173,10 @@ def test_the_horse_walks_20_s_at_half_its_clip_speed() -> None:
 
 
 @pytest.mark.slow
-def test_issue_20_every_creature_walks_20_s() -> None:
-    """Issue 20's other two clips, no flags, seeds 0-2 (seed 0 plain, 1-2 with the creature's initial
+def test_every_creature_walks_20_s() -> None:
+    """The other two clips, no flags, seeds 0-2 (seed 0 plain, 1-2 with the creature's initial
     noise): the bred child of the shared dog and the horse walks 20 s at >= 50 % of its clip's speed on
-    every seed (49 % before the swing share 0.9), the flamingo (in place) 20 s without a fall."""
+    every seed, the flamingo (in place) 20 s without a fall."""
     import tempfile
 
     from bipedsim.breed.files import breed_files
@@ -439,10 +439,9 @@ def test_a_capture_point_beyond_one_sides_feet_starts_that_sides_next_swing() ->
 
 @pytest.mark.slow
 def test_the_walking_dog_survives_lateral_pushes_of_30_percent_of_its_weight() -> None:
-    """Issue 20's push: 34.2 N (30 % of the dog's 114 N) for 0.2 s at its root, left and right, at twelve
-    starts 50 ms apart (5.0-5.55 s, about one gait cycle; single rollouts are chaotic). Measured 8 of 12
-    left and 7 of 12 right; without the catch and the IK tilt limit (the gait before) 4 and 3: a
-    regression bound, not the issue's goal (docs/creatures.md)."""
+    """A push of 34.2 N (30 % of the dog's 114 N) for 0.2 s at its root, left and right, at twelve
+    starts 50 ms apart (5.0-5.55 s, about one gait cycle; single rollouts are chaotic): a regression
+    bound on how many it survives (docs/creatures.md)."""
     from bipedsim.sim.push import Push
 
     sc = load_scenario(bvh=_clip(DOG))

@@ -1,4 +1,4 @@
-"""Cycles of a clip (issue 19): the loop chosen by pose and velocity match at its seam, by steady
+"""Cycles of a clip: the loop chosen by pose and velocity match at its seam, by steady
 travel and by being a walk (strikes alternating, steps alike, stance feet on the floor); the seam
 blended."""
 

@@ -50,8 +50,7 @@ def test_stance_feet_planted_flat_on_the_floor_and_legs_within_reach_and_range(n
     assert after["out_of_range"] <= before["out_of_range"]
     assert after["max_extension"] <= FeasibleConfig().max_extension + 0.005
     # stance feet neither float nor sink (the capture's float 2-4 cm), flat ones do not slide; the most
-    # is on CMU 02_01's first stance frames, the heel still coming down: 2.0 cm with 3 cm toes, 2.1 cm
-    # with its real-length ones (session 13)
+    # is on CMU 02_01's first stance frames, the heel still coming down: about 2 cm
     assert after["stance_low_min"] >= -0.01 and after["stance_low_max"] <= 0.025
     assert after["stance_low_max"] < before["stance_low_max"]
     assert after["flat_slide"] <= 0.012

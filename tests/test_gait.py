@@ -1,4 +1,4 @@
-"""Gait events on real walks (issue 19): every shared human walk, strikes per foot within one of a count
+"""Gait events on real walks: every shared human walk, strikes per foot within one of a count
 made by hand from the foot heights; the detector's rule on synthetic signals; events given by hand."""
 
 from __future__ import annotations
@@ -155,16 +155,12 @@ def test_run_prints_what_it_found_and_the_clip_speed(tmp_path: Path, capsys) -> 
     assert 0.9 < o["extra"]["clip_speed_mps"] < 1.1 and o["reference_speed_mps"] > 0.5
 
 
-#: The walks the default controller tracks 20 s at >= 70 % of their speed today (docs/controller.md, *Speed
-#: deficit*, *Soft soles*); the others are strict expected failures, so a walk that starts to pass flags its
-#: marker. CMU 02_01 (lost in session 9 to the reference modulation) and CMU 12_03 came in with the soft
-#: soles (session 11); 12_03 overshoots its clip's speed (1.46 of it then, 1.28-1.32 now). Bandai came in
-#: with the real-length toes (session 13, docs/controller.md, *Real-length toes*): 0.85-0.90 of its speed on
-#: seeds 0-9.
+#: The walks the default controller tracks 20 s at >= 70 % of their speed (docs/results.md); the others
+#: are strict expected failures, so a walk that starts to pass flags its marker.
 TRACKED = {"bandai2_walk_exhausted_001", "cmu_02_01_walk__holden31_crlf", "cmu_02_02_walk__19joint_Hip_Abdomen",
            "cmu_02_02_walk__daz43", "cmu_12_03_walk__cgspeed_mb31", "games105_walk60__metres_crlf"}
-_NOT_YET = pytest.mark.xfail(strict=True, reason="issue 19 not met yet for this walk (docs/controller.md, "
-                             "Feasible reference / Speed deficit); strict: passing flags the marker for removal")
+_NOT_YET = pytest.mark.xfail(strict=True, reason="not tracked at 70 % of its speed yet (docs/results.md); "
+                             "strict: passing flags the marker for removal")
 _MARKS: dict[str, pytest.MarkDecorator] = {}
 
 

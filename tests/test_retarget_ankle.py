@@ -1,4 +1,4 @@
-"""Hinge sets on axes off x, y and z (issue 19): a two-hinge ankle, whose flexion axis is the shin's,
+"""Hinge sets on axes off x, y and z: a two-hinge ankle, whose flexion axis is the shin's,
 splits a foot's rotation into flexion and roll, and reproduces a captured foot's sole better than one
 hinge."""
 

@@ -1,4 +1,4 @@
-"""Retargeting fixes for references outside the body's joint ranges (issue 19): Euler triples chosen
+"""Retargeting fixes for references outside the body's joint ranges: Euler triples chosen
 within range near gimbal lock, two-bone twists continuous through straight limbs, a head named by its
 last word."""
 

@@ -1,4 +1,4 @@
-"""Issue 24's numbered cases, each re-run as the issue wrote it, through the command line: a clear
+"""Misuse cases, each run through the command line as a user would: a clear
 one-line error with exit status 2, or the fixed behaviour. The detailed checks of each area live in
 ``test_robustness_inputs.py`` (BVH, bodies, controller files), ``test_robustness_outputs.py`` (paths,
 files, flags, recorder), ``test_robustness_sweep.py`` (sweeps, suites, pushes) and

@@ -39,7 +39,8 @@ def test_partial_controller_file_changes_only_what_it_names(tmp_path: Path) -> N
 
 
 def test_partial_file_walks_exactly_as_the_default(tmp_path: Path) -> None:
-    """Issue 24 case 6: a file with only the default's hip gains fell at 3.65 s; now the same rollout."""
+    """A file with only the default's hip gains walks exactly as the default does (the rest of the
+    settings are the defaults, not zeros)."""
     import json
 
     p = _write(tmp_path, "pd:\n  gains:\n    hip: {kp: 1000.0, kd: 100.0}\n")
@@ -80,7 +81,7 @@ def _chain(n: int, bone: float = 0.1, frame_time: str = "0.0333333", frames: int
 
 
 def test_thousand_nested_joints_read(tmp_path: Path) -> None:
-    """Issue 24: a BVH with >= 1000 nested joints was a RecursionError traceback."""
+    """A BVH with >= 1000 nested joints reads (no RecursionError)."""
     from bipedsim.motion import read_bvh
 
     p = tmp_path / "deep.bvh"
@@ -91,7 +92,7 @@ def test_thousand_nested_joints_read(tmp_path: Path) -> None:
 
 
 def test_chain_that_collapses_into_one_body_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Issue 24: a 500-joint chain of tiny bones ran as a creature of one body: no_fall, RMSE 0."""
+    """A 500-joint chain of tiny bones, which would run as a creature of one body, is refused."""
     p = tmp_path / "chain.bvh"
     p.write_text(_chain(500))
     assert main(["run", "--bvh", str(p), "--profile", "creature", "--seconds", "1", "--out", str(tmp_path / "o")]) == 2
@@ -128,7 +129,7 @@ def test_implausible_frame_time_is_refused(tmp_path: Path, frame_time: str) -> N
 
 
 def test_given_scale_that_makes_an_absurd_body_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
-    """Issue 24: --scale 1 on a centimetre file made a 183 m body walking at 93 m/s."""
+    """--scale 1 on a centimetre file, which would make a 183 m body walking at 93 m/s, is refused."""
     from bipedsim.data import BUILTIN_WALK
 
     assert main(["info", str(BUILTIN_WALK), "--scale", "1"]) == 2

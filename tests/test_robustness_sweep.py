@@ -1,4 +1,4 @@
-"""Issue 24 for sweeps, suites and pushes: torn or foreign results files, --update on any YAML layout,
+"""Misuse of sweeps, suites and pushes: torn or foreign results files, --update on any YAML layout,
 meaningless settings refused before any rollout (file and key, or flag and value, in the message),
 pushes that did not happen never counted as survived, worker caps, progress, unwritable outputs."""
 

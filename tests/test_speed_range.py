@@ -66,7 +66,7 @@ def test_generated_walks_walk_20s_at_70_percent_of_their_speed(tmp_path: Path, s
     pytest.param(110, marks=pytest.mark.xfail(strict=True, reason="not met: the generated walk at 1.5 m/s and 110 "
                                               "steps/min falls within 2 s (docs/controller.md, 'Speed range': the "
                                               "reference needs a centre of pressure behind the heel)")),
-    129])  # walks since the swing hip's net limit (session 14); it fell within 2 s before
+    129])  # walks: the swing hip's net limit lets the swing reach its reference
 def test_goal_a_1_5_mps_walk_walks_20s(tmp_path: Path, cadence: float) -> None:
     out, _ = run_scenario(load_scenario(clip_legs(tmp_path), generated_walk(tmp_path, 1.5, cadence)),
                           RolloutSpec(seconds=20.0))

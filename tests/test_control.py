@@ -543,9 +543,9 @@ def test_torso_law_on_the_running_method(scenario) -> None:
 
 
 def test_the_default_survives_a_forward_push_late_in_the_step(scenario) -> None:
-    """The forward-left push late in the right-stance swing at 200 N per 64 kg (248.2 N on 79.4 kg): the
-    soft soles cost it at the torso damping of 100 (session 11, then a strict expected failure); with
-    today's torso law (damping 175, yaw limit 0.6) the body survives it again (docs/controller.md, *Torso damping*)."""
+    """The forward-left push late in the right-stance swing at 200 N per 64 kg (248.2 N on 79.4 kg): with
+    the torso law's damping 175 and yaw limit 0.6 the body survives it (at a damping of 100 the soft soles
+    cost it)."""
     from bipedsim.sim.push import Push
 
     push = [Push(_as_on_64kg(scenario), 45.0, 0.2, state=4, fraction=0.5)]
@@ -674,10 +674,9 @@ def test_net_torque_limit_bounds_actuator_and_damping_together(mode: str, monkey
 
 @pytest.mark.slow
 def test_pushes_on_the_shared_cmu_walk_meet_the_issue_s_target(tmp_path: Path) -> None:
-    """Issue 19's push check on a real capture: `experiments/push_cmu_02_01.yaml` (200 N x 0.2 s torso pushes
+    """The push check on a real capture: `experiments/push_cmu_02_01.yaml` (200 N x 0.2 s torso pushes
     at 8 directions in the middle of each stance of the shared CMU 02_01 walk, 4 s in, 12 s walked) with the
-    default controller survives at least 6 of 8 in each stance (measured 6 + 6; with the velocity low-pass
-    at 0.75 s, 6 + 5: docs/controller.md, *Pushes on a real capture*)."""
+    default controller survives at least 6 of 8 in each stance (docs/results.md)."""
     import csv
 
     from bipedsim.sim.experiment import load_experiment

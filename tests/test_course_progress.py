@@ -102,10 +102,9 @@ def test_builtin_walk_progresses_along_its_course() -> None:
 
 
 def test_the_torso_law_holds_a_capture_on_its_course() -> None:
-    """The torso law of session 12 (damping ``balance.torso_kd`` 175, ``stance_yaw_limit`` 0.6): the shared
-    CMU 02_01 walk (seed 0, 20 s) makes at least 70 % of its clip's speed *along its course*; with the
-    torso law before (100, 0.35) it crabbed off (measured: 0.77 against 0.50 along the course, 0.88 and 0.84
-    of displacement; seeds 0-9 0.75-0.78 against 0.42-0.67; docs/controller.md, *Torso damping*)."""
+    """The torso law (damping ``balance.torso_kd`` 175, ``stance_yaw_limit`` 0.6): the shared CMU 02_01
+    walk (seed 0, 20 s) makes at least 70 % of its clip's speed *along its course*; with a softer torso
+    law (100, 0.35) it crabs off its course."""
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
     v_clip = clip_speed(sc.clip)

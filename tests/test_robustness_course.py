@@ -1,4 +1,4 @@
-"""Heading and course control (issue 24, case 7): the body walks where the reference walks.
+"""Heading and course control: the body walks where the reference walks.
 
 The law (``balance.course``, control/simbicon.py ``SimbiconController._steer``): the COM's lateral offset e from
 the reference's own course (its cycle-averaged path, looped with the clip's per-cycle motion) turns the

@@ -89,12 +89,9 @@ def test_torso_heading_follows_a_turned_stance_foot_to_within_the_limit(scenario
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", [
-    # seeds 0-2, soft soles, torso damping 100: without 2.25 / 7.41 / 2.31 s, with the limit 0.6 7.19 / 7.18 /
-    # 1.95 (at 0.35, the limit until session 12: 6.26 / 6.21 / 1.94)
+    # seeds 0-2, soft soles, torso damping 100: the limit delays the sideways falls
     "bandai2_walk_exhausted_001.bvh",
-    # CMU 12_03 was here too (without 7.0 / 15.5 / 11.3 s, with 0.6 20 / 19.2 / 5.6 s); since its swing toes
-    # peel off the floor (session 13, docs/controller.md, *Real-length toes*) it walks its 20 s on two of three
-    # seeds either way (without: 20 / 20 / 10.6 s, with: 12.4 / 20 / 20 s), so it shows no contrast
+    # (CMU 12_03, whose swing toes peel off the floor, walks its 20 s on most seeds either way: no contrast)
 ])
 def test_stance_yaw_limit_delays_the_sideways_falls(name: str) -> None:
     """Seeds 0-2, the reference modulation off as first measured (single runs of these walks are chaotic):

@@ -173,7 +173,7 @@ def test_a_smaller_body_walks_its_similar_walk_only_when_the_controller_is_scale
     0.66 m, below the measured 0.78-0.94 m; 39.5 kg) walking the same walk at the same Froude number:
     scaled, it walks 20 s at >= 70 % of its clip's speed (seed 0; seeds 0-3 all do); with the settings as
     written it falls within 5 s."""
-    from bipedsim.control.reference import clip_speed
+    from bipedsim.control.cycles import clip_speed
     from bipedsim.sim import runner
     from bipedsim.sim.rollout import RolloutSpec
 

@@ -31,6 +31,7 @@ from bipedsim.control.config import ControllerConfig, controller_yaml, load_cont
 from bipedsim.control.fsm import GaitFSM
 from bipedsim.control.simbicon import SimbiconController as Controller
 from bipedsim.control.simbicon import gait_source
+from bipedsim.control.torso import torso_torque
 from bipedsim.errors import ConfigError
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario, run_seeds
@@ -63,8 +64,8 @@ def test_pd_step_is_eq1(scenario) -> None:
             q, qd = data.qpos[c.hinges.qadr], data.qvel[c.hinges.dadr]
             q_d = q - c.tracking_error  # the reference's targets this step
             qd_d = c.source.hinge_targets(c.frame, c.fsm.state)[1] if mode == "pd_ref_velocity" else 0.0
-            tau = c.kp * (q_d - q) - c.kd * (qd - qd_d)
-            assert np.allclose(c.torque, np.clip(tau, -c.limit, c.limit), atol=1e-9)
+            tau = c.tables.kp * (q_d - q) - c.tables.kd * (qd - qd_d)
+            assert np.allclose(c.torque, np.clip(tau, -c.tables.limit, c.tables.limit), atol=1e-9)
             assert np.abs(c.tracking_error).max() > 0.01  # a real error, not a trivial zero
         finally:
             c.restore_model()
@@ -176,15 +177,15 @@ def test_resync_moves_reference_the_right_way(scenario) -> None:
         # the simulation lands late: the reference has run past its strike frame -> M > 1, move back
         # (P_c is measured on the gait clock, which is real time while the tempo rate is 1)
         c.frame = strike + 5
-        c.clock = (step + 5) * src.frame_time
-        c._resync("left", t=c.clock)
+        c.playback.clock = (step + 5) * src.frame_time
+        c._resync("left", t=c.playback.clock)
         ev = c.resyncs[-1]
         assert ev.ratio > 1 and c.frame < ev.frame_before and c.frame == pytest.approx(strike)
         # early landing of the next foot: M < 1, move forward
         nxt = src.next_strike(strike + 1e-3, "right")
         c.frame = nxt - 4
-        c.clock = (step + 5) * src.frame_time + (nxt - strike - 4) * src.frame_time * 0.8
-        c._resync("right", t=c.clock)
+        c.playback.clock = (step + 5) * src.frame_time + (nxt - strike - 4) * src.frame_time * 0.8
+        c._resync("right", t=c.playback.clock)
         ev = c.resyncs[-1]
         assert ev.ratio < 1 and c.frame > ev.frame_before and c.frame == pytest.approx(nxt)
     finally:
@@ -363,23 +364,24 @@ def test_pose_gait_source_walks(tmp_path: Path) -> None:
 
 def test_hot_path_rotation_helpers_match_scipy() -> None:
     """The controller's float-only helpers: rotation vector, one- and two-hinge angles."""
-    from bipedsim.control.simbicon import _hinge_angles_small, _rotvec3
+    from bipedsim.control.feet import hinge_angles_small
+    from bipedsim.control.torso import rotvec3
 
     rng = np.random.default_rng(5)
     for r in Rotation.random(20, random_state=7):
-        assert np.allclose(_rotvec3(r.as_matrix()), r.as_rotvec(), atol=1e-9)
+        assert np.allclose(rotvec3(r.as_matrix()), r.as_rotvec(), atol=1e-9)
     for _ in range(20):
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
         theta = rng.uniform(-2.5, 2.5)
         m = Rotation.from_rotvec(axis * theta).as_matrix()
-        assert _hinge_angles_small(m, [tuple(axis)])[0] == pytest.approx(theta, abs=1e-9)
+        assert hinge_angles_small(m, [tuple(axis)])[0] == pytest.approx(theta, abs=1e-9)
     # two hinges (y then x, as an ankle with pitch and roll): the angles come back
     a, b = 0.4, -0.3
     m = Rotation.from_euler("YX", [a, b]).as_matrix()
-    assert np.allclose(_hinge_angles_small(m, [(0.0, 1.0, 0.0), (1.0, 0.0, 0.0)]), [a, b])
+    assert np.allclose(hinge_angles_small(m, [(0.0, 1.0, 0.0), (1.0, 0.0, 0.0)]), [a, b])
     # the same rotation about the opposite axes is the opposite angles
-    assert np.allclose(_hinge_angles_small(m, [(0.0, -1.0, 0.0), (-1.0, 0.0, 0.0)]), [-a, -b])
+    assert np.allclose(hinge_angles_small(m, [(0.0, -1.0, 0.0), (-1.0, 0.0, 0.0)]), [-a, -b])
     # two hinges off x, y, z (a flexion axis along the shin's, then roll about x), in their own basis
     from bipedsim.model.retarget import hinge_basis
 
@@ -387,7 +389,7 @@ def test_hot_path_rotation_helpers_match_scipy() -> None:
     axes = [flex, np.array([-1.0, 0.0, 0.0])]
     basis = hinge_basis(axes)[2]
     m = Rotation.from_rotvec(axes[0] * a).as_matrix() @ Rotation.from_rotvec(axes[1] * b).as_matrix()
-    assert np.allclose(_hinge_angles_small(m, [tuple(x) for x in axes], basis), [a, b], atol=1e-12)
+    assert np.allclose(hinge_angles_small(m, [tuple(x) for x in axes], basis), [a, b], atol=1e-12)
 
 
 def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:
@@ -478,11 +480,11 @@ def test_tempo_rate_drives_the_gait_clock(scenario, v_excess: float, minimum: fl
         dt = 0.004
         c(model, data, 0.0, dt)  # measures v; this step still runs at the reset rate 1
         assert c.state.tempo == 1.0
-        f0, clock0, tis0 = c.frame, c.clock, c.fsm.time_in_state
+        f0, clock0, tis0 = c.frame, c.playback.clock, c.fsm.time_in_state
         c(model, data, dt, dt)
         assert c.state.tempo == pytest.approx(rate)
         assert c.frame - f0 == pytest.approx(rate * dt / src.frame_time)
-        assert c.clock - clock0 == pytest.approx(rate * dt)
+        assert c.playback.clock - clock0 == pytest.approx(rate * dt)
         assert c.fsm.time_in_state - tis0 == pytest.approx(rate * dt)
     finally:
         c.restore_model()
@@ -516,7 +518,7 @@ def test_tempo_recovers_forward_pushes_late_in_the_swing(request, direction: flo
 
 
 def test_torso_law_on_the_running_method(scenario) -> None:
-    """The torso law as the control step computes it (``SimbiconController._torso_torque``): a pelvis
+    """The torso law as the control step computes it (:func:`bipedsim.control.torso.torso_torque`): a pelvis
     pitched by delta from its target and turning at omega about world y gets the world torque
     (0, kp delta - kd omega, 0) whatever its heading (roll and pitch gains equal by default)."""
     import mujoco
@@ -529,14 +531,16 @@ def test_torso_law_on_the_running_method(scenario) -> None:
     mujoco.mj_forward(model, data)
     c.reset(data, float(c.start_frame()))
     try:
-        r_des = c._r_heading.dot(c.source.pelvis_target(c.frame, c.fsm.state))
+        pelvis_ref = c.source.pelvis_target(c.frame, c.fsm.state)
+        r_des = c.steering.r_heading.dot(pelvis_ref)
         b = cfg.balance
         assert b.roll_kp is None  # the law below assumes roll_kp = torso_kp
         for delta, omega in ((0.1, 0.0), (-0.05, 0.3), (0.0, -0.5)):
             r_p = Rotation.from_rotvec([0.0, -delta, 0.0]).as_matrix() @ r_des  # r_des r_p^T = R_y(delta)
             h = math.atan2(r_p[1, 0], r_p[0, 0])
             w_body = r_p.T @ np.array([0.0, omega, 0.0])
-            tau = c._torso_torque(r_p, r_p.ravel().tolist(), w_body.tolist(), math.cos(h), math.sin(h))
+            tau = torso_torque(b, c.tables.roll_kp, c.steering.r_heading, pelvis_ref, r_p, r_p.ravel().tolist(),
+                               w_body.tolist(), math.cos(h), math.sin(h))
             assert np.allclose(tau, [0.0, b.torso_kp * delta - b.torso_kd * omega, 0.0], atol=1e-6)
     finally:
         c.restore_model()
@@ -592,7 +596,7 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     speed while seeds 1-5 walk at 0.77-0.82; docs/controller.md "Speed deficit")."""
     from dataclasses import replace
 
-    from bipedsim.control.reference import clip_speed
+    from bipedsim.control.cycles import clip_speed
 
     need_shared()
     with toes_as_measured():  # as measured (with today's toes, on these old settings, it falls at 5.4-19.6 s with it)
@@ -620,20 +624,20 @@ def test_froude_scheduled_cd_lets_a_fast_capture_stride_out() -> None:
     keeps 0.55."""
     from dataclasses import replace
 
-    from bipedsim.control.reference import clip_speed
+    from bipedsim.control.cycles import clip_speed
 
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
     sc = replace(sc, cfg=swing_as_measured(torso_as_measured(without_modulation(sc.cfg))))  # as measured
     ctrl = sc.controller()
-    assert 0.35 < ctrl._cd_sagittal < 0.5
+    assert 0.35 < ctrl.tables.cd_sagittal < 0.5
     v_clip = clip_speed(sc.clip)
     out, _ = run_scenario(sc, RolloutSpec(seconds=20.0))
     assert out.outcome == "no_fall" and out.mean_speed_mps >= 0.7 * v_clip, (out.fall_time_s, out.mean_speed_mps)
     off = replace(sc.cfg, balance=replace(sc.cfg.balance, cd_froude=None))
     out0, _ = run_scenario(replace(sc, cfg=off), RolloutSpec(seconds=20.0))
     assert out0.outcome == "no_fall" and out0.mean_speed_mps < 0.6 * v_clip, out0.mean_speed_mps
-    assert load_scenario(None).controller()._cd_sagittal == 0.55
+    assert load_scenario(None).controller().tables.cd_sagittal == 0.55
 
 
 @pytest.mark.parametrize("mode", ["off", "swing_hip", "all"])
@@ -651,8 +655,8 @@ def test_net_torque_limit_bounds_actuator_and_damping_together(mode: str, monkey
 
     def spy(self, model, data, t, dt):  # type: ignore[no-untyped-def]
         out = call(self, model, data, t, dt)
-        rec.append((self.torque.copy(), self._akd * data.qvel[self._dsel], self.limit.copy(), self.fsm.swing,
-                    self.hip[self.fsm.swing][0].tolist()))
+        rec.append((self.torque.copy(), self.drive.akd * data.qvel[self.tables.dsel], self.tables.limit.copy(),
+                    self.fsm.swing, self.tables.hip[self.fsm.swing].idx_l))
         return out
 
     monkeypatch.setattr(Controller, "__call__", spy)

@@ -77,7 +77,7 @@ def _controller(walk, over: dict | None = None) -> tuple[Controller, mujoco.MjDa
 
 
 def test_steering_in_the_controller_follows_the_law(walk) -> None:
-    """``Controller._steer``, the code the control step runs, on a COM placed off the built-in walk's
+    """``CourseSteering.steer``, the code the control step runs, on a COM placed off the built-in walk's
     straight course: the heading target is the course's heading plus ``course_turn`` of the offset beyond
     the deadband, 0 inside it."""
     ctrl, data = _controller(walk)
@@ -85,15 +85,16 @@ def test_steering_in_the_controller_follows_the_law(walk) -> None:
     try:
         x0, y0 = data.subtree_com[ctrl.pelvis, :2].tolist()
         for e in (0.3, 1.0, -1.2, 4.0):
-            ctrl._rate_f = 0.0
-            ctrl._steer(x0 + 0.5, y0 + e, 0.9, 0.0)
-            assert ctrl.state.course_offset == pytest.approx(e, abs=0.02)  # the course passes the start COM
-            want = course_turn(beyond(ctrl.state.course_offset, cc.deadband), 0.0, cc.steer_gain, cc.steer_damping,
+            ctrl.steering.rate_f = 0.0
+            ctrl.steering.steer(x0 + 0.5, y0 + e, 0.9, 0.0, ctrl.model.opt.timestep)
+            assert ctrl.steering.offset == pytest.approx(e, abs=0.02)  # the course passes the start COM
+            want = course_turn(beyond(ctrl.steering.offset, cc.deadband), 0.0, cc.steer_gain, cc.steer_damping,
                                cc.max_turn)
             assert ctrl.heading_target == pytest.approx(want, abs=1e-3)  # the built-in course heads along +x
             assert (want == 0.0) == (abs(e) <= cc.deadband)
             # the torso law's heading matrix is the target's yaw
-            assert math.atan2(ctrl._r_heading[1, 0], ctrl._r_heading[0, 0]) == pytest.approx(ctrl.heading_target)
+            rh = ctrl.steering.r_heading
+            assert math.atan2(rh[1, 0], rh[0, 0]) == pytest.approx(ctrl.heading_target)
         assert ctrl.heading_target == pytest.approx(-cc.max_turn, abs=1e-3)  # 4 m off: clamped
     finally:
         ctrl.restore_model()
@@ -262,7 +263,8 @@ def _shifted_course_rms(walk, over: dict, shift: float = 2.0, seconds: float = 3
     def hook(t, data, ctrl) -> None:  # noqa: ANN001
         if t == 0.0:
             ref_pose, seg = ctrl.source.course_start(ctrl.frame)
-            ctrl.course.reset(ref_pose, (float(data.qpos[0]), float(data.qpos[1]) + shift, ctrl.heading_target), seg)
+            body = (float(data.qpos[0]), float(data.qpos[1]) + shift, ctrl.heading_target)
+            ctrl.steering.tracker.reset(ref_pose, body, seg)
         if t >= seconds / 2:
             offsets.append(ctrl.state.course_offset)
 

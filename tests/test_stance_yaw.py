@@ -14,6 +14,7 @@ import math
 from dataclasses import replace
 
 import mujoco
+import numpy as np
 import pytest
 from conftest import (
     SHARED_BVH,
@@ -28,6 +29,7 @@ from conftest import (
 from bipedsim.control.balance import yaw_within
 from bipedsim.control.config import ControllerConfig
 from bipedsim.control.simbicon import SimbiconController, gait_source
+from bipedsim.control.torso import torso_heading, torso_torque
 from bipedsim.sim.runner import load_scenario
 
 
@@ -62,7 +64,7 @@ def test_torso_heading_follows_a_turned_stance_foot_to_within_the_limit(scenario
         data.qpos[:] = scenario.clip.qpos[c.start_frame()]
         mujoco.mj_forward(model, data)
         c.reset(data, float(c.start_frame()))
-        h_target = _yaw(c._r_heading)
+        h_target = _yaw(c.steering.r_heading)
         # turn the whole body by 1 rad (root quaternion about z)
         q = data.qpos[3:7].copy()
         turn = [math.cos(0.5), 0.0, 0.0, math.sin(0.5)]
@@ -70,19 +72,24 @@ def test_torso_heading_follows_a_turned_stance_foot_to_within_the_limit(scenario
         mujoco.mj_forward(model, data)
         stance, swing = c.fsm.stance, c.fsm.swing
         f_ref = c.source.foot_target(c.frame, c.fsm.state, stance)
-        anchor = _yaw(data.xmat[c.foot_body[stance]].reshape(3, 3)) - _yaw(f_ref)
+        anchor = _yaw(data.xmat[c.tables.foot_body[stance]].reshape(3, 3)) - _yaw(f_ref)
         assert math.remainder(anchor - h_target, 2 * math.pi) == pytest.approx(1.0, abs=0.15)
         r = c._torso_heading(data, {stance: 500.0, swing: 0.0})
         assert math.remainder(_yaw(r) - anchor, 2 * math.pi) == pytest.approx(-lim, abs=1e-9)
         # the torso law then turns the pelvis toward that heading, not the target's: its yaw torque is
         # smaller than without the limit by heading_kp (1 rad less the limit), about
-        tz = c._torso_torque(data.xmat[c.pelvis].reshape(3, 3), data.xmat[c.pelvis].tolist(), [0.0] * 3, 1.0, 0.0, r)[2]
-        tz0 = c._torso_torque(data.xmat[c.pelvis].reshape(3, 3), data.xmat[c.pelvis].tolist(), [0.0] * 3, 1.0, 0.0)[2]
+        pelvis_ref = c.source.pelvis_target(c.frame, c.fsm.state)
+        r_p = data.xmat[c.pelvis].reshape(3, 3)
+        pm = r_p.ravel().tolist()
+        tz = torso_torque(cfg.balance, c.tables.roll_kp, r, pelvis_ref, r_p, pm, [0.0] * 3, 1.0, 0.0)[2]
+        tz0 = torso_torque(cfg.balance, c.tables.roll_kp, c.steering.r_heading, pelvis_ref, r_p, pm, [0.0] * 3, 1.0,
+                           0.0)[2]
         assert abs(tz) < abs(tz0) - 0.5 * cfg.balance.heading_kp * (1.0 - lim)
         # an unloaded stance foot holds nothing to turn against: the target's heading
-        assert c._torso_heading(data, {stance: 0.0, swing: 0.0}) is c._r_heading
-        c._stance_yaw_limit = None
-        assert c._torso_heading(data, {stance: 500.0, swing: 0.0}) is c._r_heading
+        assert c._torso_heading(data, {stance: 0.0, swing: 0.0}) is c.steering.r_heading
+        # no limit: the target's heading
+        fm = data.xmat[c.tables.foot_body[stance]]
+        assert torso_heading(c.steering.r_heading, np.eye(3), None, 500.0, f_ref, fm) is c.steering.r_heading
     finally:
         c.restore_model()
 

@@ -1,0 +1,103 @@
+"""The reference's playback: the gait clock, the frame's advance and the resynchronisation at strikes.
+
+The reference frame F (a float, unwrapped: it only grows) advances by ``dt_gait / frame_time`` per
+control step, where the gait clock runs at the step tempo's rate (``fsm.tempo``). At every foot strike the
+controller matches the reference's strike of that foot and records M = P_c / P_r, the simulated step time
+over the reference's (eq. 7-8); with ``resync.enabled`` it moves the reference toward that strike, spread
+over ``resync.spread`` s, and with ``resync.hold`` it holds the reference at the strike frame while the
+swing foot is late (up to ``fsm.max_wait``). Times in s, frames in clip frames.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bipedsim.control.config import ControllerConfig
+from bipedsim.control.fsm import GaitFSM
+from bipedsim.control.humanoid_config import ResyncConfig, TempoConfig
+from bipedsim.control.reference import GaitSource
+
+
+@dataclass
+class ResyncEvent:
+    """One foot strike as resynchronisation saw it."""
+
+    time: float  #: s
+    foot: str
+    frame_before: float
+    frame_after: float
+    ratio: float  #: M = P_c / P_r
+
+
+@dataclass
+class Playback:
+    """The gait clock and the bookkeeping of the strikes, reset with each rollout."""
+
+    clock: float = 0.0  #: the gait clock (s): real time run at the tempo rate
+    last_strike_time: float = 0.0  #: s, real time
+    last_strike_clock: float = 0.0  #: s, on the gait clock
+    last_strike_frame: float = 0.0  #: the reference strike frame last matched
+    wait_time: float = 0.0  #: s the reference has been held at a strike frame
+    pending_shift: float = 0.0  #: frames of resynchronisation still to apply
+    resyncs: list[ResyncEvent] = field(default_factory=list)
+
+    def reset(self, frame: float, t: float) -> None:
+        """A rollout starting at reference ``frame`` at time ``t``."""
+        self.resyncs.clear()
+        self.pending_shift = 0.0
+        self.last_strike_time, self.last_strike_frame = t, frame
+        self.clock = self.last_strike_clock = t
+
+
+def tempo_rate(tc: TempoConfig, v_sagittal: float, speed: float) -> float:
+    """The gait clock's rate (x real time): ``clamp(1 + gain e, min, max)``, ``e`` the sagittal COM
+    velocity ``v_sagittal``'s excess over the walk's ``speed`` (m/s) beyond the deadband."""
+    e = v_sagittal - speed
+    e = e - tc.deadband if e > tc.deadband else (e + tc.deadband if e < -tc.deadband else 0.0)
+    return min(max(1.0 + tc.gain * e, tc.min), tc.max)
+
+
+def resync(pb: Playback, src: GaitSource, rc: ResyncConfig, frame: float, foot: str, t: float) -> float:
+    """A strike of ``foot`` at time ``t`` with the reference at ``frame``: match it to that foot's next
+    reference strike after the last matched one, record M, and return the frame (moved at once by
+    ``resync.enabled`` with no spread; else the shift is left pending)."""
+    target = src.next_strike(pb.last_strike_frame + 1e-3, foot)
+    p_c = pb.clock - pb.last_strike_clock  # on the gait clock, as the reference's P_r
+    before = frame
+    ratio = 1.0
+    if target is not None:
+        p_r = max((target - pb.last_strike_frame) * src.frame_time, 1e-6)
+        ratio = p_c / p_r
+        if rc.enabled:
+            delta = np.clip(rc.gain * (target - frame), -rc.max_frames, rc.max_frames)
+            if rc.spread > 0:
+                pb.pending_shift = float(delta)
+            else:
+                frame += float(delta)
+        pb.last_strike_frame = target
+    pb.last_strike_time, pb.last_strike_clock = t, pb.clock
+    pb.resyncs.append(ResyncEvent(t, foot, before, frame, ratio))
+    return frame
+
+
+def advance(pb: Playback, src: GaitSource, cfg: ControllerConfig, fsm: GaitFSM, frame: float, dt: float,
+            dt_gait: float) -> tuple[float, bool]:
+    """The reference frame after a control step of ``dt`` s real time, ``dt_gait`` s on the gait clock:
+    moved on by the clock and by the pending resynchronisation, and held just before the swing foot's
+    strike frame while that foot is late (``resync.hold``). Also whether it is held."""
+    nxt = frame + dt_gait / src.frame_time
+    if pb.pending_shift:
+        spread = cfg.resync.spread
+        step = pb.pending_shift * (min(1.0, dt / spread) if spread > 0 else 1.0)
+        if abs(pb.pending_shift - step) < 1e-9 or abs(step) >= abs(pb.pending_shift):
+            step = pb.pending_shift
+        nxt += step
+        pb.pending_shift -= step
+    if cfg.resync.hold and fsm.state in (2, 4):
+        exp = src.next_strike(frame, fsm.swing)
+        if exp is not None and nxt >= exp and pb.wait_time < cfg.fsm.max_wait:
+            pb.wait_time += dt
+            return exp - 1e-6, True
+    return nxt, False

@@ -404,6 +404,7 @@ def _parse_hierarchy(lines: _Lines) -> tuple[list[str], list[int], list[list[flo
     if toks != ["HIERARCHY"]:
         raise BVHError(f"expected 'HIERARCHY' as the first line, got {' '.join(toks)[:40]!r}", path, ln)
     names: list[str] = []
+    seen: set[str] = set()  # the names so far, to find a repeated one in constant time (files hold 1e5 joints)
     parents: list[int] = []
     offsets: list[list[float]] = []
     channels: list[tuple[str, ...]] = []
@@ -441,11 +442,12 @@ def _parse_hierarchy(lines: _Lines) -> tuple[list[str], list[int], list[list[flo
     def joint_header(toks: list[str], ln: int, parent: int) -> tuple[int, list[str], int]:
         """Name, OFFSET and CHANNELS of a joint: its index and the first line after them."""
         name, brace = name_of(toks, ln)
-        if name in names:
+        if name in seen:
             raise BVHError(f"joint name {name!r} is used twice", path, ln)
         open_brace(brace, f"joint {name!r}")
         idx = len(names)
         names.append(name)
+        seen.add(name)
         parents.append(parent)
         offsets.append(offset(f"joint {name!r}"))
         t, ln2 = lines.next(f"CHANNELS of joint {name!r}")

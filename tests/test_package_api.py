@@ -116,14 +116,18 @@ def test_convert_says_where_the_mass_came_from(tmp_path: Path) -> None:
 
 
 def test_run_to_folder_writes_the_run_and_says_each_line(tmp_path: Path) -> None:
-    (tmp_path / "rollout.mp4").write_text("stale")
+    run_to_folder(tmp_path, seconds=0.3, plots=True)  # an earlier run's plots, recorded in the manifest
+    (tmp_path / "rollout.mp4").write_text("the user's own")
     lines: list[str] = []
     res = run_to_folder(tmp_path, seconds=0.3, csv=tmp_path / "j.csv", say=lines.append)
     assert res.outcome.sim_seconds == pytest.approx(0.3) and res.folder == tmp_path
     # the built-in body (legs 0.93 m) weighs 79.4 kg from its legs: the settings' forces follow
     assert lines[0].startswith("controller: settings scaled to the body (legs 0.93 m, 79.4 kg;"), lines[0]
-    assert lines[1] == f"removed from an earlier run in {tmp_path}: rollout.mp4"
-    assert lines[2] == outputs.outcome_line(res.outcome, res.scenario)
+    assert lines[1] == (f"removed from an earlier run in {tmp_path}: joint_angles.png, tracking_error.png, "
+                        "com_top_view.png, contacts.png")
+    assert lines[2] == f"left alone in {tmp_path}: rollout.mp4 (not written there by bipedsim, or changed since)"
+    assert (tmp_path / "rollout.mp4").read_text() == "the user's own"
+    assert lines[3] == outputs.outcome_line(res.outcome, res.scenario)
     assert lines[-1] == f"wrote {tmp_path / 'j.csv'}"
     assert [p.name for p in res.written] == ["outcome.json", "trajectory.npz", "model.xml", "j.csv"]
     assert all(p.is_file() for p in res.written)

@@ -67,8 +67,10 @@ def stance_share(force_stance: float, force_swing: float) -> float:
     return min(max(float(force_stance) / total, 0.0), 1.0)
 
 
-def hip_torques(tau_torso: FloatArray, tau_swing: FloatArray, gamma: float,
-                redistribute: bool = True) -> tuple[FloatArray, FloatArray]:
+Vec3 = tuple[float, float, float]
+
+
+def hip_torques(tau_torso: Vec3, tau_swing: Vec3, gamma: float, redistribute: bool = True) -> tuple[Vec3, Vec3]:
     """Eq. 2-5: world torques (stance hip A, swing hip B) the hip actuators apply to the thighs.
 
     The hips push back on the pelvis with minus those torques, so the pelvis receives ``tau_torso``
@@ -76,17 +78,9 @@ def hip_torques(tau_torso: FloatArray, tau_swing: FloatArray, gamma: float,
     own tracking torque ``tau_swing`` and adds its share of the remainder,
     ``tau_r = -(tau_torso + tau_swing)``: ``tau_A = gamma tau_r``, ``tau_B = tau_swing + (1-gamma) tau_r``.
     In single support gamma = 1 and this is eq. 2, ``tau_A = -tau_torso - tau_B``. Without
-    redistribution the stance hip takes all of ``tau_r`` whatever the load.
+    redistribution the stance hip takes all of ``tau_r`` whatever the load. Plain floats: the
+    controller's per-step form.
     """
-    t_a, t_b = hip_torques3(_floats3(tau_torso), _floats3(tau_swing), gamma, redistribute)
-    return np.array(t_a), np.array(t_b)
-
-
-Vec3 = tuple[float, float, float]
-
-
-def hip_torques3(tau_torso: Vec3, tau_swing: Vec3, gamma: float, redistribute: bool = True) -> tuple[Vec3, Vec3]:
-    """:func:`hip_torques` on plain floats (the controller's per-step form)."""
     g = gamma if redistribute else 1.0
     (x, y, z), (u, v, w) = tau_torso, tau_swing
     rx, ry, rz = -(x + u), -(y + v), -(z + w)
@@ -94,16 +88,10 @@ def hip_torques3(tau_torso: Vec3, tau_swing: Vec3, gamma: float, redistribute: b
     return (g * rx, g * ry, g * rz), (u + h * rx, v + h * ry, w + h * rz)
 
 
-def world_to_hinges(axes: FloatArray, tau_world: FloatArray) -> FloatArray:
-    """Hinge torques producing a world torque across a joint: tau_k = a_k . T (a_k world axes, k x 3).
-
-    For a torque T applied to the child and -T to the parent, each hinge's generalized force is the
-    component of T along its axis (the Jacobian transpose)."""
-    return axes @ tau_world
-
-
-def world_to_hinges3(axes: list[list[float]], tau_world: Vec3) -> list[float]:
-    """:func:`world_to_hinges` on plain floats (axes as rows)."""
+def world_to_hinges(axes: list[list[float]], tau_world: Vec3) -> list[float]:
+    """Hinge torques producing a world torque across a joint: tau_k = a_k . T (a_k world axes, the rows of
+    ``axes``). For a torque T applied to the child and -T to the parent, each hinge's generalized force is
+    the component of T along its axis (the Jacobian transpose). Plain floats: the per-step form."""
     x, y, z = tau_world
     return [a * x + b * y + c * z for a, b, c in axes]
 

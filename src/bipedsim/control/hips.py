@@ -19,9 +19,9 @@ from bipedsim.control.balance import (
     euler_from_matrix,
     hinges_to_world,
     hinges_to_world3,
-    hip_torques3,
+    hip_torques,
     stance_share,
-    world_to_hinges3,
+    world_to_hinges,
 )
 from bipedsim.control.humanoid_tables import HumanoidTables
 
@@ -79,7 +79,7 @@ def split_hip_torques(t: HumanoidTables, data: mujoco.MjData, tau: FloatArray, t
     if t_b is None:
         t_b = tuple(hinges_to_world(np.array(axes_b), np.array(tb)).tolist())
     gamma = stance_share(forces[stance], forces[swing])
-    t_a, t_b_total = hip_torques3(tau_torso, t_b, gamma, redistribute)
-    tau[t.hip[stance].sel] = world_to_hinges3(data.xaxis[jid_a].tolist(), t_a)
-    tau[t.hip[swing].sel] = world_to_hinges3(axes_b, t_b_total)
+    t_a, t_b_total = hip_torques(tau_torso, t_b, gamma, redistribute)
+    tau[t.hip[stance].sel] = world_to_hinges(data.xaxis[jid_a].tolist(), t_a)
+    tau[t.hip[swing].sel] = world_to_hinges(axes_b, t_b_total)
     return gamma

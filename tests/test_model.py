@@ -424,7 +424,7 @@ def test_spine_segments_validated(tmp_path: Path) -> None:
 def test_soles_lie_flat_in_stance_when_the_rest_pose_is_not_flat_footed(monkeypatch) -> None:
     """Holden's CMU skeleton points its feet down in the rest pose; boxes built in the rest frame
     would stand on their toe edges. The builder pitches them to the motion's flat-foot frames."""
-    import bipedsim.model.humanoid as hum
+    import bipedsim.model.flat_foot as hum
 
     path = SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh"
     if not path.exists():

@@ -59,7 +59,7 @@ def _sole_error(path, two: bool) -> tuple[float, float, float]:
     (the same boxes carried by the fitted foot orientations) over the clip and over the frames where
     the capture has the foot flat, and the soles' mean tilt off level on those frames."""
     from bipedsim.model import build_model
-    from bipedsim.model.humanoid import _flat_frames
+    from bipedsim.model.flat_foot import _flat_frames
     from bipedsim.model.naming import recognise_humanoid
     from bipedsim.model.prepare import read_for_build
     from bipedsim.model.profile import load_profile

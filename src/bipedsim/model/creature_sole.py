@@ -29,7 +29,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.model.humanoid import _flat_frames, _quat
+from bipedsim.model.flat_foot import _flat_frames
+from bipedsim.model.humanoid_geoms import _quat
 from bipedsim.model.plan import BodyPlan, GeomPlan, SitePlan
 from bipedsim.model.source import SourcePoints
 

@@ -16,10 +16,10 @@ from bipedsim.data import BUILTIN_HUMANOID, BUILTIN_WALK, builtin_humanoid_xml
 from bipedsim.errors import BipedsimError, ConfigError, ModelError
 from bipedsim.model import ReferenceClip, build_model, load_model, load_profile, retarget
 from bipedsim.model.gait import ground_level
+from bipedsim.model.hinge_angles import _hinge_angles
 from bipedsim.model.naming import MapFile, load_map, split_name
 from bipedsim.model.profile import PROFILE_DIR
 from bipedsim.model.retarget import (
-    _hinge_angles,
     foot_heights,
     kabsch,
     marker_positions,

@@ -13,7 +13,7 @@ from conftest import SHARED_BVH, need_shared
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
-from bipedsim.model.retarget import _hinge_angles, hinge_basis
+from bipedsim.model.hinge_angles import _hinge_angles, hinge_basis
 
 
 def _compose(axes: list[np.ndarray], ang: np.ndarray) -> np.ndarray:

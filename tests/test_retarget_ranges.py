@@ -8,7 +8,8 @@ import numpy as np
 from conftest import SHARED_BVH, need_shared
 from scipy.spatial.transform import Rotation
 
-from bipedsim.model.retarget import _continuous_twist, _hinge_angles, _in_range_euler
+from bipedsim.model.hinge_angles import _hinge_angles, _in_range_euler
+from bipedsim.model.orientations import _continuous_twist
 
 AXES = [np.array([0, -1.0, 0]), np.array([1.0, 0, 0]), np.array([0, 0, 1.0])]
 

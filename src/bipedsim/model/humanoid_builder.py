@@ -17,7 +17,7 @@ from bipedsim.model.humanoid_geoms import _capsule, _matrix, _sole_box
 from bipedsim.model.humanoid_proportions import mass_from_legs
 from bipedsim.model.humanoid_sides import _facing_yaw, check_sides, humanoid_roles
 from bipedsim.model.naming import MapFile
-from bipedsim.model.retarget import _min_rotation
+from bipedsim.model.orientations import _min_rotation
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
 from bipedsim.model.profile import HumanoidProfile, JointSpec
 from bipedsim.model.rigid_layout import NECK_FIT_WEIGHT, _split_spine, calibrate_rigid

@@ -14,13 +14,14 @@ Each body's world orientation is fitted to the source motion (see :class:`~biped
 Local rotations ``G_parent^T G_body`` are then split into the body's joints: hinge sets by intrinsic
 Euler decomposition on their axes, single hinges by the twist about their axis, ball joints as
 quaternions. Velocities come from ``mj_differentiatePos`` (central differences on the manifold).
+
+The fits live in :mod:`~bipedsim.model.orientations`, the split into hinges in
+:mod:`~bipedsim.model.hinge_angles`, the feet's heights and the floor in :mod:`~bipedsim.model.floor`.
 """
 
 from __future__ import annotations
 
 import os
-import warnings
-from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -29,274 +30,18 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip, contact_labels, debounce, foot_speeds, gait_events
+from bipedsim.model.floor import _put_on_floor, floor_tilt, foot_heights, geom_lowest_z
 from bipedsim.model.gait import contacts_from_strikes, load_events, side_contacts
-from bipedsim.model.plan import BodyPlanSet, FitPlan, model_hash, plan_from_model
+from bipedsim.model.hinge_angles import _hinge_angles, _in_range_euler, hinge_basis
+from bipedsim.model.orientations import fit_orientations, kabsch
+from bipedsim.model.plan import BodyPlanSet, model_hash, plan_from_model
 from bipedsim.model.source import SourcePoints, motion_points
 from bipedsim.motion.motion import Motion
 
+__all__ = ["fit_orientations", "floor_tilt", "foot_heights", "geom_lowest_z", "hinge_basis", "kabsch",
+           "leading_glitch_frames", "marker_positions", "retarget", "source_marker_positions", "velocities"]
+
 FloatArray = npt.NDArray[np.float64]
-
-#: Weight of the reference rotation in a Kabsch fit, relative to 1 m of point spread.
-KABSCH_REF_WEIGHT = 1e-3
-#: Below this bend (rad) between the two bones, ``twobone`` keeps the reference twist.
-TWOBONE_MIN_BEND = np.radians(2.0)
-
-
-def _unit(v: FloatArray) -> FloatArray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-12)
-
-
-def _min_rotation(a: FloatArray, b: FloatArray) -> FloatArray:
-    """(T, 3, 3) smallest rotations taking directions ``a`` to ``b`` (T, 3)."""
-    a, b = _unit(a), _unit(b)
-    axis = np.cross(a, b)
-    s = np.linalg.norm(axis, axis=-1)
-    c = np.sum(a * b, axis=-1)
-    angle = np.arctan2(s, c)
-    # antiparallel: any axis perpendicular to a
-    perp = np.cross(a, np.array([1.0, 0.0, 0.0]))
-    perp = np.where(np.linalg.norm(perp, axis=-1, keepdims=True) < 1e-6,
-                    np.cross(a, np.array([0.0, 1.0, 0.0])), perp)
-    axis = np.where((s < 1e-9)[:, None], _unit(perp), axis / np.maximum(s, 1e-12)[:, None])
-    return Rotation.from_rotvec(axis * angle[:, None]).as_matrix()
-
-
-def kabsch(rest_vecs: FloatArray, cur_vecs: FloatArray, ref: FloatArray,
-           weights: FloatArray | None = None) -> FloatArray:
-    """(T, 3, 3) rotations minimising sum w_i |R r_i - c_i|^2 (+ a small pull toward ``ref``).
-
-    rest_vecs (N, 3), cur_vecs (T, N, 3), ref (T, 3, 3)."""
-    w = np.ones(len(rest_vecs)) if weights is None else np.asarray(weights, dtype=float)
-    h = np.einsum("n,ni,tnj->tij", w, rest_vecs, cur_vecs)
-    scale = max(float(np.sum(rest_vecs ** 2)), 1e-6)
-    h = h + KABSCH_REF_WEIGHT * scale * np.transpose(ref, (0, 2, 1))  # pairs e_k -> ref e_k
-    u, _, vt = np.linalg.svd(h)
-    v = np.transpose(vt, (0, 2, 1))
-    d = np.sign(np.linalg.det(v @ np.transpose(u, (0, 2, 1))))
-    dm = np.zeros((len(h), 3, 3))
-    dm[:, 0, 0] = 1.0
-    dm[:, 1, 1] = 1.0
-    dm[:, 2, 2] = d
-    return v @ dm @ np.transpose(u, (0, 2, 1))
-
-
-def _twobone_twist(g: FloatArray, u: FloatArray, w: FloatArray, axis0: FloatArray,
-                   child0: FloatArray, hinge_range: list[float] | None = None) -> FloatArray:
-    """Twist ``g`` (T, 3, 3) about the bone ``u`` so the child's hinge, rotating the rest child bone
-    ``child0`` about ``g @ axis0``, can reach the child bone ``w``: the hinge axis must make the same
-    angle with ``w`` as ``axis0`` makes with ``child0``. Of the two twists that do, the smaller."""
-    uh = _unit(u)
-    wh = _unit(w)
-    a = np.einsum("tij,j->ti", g, axis0 / np.linalg.norm(axis0))
-    along = np.sum(a * uh, axis=-1, keepdims=True)
-    ap = a - along * uh
-    bp = np.cross(uh, ap)
-    cos_beta = float(np.dot(axis0, child0) / (np.linalg.norm(axis0) * np.linalg.norm(child0)))
-    big_a = np.sum(ap * wh, axis=-1)
-    big_b = np.sum(bp * wh, axis=-1)
-    c = cos_beta - along[:, 0] * np.sum(uh * wh, axis=-1)
-    r = np.hypot(big_a, big_b)
-    base = np.arctan2(big_b, big_a)
-    delta = np.arccos(np.clip(c / np.maximum(r, 1e-12), -1.0, 1.0))
-    cands = np.stack([base + delta, base - delta], axis=1)
-    cands = (cands + np.pi) % (2 * np.pi) - np.pi
-    cost = np.abs(cands)
-    if hinge_range is not None:
-        # prefer the twist whose child hinge angle lies in range (a knee bends forward, not back)
-        lo, hi = hinge_range
-        for k in range(2):
-            gk = Rotation.from_rotvec(uh * cands[:, k:k + 1]).as_matrix() @ g
-            ak = np.einsum("tij,j->ti", gk, axis0 / np.linalg.norm(axis0))
-            sk = np.einsum("tij,j->ti", gk, child0)
-            p0 = sk - np.sum(sk * ak, axis=-1, keepdims=True) * ak
-            p1 = wh - np.sum(wh * ak, axis=-1, keepdims=True) * ak
-            ang = np.arctan2(np.sum(ak * np.cross(p0, p1), axis=-1), np.sum(p0 * p1, axis=-1))
-            outside = np.maximum(lo - ang, 0.0) + np.maximum(ang - hi, 0.0)
-            cost[:, k] += 10.0 * outside
-    phi = np.take_along_axis(cands, np.argmin(cost, axis=1)[:, None], axis=1)[:, 0]
-    bend = np.linalg.norm(np.cross(uh, wh), axis=-1)
-    phi = np.where((r > 1e-9) & (bend > np.sin(TWOBONE_MIN_BEND)) | (abs(cos_beta) > 0.05), phi, 0.0)
-    phi = _continuous_twist(phi, cands, bend)
-    return Rotation.from_rotvec(uh * phi[:, None]).as_matrix() @ g
-
-
-#: A limb bent less than this (rad) has an ill-conditioned twist: a nearly straight knee or elbow is
-#: reached by almost any twist, so the capture's noise (or a knee passing through straight into a
-#: slight hyperextension) flips it by up to pi between frames (games105's hips near frames 110/146).
-TWOBONE_RELIABLE_BEND = np.radians(10.0)
-
-
-def _continuous_twist(phi: FloatArray, cands: FloatArray, bend: FloatArray) -> FloatArray:
-    """Twists (T,) made continuous through nearly straight frames: where the limb bends less than
-    :data:`TWOBONE_RELIABLE_BEND` (``bend``: sines, T), the twist interpolated in time from the reliable
-    frames around (unwrapped), the candidate (``cands`` (T, 2)) nearest it taken and eased in as the
-    bend grows from :data:`TWOBONE_MIN_BEND`."""
-    ang = np.arcsin(np.clip(bend, 0.0, 1.0))
-    good = ang >= TWOBONE_RELIABLE_BEND
-    if good.all() or not good.any():
-        return phi
-    t = np.arange(len(phi))
-    base = np.interp(t, t[good], np.unwrap(phi[good]))
-    near = np.take_along_axis(cands, np.argmin(np.abs(_wrap(cands - base[:, None])), axis=1)[:, None], axis=1)[:, 0]
-    w = np.clip((ang - TWOBONE_MIN_BEND) / (TWOBONE_RELIABLE_BEND - TWOBONE_MIN_BEND), 0.0, 1.0)
-    w = w * w * (3.0 - 2.0 * w)
-    out = base + w * _wrap(near - base)
-    return np.where(good, phi, _wrap(out))
-
-
-def _wrap(a: FloatArray) -> FloatArray:
-    return (a + np.pi) % (2 * np.pi) - np.pi
-
-
-def fit_orientations(plan: BodyPlanSet, pts: SourcePoints) -> dict[str, FloatArray]:
-    """World rotation matrices (T, 3, 3) of every body over the motion."""
-    out: dict[str, FloatArray] = {}
-    n = pts.positions.shape[0]
-    for b in plan.bodies:
-        f = b.fit
-        if f is None:
-            raise ModelError(f"body {b.name!r} has no fit plan")
-        if f.ref == "parent":
-            ref = out[b.parent] if b.parent else np.tile(np.eye(3), (n, 1, 1))
-        elif f.ref.startswith("bvh:"):
-            ref = pts.rotation(f.ref[4:])
-        else:
-            ref = np.tile(np.eye(3), (n, 1, 1))
-        o_cur = pts[f.origin]
-        rv = np.asarray(f.rest_vectors, dtype=float)
-        method = _FIT_METHODS.get(f.method)
-        if method is None:
-            raise ModelError(f"body {b.name!r}: unknown fit method {f.method!r}")
-        out[b.name] = method(f, pts, ref, o_cur, rv)
-    return out
-
-
-def _fit_ref(f: FitPlan, pts: SourcePoints, ref: FloatArray, o_cur: FloatArray, rv: FloatArray) -> FloatArray:
-    """``ref``: the reference rotation (T, 3, 3) itself."""
-    return ref.copy()
-
-
-def _fit_kabsch(f: FitPlan, pts: SourcePoints, ref: FloatArray, o_cur: FloatArray, rv: FloatArray) -> FloatArray:
-    """``kabsch``: the rotations (T, 3, 3) that best carry the rest vectors ``rv`` (N, 3; m) onto the
-    motion's vectors from the origin ``o_cur`` (T, 3; m) to ``f.points``."""
-    cv = np.stack([pts[p] - o_cur for p in f.points], axis=1)
-    return kabsch(rv, cv, ref, f.weights)
-
-
-def _fit_aim(f: FitPlan, pts: SourcePoints, ref: FloatArray, o_cur: FloatArray, rv: FloatArray) -> FloatArray:
-    """``aim``: ``ref`` (T, 3, 3) turned by the smallest rotation that makes the rest bone ``rv[0]``
-    point from the origin ``o_cur`` (T, 3; m) at ``f.points[0]``."""
-    u = pts[f.points[0]] - o_cur
-    return _min_rotation(np.einsum("tij,j->ti", ref, rv[0]), u) @ ref
-
-
-def _fit_twobone(f: FitPlan, pts: SourcePoints, ref: FloatArray, o_cur: FloatArray, rv: FloatArray) -> FloatArray:
-    """``twobone``: the ``aim`` at the middle joint ``f.points[0]``, twisted so the child's hinge
-    ``f.hinge_axis`` can reach the end joint ``f.points[1]`` (:func:`_twobone_twist`)."""
-    g = _fit_aim(f, pts, ref, o_cur, rv)
-    u = pts[f.points[0]] - o_cur
-    assert f.hinge_axis is not None
-    return _twobone_twist(g, u, pts[f.points[1]] - pts[f.points[0]], np.asarray(f.hinge_axis), rv[1], f.hinge_range)
-
-
-def _fit_hinge(f: FitPlan, pts: SourcePoints, ref: FloatArray, o_cur: FloatArray, rv: FloatArray) -> FloatArray:
-    """``hinge``: the parent's frame ``ref`` (T, 3, 3) rotated about the hinge ``f.hinge_axis`` until
-    the rest bone ``rv[0]`` points from the origin ``o_cur`` (T, 3; m) as near ``f.points[0]`` as the
-    hinge allows."""
-    assert f.hinge_axis is not None
-    a = _unit(np.einsum("tij,j->ti", ref, np.asarray(f.hinge_axis)))
-    s0 = np.einsum("tij,j->ti", ref, rv[0])
-    w = pts[f.points[0]] - o_cur
-    p0 = s0 - np.sum(s0 * a, axis=-1, keepdims=True) * a
-    p1 = w - np.sum(w * a, axis=-1, keepdims=True) * a
-    theta = np.arctan2(np.sum(a * np.cross(p0, p1), axis=-1), np.sum(p0 * p1, axis=-1))
-    return Rotation.from_rotvec(a * theta[:, None]).as_matrix() @ ref
-
-
-#: Fit methods by :attr:`FitPlan.method` name: (fit plan, source points, reference rotations (T, 3, 3),
-#: origin positions (T, 3; m), rest vectors (N, 3; m)) -> world rotations (T, 3, 3).
-_FIT_METHODS: dict[str, Callable[[FitPlan, SourcePoints, FloatArray, FloatArray, FloatArray], FloatArray]] = {
-    "ref": _fit_ref,
-    "kabsch": _fit_kabsch,
-    "aim": _fit_aim,
-    "twobone": _fit_twobone,
-    "hinge": _fit_hinge,
-}
-
-
-#: Largest |cos| between two hinge axes of one joint still taken as perpendicular (about 0.06 deg off).
-HINGE_ORTHO_TOL = 1e-3
-
-
-def hinge_basis(axes: list[FloatArray]) -> tuple[str, FloatArray, FloatArray | None]:
-    """How a set of 2 or 3 hinge axes (applied in order) splits a rotation: an intrinsic Euler
-    sequence, the sign of each hinge's angle against that sequence's, and the basis (3, 3; columns)
-    the rotation is expressed in first -- None when every axis lies along x, y or z (the sequence's
-    letters are then those axes). Other axes must be mutually perpendicular: the basis is then the
-    first axis, the second, and their cross product (the third hinge, if any, along it or against it),
-    and the sequence XYZ."""
-    units = [np.asarray(a, dtype=float) / np.linalg.norm(a) for a in axes]
-    letters, signs = [], []
-    for a in units:
-        k = int(np.argmax(np.abs(a)))
-        letters.append("xyz"[k])
-        signs.append(float(np.sign(a[k])))
-    aligned = all(np.isclose(abs(np.asarray(a, dtype=float)[int(np.argmax(np.abs(a)))]), 1.0) for a in axes)
-    if aligned and len(set(letters)) == len(letters):
-        seq = "".join(letters)
-        if len(seq) == 2:
-            seq += next(c for c in "xyz" if c not in seq)
-        return seq, np.array(signs), None
-    for i in range(len(units)):
-        for j in range(i + 1, len(units)):
-            if abs(float(units[i] @ units[j])) > HINGE_ORTHO_TOL:
-                raise ModelError(f"hinge axes {np.round(axes[i], 4).tolist()} and {np.round(axes[j], 4).tolist()} "
-                                 f"of one joint are not perpendicular (angle "
-                                 f"{np.degrees(np.arccos(np.clip(units[i] @ units[j], -1, 1))):.2f} deg): "
-                                 "a hinge set splits a rotation only on perpendicular axes")
-    e1 = units[0]
-    e2 = units[1] - (units[1] @ e1) * e1
-    e2 /= np.linalg.norm(e2)
-    e3 = np.cross(e1, e2)
-    sgn = [1.0, 1.0] + ([float(np.sign(units[2] @ e3))] if len(units) == 3 else [])
-    return "xyz", np.array(sgn), np.stack([e1, e2, e3], axis=1)
-
-
-def _hinge_angles(local: FloatArray, axes: list[FloatArray]) -> FloatArray:
-    """(T, k) hinge angles reproducing local rotations (T, 3, 3) with hinges on ``axes`` in order
-    (1 axis: the rotation's twist about it; 2: the best the pair reproduces, the third Euler angle
-    dropped; 3: exact). Axes along x, y or z take the Euler sequence of their letters; other axes
-    must be perpendicular (:func:`hinge_basis`)."""
-    if len(axes) == 1:
-        q = Rotation.from_matrix(local).as_quat()  # x y z w
-        a = axes[0] / np.linalg.norm(axes[0])
-        ang = 2.0 * np.arctan2(q[:, :3] @ a, q[:, 3])
-        return ((ang + np.pi) % (2 * np.pi) - np.pi)[:, None]
-    seq, signs, basis = hinge_basis(axes)
-    if basis is not None:  # a rotation about basis @ e_i is basis R_i basis^T
-        local = np.einsum("ji,tjk,kl->til", basis, local, basis)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        eul = Rotation.from_matrix(local).as_euler(seq.upper())
-    return eul[:, :len(axes)] * signs[:len(axes)]
-
-
-def _in_range_euler(ang: FloatArray, ranges: FloatArray, signs: FloatArray) -> FloatArray:
-    """Three hinge angles (T, 3) as the one of the two equivalent Euler triples -- (a, b, c) and
-    (a + pi, pi - b, c + pi) on the unsigned axes -- that leaves the joint's ``ranges`` (3, 2) the
-    least, the nearer the previous frame's on a tie. Near the middle hinge's +-pi/2 (an arm raised
-    sideways) the decomposition wraps its outer angles by 2 pi from frame to frame (CMU 131's right
-    shoulder: 1.59 rad beyond its range); the other triple is the same rotation within range."""
-    raw = ang * signs
-    alt = np.stack([raw[:, 0] + np.pi, np.pi - raw[:, 1], raw[:, 2] + np.pi], axis=1)
-    cands = [_wrap(raw) * signs, _wrap(alt) * signs]
-    excess = [np.sum(np.maximum(ranges[:, 0] - c, 0) + np.maximum(c - ranges[:, 1], 0), axis=1) for c in cands]
-    out = np.where((excess[1] < excess[0] - 1e-9)[:, None], cands[1], cands[0])
-    for t in np.flatnonzero(np.abs(excess[0] - excess[1]) <= 1e-9):  # a tie: the nearer the frame before
-        if t > 0:
-            d = [float(np.sum(np.abs(_wrap(c[t] - out[t - 1])))) for c in cands]
-            out[t] = cands[int(d[1] < d[0])][t]
-    return out
 
 
 #: A humanoid foot's shortest swing (s): a shorter lift is a shuffle or a pivot, not a step (a walk's
@@ -380,63 +125,6 @@ def _pose_qpos(model: mujoco.MjModel, plan: BodyPlanSet, pts: SourcePoints, g: d
     return qpos
 
 
-def _put_on_floor(qpos: FloatArray, low: FloatArray, fpos: FloatArray, dt: float,
-                  speed: float) -> tuple[FloatArray, tuple[float, float] | None, float]:
-    """Level a tilted capture floor (:func:`floor_tilt`), then lift so the lowest point any foot
-    reaches touches z = 0. Shifts the root height in ``qpos`` (T, nq) and the foot positions ``fpos``
-    (T, F, 3; m) in place; returns the feet's lowest points ``low`` (T, F; m) shifted alike, the floor
-    slope (or None) and the lift (m)."""
-    tilt = floor_tilt(low, fpos, dt, speed)
-    if tilt is not None:
-        dz = -(tilt[0] * qpos[:, 0] + tilt[1] * qpos[:, 1])
-        qpos[:, 2] += dz
-        low = low + dz[:, None]
-        fpos[..., 2] += dz[:, None]
-    lift = -float(np.min(low))
-    qpos[:, 2] += lift
-    low = low + lift
-    fpos[..., 2] += lift
-    return low, tilt, lift
-
-
-#: Minimum stance samples and horizontal spread (m) for fitting the capture's floor plane.
-FLOOR_FIT_MIN_SAMPLES = 20
-FLOOR_FIT_MIN_SPREAD_M = 0.5
-#: Largest floor slope (rise per metre) corrected; steeper means real terrain, not a tilted capture.
-FLOOR_FIT_MAX_SLOPE = 0.05
-
-
-def floor_tilt(low: FloatArray, pos: FloatArray, dt: float, speed: float) -> tuple[float, float] | None:
-    """Slope (dz/dx, dz/dy) of the floor under the stance feet, or None if it cannot be told.
-
-    Stance samples: a foot moving slower than ``speed`` and in the lowest 30 % of its heights. The
-    plane is fitted by least squares, refitted without samples more than 2 cm off.
-    """
-    if len(low) < 3:
-        return None
-    sp = np.linalg.norm(np.gradient(pos[..., :2], dt, axis=0), axis=-1)
-    mask = (sp < speed) & (low <= np.percentile(low, 30, axis=0))
-    xy, z = pos[..., :2][mask], low[mask]
-    if len(z) < FLOOR_FIT_MIN_SAMPLES:
-        return None
-    # fit the slope only along directions the feet actually cover (a straight walk spans one)
-    centred = xy - xy.mean(axis=0)
-    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
-    spread = 4.0 * sv / np.sqrt(len(z))  # ~ the samples' extent along each principal direction
-    dirs = vt[spread >= FLOOR_FIT_MIN_SPREAD_M]
-    if len(dirs) == 0:
-        return None
-    a = np.concatenate([centred @ dirs.T, np.ones((len(z), 1))], axis=1)
-    coef = np.linalg.lstsq(a, z, rcond=None)[0]
-    keep = np.abs(a @ coef - z) < 0.02
-    if keep.sum() >= FLOOR_FIT_MIN_SAMPLES:
-        coef = np.linalg.lstsq(a[keep], z[keep], rcond=None)[0]
-    slope = coef[:-1] @ dirs  # back to (dz/dx, dz/dy)
-    if np.hypot(*slope) > FLOOR_FIT_MAX_SLOPE:
-        return None
-    return float(slope[0]), float(slope[1])
-
-
 #: The pose change behind :func:`leading_glitch_frames` is measured over this stride (s), not per frame:
 #: a T-pose frame blended out over 4 frames at 120 fps is one frame at 30 fps.
 GLITCH_STRIDE_S = 1.0 / 30.0
@@ -476,35 +164,6 @@ def _foot_groups(plan: BodyPlanSet, feet: list[str]) -> dict[str, list[str]]:
 
 def _group_min(low: FloatArray, feet: list[str], groups: dict[str, list[str]]) -> FloatArray:
     return np.stack([low[:, [feet.index(f) for f in fs]].min(axis=1) for fs in groups.values()], axis=1)
-
-
-def foot_heights(model: mujoco.MjModel, qpos: FloatArray, feet: list[str]) -> tuple[FloatArray, FloatArray]:
-    """Lowest point (T, F) of each foot body's geoms and the body positions (T, F, 3) per frame."""
-    data = mujoco.MjData(model)
-    bids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f) for f in feet]
-    geoms = [[gi for gi in range(model.ngeom) if model.geom_bodyid[gi] == b] for b in bids]
-    low = np.zeros((len(qpos), len(feet)))
-    pos = np.zeros((len(qpos), len(feet), 3))
-    for t, q in enumerate(qpos):
-        data.qpos[:] = q
-        mujoco.mj_kinematics(model, data)
-        for k, gl in enumerate(geoms):
-            low[t, k] = min(geom_lowest_z(model, data, gi) for gi in gl)
-            pos[t, k] = data.xpos[bids[k]]
-    return low, pos
-
-
-def geom_lowest_z(model: mujoco.MjModel, data: mujoco.MjData, gi: int) -> float:
-    """Lowest world z of a geom (box, capsule or sphere) in the current pose."""
-    c = data.geom_xpos[gi]
-    r = data.geom_xmat[gi].reshape(3, 3)
-    s = model.geom_size[gi]
-    typ = model.geom_type[gi]
-    if typ == mujoco.mjtGeom.mjGEOM_BOX:
-        return float(c[2] - np.abs(r[2]) @ s)
-    if typ == mujoco.mjtGeom.mjGEOM_CAPSULE:
-        return float(c[2] - abs(r[2, 2]) * s[1] - s[0])
-    return float(c[2] - s[0])
 
 
 def velocities(model: mujoco.MjModel, qpos: FloatArray, dt: float) -> FloatArray:

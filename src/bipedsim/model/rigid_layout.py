@@ -9,7 +9,7 @@ import numpy.typing as npt
 
 from bipedsim.errors import ModelError
 from bipedsim.model.naming import HumanoidMap
-from bipedsim.model.retarget import kabsch
+from bipedsim.model.orientations import kabsch
 from bipedsim.model.profile import HumanoidProfile
 from bipedsim.model.source import SourcePoints
 

@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -13,7 +14,10 @@ if TYPE_CHECKING:
     from bipedsim.control.config import ControllerConfig
 
 REPO = Path(__file__).resolve().parent.parent
-SHARED_BVH = REPO.parent / "shared" / "data" / "bvh"
+#: The real BVH samples beside the repository (``../shared/data/bvh``); ``BIPEDSIM_SHARED_DATA`` names
+#: another data folder (its ``bvh/`` is read), or a missing one to run the suite as a fresh clone does
+SHARED_DATA = Path(os.environ.get("BIPEDSIM_SHARED_DATA", REPO.parent / "shared" / "data"))
+SHARED_BVH = SHARED_DATA / "bvh"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 

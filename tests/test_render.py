@@ -42,6 +42,8 @@ def body_fraction(img: np.ndarray) -> float:
     return float(((r - b > 25) & (r > 60) & (g > 40)).mean())
 
 
+@pytest.mark.slow  # 2 s at 640x480 as mp4 and gif; test_render_again_gives_the_run_frames and
+# test_push_arrow_is_drawn write both formats small in the default run
 def test_video_mp4_and_gif(run_dir: Path) -> None:
     import imageio.v2 as iio
 

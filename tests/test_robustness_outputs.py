@@ -359,6 +359,8 @@ def run_on_pty(argv: list[str], cwd: Path) -> tuple[int, str]:
     return p.wait(), b"".join(chunks).decode(errors="replace")
 
 
+@pytest.mark.slow  # three processes (a 5 s run, two renders); the sweep's bar on a terminal is checked in
+# the default run (test_robustness_sweep.py)
 def test_progress_bars_on_a_terminal_only(tmp_path: Path) -> None:
     rc, shown = run_on_pty(["run", "--seconds", "5", "--out", str(tmp_path)], tmp_path)
     assert rc == 0 and "bipedsim run" in shown and "sim s" in shown

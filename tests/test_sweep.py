@@ -209,6 +209,9 @@ def test_random_push_experiment(tmp_path: Path) -> None:
     assert {g["phase"] for g in summary["by_direction_and_phase"]} == {"random start"}
 
 
+@pytest.mark.slow  # starts a local Ray instance (about 8 s); the 2-worker local sweep runs in the default
+# run (test_killed_sweep_resumes_without_loss_or_repeats and others)
+@pytest.mark.xdist_group("ray")  # one local Ray instance at a time
 def test_same_seed_same_results_any_workers_and_ray(tmp_path: Path) -> None:
     exp = load_experiment(EXP / "smoke.yaml")
     run_sweep(exp, tmp_path / "a", workers=1, progress=False)

@@ -409,6 +409,7 @@ def test_ray_backend_without_ray_is_a_clear_error(tmp_path: Path, monkeypatch) -
         run_tune(load_tune(p), tmp_path / "o", backend="ray", progress=False)
 
 
+@pytest.mark.xdist_group("ray")  # one local Ray instance at a time
 @pytest.mark.slow
 def test_two_workers_and_ray_give_the_same_result_as_one(tiny_run, tmp_path: Path) -> None:
     pytest.importorskip("ray")
@@ -445,6 +446,8 @@ def test_the_docs_table_states_the_default_weights() -> None:
     assert {k: float(v) for k, v in rows.items()} == {k: defaults[k] for k in TERMS}
 
 
+@pytest.mark.slow  # a tune run twice, once in a new process; resuming in-process is checked in the default
+# run (test_interrupted_tune_resumes_without_scoring_any_candidate_twice)
 def test_a_tune_resumed_in_a_new_process_ends_as_an_uninterrupted_one(tmp_path: Path, monkeypatch) -> None:
     """Stopped inside its first generation and resumed by another process, which tells that generation
     and asks the next ones: the same history and best.yaml as a tune run in one go (pycma's lookup of

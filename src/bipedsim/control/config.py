@@ -258,7 +258,7 @@ def check_settings_for_body(cfg: ControllerConfig, profile: str, path: str | os.
 def for_reference(cfg: ControllerConfig, resolved: bool) -> ControllerConfig:
     """``cfg`` with every ``"auto"`` reference-modulation switch (``modulation.swing_foot``,
     ``modulation.stance_ankle``) made true for a reference whose legs were ``resolved`` for the body
-    (``reference: {feasible: auto}`` re-solves every capture, :func:`bipedsim.model.feasible.resolve_because`),
+    (``reference: {feasible: auto}`` re-solves every capture, :func:`bipedsim.model.feasible_measure.resolve_because`),
     false otherwise (the built-in walk generated for the body; a clip tracked as it is, ``feasible:
     false``): the modulation corrects a capture's legs to the body, and would only move the built-in
     walk off its course."""

@@ -17,7 +17,7 @@ import numpy.typing as npt
 from bipedsim.control.hinges import SIDES, Hinges
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip
-from bipedsim.model.feasible import sole_heights
+from bipedsim.model.feasible_measure import sole_heights
 from bipedsim.model.gait import smooth
 from bipedsim.model.plan import BodyPlanSet
 

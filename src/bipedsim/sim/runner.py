@@ -27,7 +27,8 @@ from bipedsim.io import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature_kind import AUTO, resolve_profile
-from bipedsim.model.feasible import feasible_clip, measure, resolve_because
+from bipedsim.model.feasible import feasible_clip
+from bipedsim.model.feasible_measure import measure, resolve_because
 from bipedsim.model.prepare import read_for_build
 from bipedsim.model.retarget import retarget
 from bipedsim.motion.bvh import read_bvh

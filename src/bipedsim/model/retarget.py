@@ -16,7 +16,7 @@ Euler decomposition on their axes, single hinges by the twist about their axis, 
 quaternions. Velocities come from ``mj_differentiatePos`` (central differences on the manifold).
 
 The fits live in :mod:`~bipedsim.model.orientations`, the split into hinges in
-:mod:`~bipedsim.model.hinge_angles`, the feet's heights and the floor in :mod:`~bipedsim.model.floor`.
+:mod:`~bipedsim.model.hinge_angles`, the feet's heights and the floor in :mod:`~bipedsim.model.clip_floor`.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip, contact_labels, debounce, foot_speeds, gait_events
-from bipedsim.model.floor import _put_on_floor, floor_tilt, foot_heights, geom_lowest_z
+from bipedsim.model.clip_floor import _put_on_floor, floor_tilt, foot_heights, geom_lowest_z
 from bipedsim.model.gait import contacts_from_strikes, load_events, side_contacts
 from bipedsim.model.hinge_angles import _hinge_angles, _in_range_euler, hinge_basis
 from bipedsim.model.orientations import fit_orientations, kabsch

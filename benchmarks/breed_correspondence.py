@@ -18,8 +18,9 @@ from pathlib import Path
 from bipedsim.breed.evolve import BreedError, crossover
 from bipedsim.data import HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.motion import load_bvh
+from bipedsim.motion.correspondence import correspondence
 from bipedsim.motion.reroot import fold_static_root
-from bipedsim.motion.roles import correspondence, find_roles
+from bipedsim.motion.roles import find_roles
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 

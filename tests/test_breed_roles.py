@@ -18,8 +18,10 @@ from bipedsim.data import HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.errors import ModelError
 from bipedsim.model import build_model, retarget
 from bipedsim.motion import Motion, load_bvh, write_bvh
+from bipedsim.motion.correspondence import correspondence
 from bipedsim.motion.reroot import add_static_root, fold_static_root
-from bipedsim.motion.roles import correspondence, find_roles, name_side, name_words
+from bipedsim.motion.role_names import name_side, name_words
+from bipedsim.motion.roles import find_roles
 
 HUMAN = SHARED_BVH / "human"
 ANIMAL = SHARED_BVH / "animal"

@@ -4,7 +4,7 @@ The four steps are separate functions:
 
 0. Correspondence -- a static root at the floor with the body's translation on its child is folded
    away (:mod:`bipedsim.motion.reroot`); without a user mapping the joints are paired by role
-   (:func:`bipedsim.motion.roles.correspondence`: names in the usual conventions, else structure and
+   (:func:`bipedsim.motion.correspondence.correspondence`: names in the usual conventions, else structure and
    geometry). The pairs and why each was made go to the report and can be saved as a ``--map`` file.
 1. :func:`crossover` -- a meta-skeleton holding every joint of both parents: joints that correspond
    (the pairs above, same names, or -- for the roots -- the structural rule that both roots are the
@@ -41,9 +41,9 @@ from scipy.spatial.transform import Rotation
 from bipedsim import config
 from bipedsim.config import limit_from_env
 from bipedsim.errors import BipedsimError, ConfigError
+from bipedsim.motion.correspondence import correspondence
 from bipedsim.motion.motion import Motion, canonical_quat
 from bipedsim.motion.reroot import fold_static_root
-from bipedsim.motion.roles import correspondence
 from bipedsim.motion.skeleton import Skeleton
 
 FloatArray = npt.NDArray[np.float64]

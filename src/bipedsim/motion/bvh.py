@@ -114,11 +114,9 @@ _IS_SEPARATOR[list(_SEPARATORS)] = True
 _IS_PLAIN = _IS_SEPARATOR.copy()
 _IS_PLAIN[33:127] = True
 _NOT_SPACE = re.compile(rb"[^ \t\n\r\x0b\x0c]")
-_NOT_PLAIN = re.compile(rb"[^\x20-\x7e\t\n\r\x0b\x0c]")
 _WORD = re.compile(r"\S+")
 #: Lines longer than this (characters) have their words counted without splitting them into a list.
 _SPLIT_MAX_CHARS = 1 << 16
-_NON_ASCII = re.compile(rb"[\x80-\xff]")
 _CONTROL = re.compile(rb"[\x00-\x08\x0e-\x1f]")
 
 
@@ -175,7 +173,7 @@ def _text_encoding(raw: bytes, start: int, path: str) -> str:
     if nul >= 0:
         line = raw.count(b"\n", start, nul) + 1
         raise BVHError(f"binary data (NUL byte at offset {nul - start}): not a text BVH file", path, line)
-    if _NON_ASCII.search(raw, start) is None:
+    if np.frombuffer(raw, dtype=np.uint8, offset=start).max() < 0x80:  # ASCII: UTF-8 (and faster than a regex)
         return "utf-8"
     decoder = codecs.getincrementaldecoder("utf-8")()
     view = memoryview(raw)
@@ -209,6 +207,14 @@ def _line_endings(raw: bytes, start: int) -> tuple[str, int, bool]:
     return endings, crlf + cr + lf + 1, crlf + cr > 0
 
 
+def _plain(raw: bytes, start: int) -> bool:
+    """Whether ``raw[start:]`` is only printable ASCII and separators, checked a window at a time."""
+    for a in range(start, len(raw), WINDOW_BYTES):
+        if not _IS_PLAIN[np.frombuffer(raw, dtype=np.uint8, count=min(WINDOW_BYTES, len(raw) - a), offset=a)].all():
+            return False
+    return True
+
+
 class _FrameReader:
     """The motion section's frame lines read straight from the file's bytes into one float array.
 
@@ -229,21 +235,22 @@ class _FrameReader:
         size = len(raw) - self.start
         # each row holds n_ch values, each followed by a separator but the file's last
         self.max_rows = (size + 1) // (2 * n_ch) if n_ch else 0
-        breaks = raw.count(b"\n", self.start) + raw.count(b"\r", self.start) - raw.count(b"\r\n", self.start)
-        self.rows = np.empty((min(n_frames, breaks + 1, self.max_rows), n_ch))
+        self.rows = np.empty((min(n_frames, lines.total, self.max_rows), n_ch))
         self.n_rows = 0  # frame (non-blank) lines so far
         self.last_line = 0  # line number of the last frame line
         self.extra_line = 0  # line number of the first frame line past the Frames: count
         self.bad_count: tuple[int, int] | None = None  # (line, values) of the first line with a wrong count
         self.bad_value: tuple[int, int, str] | None = None  # (line, index, token): the first non-number
         self.not_finite: tuple[int, int, str] | None = None  # (line, index, token): the first inf or nan
+        self.plain = False  # whether the motion section is all printable ASCII and separators
 
     def read(self, bar: Any = None) -> tuple[FloatArray, list[str]]:
         """The (frames, channels) values and the notes on them; raises :class:`BVHError`. ``bar``: a
         progress bar counting the file's bytes, or None."""
         if bar is not None:
             bar.update(self.start)  # the header
-        if _NOT_PLAIN.search(self.raw, self.start) is not None:
+        self.plain = _plain(self.raw, self.start)
+        if not self.plain:
             return self._read_text(bar)
         raw, end = self.raw, len(self.raw)
         line_start, line_no = self.start, self.first_line  # the line the next window continues
@@ -333,7 +340,7 @@ class _FrameReader:
         """Parse the values of the m frame lines in bytes ``start:end`` into the next m rows."""
         chunk = self.raw[start:end]
         out = self.rows[self.n_rows:self.n_rows + m]
-        if _IS_PLAIN[np.frombuffer(chunk, dtype=np.uint8)].all():
+        if self.plain or _IS_PLAIN[np.frombuffer(chunk, dtype=np.uint8)].all():
             try:
                 with warnings.catch_warnings():
                     # numpy < 2.3 warns, and returns what it read, where it meets a word that is no number

@@ -3,8 +3,13 @@
 Handles the files people actually have: every rotation order and mixed orders in one file, joints
 with 6 channels (position channels detected as absolute -- ``replace`` -- or added to the OFFSET --
 ``add``), End Sites and leaf joints without them, CRLF / LF / CR / mixed line endings, tabs, numbers
-like ``.0083333`` and ``1e-05``, no final newline, 1-frame files. Anything malformed raises
-:class:`~bipedsim.errors.BVHError` naming the file, the line and what was expected.
+like ``.0083333`` and ``1e-05``, no final newline, 1-frame files, a UTF-8 byte-order mark. Anything
+malformed raises :class:`~bipedsim.errors.BVHError` naming the file, the line and what was expected.
+
+Files up to the BVH input limit (:data:`bipedsim.io.INPUT_LIMITS_MB`, raised with ``BIPEDSIM_MAX_BVH_MB``)
+are read in memory about twice their size: the frame lines go straight from the file's bytes into one
+float array, a window at a time, and a file over :data:`PROGRESS_MIN_BYTES` shows a progress bar on a
+terminal.
 
 :func:`read_bvh` returns the motion in the file's own units and axes, with the guessed (or given)
 metres-per-unit and up axis recorded on the :class:`Motion`; :func:`load_bvh` converts it to the
@@ -779,7 +784,8 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
     scored for a plausible body (:func:`~bipedsim.motion.conventions.score_reading`: the hip at about a
     leg length above the feet, the feet meeting one floor, the travel horizontal); the unit is then
     guessed from the chosen body's size. ``info.up_reason`` says what was chosen and, when another
-    reading scored nearly as well, how to force one.
+    reading scored nearly as well, how to force one. A file over :data:`PROGRESS_MIN_BYTES` shows a
+    progress bar while it is read, when stderr is a terminal.
 
     Returns:
         The motion (``unit`` and ``up`` set to the guess or the given values) and what was found.

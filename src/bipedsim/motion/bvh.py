@@ -7,7 +7,7 @@ like ``.0083333`` and ``1e-05``, no final newline, 1-frame files, a UTF-8 byte-o
 malformed raises :class:`~bipedsim.errors.BVHError` naming the file, the line and what was expected.
 
 Files up to the BVH input limit (:data:`bipedsim.io.INPUT_LIMITS_MB`, raised with ``BIPEDSIM_MAX_BVH_MB``)
-are read in memory about twice their size: the frame lines go straight from the file's bytes into one
+are read in a few times their size in memory: the frame lines go straight from the file's bytes into one
 float array, a window at a time, and a file over :data:`PROGRESS_MIN_BYTES` shows a progress bar on a
 terminal.
 

@@ -22,9 +22,26 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 
 def shared_files(sub: str = "*") -> list[Path]:
+    """The shared BVH files of folder ``sub`` (human, animal, odd); without ``../shared``, the stand-ins
+    generated in their layouts (``bvh_fixtures.py``)."""
     if not SHARED_BVH.is_dir():
-        return []
+        from bvh_fixtures import standin_files
+
+        return standin_files(sub)
     return sorted(SHARED_BVH.glob(f"{sub}/*.bvh"))
+
+
+def shared_or_standin(rel: str) -> Path:
+    """The shared file ``rel`` (``"human/NAME.bvh"``), or without ``../shared`` the generated stand-in in
+    its layout (``bvh_fixtures.py``); a skip when it has none."""
+    if SHARED_BVH.is_dir():
+        return SHARED_BVH / rel
+    from bvh_fixtures import standin
+
+    path = standin(rel)
+    if path is None:
+        pytest.skip(f"shared BVH data not found at {SHARED_BVH} and {rel} has no generated stand-in")
+    return path
 
 
 def need_shared() -> None:
@@ -39,6 +56,7 @@ def shared_dir() -> Path:
 
 
 def shared_params(sub: str = "*"):
+    """``shared_files(sub)`` as parameters named by file (stand-ins without ``../shared``)."""
     files = shared_files(sub)
     if not files:
         return [pytest.param(None, marks=pytest.mark.skip(

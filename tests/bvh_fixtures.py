@@ -1,0 +1,437 @@
+"""Generated BVH files standing in for the real samples of ``../shared/data/bvh`` in a clone without them.
+
+Each stand-in is the project's own walk (:func:`bipedsim.motion.gaitgen.generate_walk`, or the shipped
+horse) written in the layout of the shared file it stands for: its joint names and tree, channel order,
+unit, up axis, frame rate, text quirks (line endings, a tab after ``Frames:``, no final newline) and
+rest-pose quirks (splayed legs, feet pointing down, a static root at the floor, position channels on
+every joint). A test that asks for a shared file by name (:func:`shared_or_standin`) gets the real file
+when ``../shared`` is there and the stand-in otherwise, so it checks what the layout must do either way.
+What a stand-in cannot have (a real performer's numbers: strike counts, speeds, seam errors) stays with
+the tests that need the real file.
+
+The stand-ins are written once per test session into one folder (``standin_dir``), laid out as
+``../shared/data/bvh`` is (``human/``, ``animal/``, ``odd/``).
+"""
+
+from __future__ import annotations
+
+import atexit
+import functools
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from bipedsim.motion.bvh import bvh_text, read_bvh
+from bipedsim.motion.gaitgen import WalkParams, generate_walk, walk_skeleton
+from bipedsim.motion.motion import Motion, canonical_quat
+from bipedsim.motion.reroot import add_static_root
+from bipedsim.motion.skeleton import Skeleton
+
+#: metres per unit of the CMU ASF skeletons (1/0.45 inch)
+CMU_UNIT_M = 0.0254 / 0.45
+#: decimals written per value (0.01 micrometre in metres files)
+PRECISION = 6
+ROOT6 = ("Xposition", "Yposition", "Zposition")
+
+
+@dataclass(frozen=True)
+class J:
+    """One joint of a target layout: it sits at ``at`` (m, in the frame of the generated skeleton's joint
+    ``anchor``) and turns with that joint; ``order`` is its rotation channels' order."""
+
+    name: str
+    parent: str | None
+    anchor: str
+    at: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    order: str = "ZYX"
+
+
+@dataclass(frozen=True)
+class E:
+    """An End Site below joint ``parent``, ``at`` (m) from it in the rest pose."""
+
+    parent: str
+    at: tuple[float, float, float]
+
+
+def _rest_positions(sk: Skeleton) -> np.ndarray:
+    p = np.zeros((sk.num_joints, 3))
+    for i in range(1, sk.num_joints):
+        p[i] = p[sk.parents[i]] + sk.offsets[i]
+    return p
+
+
+def relaid(m: Motion, joints: list[J], ends: list[E]) -> Motion:
+    """``m`` (metres, Z up, a rest pose of identity rotations) on another skeleton whose every joint
+    follows a joint of ``m``: every target joint's global position and rotation is that of its anchor
+    (moved by ``at``), so the motion is the same. Raises if a target bone would stretch."""
+    pos, rot = m.fk()
+    src = m.skeleton
+    rest = _rest_positions(src)
+    names = [j.name for j in joints]
+    n, t = len(joints), m.num_frames
+    gp, gr = np.empty((t, n, 3)), np.empty((t, n, 3, 3))
+    trest = np.empty((n, 3))
+    for k, j in enumerate(joints):
+        a = src.index(j.anchor)
+        d = np.asarray(j.at, dtype=float)
+        gp[:, k] = pos[:, a] + rot[:, a] @ d
+        gr[:, k] = rot[:, a]
+        trest[k] = rest[a] + d
+    parents = np.array([-1 if j.parent is None else names.index(j.parent) for j in joints])
+    offsets = np.zeros((n, 3))
+    local = np.empty((t, n, 3, 3))
+    local[:, 0] = gr[:, 0]
+    for k in range(1, n):
+        p = parents[k]
+        offsets[k] = trest[k] - trest[p]
+        local[:, k] = np.einsum("tba,tbc->tac", gr[:, p], gr[:, k])
+        bone = np.einsum("tba,tb->ta", gr[:, p], gp[:, k] - gp[:, p])
+        assert np.abs(bone - offsets[k]).max() < 1e-9, f"{joints[k].name}: its bone stretches"
+    channels = tuple((ROOT6 if k == 0 else ()) + tuple(f"{a}rotation" for a in j.order) for k, j in enumerate(joints))
+    sk = Skeleton(names=tuple(names), parents=parents, offsets=offsets, channels=channels,
+                  end_site_parents=np.array([names.index(e.parent) for e in ends], dtype=np.int64),
+                  end_site_offsets=np.array([e.at for e in ends], dtype=float).reshape(-1, 3))
+    q = Rotation.from_matrix(local.reshape(-1, 3, 3)).as_quat().reshape(t, n, 4)
+    return Motion(skeleton=sk, frame_time=m.frame_time, root_translation=gp[:, 0], rotations=canonical_quat(q),
+                  unit=1.0, up="z")
+
+
+def rest_turned(m: Motion, turns: dict[str, Rotation]) -> Motion:
+    """The same motion on a rest pose whose named joints' bones turn by ``turns`` (the identity pose then
+    has, say, splayed legs or feet pointing down); forward kinematics is unchanged."""
+    base = np.tile(np.eye(3), (m.num_joints, 1, 1))
+    for name, r in turns.items():
+        base[m.skeleton.index(name)] = r.as_matrix().T
+    return m.reframed(base)
+
+
+def six_channels(m: Motion) -> Motion:
+    """Every joint with 3 position channels holding its OFFSET (absolute), before its rotations."""
+    sk = m.skeleton
+    channels = tuple(ch if sk.has_positions(i) else ROOT6 + ch for i, ch in enumerate(sk.channels))
+    modes = tuple("replace" for _ in channels)
+    return m.copy(skeleton=sk.replace(channels=channels, position_modes=modes), translations=m.local_translations())
+
+
+# ---------------------------------------------------------------------- the generated performances
+def _walk() -> Motion:
+    """3.3 gait cycles of the generated walk from a tenth of a cycle in: it starts and ends mid-step,
+    as a capture does (a clip ending in its first pose would be taken for a loop)."""
+    return generate_walk(WalkParams(cycles=4))[5:170]
+
+
+def _src_rest() -> dict[str, np.ndarray]:
+    sk = walk_skeleton()
+    return dict(zip(sk.names, _rest_positions(sk)))
+
+
+def _standing_wave(seconds: float = 2.5, fps: float = 120.0) -> Motion:
+    """The generated skeleton standing (its rest pose) with the right arm raised sideways and waved."""
+    sk = walk_skeleton()
+    n = int(seconds * fps) + 1
+    t = np.arange(n) / fps
+    rest = _src_rest()
+    height = -(rest["LeftToeBase"][2]) + 0.02  # the toes' bottom on the floor
+    rot = np.zeros((n, sk.num_joints, 4))
+    rot[..., 3] = 1.0
+    raise_ = np.clip(np.minimum(t, seconds - t) / 0.6, 0.0, 1.0)  # up over 0.6 s, down over the last 0.6 s
+    arm = Rotation.from_euler("X", -2.4 * raise_[:, None])  # sideways, out to the right
+    wave = Rotation.from_euler("X", (-0.4 * raise_ * np.sin(2 * np.pi * 2.0 * t))[:, None])
+    rot[:, sk.index("RightArm")] = arm.as_quat()
+    rot[:, sk.index("RightForeArm")] = wave.as_quat()
+    root = np.tile([0.0, 0.0, height], (n, 1))
+    return Motion(skeleton=sk, frame_time=1.0 / fps, root_translation=root, rotations=canonical_quat(rot),
+                  unit=1.0, up="z")
+
+
+# ---------------------------------------------------------------------- layouts
+def _holden31(toe_tips: bool = False) -> tuple[list[J], list[E]]:
+    """D. Holden's CMU skeleton: hip joints and a lower back at the pelvis, neck on the chest joint,
+    two-joint hands with a thumb; toes without tips."""
+    js = [J("Hips", None, "Hips")]
+    ends: list[E] = []
+    for s, side in (("L", "Left"), ("R", "Right")):
+        js += [J(f"{s}HipJoint", "Hips", "Hips"), J(f"{side}UpLeg", f"{s}HipJoint", f"{side}UpLeg"),
+               J(f"{side}Leg", f"{side}UpLeg", f"{side}Leg"), J(f"{side}Foot", f"{side}Leg", f"{side}Foot"),
+               J(f"{side}ToeBase", f"{side}Foot", f"{side}ToeBase")]
+        ends.append(E(f"{side}ToeBase", (0.05, 0.0, 0.0) if toe_tips else (0.0, 0.0, 0.0)))
+    js += [J("LowerBack", "Hips", "Hips"), J("Spine", "LowerBack", "Spine"), J("Spine1", "Spine", "Spine1"),
+           J("Neck", "Spine1", "Neck"), J("Neck1", "Neck", "Neck", (0.0, 0.0, 0.04)), J("Head", "Neck1", "Head")]
+    ends.append(E("Head", (0.0, 0.0, 0.2)))
+    for s, side in (("L", "Left"), ("R", "Right")):
+        w = 1.0 if side == "Left" else -1.0
+        js += [J(f"{side}Shoulder", "Spine1", f"{side}Shoulder"), J(f"{side}Arm", f"{side}Shoulder", f"{side}Arm"),
+               J(f"{side}ForeArm", f"{side}Arm", f"{side}ForeArm"), J(f"{side}Hand", f"{side}ForeArm", f"{side}Hand"),
+               J(f"{side}FingerBase", f"{side}Hand", f"{side}Hand", (0.0, 0.0, -0.04)),
+               J(f"{side}HandIndex1", f"{side}FingerBase", f"{side}Hand", (0.0, 0.0, -0.07)),
+               J(f"{s}Thumb", f"{side}Hand", f"{side}Hand", (0.02, w * 0.0, -0.02))]
+        ends += [E(f"{side}HandIndex1", (0.0, 0.0, -0.02)), E(f"{s}Thumb", (0.02, 0.0, -0.02))]
+    return js, ends
+
+
+def _hip19() -> tuple[list[J], list[E]]:
+    """A 19-joint Poser-style skeleton (Hip, Abdomen, Chest, collars; no toes), mostly ZXY."""
+    js = [J("Hip", None, "Hips", order="ZXY"), J("Abdomen", "Hip", "Spine", order="ZXY"),
+          J("Chest", "Abdomen", "Spine1", order="ZXY"), J("Neck", "Chest", "Neck", order="ZXY"),
+          J("Head", "Neck", "Head", order="ZYX")]
+    ends = [E("Head", (0.0, 0.0, 0.2))]
+    for side in ("Right", "Left"):
+        js += [J(f"{side}Collar", "Chest", f"{side}Shoulder", order="ZXY"),
+               J(f"{side}Shoulder", f"{side}Collar", f"{side}Arm", order="ZXY"),
+               J(f"{side}Elbow", f"{side}Shoulder", f"{side}ForeArm", order="ZXY"),
+               J(f"{side}Wrist", f"{side}Elbow", f"{side}Hand", order="ZXY")]
+        ends.append(E(f"{side}Wrist", (0.0, 0.0, -0.08)))
+    for side in ("Right", "Left"):
+        js += [J(f"{side}Hip", "Hip", f"{side}UpLeg", order="ZXY"),
+               J(f"{side}Knee", f"{side}Hip", f"{side}Leg", order="ZXY"),
+               J(f"{side}Ankle", f"{side}Knee", f"{side}Foot", order="ZXY")]
+        ends.append(E(f"{side}Ankle", (0.17, 0.0, -0.05)))
+    return js, ends
+
+
+def _daz43() -> tuple[list[J], list[E]]:
+    """A Daz/Poser 43-joint skeleton: hip, abdomen, chest, eyes, collars, two-joint fingers, buttocks."""
+    js = [J("hip", None, "Hips", order="ZXY"), J("abdomen", "hip", "Spine", order="ZXY"),
+          J("chest", "abdomen", "Spine1", order="ZXY"), J("neck", "chest", "Neck", order="ZXY"),
+          J("head", "neck", "Head", order="ZXY"),
+          J("leftEye", "head", "Head", (0.08, 0.03, 0.08), order="ZXY"),
+          J("rightEye", "head", "Head", (0.08, -0.03, 0.08), order="ZXY")]
+    ends = [E("leftEye", (0.01, 0.0, 0.0)), E("rightEye", (0.01, 0.0, 0.0))]
+    for s, side in (("r", "Right"), ("l", "Left")):
+        w = 1.0 if s == "l" else -1.0
+        js += [J(f"{s}Collar", "chest", f"{side}Shoulder", order="YZX"),
+               J(f"{s}Shldr", f"{s}Collar", f"{side}Arm", order="ZYX"),
+               J(f"{s}ForeArm", f"{s}Shldr", f"{side}ForeArm", order="YZX"),
+               J(f"{s}Hand", f"{s}ForeArm", f"{side}Hand", order="ZYX")]
+        for f, (x, y) in enumerate(((0.03, 0.0), (0.015, 0.0), (0.0, 0.0), (-0.015, 0.0), (-0.03, 0.0))):
+            fn = ("Thumb", "Index", "Mid", "Ring", "Pinky")[f]
+            js += [J(f"{s}{fn}1", f"{s}Hand", f"{side}Hand", (x, w * y, -0.05), order="ZXY"),
+                   J(f"{s}{fn}2", f"{s}{fn}1", f"{side}Hand", (x, w * y, -0.08), order="ZXY")]
+            ends.append(E(f"{s}{fn}2", (0.0, 0.0, -0.02)))
+    for s, side in (("r", "Right"), ("l", "Left")):
+        w = 1.0 if s == "l" else -1.0
+        js += [J(f"{s}Buttock", "hip", "Hips", (0.0, w * 0.06, -0.04), order="ZXY"),
+               J(f"{s}Thigh", f"{s}Buttock", f"{side}UpLeg", order="ZXY"),
+               J(f"{s}Shin", f"{s}Thigh", f"{side}Leg", order="ZXY"),
+               J(f"{s}Foot", f"{s}Shin", f"{side}Foot", order="YZX")]
+        ends.append(E(f"{s}Foot", (0.17, 0.0, -0.05)))
+    return js, ends
+
+
+def _games105() -> tuple[list[J], list[E]]:
+    """GAMES-105's course skeleton (RootJoint, lHip, pelvis_lowerback, torso_head ...), XYZ."""
+    js = [J("RootJoint", None, "Hips", order="XYZ")]
+    ends = []
+    for s, side in (("l", "Left"), ("r", "Right")):
+        js += [J(f"{s}Hip", "RootJoint", f"{side}UpLeg", order="XYZ"),
+               J(f"{s}Knee", f"{s}Hip", f"{side}Leg", order="XYZ"),
+               J(f"{s}Ankle", f"{s}Knee", f"{side}Foot", order="XYZ"),
+               J(f"{s}ToeJoint", f"{s}Ankle", f"{side}ToeBase", order="XYZ")]
+        ends.append(E(f"{s}ToeJoint", (0.05, 0.0, 0.0)))
+    js += [J("pelvis_lowerback", "RootJoint", "Spine", order="XYZ"),
+           J("lowerback_torso", "pelvis_lowerback", "Spine1", order="XYZ"),
+           J("torso_head", "lowerback_torso", "Neck", order="XYZ")]
+    ends.append(E("torso_head", (0.0, 0.0, 0.28)))
+    for s, side in (("l", "Left"), ("r", "Right")):
+        js += [J(f"{s}Torso_Clavicle", "lowerback_torso", f"{side}Shoulder", order="XYZ"),
+               J(f"{s}Shoulder", f"{s}Torso_Clavicle", f"{side}Arm", order="XYZ"),
+               J(f"{s}Elbow", f"{s}Shoulder", f"{side}ForeArm", order="XYZ"),
+               J(f"{s}Wrist", f"{s}Elbow", f"{side}Hand", order="XYZ")]
+        ends.append(E(f"{s}Wrist", (0.0, 0.0, -0.08)))
+    return js, ends
+
+
+def _bandai() -> tuple[list[J], list[E]]:
+    """Bandai-Namco's 21 joints below their static root (added later): Hips, Spine, Chest, ..., Toes_L."""
+    js = [J("Hips", None, "Hips", order="ZXY"), J("Spine", "Hips", "Spine", order="ZXY"),
+          J("Chest", "Spine", "Spine1", order="ZXY"), J("Neck", "Chest", "Neck", order="ZXY"),
+          J("Head", "Neck", "Head", order="ZXY")]
+    ends = [E("Head", (0.0, 0.0, 0.2))]
+    for s, side in (("L", "Left"), ("R", "Right")):
+        js += [J(f"Shoulder_{s}", "Chest", f"{side}Shoulder", order="ZXY"),
+               J(f"UpperArm_{s}", f"Shoulder_{s}", f"{side}Arm", order="ZXY"),
+               J(f"LowerArm_{s}", f"UpperArm_{s}", f"{side}ForeArm", order="ZXY"),
+               J(f"Hand_{s}", f"LowerArm_{s}", f"{side}Hand", order="ZXY")]
+        ends.append(E(f"Hand_{s}", (0.0, 0.0, -0.08)))
+    for s, side in (("L", "Left"), ("R", "Right")):
+        js += [J(f"UpperLeg_{s}", "Hips", f"{side}UpLeg", order="ZXY"),
+               J(f"LowerLeg_{s}", f"UpperLeg_{s}", f"{side}Leg", order="ZXY"),
+               J(f"Foot_{s}", f"LowerLeg_{s}", f"{side}Foot", order="ZXY"),
+               J(f"Toes_{s}", f"Foot_{s}", f"{side}ToeBase", order="ZXY")]
+        ends.append(E(f"Toes_{s}", (0.0, 0.0, 0.0)))
+    return js, ends
+
+
+def _max31() -> tuple[list[J], list[E]]:
+    """cgspeed's 3ds-Max-friendly CMU skeleton (LeftHip, LeftKnee, Chest2, LowerNeck, LeftCollar ...)."""
+    js = [J("Hips", None, "Hips")]
+    ends: list[E] = []
+    for s, side in (("L", "Left"), ("R", "Right")):
+        js += [J(f"{s}HipJoint", "Hips", "Hips"), J(f"{side}Hip", f"{s}HipJoint", f"{side}UpLeg"),
+               J(f"{side}Knee", f"{side}Hip", f"{side}Leg"), J(f"{side}Ankle", f"{side}Knee", f"{side}Foot"),
+               J(f"{side}Toe", f"{side}Ankle", f"{side}ToeBase")]
+        ends.append(E(f"{side}Toe", (0.05, 0.0, 0.0)))
+    js += [J("LowerBack", "Hips", "Hips"), J("Chest", "LowerBack", "Spine"), J("Chest2", "Chest", "Spine1"),
+           J("LowerNeck", "Chest2", "Neck"), J("Neck", "LowerNeck", "Neck", (0.0, 0.0, 0.04)),
+           J("Head", "Neck", "Head")]
+    ends.append(E("Head", (0.0, 0.0, 0.2)))
+    for s, side in (("L", "Left"), ("R", "Right")):
+        js += [J(f"{side}Collar", "Chest2", f"{side}Shoulder", order="ZXY"),
+               J(f"{side}Shoulder", f"{side}Collar", f"{side}Arm", order="ZXY"),
+               J(f"{side}Elbow", f"{side}Shoulder", f"{side}ForeArm", order="ZXY"),
+               J(f"{side}Wrist", f"{side}Elbow", f"{side}Hand", order="ZXY"),
+               J(f"{s.lower()}hand", f"{side}Wrist", f"{side}Hand", (0.0, 0.0, -0.04)),
+               J(f"{s}Fingers", f"{s.lower()}hand", f"{side}Hand", (0.0, 0.0, -0.07)),
+               J(f"{s}Thumb", f"{side}Wrist", f"{side}Hand", (0.02, 0.0, -0.02))]
+        ends += [E(f"{s}Fingers", (0.0, 0.0, -0.02)), E(f"{s}Thumb", (0.02, 0.0, -0.02))]
+    return js, ends
+
+
+def _splayed_rest(m: Motion, thigh: str, shin: str, foot: str, toe: str | None, side: float,
+                  splay_deg: float = 20.0, foot_down_deg: float = 10.0) -> dict[str, Rotation]:
+    """Rest-pose turns of one leg: splayed ``splay_deg`` outward from the hip, the foot pointing
+    ``foot_down_deg`` down (as Holden's CMU rest pose stands)."""
+    splay = Rotation.from_euler("x", side * splay_deg, degrees=True)
+    out = {thigh: splay, shin: splay, foot: splay * Rotation.from_euler("y", foot_down_deg, degrees=True)}
+    if toe is not None:
+        out[toe] = out[foot]
+    return out
+
+
+# ---------------------------------------------------------------------- writing
+def _to_file_frame(m: Motion, unit_m: float, up: str, fps: float | None) -> Motion:
+    if fps is not None:
+        m = m.resample(fps)
+    return m.with_up(up).scaled(1.0 / unit_m)
+
+
+def _text(m: Motion, *, eol: str = "\n", final_newline: bool = True, frames_tab: bool = False,
+          frame_time: str | None = None) -> bytes:
+    text = bvh_text(m, precision=PRECISION)
+    if frames_tab:
+        text = text.replace("Frames: ", "Frames:\t", 1)
+    if frame_time is not None:
+        lines = text.split("\n")
+        k = next(i for i, ln in enumerate(lines) if ln.startswith("Frame Time:"))
+        lines[k] = f"Frame Time: {frame_time}"
+        text = "\n".join(lines)
+    if not final_newline:
+        text = text.rstrip("\n")
+    if eol == "mixed":  # CRLF in the hierarchy, LF in the motion
+        head, motion = text.split("MOTION", 1)
+        return (head.replace("\n", "\r\n") + "MOTION" + motion).encode()
+    return text.replace("\n", eol).encode()
+
+
+def _human(layout: str) -> Motion:
+    """The generated walk in ``layout`` (metres, Z up), with the layout's rest-pose quirks."""
+    if layout == "holden31":
+        js, ends = _holden31()
+        m = relaid(_walk(), js, ends)
+        turns = {**_splayed_rest(m, "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", 1.0),
+                 **_splayed_rest(m, "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase", -1.0)}
+        return rest_turned(m, turns)
+    if layout == "holden31_wave":
+        js, ends = _holden31()
+        return relaid(_standing_wave(), js, ends)
+    if layout == "mb31":
+        js, ends = _holden31(toe_tips=True)
+        return relaid(_walk(), js, ends)
+    layouts = {"hip19": _hip19, "daz43": _daz43, "games105": _games105, "bandai": _bandai, "max31": _max31}
+    js, ends = layouts[layout]()
+    m = relaid(_walk(), js, ends)
+    if layout == "bandai":
+        # bone-aligned joint frames: the identity pose lies on its back
+        m = rest_turned(m, {n: Rotation.from_euler("y", -90, degrees=True) for n in m.skeleton.names})
+    return m
+
+
+def _dog() -> Motion:
+    """The shipped horse on the MANN dog's skeleton (Spine1, shoulders, Tail/Tail1), ZXY."""
+    from bipedsim.motion.samples import horse_walk
+
+    js = [J("Hips", None, "Hips", order="ZXY"), J("Spine", "Hips", "Spine", order="ZXY"),
+          J("Spine1", "Spine", "Chest", order="ZXY"), J("Neck", "Spine1", "Neck", order="ZXY"),
+          J("Head", "Neck", "Head", order="ZXY")]
+    ends = [E("Head", (0.40, 0.0, -0.15))]
+    for side, w in (("Left", 1.0), ("Right", -1.0)):
+        js += [J(f"{side}Shoulder", "Spine1", "Chest", (0.08, w * 0.08, -0.05), order="ZXY"),
+               J(f"{side}Arm", f"{side}Shoulder", f"{side}Arm", order="ZXY"),
+               J(f"{side}ForeArm", f"{side}Arm", f"{side}ForeArm", order="ZXY"),
+               J(f"{side}Hand", f"{side}ForeArm", f"{side}Hand", order="ZXY")]
+        ends.append(E(f"{side}Hand", (0.06, 0.0, -0.08)))
+    for side in ("Left", "Right"):
+        js += [J(f"{side}UpLeg", "Hips", f"{side}UpLeg", order="ZXY"),
+               J(f"{side}Leg", f"{side}UpLeg", f"{side}Leg", order="ZXY"),
+               J(f"{side}Foot", f"{side}Leg", f"{side}Foot", order="ZXY")]
+        ends.append(E(f"{side}Foot", (0.06, 0.0, -0.08)))
+    js += [J("Tail", "Hips", "Tail1", order="ZXY"), J("Tail1", "Tail", "Tail2", order="ZXY")]
+    ends.append(E("Tail1", (-0.25, 0.0, -0.25)))
+    m = relaid(horse_walk(), js, ends)
+    # a real animal moves every joint a little: the back and shoulders turn 0.2 rad side to side
+    t = np.arange(m.num_frames) * m.frame_time
+    sway = 0.2 * np.sin(2 * np.pi * t / m.duration)  # slow: the stance feet stay put
+    rot = m.rotations.copy()
+    for k in range(1, m.num_joints):
+        if Rotation.from_quat(rot[:, k]).magnitude().max() < 0.2:  # a joint the horse holds still
+            rot[:, k] = (Rotation.from_quat(rot[:, k]) * Rotation.from_euler("z", sway[:, None])).as_quat()
+    return m.copy(rotations=canonical_quat(rot))
+
+
+#: what each stand-in is: the shared file's name -> (performance and layout, unit (m), up, fps, text quirks)
+STANDINS: dict[str, tuple[str, float, str, float | None, dict[str, object]]] = {
+    "human/cmu_02_01_walk__holden31_crlf.bvh": ("holden31", CMU_UNIT_M, "y", 120.0, {"eol": "\r\n"}),
+    "human/cmu_02_02_walk__19joint_Hip_Abdomen.bvh": ("hip19", 0.01, "y", 120.0, {}),
+    "human/cmu_02_02_walk__daz43.bvh": ("daz43", 0.01, "y", 120.0, {"frames_tab": True}),
+    "human/cmu_12_03_walk__cgspeed_mb31.bvh": ("mb31", CMU_UNIT_M, "y", 120.0, {"frame_time": ".0083333"}),
+    "human/games105_walk60__metres_crlf.bvh": ("games105", 1.0, "y", 60.0, {"eol": "\r\n", "final_newline": False}),
+    "human/bandai2_walk_exhausted_001.bvh": ("bandai", 0.01, "y", 30.0, {"frames_tab": True}),
+    "human/cmu_141_16_wave_hello__holden31_crlf.bvh": ("holden31_wave", CMU_UNIT_M, "y", None, {"eol": "\r\n"}),
+    "animal/mann_dog_D1_007_KAN01_001_locomotion.bvh": ("dog", 0.01, "y", 60.0, {"eol": "\r\n", "frames_tab": True}),
+}
+
+
+def _standin_motion(kind: str, unit_m: float, up: str, fps: float | None) -> Motion:
+    m = _dog() if kind == "dog" else _human(kind)
+    if kind == "bandai":
+        m = six_channels(add_static_root(m.with_up(up).scaled(1.0 / unit_m)))
+        return m.resample(fps) if fps is not None else m
+    return _to_file_frame(m, unit_m, up, fps)
+
+
+@functools.cache
+def standin_dir() -> Path:
+    """The folder of every stand-in, written once per process (per xdist worker)."""
+    root = Path(tempfile.mkdtemp(prefix="bipedsim-standins-"))
+    atexit.register(shutil.rmtree, root, ignore_errors=True)
+    for rel, (kind, unit_m, up, fps, quirks) in STANDINS.items():
+        path = root / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(_text(_standin_motion(kind, unit_m, up, fps), **quirks))  # type: ignore[arg-type]
+    return root
+
+
+def standin(rel: str) -> Path | None:
+    """The stand-in for the shared file ``rel`` (``human/NAME.bvh``), or None when there is none."""
+    return standin_dir() / rel if rel in STANDINS else None
+
+
+def standin_files(sub: str = "*") -> list[Path]:
+    return sorted(standin_dir().glob(f"{sub}/*.bvh"))
+
+
+if __name__ == "__main__":  # write them to a folder to look at: python tests/bvh_fixtures.py OUT
+    import sys
+
+    out = Path(sys.argv[1])
+    shutil.copytree(standin_dir(), out, dirs_exist_ok=True)
+    for p in sorted(out.rglob("*.bvh")):
+        _, info = read_bvh(p)
+        print(p.relative_to(out), info.num_frames, info.unit_name, info.up, info.line_endings,
+              f"{os.path.getsize(p) // 1024} KiB")

@@ -137,20 +137,27 @@ def check_input_file(path: str | os.PathLike[str], kind: str) -> Path:
     return p
 
 
+#: Bytes read at a time from an input file.
+READ_CHUNK_BYTES = 1 << 20
+
+
 def read_input_bytes(path: str | os.PathLike[str], kind: str) -> bytes:
     """The bytes of the input file ``path`` of ``kind`` (see :func:`check_input_file`), never more than
     its limit: a file that grows while it is read, or reports a size of 0 (``/proc``), is cut off at the
     limit and refused."""
     p = check_input_file(path, kind)
     limit = input_limit_bytes(kind)
+    chunks, total = [], 0
     try:
-        with open(p, "rb") as f:
-            data = f.read(limit + 1)
+        with open(p, "rb") as f:  # in chunks: f.read(limit + 1) would allocate the whole limit up front
+            while chunk := f.read(READ_CHUNK_BYTES):
+                total += len(chunk)
+                if total > limit:
+                    raise _too_large(p, kind, None)
+                chunks.append(chunk)
     except OSError as exc:
         raise InputError(f"cannot read: {os_reason(exc)}", p) from None
-    if len(data) > limit:
-        raise _too_large(p, kind, None)
-    return data
+    return b"".join(chunks)
 
 
 def decode_text(data: bytes, path: str | os.PathLike[str]) -> str:

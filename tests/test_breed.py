@@ -245,7 +245,7 @@ def test_child_of_two_standing_quadrupeds_stands_on_four_feet(x: float) -> None:
 def test_rest_alignment_keeps_every_point_where_it_was() -> None:
     """B re-expressed in A's rest pose (joint frames turned) moves no joint and no End Site, and its
     rest pose takes A's bone directions at the paired joints."""
-    from bipedsim.breed.evolve import _rest_positions, in_rest_of, on_typical_rest
+    from bipedsim.breed.alignment import _rest_positions, in_rest_of, on_typical_rest
 
     h, p = load_bvh(HORSE_WALK).to_project_frame(), load_bvh(PTEROSAUR_FLIGHT).to_project_frame()
     h, p = on_typical_rest(h), on_typical_rest(p.resample(h.fps))

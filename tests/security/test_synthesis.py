@@ -545,7 +545,7 @@ def test_a_weight_that_is_no_finite_number_is_refused(tmp_path: Path, capsys) ->
 
 
 def test_the_survivor_step_compares_long_parents_in_blocks_with_the_same_child(monkeypatch) -> None:
-    from bipedsim.breed import evolve
+    from bipedsim.breed import transfer as evolve
 
     a, b = horse_walk(cycles=6), pterosaur_flight(cycles=8)
     whole, _ = breed(a, b, x=0.4)

@@ -47,7 +47,7 @@ LAZY_IMPORTS: dict[str, tuple[frozenset[str], str]] = {
     "bipedsim.render.video": (frozenset({"PIL", "imageio"}), "video writing is optional output"),
     "bipedsim.sim.sweep": (frozenset({"ray", "matplotlib"}),
                            "Ray is an optional extra; the polar plot is optional output"),
-    "bipedsim.tune.cmaes": (frozenset({"matplotlib"}), "the convergence plot is optional output"),
+    "bipedsim.tune.results": (frozenset({"matplotlib"}), "the convergence plot is optional output"),
     "bipedsim.world.plot": (frozenset({"matplotlib"}), "the paths plot is optional output (--plot)"),
     "bipedsim.world.run": (frozenset({"bipedsim.world.scene", "bipedsim.world.plot"}),
                            "the world video (GL rendering) and the paths plot load only when asked for"),

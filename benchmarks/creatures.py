@@ -29,9 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from bipedsim.breed.files import breed_files
-from bipedsim.control.creature import CreatureController
-from bipedsim.control.creature_balance import CreatureBalanceConfig
-from bipedsim.control.creature_gait import make_creature_controller
+from bipedsim.control.creature import CreatureController, make_creature_controller
+from bipedsim.control.creature_config import CreatureBalanceConfig
 from bipedsim.data import HORSE_WALK
 from bipedsim.sim.rollout import RolloutSpec, rollout
 from bipedsim.sim.runner import load_scenario, run_scenario, run_seeds

@@ -11,13 +11,11 @@ import numpy as np
 import pytest
 from conftest import SHARED_BVH, need_shared, shared_params
 
-from bipedsim.control.creature_balance import (
-    CreatureBalanceConfig,
-    CreatureBalanceController,
-    distribute_wrench,
-    loop_segment,
-)
-from bipedsim.control.creature_gait import make_creature_controller
+from bipedsim.control.creature import CreatureController, make_creature_controller
+from bipedsim.control.creature_balance import ClipBalance
+from bipedsim.control.creature_config import CreatureBalanceConfig
+from bipedsim.control.creature_forces import distribute_wrench
+from bipedsim.control.creature_reference import loop_segment
 from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.errors import ModelError
 from bipedsim.model.creature import creature_legs, trunk_bodies
@@ -95,16 +93,16 @@ def test_the_balance_height_of_a_root_at_the_floor_is_the_legs() -> None:
     error"): such a root's height gives way to the legs' roots' height above the feet."""
     from dataclasses import replace
 
-    from bipedsim.control.creature_balance import _leg_height
+    from bipedsim.control.creature_legs import leg_height
 
     sc = load_scenario(bvh=HORSE_WALK)
     m, clip = sc.built.model, sc.clip
     legs = creature_legs(sc.built.plan)
-    h = _leg_height(m, clip, legs)
+    h = leg_height(m, clip, legs)
     assert h == pytest.approx(float(np.median(clip.qpos[:, 2])))  # a root where the body is: as it was
     low = clip.qpos.copy()
     low[:, 2] -= float(np.median(clip.qpos[:, 2]))  # the whole body lowered: its root at the floor
-    h_low = _leg_height(m, replace(clip, qpos=low), legs)
+    h_low = leg_height(m, replace(clip, qpos=low), legs)
     assert 0.5 * h < h_low < 1.5 * h
 
 
@@ -137,19 +135,20 @@ def test_stance_leg_torques_are_the_jacobian_transpose() -> None:
     sc = load_scenario(bvh=HORSE_WALK)
     m = sc.built.model
     ctrl = sc.controller()
-    assert isinstance(ctrl, CreatureBalanceController)
+    assert isinstance(ctrl, CreatureController) and ctrl.legs is not None
+    legs = ctrl.legs
     data = mujoco.MjData(m)
     data.qpos[:] = sc.clip.qpos[ctrl.start_frame()]
     mujoco.mj_forward(m, data)
     rng = np.random.default_rng(0)
-    for leg in range(len(ctrl.legs)):
-        site = ctrl.leg_sites[leg][0]
+    for leg in range(len(legs)):
+        site = legs.sites[leg][0]
         p0 = data.site_xpos[site].copy()
         f = rng.normal(size=3) * 100
-        tau = ctrl.leg_torques(data, leg, p0, f)
-        dq = rng.normal(size=len(ctrl.leg_dofs[leg])) * 1e-6
+        tau = legs.torques(data, leg, p0, f)
+        dq = rng.normal(size=len(legs.dofs[leg])) * 1e-6
         dv = np.zeros(m.nv)
-        dv[ctrl.leg_dofs[leg]] = dq
+        dv[legs.dofs[leg]] = dq
         d2 = mujoco.MjData(m)
         d2.qpos[:] = data.qpos
         mujoco.mj_integratePos(m, d2.qpos, dv, 1.0)
@@ -157,8 +156,7 @@ def test_stance_leg_torques_are_the_jacobian_transpose() -> None:
         dp = d2.site_xpos[site] - p0
         assert tau @ dq == pytest.approx(-f @ dp, rel=1e-3, abs=1e-9)
         # and the actuators the torques go to drive exactly those degrees of freedom
-        assert list(m.actuator_trnid[ctrl.leg_acts[leg], 0]) == [
-            m.dof_jntid[d] for d in ctrl.leg_dofs[leg]]
+        assert list(m.actuator_trnid[legs.acts[leg], 0]) == [m.dof_jntid[d] for d in legs.dofs[leg]]
 
 
 def test_reference_is_levelled_on_the_legs() -> None:
@@ -169,13 +167,14 @@ def test_reference_is_levelled_on_the_legs() -> None:
     m = sc.built.model
     # the clip-timed controller starts from the levelled clip (the planned gait from its own stance)
     ctrl = make_creature_controller(m, sc.built.plan, sc.clip, sc.creature_cfg, CreatureBalanceConfig(gait="clip"))
-    assert type(ctrl) is CreatureBalanceController
-    assert np.all(np.abs(ctrl.level_shift) < 0.1 * ctrl.leg_height)
-    assert np.any(np.abs(ctrl.level_shift) > 1e-3)  # the horse's hooves float in the capture
+    assert isinstance(ctrl.gait, ClipBalance)
+    ref = ctrl.reference
+    assert np.all(np.abs(ref.level_shift) < 0.1 * ctrl.legs.height)
+    assert np.any(np.abs(ref.level_shift) > 1e-3)  # the horse's hooves float in the capture
     data = mujoco.MjData(m)
-    leg_geoms = sorted(ctrl.geom_leg)
+    leg_geoms = sorted(ctrl.legs.geom_leg)
     for f in range(0, sc.clip.num_frames, 7):
-        data.qpos[:] = ctrl.clip.qpos[f]
+        data.qpos[:] = ref.clip.qpos[f]
         mujoco.mj_kinematics(m, data)
         lows = []
         for g in leg_geoms:
@@ -189,8 +188,8 @@ def test_reference_is_levelled_on_the_legs() -> None:
     data.qpos[:] = sc.clip.qpos[f0]
     mujoco.mj_forward(m, data)
     ctrl.reset(data, f0)
-    assert data.qpos[2] == pytest.approx(ctrl.clip.qpos[f0, 2])
-    assert ctrl.clip.qpos[f0, 2] != pytest.approx(sc.clip.qpos[f0, 2])
+    assert data.qpos[2] == pytest.approx(ref.clip.qpos[f0, 2])
+    assert ref.clip.qpos[f0, 2] != pytest.approx(sc.clip.qpos[f0, 2])
 
 
 def test_a_single_low_bone_is_no_leg() -> None:
@@ -260,7 +259,7 @@ def test_loop_segment_skips_lying_frames() -> None:
     need_shared()
     sc = load_scenario(bvh=DOG)
     ctrl = sc.controller()
-    a, b = loop_segment(sc.clip, ctrl._quat_idx)
+    a, b = loop_segment(sc.clip, ctrl.body.quat_idx)
     z = sc.clip.qpos[:, 2]
     assert z[a] > 0.75 * np.median(z) and b - a >= 0.4 * sc.clip.num_frames
 
@@ -350,4 +349,4 @@ def test_a_small_dog_walks(tmp_path: Path) -> None:
     need_shared()
     sc = load_scenario(bvh=_small_dog(tmp_path))
     out, ctrl = run_scenario(sc, RolloutSpec(seconds=20.0))
-    assert out.outcome == "no_fall" and out.mean_speed_mps >= 0.5 * ctrl.clip_speed
+    assert out.outcome == "no_fall" and out.mean_speed_mps >= 0.5 * ctrl.gait.clock.clip_speed

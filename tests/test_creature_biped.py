@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 from conftest import SHARED_BVH
 
-from bipedsim.control.creature_balance import geom_bottom
-from bipedsim.control.creature_biped import CreatureBipedController, smootherstep
-from bipedsim.control.creature_gait import CreatureGaitController
+from bipedsim.control.creature_biped import BipedRules, smootherstep
+from bipedsim.control.creature_gait import PlannedGait
+from bipedsim.control.creature_legs import geom_bottom
+from bipedsim.control.creature_many_legs import ManyLegs
 from bipedsim.data import HORSE_WALK
 from bipedsim.errors import BipedsimError
 from bipedsim.model.creature_sole import BIPED_LEG_SHARE
@@ -56,8 +57,9 @@ def test_four_legs_get_no_soles() -> None:
 
 
 def test_the_controller_is_chosen_by_leg_count(flamingo) -> None:
-    assert type(flamingo.controller()) is CreatureBipedController
-    assert type(load_scenario(bvh=HORSE_WALK).controller()) is CreatureGaitController
+    bird, horse = flamingo.controller().gait, load_scenario(bvh=HORSE_WALK).controller().gait
+    assert isinstance(bird, PlannedGait) and isinstance(bird.rules, BipedRules)
+    assert isinstance(horse, PlannedGait) and isinstance(horse.rules, ManyLegs)
 
 
 def test_the_flamingo_stands_flat_on_both_soles(flamingo) -> None:
@@ -74,7 +76,7 @@ def test_the_flamingo_stands_flat_on_both_soles(flamingo) -> None:
         d.ctrl[:] = ctrl(m, d, t, dt)
         mujoco.mj_step(m, d)
         t += dt
-    assert ctrl._feet_down(d) == [True, True]
+    assert ctrl.legs.feet_down(d) == [True, True]
     for g in _sole_boxes(flamingo):
         up = d.geom_xmat[g].reshape(3, 3)[:, 2]
         assert np.degrees(np.arccos(min(1.0, abs(up[2])))) < 3.0
@@ -131,15 +133,15 @@ def test_the_swing_lands_at_the_steady_walks_capture_offset(flamingo) -> None:
     ctrl = flamingo.controller()
     d.qpos[:] = flamingo.clip.qpos[ctrl.start_frame()]
     ctrl.reset(d, None, 0.0)
-    ctrl.v_des = 0.0
-    i = ctrl.leg_order[0]
-    stance = ctrl._planted[1 - i]
+    plan, rules = ctrl.gait.planner, ctrl.gait.rules
+    plan.clock.v_des = 0.0
+    i = plan.clock.leg_order[0]
+    stance = plan.planted[1 - i]
     d.subtree_com[ctrl.root_body][0:2] = stance[0:2]
-    ctrl._v_filt[:] = 0.0
-    got = ctrl._landing(ctrl._t_walk, i, d)
-    w, step = ctrl._omega_com, ctrl._step_s
-    left = np.array([-ctrl._dir[1], ctrl._dir[0]])
-    want = stance[0:2] + ctrl._side[i] * ctrl._width / (np.exp(w * step) + 1.0) * left
+    plan.v_filt[:] = 0.0
+    got = rules.landing(plan, plan.clock.t_walk, i, d)
+    w, step = rules.omega_com, rules.step_s
+    want = stance[0:2] + rules.side[i] * rules.width / (np.exp(w * step) + 1.0) * plan.left()
     np.testing.assert_allclose(got[0:2], want, atol=1e-9)
 
 
@@ -152,8 +154,8 @@ def test_the_flamingo_walks_20_s_at_half_its_clip_speed(flamingo) -> None:
 
     out, ctrl = run_scenario(flamingo, RolloutSpec(seconds=20.0))
     assert out.outcome == "no_fall"
-    assert ctrl.clip_speed > 0.15
-    assert out.mean_speed_mps >= 0.5 * ctrl.clip_speed
+    assert ctrl.gait.clock.clip_speed > 0.15
+    assert out.mean_speed_mps >= 0.5 * ctrl.gait.clock.clip_speed
 
 
 def test_the_two_legged_gait_takes_its_settings_from_the_controller_yaml(tmp_path) -> None:
@@ -166,9 +168,10 @@ def test_the_two_legged_gait_takes_its_settings_from_the_controller_yaml(tmp_pat
     p = tmp_path / "bird.yaml"
     p.write_text("creature:\n  biped: {speed_fraction: 0.3, start_s: 2.0}\n")
     c = load_scenario(p, bvh=FLAMINGO).controller()
-    assert isinstance(c, CreatureBipedController)
-    assert (c.biped.speed_fraction, c.biped.start_s, c.bal.speed_fraction) == (0.3, 2.0, 0.3)
-    assert c.biped.max_swing == BipedGaitConfig().max_swing
+    assert isinstance(c.gait, PlannedGait) and isinstance(c.gait.rules, BipedRules)
+    biped = c.gait.rules.cfg
+    assert (biped.speed_fraction, biped.start_s, c.gait.bal.speed_fraction) == (0.3, 2.0, 0.3)
+    assert biped.max_swing == BipedGaitConfig().max_swing
     bad = tmp_path / "bad.yaml"
     bad.write_text("creature:\n  biped: {speed_fractoin: 0.3}\n")
     with pytest.raises(BipedsimError, match="speed_fractoin"):

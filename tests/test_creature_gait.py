@@ -1,5 +1,6 @@
-"""The planned creature gait (control/creature_gait.py): a stance the built body can carry, legs by IK
-inside their joint ranges, the re-posed body standing, and (slow) the issue's walks."""
+"""The planned creature gait (control/creature_gait.py and its parts: stance, reach, clock, planner): a
+stance the built body can carry, legs by IK inside their joint ranges, the re-posed body standing, and
+(slow) the long walks."""
 
 from __future__ import annotations
 
@@ -12,8 +13,11 @@ import pytest
 from conftest import SHARED_BVH
 from scipy.spatial.transform import Rotation
 
-from bipedsim.control.creature_balance import CreatureBalanceConfig
-from bipedsim.control.creature_gait import CreatureGaitController
+from bipedsim.control.creature import CreatureController, make_creature_controller
+from bipedsim.control.creature_config import CreatureBalanceConfig
+from bipedsim.control.creature_gait import PlannedGait
+from bipedsim.control.creature_many_legs import shift_share
+from bipedsim.control.creature_reach import REACH_STEP, REACH_TOL, reach_error
 from bipedsim.data import HORSE_WALK
 from bipedsim.sim.rollout import RolloutSpec, rollout
 from bipedsim.sim.runner import load_scenario, run_scenario
@@ -28,13 +32,21 @@ def _clip(path: Path) -> Path:
     return path
 
 
-def _gait(path: Path, **kw: object) -> tuple[object, CreatureGaitController]:
+def _gait(path: Path, **kw: object) -> tuple[object, CreatureController]:
+    """The scenario of ``path`` and its planned-gait controller, with balance settings ``kw``."""
     sc = load_scenario(bvh=path)
     bal = dataclasses.replace(CreatureBalanceConfig(), **kw)
-    return sc, CreatureGaitController(sc.built.model, sc.built.plan, sc.clip, sc.creature_cfg, bal)
+    c = make_creature_controller(sc.built.model, sc.built.plan, sc.clip, sc.creature_cfg, bal)
+    assert isinstance(c.gait, PlannedGait)
+    return sc, c
 
 
-def _dog_at_start() -> tuple[object, CreatureGaitController, mujoco.MjData]:
+def _miss(g: PlannedGait, shift: float) -> float:
+    """The worst foot's IK miss (m) with every foot ``shift`` m ahead of its neutral place."""
+    return float(reach_error(g.ik, g.stance, g.bal.posture_pull, shift, 0.0).max())
+
+
+def _dog_at_start() -> tuple[object, CreatureController, mujoco.MjData]:
     """The dog's gait controller reset on the clip's start frame, and the data posed there."""
     sc, c = _gait(_clip(DOG))
     d = mujoco.MjData(sc.built.model)
@@ -52,7 +64,7 @@ def quadruped(request: pytest.FixtureRequest) -> Path:
 
 def test_the_registered_creature_controller_is_the_planned_gait() -> None:
     sc = load_scenario(bvh=HORSE_WALK)
-    assert isinstance(sc.controller(), CreatureGaitController)
+    assert isinstance(sc.controller().gait, PlannedGait)
 
 
 def test_neutral_stance_is_feasible_on_the_built_body(quadruped: Path) -> None:
@@ -60,21 +72,22 @@ def test_neutral_stance_is_feasible_on_the_built_body(quadruped: Path) -> None:
     over the centroid of the feet (within 1 cm), each pair of feet at least as wide apart as its hips,
     every leg joint inside its range."""
     sc, c = _gait(quadruped)
+    g = c.gait
     m = sc.built.model
     d = mujoco.MjData(m)
-    d.qpos[:] = c.neutral_q
+    d.qpos[:] = g.stance.q
     mujoco.mj_kinematics(m, d)
     mujoco.mj_comPos(m, d)
-    feet = np.array([d.site_xpos[s] for s in c._site_ids])
-    assert np.max(np.abs(feet[:, 2] - c.site_ground)) < 0.01
+    feet = np.array([d.site_xpos[s] for s in g.ik.sites])
+    assert np.max(np.abs(feet[:, 2] - g.stance.site_ground)) < 0.01
     com = d.subtree_com[c.root_body]
     assert np.linalg.norm(com[0:2] - feet[:, 0:2].mean(axis=0)) < 0.01
     left, right = feet[:, 1] > com[1], feet[:, 1] < com[1]
     assert left.sum() == right.sum() == 2
-    hips = c._hips
+    hips = g.stance.hips
     assert feet[left, 1].min() - feet[right, 1].max() >= 0.99 * (hips[:, 1].max() - hips[:, 1].min()) / 2
-    for qa, lim in c._ik_limits:
-        angle = Rotation.from_quat(c.neutral_q[qa:qa + 4], scalar_first=True).magnitude()
+    for qa, lim in g.ik.limits:
+        angle = Rotation.from_quat(g.stance.q[qa:qa + 4], scalar_first=True).magnitude()
         assert angle <= lim + 1e-6
 
 
@@ -84,18 +97,19 @@ def test_ik_reaches_the_planned_feet_inside_joint_ranges() -> None:
     lift and the far stance feet of the old, unmeasured stride were out of reach of its clip-limited
     joints: residuals up to 22 cm.)"""
     sc, c, d = _dog_at_start()
+    g, plan = c.gait, c.gait.planner
     m = sc.built.model
     worst = 0.0
     for k in range(200):
         t = 0.01 * k
-        q = c._plan(t, d)
-        res = np.linalg.norm(np.array([c.ik_data.site_xpos[s] for s in c._site_ids]) - c._feet_target, axis=1)
+        q = plan.plan(t, d, g.fwd)
+        res = np.linalg.norm(np.array([g.ik.data.site_xpos[s] for s in g.ik.sites]) - plan.feet_target, axis=1)
         worst = max(worst, float(res.max()))
-        for qa, lim in c._ik_limits:
+        for qa, lim in g.ik.limits:
             assert Rotation.from_quat(q[qa:qa + 4], scalar_first=True).magnitude() <= lim + 1e-6
         d.qpos[:] = q
         d.qvel[:] = 0.0
-        d.qvel[0:2] = c._speed_at(t) * c._dir
+        d.qvel[0:2] = g.clock.speed_at(t) * plan.dir
         mujoco.mj_kinematics(m, d)
     assert worst < 0.015
 
@@ -105,9 +119,10 @@ def test_heading_is_the_walking_direction() -> None:
     direction, not its root frame's x axis (which points backward in the dog's skeleton)."""
     sc, c, d = _dog_at_start()
     h = c.heading(d)
-    assert np.allclose([np.cos(h), np.sin(h)], c._dir, atol=1e-6)
+    walk = c.gait.planner.dir
+    assert np.allclose([np.cos(h), np.sin(h)], walk, atol=1e-6)
     x_axis = d.xmat[c.root_body].reshape(3, 3)[:, 0]
-    assert float(x_axis[0:2] @ c._dir) < 0.0  # the root frame's x axis points backward
+    assert float(x_axis[0:2] @ walk) < 0.0  # the root frame's x axis points backward
 
 
 def test_gait_measured_from_the_clip() -> None:
@@ -115,12 +130,13 @@ def test_gait_measured_from_the_clip() -> None:
     configured share of the clip's, a stride at most stride_fraction x the leg length, and a stance
     foot's sweep (speed x stance time) within the legs' measured reach ahead and behind."""
     sc, c = _gait(HORSE_WALK)
+    g, clock, height = c.gait, c.gait.clock, c.legs.height
     assert len(c.legs) == 4
-    assert sorted(c.offsets.tolist()) == [0.0, 0.25, 0.5, 0.75]
-    assert c.swing_frac <= 0.25
-    assert 0.5 * c.clip_speed <= c.v_des <= c.bal.speed_fraction * c.clip_speed + 1e-9
-    assert c.v_des * c.period <= c.bal.stride_fraction * c.leg_height + 1e-9
-    assert c.v_des * (1.0 - c.swing_frac) * c.period <= 2.0 * c.reach + 1e-9
+    assert sorted(clock.offsets.tolist()) == [0.0, 0.25, 0.5, 0.75]
+    assert clock.swing_frac <= 0.25
+    assert 0.5 * clock.clip_speed <= clock.v_des <= g.bal.speed_fraction * clock.clip_speed + 1e-9
+    assert clock.v_des * clock.period <= g.bal.stride_fraction * height + 1e-9
+    assert clock.v_des * (1.0 - clock.swing_frac) * clock.period <= 2.0 * g.reach.half + 1e-9
 
 
 def test_reach_is_where_the_feet_stop_reaching(quadruped: Path) -> None:
@@ -128,17 +144,16 @@ def test_reach_is_where_the_feet_stop_reaching(quadruped: Path) -> None:
     neutral place shifted by +-reach (IK within REACH_TOL x the root height), and one step further some
     foot misses; on the horse's clip-limited joints the reach is shorter than half of the stride the
     old plan asked of it (0.8 x its root height), which is what made its hooves land short."""
-    from bipedsim.control import creature_gait as cg
-
     sc, c = _gait(quadruped)
-    tol = cg.REACH_TOL * c.leg_height
-    step = cg.REACH_STEP * c.leg_height
-    assert c.reach > 0.0
-    assert c._reach_error(c.reach, 0.0).max() <= tol and c._reach_error(-c.reach, 0.0).max() <= tol
-    further = max(c._reach_error(c.reach + step, 0.0).max(), c._reach_error(-c.reach - step, 0.0).max())
-    assert further > tol
+    g, height = c.gait, c.legs.height
+    reach = g.reach.half
+    tol = REACH_TOL * height
+    step = REACH_STEP * height
+    assert reach > 0.0
+    assert _miss(g, reach) <= tol and _miss(g, -reach) <= tol
+    assert max(_miss(g, reach + step), _miss(g, -reach - step)) > tol
     if quadruped == HORSE_WALK:
-        assert c.reach < 0.5 * 0.8 * c.leg_height * (1.0 - c.swing_frac)
+        assert reach < 0.5 * 0.8 * height * (1.0 - g.clock.swing_frac)
 
 
 def test_the_reposed_dog_stands() -> None:
@@ -159,7 +174,7 @@ def test_the_dog_walks_20_s_at_half_its_clip_speed() -> None:
     sc = load_scenario(bvh=_clip(DOG))
     out, ctrl = run_scenario(sc, RolloutSpec(seconds=20.0))
     assert out.outcome == "no_fall"
-    assert out.mean_speed_mps >= 0.5 * ctrl.clip_speed
+    assert out.mean_speed_mps >= 0.5 * ctrl.gait.clock.clip_speed
 
 
 @pytest.mark.slow
@@ -169,7 +184,7 @@ def test_the_horse_walks_20_s_at_half_its_clip_speed() -> None:
     sc = load_scenario(bvh=HORSE_WALK)
     out, ctrl = run_scenario(sc, RolloutSpec(seconds=20.0))
     assert out.outcome == "no_fall"
-    assert out.mean_speed_mps >= 0.5 * ctrl.clip_speed
+    assert out.mean_speed_mps >= 0.5 * ctrl.gait.clock.clip_speed
 
 
 @pytest.mark.slow
@@ -189,8 +204,9 @@ def test_every_creature_walks_20_s() -> None:
         ctrl = sc.controller()
         for out in run_seeds(sc, 20.0, 3):
             assert out.outcome == "no_fall", (path, out.fall_time_s)
-            if ctrl.clip_speed >= 0.1:
-                assert out.mean_speed_mps >= 0.5 * ctrl.clip_speed, (path, out.mean_speed_mps)
+            v_clip = ctrl.gait.clock.clip_speed
+            if v_clip >= 0.1:
+                assert out.mean_speed_mps >= 0.5 * v_clip, (path, out.mean_speed_mps)
 
 
 def _creature_yaml(tmp_path: Path, text: str) -> Path:
@@ -210,11 +226,11 @@ def test_creature_settings_come_from_the_controller_yaml(tmp_path: Path) -> None
         == CreatureControlConfig() == ControllerConfig().creature
     p = _creature_yaml(tmp_path, "creature:\n  balance: {speed_fraction: 0.3, step_height: 0.1}\n")
     sc = load_scenario(p, bvh=HORSE_WALK)
-    c = sc.controller()
-    assert isinstance(c, CreatureGaitController)
-    assert (c.bal.speed_fraction, c.bal.step_height) == (0.3, 0.1)
-    assert c.bal.swing_share == CreatureBalanceConfig().swing_share  # the rest: the defaults
-    assert c.v_des <= 0.3 * c.clip_speed + 1e-9
+    g = sc.controller().gait
+    assert isinstance(g, PlannedGait)
+    assert (g.bal.speed_fraction, g.bal.step_height) == (0.3, 0.1)
+    assert g.bal.swing_share == CreatureBalanceConfig().swing_share  # the rest: the defaults
+    assert g.clock.v_des <= 0.3 * g.clock.clip_speed + 1e-9
     assert sc.controller_config()["balance"]["speed_fraction"] == 0.3
     sc = load_scenario(_creature_yaml(tmp_path, "creature: {support: true}\n"), bvh=HORSE_WALK)
     assert sc.creature_cfg.support and sc.fall_criteria() == sc.fall_criteria().for_body("creature", support=True)
@@ -273,16 +289,15 @@ def test_centred_sweep_stays_inside_each_legs_reach() -> None:
     own interval: every foot still reaches +-reach from its new place. Without it the sweep is the
     shortest reach of any leg in either direction (the horse: its left hind leg reaches 0.2 x its root
     height ahead, farther behind)."""
-    from bipedsim.control import creature_gait as cg
-
-    _, plain = _gait(HORSE_WALK)
-    _, c = _gait(HORSE_WALK, centre_sweep=True)
-    tol = cg.REACH_TOL * c.leg_height
-    assert c.reach >= plain.reach
-    assert np.isclose(c.reach, float((c.reach_ahead + c.reach_behind).min()) / 2)
-    moved = c.neutral_feet[:, 0] - plain.neutral_feet[:, 0]
-    assert np.all(moved + c.reach <= c.reach_ahead + 1e-9) and np.all(moved - c.reach >= -c.reach_behind - 1e-9)
-    assert c._reach_error(c.reach, 0.0).max() <= tol and c._reach_error(-c.reach, 0.0).max() <= tol
+    plain = _gait(HORSE_WALK)[1].gait
+    g = _gait(HORSE_WALK, centre_sweep=True)[1].gait
+    r = g.reach
+    tol = REACH_TOL * g.legs.height
+    assert r.half >= plain.reach.half
+    assert np.isclose(r.half, float((r.ahead + r.behind).min()) / 2)
+    moved = g.stance.feet[:, 0] - plain.stance.feet[:, 0]
+    assert np.all(moved + r.half <= r.ahead + 1e-9) and np.all(moved - r.half >= -r.behind - 1e-9)
+    assert _miss(g, r.half) <= tol and _miss(g, -r.half) <= tol
 
 
 @pytest.fixture(scope="module")
@@ -302,16 +317,17 @@ def test_sweeps_are_centred_where_that_widens_the_reach_enough(bred_child: Path)
     reach far behind but little ahead: centred, its sweep doubles; the horse's and the dog's gain less
     and keep the symmetric sweep (the shortest reach of any leg either way)."""
     for path in (HORSE_WALK, _clip(DOG)):
-        _, c = _gait(path)
-        symmetric = min(c.reach_ahead.min(), c.reach_behind.min())
-        assert not c.centred and np.isclose(c.reach, symmetric)
-        assert (c.reach_ahead + c.reach_behind).min() / 2 < 1.5 * symmetric
-    _, c = _gait(bred_child)
-    symmetric = min(c.reach_ahead.min(), c.reach_behind.min())
-    assert c.centred and np.isclose(c.reach, (c.reach_ahead + c.reach_behind).min() / 2)
-    assert c.reach >= 1.5 * symmetric
-    _, off = _gait(bred_child, centre_sweep_gain=0.0)
-    assert not off.centred and np.isclose(off.reach, symmetric) and off.v_des < c.v_des
+        r = _gait(path)[1].gait.reach
+        symmetric = min(r.ahead.min(), r.behind.min())
+        assert not r.centred and np.isclose(r.half, symmetric)
+        assert (r.ahead + r.behind).min() / 2 < 1.5 * symmetric
+    g = _gait(bred_child)[1].gait
+    r = g.reach
+    symmetric = min(r.ahead.min(), r.behind.min())
+    assert r.centred and np.isclose(r.half, (r.ahead + r.behind).min() / 2)
+    assert r.half >= 1.5 * symmetric
+    off = _gait(bred_child, centre_sweep_gain=0.0)[1].gait
+    assert not off.reach.centred and np.isclose(off.reach.half, symmetric) and off.clock.v_des < g.clock.v_des
 
 
 def test_a_clip_that_lifts_no_leg_walks_the_wave_order(bred_child: Path) -> None:
@@ -321,20 +337,20 @@ def test_a_clip_that_lifts_no_leg_walks_the_wave_order(bred_child: Path) -> None
     hips' places; ``legs``: the legs' own order."""
     _, c = _gait(bred_child)
     a, b = c.loop
-    assert not c.clip.contacts[a:b].any() and not c._clip_lifts.any()
-    side = c._hips[:, 1] - c._hips[:, 1].mean()
-    first, second = c.leg_order[:2], c.leg_order[2:]
+    clock, hips = c.gait.clock, c.gait.stance.hips
+    assert not c.reference.clip.contacts[a:b].any() and not clock.clip_lifts.any()
+    side = hips[:, 1] - hips[:, 1].mean()
+    first, second = clock.leg_order[:2], clock.leg_order[2:]
     for pair in (first, second):
         assert np.sign(side[pair[0]]) == np.sign(side[pair[1]])
-        assert c._hips[pair[0], 0] < c._hips[pair[1], 0]  # hind, then fore
+        assert hips[pair[0], 0] < hips[pair[1], 0]  # hind, then fore
     assert np.sign(side[first[0]]) != np.sign(side[second[0]])
-    assert np.allclose(sorted(c.offsets), [0.0, 0.25, 0.5, 0.75])
-    _, legs = _gait(bred_child, footfall_fallback="legs")
-    assert legs.leg_order == [0, 1, 2, 3]
+    assert np.allclose(sorted(clock.offsets), [0.0, 0.25, 0.5, 0.75])
+    assert _gait(bred_child, footfall_fallback="legs")[1].gait.clock.leg_order == [0, 1, 2, 3]
     for path in (HORSE_WALK, _clip(DOG)):  # clips that lift their legs keep their own order
-        _, a = _gait(path)
-        _, b = _gait(path, footfall_fallback="legs")
-        assert a.leg_order == b.leg_order
+        wave = _gait(path)[1].gait.clock
+        legs = _gait(path, footfall_fallback="legs")[1].gait.clock
+        assert wave.leg_order == legs.leg_order
 
 
 def test_a_seeds_initial_noise_reaches_a_creature_that_starts_standing() -> None:
@@ -358,9 +374,9 @@ def test_a_seeds_initial_noise_reaches_a_creature_that_starts_standing() -> None
     assert np.abs(starts[1] - starts[0]).max() > 0.01
 
 
-def _rolled(d: mujoco.MjData, c: CreatureGaitController, angle: float) -> None:
+def _rolled(d: mujoco.MjData, c: CreatureController, angle: float) -> None:
     """Roll the body in ``d`` by ``angle`` rad about its walking direction (left side down when > 0)."""
-    fwd = np.array([*c._dir, 0.0])
+    fwd = np.array([*c.gait.planner.dir, 0.0])
     q = Rotation.from_rotvec(-angle * fwd) * Rotation.from_quat(d.qpos[3:7], scalar_first=True)
     d.qpos[3:7] = q.as_quat(scalar_first=True)
     mujoco.mj_forward(c.model, d)
@@ -372,13 +388,14 @@ def test_the_legs_are_solved_within_the_tilt_limit_of_a_rolled_body() -> None:
     the real, rolled body, the standing dog's feet are then near the floor: solved for the upright plan
     (limit 0), the low side's feet are planned into the floor and the high side's above it."""
     sc, c, d = _dog_at_start()
-    lim = c.bal.ik_tilt_limit
+    g, planner = c.gait, c.gait.planner
+    lim = planner.bal.ik_tilt_limit
     assert lim == pytest.approx(0.1)
-    planned = c._target[3:7].copy()
+    planned = g.target[3:7].copy()
     _rolled(d, c, 0.05)
-    assert np.allclose(c._ik_attitude(d, planned), planned)
+    assert np.allclose(planner.ik_attitude(d, planned), planned)
     _rolled(d, c, 0.25)  # 0.3 rad in all
-    got = Rotation.from_quat(c._ik_attitude(d, planned), scalar_first=True)
+    got = Rotation.from_quat(planner.ik_attitude(d, planned), scalar_first=True)
     real = Rotation.from_quat(d.qpos[3:7], scalar_first=True)
     plan = Rotation.from_quat(planned, scalar_first=True)
     assert (real * got.inv()).magnitude() == pytest.approx(lim, abs=1e-3)
@@ -386,14 +403,14 @@ def test_the_legs_are_solved_within_the_tilt_limit_of_a_rolled_body() -> None:
 
     def miss(limit: float) -> float:
         """The largest height (m) of a planned-down foot over the floor, posed on the rolled body."""
-        c.bal = dataclasses.replace(c.bal, ik_tilt_limit=limit)
-        q = c._plan(0.01, d)  # standing: every foot planned down
+        planner.bal = dataclasses.replace(planner.bal, ik_tilt_limit=limit)
+        q = planner.plan(0.01, d, g.fwd)  # standing: every foot planned down
         q[0:7] = d.qpos[0:7]
-        q[2] = c._target[2]
+        q[2] = g.target[2]
         pose = mujoco.MjData(sc.built.model)
         pose.qpos[:] = q
         mujoco.mj_kinematics(sc.built.model, pose)
-        z = np.array([pose.site_xpos[s][2] for s in c._site_ids]) - c.site_ground
+        z = np.array([pose.site_xpos[s][2] for s in g.ik.sites]) - g.stance.site_ground
         return float(np.abs(z).max())
 
     free, held = miss(lim), miss(0.0)
@@ -408,32 +425,34 @@ def test_a_capture_point_beyond_one_sides_feet_starts_that_sides_next_swing() ->
     landing point moves out to the right by capture_step x the capture point's distance beyond it, at
     most the leg's measured outward reach."""
     sc, c, d = _dog_at_start()
+    g, plan, clock = c.gait, c.gait.planner, c.gait.clock
+    rules = g.rules
     model = sc.built.model
-    assert np.all(c.reach_out > 0.05)  # the dog's feet reach 17-21 cm out
-    right = [i for i in range(len(c.legs)) if c.leg_side[i] < 0]
+    assert np.all(g.reach.out > 0.05)  # the dog's feet reach 17-21 cm out
+    right = [i for i in range(len(c.legs)) if g.stance.side[i] < 0]
     assert len(right) == 2
-    t = c._t_walk + 0.05
-    while any(c._phase(t, i) >= 0 for i in right):  # a moment when no right leg swings
+    t = clock.t_walk + 0.05
+    while any(clock.phase(t, i) >= 0 for i in right):  # a moment when no right leg swings
         t += 0.01
-    walk, path = c._t_walk, c._root_path(t)
-    c._catch(model, d, t)
-    assert c.catches == 0 and c._t_walk == walk
-    side = np.array([-c._dir[1], c._dir[0], 0.0])
+    walk, path = clock.t_walk, plan.root_path(t)
+    plan.catch(model, d, t)
+    assert plan.catches == 0 and clock.t_walk == walk
+    side = np.array([*plan.left(), 0.0])
     d.qvel[0:3] = -1.0 * side
     mujoco.mj_forward(model, d)
-    c._catch(model, d, t)
-    assert c.catches == 1
-    swinging = [i for i in right if c._phase(t, i) >= 0]
-    assert len(swinging) == 1 and c._phase(t, swinging[0]) < 0.05
-    assert np.allclose(c._root_path(t), path)
+    plan.catch(model, d, t)
+    assert plan.catches == 1
+    swinging = [i for i in right if clock.phase(t, i) >= 0]
+    assert len(swinging) == 1 and clock.phase(t, swinging[0]) < 0.05
+    assert np.allclose(plan.root_path(t), path)
     i = swinging[0]
-    off = dataclasses.replace(c.bal, capture_step=0.0)
-    on, c.bal = c.bal, off
-    plain = c._landing(t, i, d)
-    c.bal = on
-    out = float((plain - c._landing(t, i, d))[0:2] @ side[0:2])  # to the right, m
-    beyond = float((plain[0:2] - c._xi) @ side[0:2])
-    assert out == pytest.approx(min(c.bal.capture_step * beyond, c.reach_out[i]))
+    on = plan.bal
+    plan.bal = dataclasses.replace(on, capture_step=0.0)
+    plain = rules.landing(plan, t, i, d)
+    plan.bal = on
+    out = float((plain - rules.landing(plan, t, i, d))[0:2] @ side[0:2])  # to the right, m
+    beyond = float((plain[0:2] - plan.xi) @ side[0:2])
+    assert out == pytest.approx(min(on.capture_step * beyond, g.reach.out[i]))
     assert out > 0.05
 
 
@@ -483,12 +502,12 @@ def test_the_support_shift_is_what_an_inverted_pendulum_follows_at_the_gait_cycl
     nearly all of it. At the 0.6 s cycle the horse (its centre of mass 0.71 m up) follows 0.11, the dog
     (0.29 m) 0.23: shifted the whole way, the horse rocked onto the swinging leg's corner."""
     _, c = _gait(quadruped)
-    h = float(c.neutral_com[2] - c.neutral_feet[:, 2].mean())
-    share = c.shift_share()
-    assert share == pytest.approx(_lip_sway(h, c.period), rel=1e-3)
+    g, gravity = c.gait, -float(c.model.opt.gravity[2])
+    stance, bal, height, period = g.stance, g.bal, g.legs.height, g.clock.period
+    h = float(stance.com[2] - stance.feet[:, 2].mean())
+    share = shift_share(bal, period, stance, height, gravity)
+    assert share == pytest.approx(_lip_sway(h, period), rel=1e-3)
     assert share < (0.15 if quadruped == HORSE_WALK else 0.3)
-    c.bal = dataclasses.replace(c.bal, com_shift_dynamic=False)
-    assert c.shift_share() == c.bal.com_shift
-    c.bal = dataclasses.replace(c.bal, com_shift_dynamic=True)
-    c.period = 20.0
-    assert c.shift_share() > 0.99 * c.bal.com_shift
+    static = dataclasses.replace(bal, com_shift_dynamic=False)
+    assert shift_share(static, period, stance, height, gravity) == bal.com_shift
+    assert shift_share(bal, 20.0, stance, height, gravity) > 0.99 * bal.com_shift

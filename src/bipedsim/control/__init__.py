@@ -10,15 +10,12 @@ from __future__ import annotations
 
 from bipedsim.control.base import CONTROLLERS, Controller
 from bipedsim.control.config import ControllerConfig, load_controller
-from bipedsim.control.creature import CreatureControlConfig, CreatureController
-from bipedsim.control.creature_balance import CreatureBalanceConfig, CreatureBalanceController
-from bipedsim.control.creature_biped import BipedGaitConfig, CreatureBipedController
-from bipedsim.control.creature_gait import CreatureGaitController
+from bipedsim.control.creature import CreatureController
+from bipedsim.control.creature_config import BipedGaitConfig, CreatureBalanceConfig, CreatureControlConfig
 from bipedsim.control.fsm import GaitFSM
 from bipedsim.control.reference import ClipSource, GaitSource, Hinges, PoseSource
 from bipedsim.control.simbicon import SimbiconController
 
 __all__ = ["CONTROLLERS", "BipedGaitConfig", "ClipSource", "Controller", "ControllerConfig", "CreatureBalanceConfig",
-           "CreatureBalanceController", "CreatureBipedController", "CreatureControlConfig", "CreatureController",
-           "CreatureGaitController", "GaitFSM", "GaitSource", "Hinges", "PoseSource", "SimbiconController",
-           "load_controller"]
+           "CreatureControlConfig", "CreatureController", "GaitFSM", "GaitSource", "Hinges", "PoseSource",
+           "SimbiconController", "load_controller"]

@@ -1,17 +1,17 @@
-"""The creature's controller (behind :class:`~bipedsim.control.base.Controller`): PD tracking of a
-retargeted clip on every ball joint, for any skeleton.
+"""The creature's controller (behind :class:`~bipedsim.control.base.Controller`), for any skeleton: one
+class that holds its parts, chosen at construction.
 
-Each ball joint is driven toward the clip's local orientation by tau = kp e (N*m), e the rotation
-vector (rad) from the current to the target orientation in the joint frame, clipped to the joint's
-torque limit; the -kd omega term is MuJoCo joint damping (integrated implicitly: explicit damping of
-light end bodies -- a head, a wing tip -- is unstable at millisecond steps). The clip plays at real
-time and loops.
-
-**Root support** (``support``, e.g. for flying clips or anything that cannot hold itself up): a PD
-wrench on the root's free joint toward the clip's root pose, scaled by the body's mass plus its
-weight -- an external assistance, not the creature's own doing -- whose mean and peak force and
-torque are reported in :meth:`CreatureController.metrics`. It acts through ``qfrc_applied``, so
-``xfrc_applied`` stays the pushes' alone.
+- the **body** (:class:`~bipedsim.control.creature_tracking.CreatureBody`): its ball joints, gains,
+  limits, mass;
+- **PD tracking** of the clip on every ball joint, with the optional **root support**
+  (:class:`~bipedsim.control.creature_tracking.Tracking`): the whole control without a balance, and
+  the control of every gait while the root is supported;
+- with a balance (``balance``; the registered controller always has one): the **legs**
+  (:class:`~bipedsim.control.creature_legs.LegSet`), the clip as their **reference** (looped,
+  re-levelled: :class:`~bipedsim.control.creature_reference.LoopedReference`) and the **gait** its
+  ``gait`` names -- the planned gait (:class:`~bipedsim.control.creature_gait.PlannedGait`, the
+  default; its rules by leg count: :func:`leg_rules`) or the clip-timed balance
+  (:class:`~bipedsim.control.creature_balance.ClipBalance`).
 """
 
 from __future__ import annotations
@@ -19,117 +19,117 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from bipedsim.control.base import Controller, FloatArray
-from bipedsim.control.creature_config import CreatureControlConfig
-from bipedsim.errors import ModelError
+from bipedsim.control.base import Controller, FloatArray, register
+from bipedsim.control.creature_balance import ClipBalance
+from bipedsim.control.creature_biped import BipedRules
+from bipedsim.control.creature_config import CreatureBalanceConfig, CreatureControlConfig
+from bipedsim.control.creature_gait import PlannedGait
+from bipedsim.control.creature_legs import LegSet
+from bipedsim.control.creature_many_legs import ManyLegs
+from bipedsim.control.creature_planner import LegRules
+from bipedsim.control.creature_reference import LoopedReference
+from bipedsim.control.creature_tracking import CreatureBody, Tracking, quat_error_rotvecs
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
 
 
-def quat_error_rotvecs(q: FloatArray, qd: FloatArray) -> FloatArray:
-    """Rotation vectors (rad) of conj(q) * qd for rows of MuJoCo quaternions (w, x, y, z): the
-    rotation from each current orientation to its target, in the current (joint) frame."""
-    w1, v1 = q[:, 0], -q[:, 1:]
-    w2, v2 = qd[:, 0], qd[:, 1:]
-    w = w1 * w2 - np.einsum("ij,ij->i", v1, v2)
-    v = w1[:, None] * v2 + w2[:, None] * v1 + np.cross(v1, v2)
-    sign = np.where(w < 0.0, -1.0, 1.0)  # the short way round
-    w, v = w * sign, v * sign[:, None]
-    n = np.linalg.norm(v, axis=1)
-    angle = 2.0 * np.arctan2(n, w)
-    scale = np.where(n > 1e-12, angle / np.maximum(n, 1e-12), 2.0)
-    return v * scale[:, None]
+def leg_rules(plan: BodyPlanSet, body: CreatureBody, legs: LegSet, ref: LoopedReference,
+              cfg: CreatureControlConfig) -> LegRules:
+    """The planned gait's rules for these legs: two legs walk the dynamic gait of
+    :class:`~bipedsim.control.creature_biped.BipedRules` (``cfg.biped``), any other number the
+    quasi-static one of :class:`~bipedsim.control.creature_many_legs.ManyLegs`."""
+    if len(legs) == 2:
+        return BipedRules(plan, body, legs, ref, cfg.biped)
+    return ManyLegs()
 
 
 class CreatureController(Controller):
-    """PD tracking of a clip on every ball joint of a creature body (see the module's text)."""
+    """PD tracking of a clip on every ball joint of a creature body, and with ``balance`` the legged
+    gait it names (see the module text)."""
 
     def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
-                 cfg: CreatureControlConfig | None = None) -> None:
-        if plan.profile != "creature":
-            raise ModelError("the creature controller drives creature bodies (ball joints); this one is "
-                             f"{plan.profile!r}")
-        self.model, self.plan, self.clip = model, plan, clip
+                 cfg: CreatureControlConfig | None = None, balance: CreatureBalanceConfig | None = None) -> None:
+        self.model, self.plan = model, plan
         self.cfg = cfg or CreatureControlConfig()
         self.control_dt = None
-        self.root_body = 1
-        self._set_ball_tables(model, plan)
-        self.base_damping = model.dof_damping.copy()
-        self.mass = float(np.sum(model.body_mass))
-        self.weight = self.mass * -float(model.opt.gravity[2])
+        self.body = CreatureBody(model, plan)
+        self.root_body = self.body.root_body
         self._feet = [model.body(f).id for f in plan.foot_bodies]
         self._foot_names = tuple(plan.foot_bodies)
-        self.tracking_error = np.zeros(len(self.qadr))
-        self.torque = np.zeros(model.nu)
-        self.frame = 0.0
-        self._support: list[tuple[float, float]] = []
-        self._speed = float(np.linalg.norm(clip.qpos[-1, :2] - clip.qpos[0, :2]) / max(clip.duration, 1e-9))
-
-    def _set_ball_tables(self, model: mujoco.MjModel, plan: BodyPlanSet) -> None:
-        """qpos/dof addresses, three actuators, gains and torque limits of every ball joint."""
-        acts: dict[int, list[int]] = {}
-        for a in range(model.nu):
-            acts.setdefault(int(model.actuator_trnid[a, 0]), []).append(a)
-        gains = {j.name: (j.kp, j.kd) for b in plan.bodies for j in b.joints}
-        balls = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL]
-        self.joint_names = [model.joint(j).name for j in balls]
-        self.qadr = np.array([model.jnt_qposadr[j] for j in balls], dtype=np.int64)
-        self.dadr = np.array([model.jnt_dofadr[j] for j in balls], dtype=np.int64)
-        self.acts = np.array([sorted(acts.get(j, []))[:3] for j in balls], dtype=np.int64).reshape(len(balls), 3)
-        self.kp = np.array([gains[n][0] for n in self.joint_names])
-        self.kd = np.array([gains[n][1] for n in self.joint_names])
-        self.limit = np.array([model.actuator_ctrlrange[a[0], 1] for a in self.acts])
-        self._quat_idx = self.qadr[:, None] + np.arange(4)
+        self.legs: LegSet | None = None
+        self.reference: LoopedReference | None = None
+        self.gait: PlannedGait | ClipBalance | None = None
+        if balance is None:
+            self.track = Tracking(self.body, clip, self.cfg)
+            #: the clip frames [a, b) a rollout plays (the part a gait loops)
+            self.loop = (0, clip.num_frames)
+            return
+        self.legs = LegSet(model, plan, self.body, clip)
+        self.reference = LoopedReference(model, clip, self.legs, self.body.quat_idx, balance.velocity_window_s)
+        self.loop = self.reference.loop
+        self.track = Tracking(self.body, self.reference.clip, self.cfg, self.loop)
+        if balance.gait == "clip":
+            self.gait = ClipBalance(self.body, self.legs, self.reference, self.track, balance)
+            return
+        rules = leg_rules(plan, self.body, self.legs, self.reference, self.cfg)
+        self.gait = PlannedGait(self.body, self.legs, self.reference, self.track, rules.balance(balance), rules,
+                                self.cfg.support)
+        # only the planned gait plans each leg's stance (sim.contacts.StanceContacts reads it where present)
+        self.contact_state = self.gait.contact_state
 
     # ------------------------------------------------------------------ the control step
+    def start_frame(self) -> int:
+        return self.loop[0]
+
     def reset(self, data: mujoco.MjData, frame: float | None = None, t: float = 0.0) -> None:
-        self.frame = 0.0 if frame is None else float(frame)
-        self._t0 = t - self.frame * self.clip.frame_time
-        self._support.clear()
-        self.model.dof_damping[:] = self.base_damping
-        for k, d in enumerate(self.dadr):
-            self.model.dof_damping[d:d + 3] += self.kd[k]
-
-    def restore_model(self) -> None:
-        self.model.dof_damping[:] = self.base_damping
-
-    def _frame_index(self) -> int:
-        n = self.clip.num_frames
-        i = int(self.frame)
-        return i % n if self.cfg.loop else min(i, n - 1)
+        self.track.reset(self.loop[0] if frame is None else frame, t)
+        if self.gait is None or self.cfg.support:
+            return
+        # the caller posed the clip's start; the gait starts from the re-levelled one
+        self.reference.place_start(self.model, data, self.track.frame)
+        self.gait.reset(data, t)
 
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, dt: float) -> FloatArray:
-        self.frame = (t - self._t0) / self.clip.frame_time
-        target = self.clip.qpos[self._frame_index()]
-        e = quat_error_rotvecs(data.qpos[self._quat_idx], target[self._quat_idx])
-        self.tracking_error = np.linalg.norm(e, axis=1)
-        tau = np.clip(self.kp[:, None] * e, -self.limit[:, None], self.limit[:, None])
-        self.torque[self.acts.ravel()] = tau.ravel()
-        if self.cfg.support:
-            self._apply_support(data, target)
-        return self.torque
+        if self.gait is None or self.cfg.support:
+            return self.track.step(data, t)
+        return self.gait.step(model, data, t, dt)
 
-    def _apply_support(self, data: mujoco.MjData, target: FloatArray) -> None:
-        """The root-support wrench toward the clip's root pose (world-frame force, body-frame torque)."""
-        c, m = self.cfg, self.mass
-        force = m * (c.support_kp * (target[:3] - data.qpos[:3]) - c.support_kd * data.qvel[:3])
-        force[2] += self.weight
-        r = data.xmat[self.root_body].reshape(3, 3)
-        err = quat_error_rotvecs(data.qpos[None, 3:7], target[None, 3:7])[0]  # body frame
-        torque_body = m * (0.1 * c.support_kp * err - 0.1 * c.support_kd * data.qvel[3:6])
-        data.qfrc_applied[0:3] = force
-        data.qfrc_applied[3:6] = torque_body
-        self._support.append((float(np.linalg.norm(force)), float(np.linalg.norm(r @ torque_body))))
+    def restore_model(self) -> None:
+        self.body.restore()
 
     # ------------------------------------------------------------------ read-outs
+    @property
+    def frame(self) -> float:
+        """The clip frame played now (a float: between frames)."""
+        return self.track.frame
+
+    @frame.setter
+    def frame(self, value: float) -> None:
+        self.track.frame = value
+
+    @property
+    def tracking_error(self) -> FloatArray:
+        """Per ball joint, the last control step's rotation error (rad)."""
+        return self.track.tracking_error
+
+    @tracking_error.setter
+    def tracking_error(self, value: FloatArray) -> None:
+        self.track.tracking_error = value
+
     def reference_qpos(self) -> FloatArray:
-        return self.clip.qpos[self._frame_index()]
+        """The planned pose while the planned gait walks, else the clip's frame now."""
+        if self.gait is not None and self.gait.target is not None:
+            return self.gait.target
+        return self.track.reference_qpos()
 
     def reference_speed(self) -> float:
-        return self._speed
+        return self.gait.reference_speed() if self.gait is not None else self.track.speed
+
+    def heading(self, data: mujoco.MjData) -> float:
+        return self.gait.heading(data) if self.gait is not None else super().heading(data)
 
     def actuator_torques(self) -> FloatArray:
-        return self.torque
+        return self.body.torque
 
     def foot_names(self) -> tuple[str, ...]:
         return self._foot_names
@@ -149,13 +149,22 @@ class CreatureController(Controller):
                     out[k] += abs(f6[0] * con.frame[2])
         return out
 
+    def foot_strikes(self) -> list[tuple[float, str]]:
+        return self.gait.foot_strikes() if self.gait is not None else []
+
     def metrics(self) -> dict[str, object]:
-        out: dict[str, object] = {"profile": "creature", "support_mode": self.cfg.support, "weight_n": self.weight}
-        if self._support:
-            f, tq = np.array(self._support).T
-            out.update({"support_force_mean_n": float(f.mean()), "support_force_max_n": float(f.max()),
-                        "support_torque_mean_nm": float(tq.mean()), "support_torque_max_nm": float(tq.max())})
-        return out
+        return self.gait.metrics() if self.gait is not None else self.track.metrics()
 
 
-__all__ = ["CreatureControlConfig", "CreatureController", "quat_error_rotvecs"]
+@register("creature")
+def make_creature_controller(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
+                             cfg: CreatureControlConfig | None = None,
+                             balance: CreatureBalanceConfig | None = None) -> CreatureController:
+    """The creature's controller with its balance: ``balance``, or the configuration's (the planned gait,
+    ``gait: planned``, by default; the clip-timed balance with ``gait: clip``)."""
+    balance = balance or (cfg or CreatureControlConfig()).balance
+    return CreatureController(model, plan, clip, cfg, balance)
+
+
+__all__ = ["CreatureBalanceConfig", "CreatureControlConfig", "CreatureController", "leg_rules",
+           "make_creature_controller", "quat_error_rotvecs"]

@@ -9,10 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 #: Longest window (s) over which a clip's velocity is averaged: past a clip's loop the average is the
-#: whole clip's, and an absurd window (1e300 s) would be an array too large to allocate.
+#: whole clip's, and a far longer window would be an array too large to allocate.
 MAX_WINDOW_S = 10.0
 #: Highest standing root height, as a fraction of the clip's: the legs cannot reach the floor from much
-#: higher than the clip's own height (1e300 ended in NaN targets and a traceback).
+#: higher than the clip's own height (the IK's targets would be out of reach).
 MAX_HEIGHT_FRACTION = 1.5
 #: Re-planning period (s) bounds. The plan's reference velocities are its change over the period, but
 #: the plan is only remade at a control step (a creature's: every physics step, 2 ms in the shipped
@@ -31,12 +31,13 @@ class CreatureBalanceConfig:
     damping_ratio: float = field(default=1.0, metadata={"min": 0.0})
     #: share of the body weight carried by the virtual force (the rest by PD tracking)
     gravity_comp: float = field(default=0.5, metadata={"min": 0.0, "max": 1.5})
-    #: speed control: horizontal force m x speed_gain x sqrt(g/L) x (v_d - v)
+    #: speed control (clip-timed balance): horizontal force m x speed_gain x sqrt(g/L) x (v_d - v)
     speed_gain: float = field(default=0.5, metadata={"min": 0.0})
-    #: swing-foot placement per (m/s) of velocity error, in units of sqrt(L/g) s
+    #: swing-foot placement of the clip-timed balance per (m/s) of velocity error, in units of sqrt(L/g) s
     placement: float = field(default=4.0, metadata={"min": 0.0})
     #: largest placement shift, as a fraction of the standing root height
     max_placement: float = field(default=1.0, metadata={"min": 0.0})
+    #: friction coefficient the stance feet's forces are held to (their horizontal part within the cone)
     friction: float = field(default=0.8, metadata={"gt": 0.0})
     #: longest wait (s) of the clip's clock for a foot that should have landed
     max_wait_s: float = field(default=0.1, metadata={"min": 0.0})
@@ -44,26 +45,27 @@ class CreatureBalanceConfig:
     velocity_feedforward: bool = True
     #: window (s) over which the clip's root velocity is averaged for the speed target
     velocity_window_s: float = field(default=0.5, metadata={"gt": 0.0, "max": MAX_WINDOW_S})
-    # ---- the planned gait (``gait: planned``, control/creature_gait.py); ``clip`` tracks the clip's timing
+    # ---- the planned gait (``gait: planned``, control/creature_gait.py); ``clip``: the clip-timed balance
+    # (control/creature_balance.py)
     gait: str = field(default="planned", metadata={"choices": ("planned", "clip")})
     #: walking speed as a fraction of the clip's mean root speed, at most (the legs' measured reach may
-    #: lower it, control/creature_gait.py)
+    #: lower it: control/creature_reach.py)
     speed_fraction: float = field(default=0.8, metadata={"min": 0.0})
-    #: the legs' swings in one cycle, summed, as a share of the cycle (each leg swings share/n: 0.9/4, a
-    #: duty factor of 0.775; a shorter total swing slows the planned walk: docs/creatures.md, "The plan's
-    #: speed limit")
+    #: the legs' swings in one cycle, summed, as a share of the cycle (each leg swings share/n: on four
+    #: legs 0.9/4, a duty factor of 0.775); a shorter total swing shortens each swing and, where the
+    #: shortest swing binds, slows the walk
     swing_share: float = field(default=0.9, metadata={"gt": 0.0, "max": 1.0})
     #: footfall pattern: ``sequence`` (one leg after another in the clip's order, swing_share/n each) or
     #: ``clip`` (the clip's own phases and swing share, e.g. a trot's diagonal pairs)
     phases: str = field(default="sequence", metadata={"choices": ("sequence", "clip")})
     #: the sequence's order where the clip lifts no leg (its contact labels empty): ``wave`` (one
-    #: side's legs from the hindmost forward, then the other side's: the walk the dog's and the horse's
-    #: clips show) or ``legs`` (the legs' own order, as the skeleton lists them)
+    #: side's legs from the hindmost forward, then the other side's: the lateral-sequence walk of walking
+    #: quadrupeds) or ``legs`` (the legs' own order, as the skeleton lists them)
     footfall_fallback: str = field(default="wave", metadata={"choices": ("wave", "legs")})
-    #: largest swing as a share of the cycle
+    #: largest swing of one leg as a share of the cycle
     max_swing_fraction: float = field(default=0.45, metadata={"gt": 0.0, "max": 0.9})
-    #: longest stride as a fraction of the standing root height (0.75: at swing_share 0.9 a body whose
-    #: speed the stride limits keeps its speed; a longer stride overreaches the legs)
+    #: longest stride as a fraction of the standing root height (a longer stride overreaches the legs;
+    #: the reach is measured in steps up to it)
     stride_fraction: float = field(default=0.75, metadata={"gt": 0.0})
     #: shortest swing (s)
     min_swing_s: float = field(default=0.12, metadata={"gt": 0.0})
@@ -85,8 +87,8 @@ class CreatureBalanceConfig:
     #: the shift scaled by what an inverted pendulum follows at the gait's frequency: the supports'
     #: centroid sways once per cycle (period P), and a centre of mass at height h swaying by a at 2 pi / P
     #: needs its centre of pressure to sway by a (1 + (2 pi / P)^2 h / g); the shift is com_shift /
-    #: (1 + (2 pi / P)^2 h / g) of the way (the horse 0.11, the dog 0.23; a slow quasi-static walk nearly
-    #: all of it). Off: com_shift of the way at any cycle
+    #: (1 + (2 pi / P)^2 h / g) of the way (a fast cycle of a tall body little of it, a slow quasi-static
+    #: walk nearly all of it). Off: com_shift of the way at any cycle
     com_shift_dynamic: bool = True
     #: 1: the centre of mass shifts only sideways (across the walking direction), 0: also along it
     lateral_only: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
@@ -102,11 +104,11 @@ class CreatureBalanceConfig:
     centre_sweep: bool = False
     #: the sweeps are centred as by ``centre_sweep`` where that widens the stance's sweep (its reach) at
     #: least this many times, measured on the built body's legs: legs whose reach ahead and behind is
-    #: lopsided (the bred child's hind legs: 0.07 m ahead, 0.25 m behind; 2.0 times), not legs whose
-    #: centring gains little (the horse's: 1.1 times, at a speed it falls at); 0: only ``centre_sweep``
+    #: lopsided (a hind leg that reaches far behind but little ahead), not legs whose centring gains
+    #: little (a faster walk on legs that barely reach further); 0: only ``centre_sweep``
     centre_sweep_gain: float = field(default=1.5, metadata={"min": 0.0})
     #: with the sweeps centred (by either setting), the horizontal virtual force held as by ``zmp_limit``:
-    #: the centred feet's centroid stands off the centre of mass (the child's by 2.8 cm, behind it)
+    #: the centred feet's centroid stands off the centre of mass
     centre_sweep_zmp: bool = True
     #: a push's catch (more than two legs): while the centre of mass's capture point c + v / w (w =
     #: sqrt(g / h)) lies out to one side beyond that side's outermost stance foot by more than
@@ -128,7 +130,7 @@ class CreatureBalanceConfig:
     swing_stiffness: float = field(default=0.25, metadata={"gt": 0.0, "max": 1.0})
     #: time constant (s) with which the planned path follows the body (0: a rigid path)
     path_follow_s: float = field(default=0.2, metadata={"min": 0.0})
-    #: IK's null-space pull toward the neutral leg pose (per iteration)
+    #: IK's null-space pull toward the neutral leg pose (share per iteration)
     posture_pull: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
     #: standing time before the first step (s), speed ramp (s), re-planning period (s)
     settle_s: float = field(default=0.5, metadata={"min": 0.0})
@@ -153,7 +155,7 @@ class BipedGaitConfig:
     #: the body off their foot)
     height_fraction: float = field(default=0.85, metadata={"gt": 0.0, "max": MAX_HEIGHT_FRACTION})
     #: the IK's null-space pull toward the neutral leg pose: small, or it keeps feet off their targets
-    #: (at 1.0 a stance foot missed by 4 cm with the root 10 cm to its side)
+    #: (a bent leg reaching sideways is far from its neutral pose)
     posture_pull: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
     #: swing-foot lift as a fraction of the root height
     step_height: float = field(default=0.08, metadata={"min": 0.0})
@@ -174,9 +176,9 @@ class CreatureControlConfig:
     support_kp: float = field(default=20.0, metadata={"min": 0.0})
     support_kd: float = field(default=2.0, metadata={"min": 0.0})
     loop: bool = True
-    #: the legged balance (control/creature_balance.py, control/creature_gait.py)
+    #: the legged balance (control/creature_gait.py, or with ``gait: clip`` control/creature_balance.py)
     balance: CreatureBalanceConfig = field(default_factory=CreatureBalanceConfig)
-    #: a two-legged creature's gait (control/creature_biped.py): its timing, and the settings of
+    #: a two-legged creature's planned gait (control/creature_biped.py): its timing, and the settings of
     #: ``balance`` that it replaces on two legs
     biped: BipedGaitConfig = field(default_factory=BipedGaitConfig)
 

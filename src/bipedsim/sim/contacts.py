@@ -1,8 +1,8 @@
 """How well a creature's planned stance feet really touch the floor: a rollout hook.
 
 :class:`StanceContacts` is passed to :func:`~bipedsim.sim.runner.run_scenario` (``hooks=[...]``) with
-a controller that has ``contact_state(data, t)`` (the planned gait,
-:class:`~bipedsim.control.creature_gait.CreatureGaitController`). From ``after_s`` on it counts, per
+a controller that has ``contact_state(data, t)`` (a creature's planned gait,
+:class:`~bipedsim.control.creature_gait.PlannedGait`). From ``after_s`` on it counts, per
 leg and control step, whether the leg is planned in stance and whether it touches the floor, and
 reports:
 

@@ -3,7 +3,7 @@
 Each stand-in is the project's own walk (:func:`bipedsim.motion.gaitgen.generate_walk`, or the shipped
 horse) written in the layout of the shared file it stands for: its joint names and tree, channel order,
 unit, up axis, frame rate, text quirks (line endings, a tab after ``Frames:``, no final newline) and
-rest-pose quirks (splayed legs, feet pointing down, a static root at the floor, position channels on
+rest-pose quirks (splayed legs, feet pointing down, bone-aligned joint frames, position channels on
 every joint). A test that asks for a shared file by name (:func:`shared_or_standin`) gets the real file
 when ``../shared`` is there and the stand-in otherwise, so it checks what the layout must do either way.
 What a stand-in cannot have (a real performer's numbers: strike counts, speeds, seam errors) stays with
@@ -29,7 +29,6 @@ from scipy.spatial.transform import Rotation
 from bipedsim.motion.bvh import bvh_text, read_bvh
 from bipedsim.motion.gaitgen import WalkParams, generate_walk, walk_skeleton
 from bipedsim.motion.motion import Motion, canonical_quat
-from bipedsim.motion.reroot import add_static_root
 from bipedsim.motion.skeleton import Skeleton
 
 #: metres per unit of the CMU ASF skeletons (1/0.45 inch)
@@ -120,10 +119,11 @@ def six_channels(m: Motion) -> Motion:
 
 
 # ---------------------------------------------------------------------- the generated performances
-def _walk() -> Motion:
-    """3.3 gait cycles of the generated walk from a tenth of a cycle in: it starts and ends mid-step,
-    as a capture does (a clip ending in its first pose would be taken for a loop)."""
-    return generate_walk(WalkParams(cycles=4))[5:170]
+def _walk(seconds: float = 3.07) -> Motion:
+    """``seconds`` of the generated walk (0.93 s a gait cycle) from a tenth of a cycle in: it starts and
+    ends mid-step, as a capture does (a clip ending in its first pose would be taken for a loop)."""
+    m = generate_walk(WalkParams(cycles=int(seconds / 0.93) + 2))
+    return m[5:6 + round(seconds / m.frame_time)]
 
 
 def _src_rest() -> dict[str, np.ndarray]:
@@ -248,7 +248,7 @@ def _games105() -> tuple[list[J], list[E]]:
 
 
 def _bandai() -> tuple[list[J], list[E]]:
-    """Bandai-Namco's 21 joints below their static root (added later): Hips, Spine, Chest, ..., Toes_L."""
+    """Bandai-Namco's joints (Hips, Spine, Chest, ..., Toes_L), position channels on each (added later)."""
     js = [J("Hips", None, "Hips", order="ZXY"), J("Spine", "Hips", "Spine", order="ZXY"),
           J("Chest", "Spine", "Spine1", order="ZXY"), J("Neck", "Chest", "Neck", order="ZXY"),
           J("Head", "Neck", "Head", order="ZXY")]
@@ -333,7 +333,7 @@ def _human(layout: str) -> Motion:
     """The generated walk in ``layout`` (metres, Z up), with the layout's rest-pose quirks."""
     if layout == "holden31":
         js, ends = _holden31()
-        m = relaid(_walk(), js, ends)
+        m = relaid(_walk(2.81), js, ends)  # as long as CMU 02_01
         turns = {**_splayed_rest(m, "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", 1.0),
                  **_splayed_rest(m, "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase", -1.0)}
         return rest_turned(m, turns)
@@ -345,7 +345,8 @@ def _human(layout: str) -> Motion:
         return relaid(_walk(), js, ends)
     layouts = {"hip19": _hip19, "daz43": _daz43, "games105": _games105, "bandai": _bandai, "max31": _max31}
     js, ends = layouts[layout]()
-    m = relaid(_walk(), js, ends)
+    # Bandai's take is 9.6 s at 30 fps: a long clip, whose first and last steps weigh little
+    m = relaid(_walk(7.0 if layout == "bandai" else 3.07), js, ends)
     if layout == "bandai":
         # bone-aligned joint frames: the identity pose lies on its back
         m = rest_turned(m, {n: Rotation.from_euler("y", -90, degrees=True) for n in m.skeleton.names})
@@ -392,6 +393,8 @@ STANDINS: dict[str, tuple[str, float, str, float | None, dict[str, object]]] = {
     "human/cmu_12_03_walk__cgspeed_mb31.bvh": ("mb31", CMU_UNIT_M, "y", 120.0, {"frame_time": ".0083333"}),
     "human/games105_walk60__metres_crlf.bvh": ("games105", 1.0, "y", 60.0, {"eol": "\r\n", "final_newline": False}),
     "human/bandai2_walk_exhausted_001.bvh": ("bandai", 0.01, "y", 30.0, {"frames_tab": True}),
+    "human/cmu_131_01_start_walk_stop__max31_mixedEOL.bvh": ("max31", CMU_UNIT_M, "y", 120.0,
+                                                             {"eol": "mixed", "frame_time": ".0083333"}),
     "human/cmu_141_16_wave_hello__holden31_crlf.bvh": ("holden31_wave", CMU_UNIT_M, "y", None, {"eol": "\r\n"}),
     "animal/mann_dog_D1_007_KAN01_001_locomotion.bvh": ("dog", 0.01, "y", 60.0, {"eol": "\r\n", "frames_tab": True}),
 }
@@ -399,10 +402,8 @@ STANDINS: dict[str, tuple[str, float, str, float | None, dict[str, object]]] = {
 
 def _standin_motion(kind: str, unit_m: float, up: str, fps: float | None) -> Motion:
     m = _dog() if kind == "dog" else _human(kind)
-    if kind == "bandai":
-        m = six_channels(add_static_root(m.with_up(up).scaled(1.0 / unit_m)))
-        return m.resample(fps) if fps is not None else m
-    return _to_file_frame(m, unit_m, up, fps)
+    m = _to_file_frame(m, unit_m, up, fps)
+    return six_channels(m) if kind == "bandai" else m
 
 
 @functools.cache

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared
+from conftest import SHARED_BVH, shared_files, shared_or_standin
 
 from bipedsim.model.creature_kind import detect_body_kind, read_for_body
 from bipedsim.motion.bvh import read_bvh, write_bvh
@@ -33,8 +33,7 @@ def test_a_static_root_at_the_floor_changes_nothing(name: str, tmp_path: Path) -
     """A human walk put under a static root joint at the origin (a game export's layout): the origin is far
     from the walking body, which had tilted the measured trunk to 85 deg (CMU 02_01 was built as a 0.25 m
     creature). Now the root is no part of the measure and is folded away: the same kind, unit and body."""
-    need_shared()
-    src = SHARED_BVH / "human" / f"{name}.bvh"
+    src = shared_or_standin(f"human/{name}.bvh")
     m, info = read_bvh(src)
     path = tmp_path / "static_root.bvh"
     write_bvh(add_static_root(m), path)
@@ -53,8 +52,7 @@ def test_a_walk_that_comes_back_is_not_in_place() -> None:
     over a stride), not its net displacement."""
     from bipedsim.model.prepare import humanoid_motion, in_place
 
-    need_shared()
-    m = read_bvh(SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")[0]
+    m = read_bvh(shared_or_standin("human/cmu_02_01_walk__holden31_crlf.bvh"))[0]
     circle = humanoid_motion(_probe()._turning(m, 128.0))  # one full turn in the clip's 2.8 s
     root = circle.travel()[:, :2]
     assert np.linalg.norm(root[-1] - root[0]) < 0.2 < 0.1 * np.linalg.norm(np.diff(root, axis=0), axis=1).sum()
@@ -70,8 +68,7 @@ def test_in_place_travel_rebuilt_from_rolling_feet(name: str) -> None:
     from bipedsim.model.gait import smooth
     from bipedsim.model.prepare import humanoid_motion, in_place, reconstruct_root
 
-    need_shared()
-    m = humanoid_motion(read_bvh(SHARED_BVH / "human" / f"{name}.bvh")[0])
+    m = humanoid_motion(read_bvh(shared_or_standin(f"human/{name}.bvh"))[0])
     flat = _probe()._in_place(m)
     assert in_place(flat)
     rebuilt = reconstruct_root(flat)
@@ -94,7 +91,6 @@ def test_a_walk_in_place_is_tracked(name: str, tmp_path: Path) -> None:
     from bipedsim.control.reference import clip_speed
     from bipedsim.sim.runner import load_scenario, run_seeds
 
-    need_shared()
     path = _variant(name, "in_place", tmp_path)
     sc = load_scenario(None, path)
     assert any("walks in place" in n for n in sc.bvh_info.notes)
@@ -112,8 +108,7 @@ def test_an_experiment_reads_a_file_as_run_does(tmp_path: Path) -> None:
     from bipedsim.motion.bvh import load_bvh
     from bipedsim.sim.experiment import load_experiment
 
-    need_shared()
-    bandai = SHARED_BVH / "human" / "bandai2_walk_exhausted_001.bvh"
+    bandai = shared_or_standin("human/bandai2_walk_exhausted_001.bvh")
     exp = tmp_path / "e.yaml"
     exp.write_text(f"name: e\nreference: {bandai}\nseconds: 2\nafter: 1.0\nbody: torso\n"
                    "runs:\n  - {magnitude: 100, direction: 90, duration: 0.2, start: 1.0}\n")
@@ -124,7 +119,7 @@ def test_an_experiment_reads_a_file_as_run_does(tmp_path: Path) -> None:
 
 def _variant(name: str, kind: str, tmp_path: Path) -> Path:
     """The probe's ``kind`` variant of a shared human walk, written to ``tmp_path``."""
-    src = SHARED_BVH / "human" / f"{name}.bvh"
+    src = shared_or_standin(f"human/{name}.bvh")
     m, _ = read_bvh(src)
     path = tmp_path / f"{kind}.bvh"
     write_bvh(_probe().variants(m, str(src))[kind](), path)
@@ -137,7 +132,6 @@ def test_a_walk_cycle_is_repeated_seamlessly(tmp_path: Path) -> None:
     1 left foot strikes"). A clip that is no loop is left as it is."""
     from bipedsim.model.prepare import LOOP_REPEAT_S, repeat_loop
 
-    need_shared()
     path = _variant("cmu_02_02_walk__daz43", "cycle", tmp_path)
     m = read_bvh(path)[0].to_project_frame()
     notes: list[str] = []
@@ -150,7 +144,7 @@ def test_a_walk_cycle_is_repeated_seamlessly(tmp_path: Path) -> None:
     joins = [k * period - 1 for k in range(1, out.num_frames // period)]
     assert step[joins].max() < 2.0 * np.median(step), (step[joins], np.median(step))  # no jump at a join
     for name in ("cmu_02_02_walk__daz43", "cmu_131_01_start_walk_stop__max31_mixedEOL"):
-        full = read_bvh(SHARED_BVH / "human" / f"{name}.bvh")[0].to_project_frame()
+        full = read_bvh(shared_or_standin(f"human/{name}.bvh"))[0].to_project_frame()
         assert repeat_loop(full) is full
 
 
@@ -173,8 +167,7 @@ def test_info_reports_the_speed_a_walk_in_place_walks(tmp_path: Path) -> None:
     walks at, its travel rebuilt from its feet: within 10 % of the original walk's root speed."""
     from bipedsim.model.describe import describe_bvh, format_description
 
-    need_shared()
-    original = describe_bvh(SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
+    original = describe_bvh(shared_or_standin("human/cmu_02_02_walk__daz43.bvh"))
     assert "walked_speed_mps" not in original
     d = describe_bvh(_variant("cmu_02_02_walk__daz43", "in_place", tmp_path))
     assert d["root_speed_mps"] < 0.01
@@ -192,8 +185,7 @@ def test_joint_names_that_say_nothing(name: str, tmp_path: Path) -> None:
 
     from bipedsim.sim.runner import load_scenario
 
-    need_shared()
-    src = SHARED_BVH / "human" / f"{name}.bvh"
+    src = shared_or_standin(f"human/{name}.bvh")
     m, _ = read_bvh(src)
     anon = tmp_path / "anon.bvh"
     write_bvh(m.copy(skeleton=dataclasses.replace(
@@ -215,9 +207,8 @@ def test_side_names_that_contradict_the_legs(name: str, tmp_path: Path) -> None:
     from bipedsim.model.humanoid import sides_note
     from bipedsim.sim.runner import load_scenario
 
-    need_shared()
     lv = _probe()
-    src = SHARED_BVH / "human" / f"{name}.bvh"
+    src = shared_or_standin(f"human/{name}.bvh")
     m, _ = read_bvh(src)
     swapped = tmp_path / "side_names.bvh"
     write_bvh(lv._side_names(m), swapped)
@@ -244,8 +235,7 @@ def test_side_evidence_on_every_shared_human_and_its_rule() -> None:
     from bipedsim.model.naming import recognise_humanoid
     from bipedsim.model.source import motion_points
 
-    need_shared()
-    for f in sorted((SHARED_BVH / "human").glob("*.bvh")) + sorted((SHARED_BVH / "odd").glob("*.bvh")):
+    for f in shared_files("human") + shared_files("odd"):
         try:
             _, _, m, kind = read_for_body(f)
             hm = recognise_humanoid(m.skeleton)
@@ -291,8 +281,7 @@ def test_game_rig_layouts_build_the_same_humanoid(name: str, kind: str, tmp_path
     from bipedsim.control.simbicon import leg_length
     from bipedsim.sim.runner import load_scenario
 
-    need_shared()
-    src = SHARED_BVH / "human" / f"{name}.bvh"
+    src = shared_or_standin(f"human/{name}.bvh")
     m, _ = read_bvh(src)
     made = _probe().variants(m, str(src))
     if kind not in made:
@@ -345,8 +334,7 @@ def test_a_held_tail_is_dropped_only_when_it_is_padding() -> None:
     frame (CMU 131's last in its metres copy) or a wholly still clip is left as it is."""
     from bipedsim.model.prepare import HELD_TAIL_S, trim_held_tail
 
-    need_shared()
-    m = read_bvh(SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")[0].to_project_frame()
+    m = read_bvh(shared_or_standin("human/cmu_02_01_walk__holden31_crlf.bvh"))[0].to_project_frame()
     notes: list[str] = []
     padded = _probe()._held_tail(m, 1.0)
     assert trim_held_tail(padded, notes).num_frames == m.num_frames and notes[0].startswith("held pose")

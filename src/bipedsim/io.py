@@ -177,6 +177,14 @@ def read_input_text(path: str | os.PathLike[str], kind: str = "text") -> str:
     return decode_text(read_input_bytes(path, kind), path)
 
 
+def json_kind(value: Any) -> str:
+    """What a parsed JSON value is, in JSON's words (for a message about a file holding the wrong kind)."""
+    if value is None or isinstance(value, bool):
+        return {None: "null", True: "true", False: "false"}[value]
+    kinds = {dict: "object", list: "array", str: "string", int: "number", float: "number"}
+    return kinds.get(type(value), type(value).__name__)
+
+
 # ---------------------------------------------------------------------- checking output locations
 def _make_folder(folder: Path, what: str) -> None:
     """Create ``folder`` (and its parents) or raise :class:`OutputError` saying why not."""

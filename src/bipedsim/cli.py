@@ -499,6 +499,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. `bipedsim info | head`
         sys.stderr.close()
         return 0
+    except MemoryError:  # the input limits keep the commands within about 1 GB; a lower ulimit can still end here
+        print(f"bipedsim {args.command}: error: out of memory (the inputs are within their size limits; a shorter "
+              "clip or a smaller grid needs less, or run with more memory)", file=sys.stderr)
+        return 2
     except OSError as exc:  # a write (or read) the checks could not foresee: a full disk, a vanished folder
         print(f"bipedsim {args.command}: error: {describe_os_error(exc)}", file=sys.stderr)
         return 2

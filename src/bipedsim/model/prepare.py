@@ -101,7 +101,7 @@ def reconstruct_root(motion: Motion, feet: list[int] | None = None) -> Motion:
     feet = foot_joints(sk.names) if feet is None else feet
     dt = motion.frame_time
     jpos, jrot = motion.fk()
-    ends = motion.end_site_positions()
+    ends = motion.end_site_positions((jpos, jrot))
     pts = [jpos[:, f] for f in feet]
     spin = [_angular_velocity(jrot[:, f], dt) for f in feet]
     for e, p in enumerate(sk.end_site_parents):

@@ -89,7 +89,7 @@ def rest_points(motion: Motion) -> SourcePoints:
                   rotations=np.tile([0.0, 0.0, 0.0, 1.0], (1, sk.num_joints, 1)), unit=motion.unit,
                   up=motion.up)
     pos, rot = rest.fk()
-    ends = rest.end_site_positions()
+    ends = rest.end_site_positions((pos, rot))
     return SourcePoints(motion.skeleton, np.concatenate([pos, ends], axis=1)[0], rot[0])
 
 

@@ -213,9 +213,10 @@ class Motion:
         """Forward kinematics: global joint positions (T, J, 3) and rotation matrices (T, J, 3, 3)."""
         return forward_kinematics(self)
 
-    def end_site_positions(self) -> FloatArray:
-        """(T, E, 3) global positions of the End Sites."""
-        pos, rot = self.fk()
+    def end_site_positions(self, fk: tuple[FloatArray, FloatArray] | None = None) -> FloatArray:
+        """(T, E, 3) global positions of the End Sites; ``fk``: this motion's :meth:`fk` when the caller
+        has it already (a long clip's rotations are its largest array)."""
+        pos, rot = self.fk() if fk is None else fk
         sk = self.skeleton
         p = sk.end_site_parents
         return pos[:, p] + np.einsum("teij,ej->tei", rot[:, p], sk.end_site_offsets)
@@ -372,22 +373,31 @@ def _yaw_between(a: FloatArray, b: FloatArray, u: int) -> FloatArray:
     return Rotation.from_rotvec(ang * np.eye(3)[u]).as_matrix()
 
 
+#: Frames converted at a time in forward kinematics: the per-frame temporaries stay a few MiB whatever the
+#: clip's length (only the results grow with it).
+FK_CHUNK_FRAMES = 2048
+
+
 def forward_kinematics(motion: Motion) -> tuple[FloatArray, FloatArray]:
-    """Global joint positions (T, J, 3) and rotation matrices (T, J, 3, 3), vectorised over frames."""
+    """Global joint positions (T, J, 3) and rotation matrices (T, J, 3, 3), vectorised over frames (a
+    block of :data:`FK_CHUNK_FRAMES` at a time)."""
     sk = motion.skeleton
     t, j = motion.num_frames, motion.num_joints
-    local_r = Rotation.from_quat(motion.rotations.reshape(-1, 4)).as_matrix().reshape(t, j, 3, 3)
     local_t = motion.local_translations()
     g = np.empty((t, j, 3, 3))
     p = np.empty((t, j, 3))
-    g[:, 0] = local_r[:, 0]
-    p[:, 0] = local_t[:, 0]
     parents = sk.parents
-    for i in range(1, j):
-        pi = parents[i]
-        gp = g[:, pi]
-        np.matmul(gp, local_r[:, i], out=g[:, i])
-        p[:, i] = p[:, pi] + np.einsum("tij,tj->ti", gp, local_t[:, i])
+    for a in range(0, t, FK_CHUNK_FRAMES):
+        b = min(a + FK_CHUNK_FRAMES, t)
+        local_r = Rotation.from_quat(motion.rotations[a:b].reshape(-1, 4)).as_matrix().reshape(b - a, j, 3, 3)
+        gc, pc, lt = g[a:b], p[a:b], local_t[a:b]
+        gc[:, 0] = local_r[:, 0]
+        pc[:, 0] = lt[:, 0]
+        for i in range(1, j):
+            pi = parents[i]
+            gp = gc[:, pi]
+            np.matmul(gp, local_r[:, i], out=gc[:, i])
+            pc[:, i] = pc[:, pi] + np.einsum("tij,tj->ti", gp, lt[:, i])
     return p, g
 
 

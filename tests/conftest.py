@@ -17,36 +17,34 @@ REPO = Path(__file__).resolve().parent.parent
 #: The real BVH samples beside the repository (``../shared/data/bvh``); ``BIPEDSIM_SHARED_DATA`` names
 #: another data folder (its ``bvh/`` is read), or a missing one to run the suite as a fresh clone does
 SHARED_DATA = Path(os.environ.get("BIPEDSIM_SHARED_DATA", REPO.parent / "shared" / "data"))
-SHARED_BVH = SHARED_DATA / "bvh"
+#: whether the real samples are there (``need_shared`` skips the tests of their own numbers otherwise)
+HAVE_SHARED = (SHARED_DATA / "bvh").is_dir()
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bvh_fixtures import standin_dir  # noqa: E402 (tests/ on the path first)
+
+#: The folder of BVH files laid out as ``../shared/data/bvh`` (human/, animal/, odd/): the real samples,
+#: or without them the generated stand-ins in their layouts (``bvh_fixtures.py``, a subset of the names)
+SHARED_BVH = SHARED_DATA / "bvh" if HAVE_SHARED else standin_dir()
 
 
 def shared_files(sub: str = "*") -> list[Path]:
-    """The shared BVH files of folder ``sub`` (human, animal, odd); without ``../shared``, the stand-ins
-    generated in their layouts (``bvh_fixtures.py``)."""
-    if not SHARED_BVH.is_dir():
-        from bvh_fixtures import standin_files
-
-        return standin_files(sub)
+    """The BVH files of folder ``sub`` (human, animal, odd) of :data:`SHARED_BVH`."""
     return sorted(SHARED_BVH.glob(f"{sub}/*.bvh"))
 
 
 def shared_or_standin(rel: str) -> Path:
-    """The shared file ``rel`` (``"human/NAME.bvh"``), or without ``../shared`` the generated stand-in in
-    its layout (``bvh_fixtures.py``); a skip when it has none."""
-    if SHARED_BVH.is_dir():
-        return SHARED_BVH / rel
-    from bvh_fixtures import standin
-
-    path = standin(rel)
-    if path is None:
-        pytest.skip(f"shared BVH data not found at {SHARED_BVH} and {rel} has no generated stand-in")
+    """The file ``rel`` (``"human/NAME.bvh"``) of :data:`SHARED_BVH`: the real one, or without ``../shared``
+    its generated stand-in; a skip when it has none."""
+    path = SHARED_BVH / rel
+    if not path.is_file():
+        pytest.skip(f"shared BVH data not found at {SHARED_DATA / 'bvh'} and {rel} has no generated stand-in")
     return path
 
 
 def need_shared() -> None:
-    if not SHARED_BVH.is_dir():
-        pytest.skip(f"shared BVH data not found at {SHARED_BVH} (it lives beside the repository)")
+    """Skip unless the real samples are there: for the tests of a real file's own numbers."""
+    if not HAVE_SHARED:
+        pytest.skip(f"shared BVH data not found at {SHARED_DATA / 'bvh'} (it lives beside the repository)")
 
 
 @pytest.fixture

@@ -8,7 +8,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, shared_params
+from conftest import SHARED_BVH, need_shared, shared_params
 from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
@@ -372,9 +372,8 @@ def test_two_segment_spine_where_the_source_bends() -> None:
     (a rigid spine) keeps the paper's single torso."""
     from dataclasses import replace
 
+    need_shared()  # the real take's own spine bend
     path = SHARED_BVH / "human" / "cmu_131_01_start_walk_stop__max31_mixedEOL.bvh"
-    if not path.exists():
-        pytest.skip(f"shared BVH data not found at {path}")
     m = load_bvh(path)
     prof = load_profile("humanoid")
 
@@ -426,9 +425,8 @@ def test_soles_lie_flat_in_stance_when_the_rest_pose_is_not_flat_footed(monkeypa
     would stand on their toe edges. The builder pitches them to the motion's flat-foot frames."""
     import bipedsim.model.flat_foot as hum
 
+    need_shared()  # the real rest pose's foot pitch
     path = SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh"
-    if not path.exists():
-        pytest.skip(f"shared BVH data not found at {path}")
     m = load_bvh(path)
     b = build_model(m)
     flat = float(np.median(stance_sole_pitch(b, retarget(m, b.model, xml=b.xml))))

@@ -107,7 +107,6 @@ def test_the_balance_height_of_a_root_at_the_floor_is_the_legs() -> None:
 
 
 def test_legs_of_the_dog_and_the_horse() -> None:
-    need_shared()
     for path in (DOG, HORSE_WALK):
         plan = load_scenario(bvh=path).built.plan
         legs = creature_legs(plan)
@@ -256,7 +255,6 @@ def test_trunk_contact_is_a_fall_for_creatures() -> None:
 
 def test_loop_segment_skips_lying_frames() -> None:
     """The dog lies for its first second: the looped walk starts where it stands."""
-    need_shared()
     sc = load_scenario(bvh=DOG)
     ctrl = sc.controller()
     a, b = loop_segment(sc.clip, ctrl.body.quat_idx)
@@ -326,7 +324,8 @@ def test_joint_damping_and_armature_are_held_to_the_bodys_own_scale(tmp_path: Pa
     (a 0.017 and 0.0011 share) are the profile's own."""
     from bipedsim.model.creature import ARMATURE_SHARE, DAMPING_SHARE
 
-    need_shared()
+    need_shared()  # the real dog's own size and mass
+
     for path, capped in ((DOG, False), (_small_dog(tmp_path), True)):
         sc = load_scenario(bvh=path)
         model = sc.built.model

@@ -119,7 +119,6 @@ def test_events_by_hand_replace_detection_and_a_failure_says_how(tmp_path: Path,
 def test_root_rebuilt_for_a_walk_with_its_translation_removed(name: str) -> None:
     """A shared walk made in place (its travelling joint's horizontal translation held at the first
     frame) is recognised and its root travel rebuilt from the stance feet, close to the original."""
-    need_shared()
     m = humanoid_motion(read_bvh(SHARED_BVH / "human" / f"{name}.bvh")[0])
     assert not in_place(m)
     tj = m.travel_joint()

@@ -23,7 +23,7 @@ from conftest import REPO, need_shared
 from bipedsim.cli import main
 from bipedsim.data import builtin_walk_path
 from bipedsim.errors import OutputError
-from bipedsim.io import (
+from bipedsim.files import (
     FALLBACK_SIZE,
     MANIFEST_FILE,
     OutputFolder,
@@ -167,7 +167,7 @@ def test_a_failed_write_names_the_file_and_keeps_the_old_one(tmp_path: Path, mon
     def full(fd: int) -> None:
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr("bipedsim.io.os.fsync", full)
+    monkeypatch.setattr("bipedsim.files.writing.os.fsync", full)
     with pytest.raises(OutputError, match=rf"^cannot write {target}: No space left on device$"):
         atomic_write_bytes(target, b"new")
     assert target.read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["out.json"]

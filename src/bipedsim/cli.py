@@ -19,7 +19,7 @@ from typing import Any
 
 from bipedsim import __version__
 from bipedsim.errors import BipedsimError
-from bipedsim.io import describe_os_error
+from bipedsim.files import describe_os_error
 
 #: Trajectory samples per second when --record-hz is not given (sim.recorder.DEFAULT_RECORD_HZ, restated
 #: here so that --help does not import the simulator; a test keeps the two equal).
@@ -221,7 +221,7 @@ def cmd_breed(args: argparse.Namespace) -> int:
     if args.world:  # creature files bred for a world: bipedsim.world's block below
         return cmd_breed_world(args)
     from bipedsim.breed import breed_files, format_breed_summary
-    from bipedsim.io import check_distinct_paths
+    from bipedsim.files import check_distinct_paths
 
     check_distinct_paths([("-o", args.output), ("--report", args.report), ("--save-map", args.save_map)],
                          [("PARENT_A", args.parent_a), ("PARENT_B", args.parent_b), ("--map", args.map)])
@@ -288,7 +288,7 @@ SWEEP_FILES = ("results.csv", "summary.json", "experiment.json", "push_polar.png
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from bipedsim.io import check_distinct_paths, folder_files, prepare_output_dir
+    from bipedsim.files import check_distinct_paths, folder_files, prepare_output_dir
     from bipedsim.sim.experiment import load_experiment
     from bipedsim.sim.sweep import check_backend, format_summary, interrupted_message, run_sweep
 
@@ -374,7 +374,7 @@ def _creature_inputs(creatures: Sequence[str]) -> tuple[list[tuple[str, Any]], l
 
 
 def cmd_world(args: argparse.Namespace) -> int:
-    from bipedsim.io import check_distinct_paths
+    from bipedsim.files import check_distinct_paths
     from bipedsim.render.video import VideoOptions
     from bipedsim.world import run_world
     from bipedsim.world.run import output_paths
@@ -397,7 +397,7 @@ def cmd_world(args: argparse.Namespace) -> int:
 
 
 def cmd_breed_world(args: argparse.Namespace) -> int:
-    from bipedsim.io import check_distinct_paths
+    from bipedsim.files import check_distinct_paths
     from bipedsim.world import breed_world_files, format_world_breed_summary
     from bipedsim.world.tiles import TRAVEL_MODES
 
@@ -438,7 +438,7 @@ TUNE_FILES = ("best.yaml", "convergence.png", "summary.json")
 
 
 def cmd_tune(args: argparse.Namespace) -> int:
-    from bipedsim.io import check_distinct_paths, folder_files
+    from bipedsim.files import check_distinct_paths, folder_files
     from bipedsim.tune import format_tune_summary, interrupted_message, load_tune, run_tune
     from bipedsim.tune.cmaes import HISTORY_FILE, STATE_FILE
 

@@ -23,7 +23,7 @@ from typing import Any, TypeVar, Union, get_args, get_origin, get_type_hints
 import yaml
 
 from bipedsim.errors import ConfigError, InputError
-from bipedsim.io import read_input_text
+from bipedsim.files import read_input_text
 
 T = TypeVar("T")
 
@@ -105,7 +105,7 @@ def parse_yaml(text: str, path: str | os.PathLike[str] | None = None) -> Any:
 
 def load_yaml(path: str | os.PathLike[str]) -> Any:
     """Read and parse a YAML file (see :func:`parse_yaml`); the file is refused before it is read when it
-    is not a regular file or is larger than the YAML limit (:func:`bipedsim.io.read_input_text`)."""
+    is not a regular file or is larger than the YAML limit (:func:`bipedsim.files.read_input_text`)."""
     try:
         text = read_input_text(path, "yaml")
     except InputError as exc:

@@ -211,7 +211,7 @@ def test_progress_shown_for_a_large_file_on_a_terminal(tmp_path: Path, capsys: p
                                                        monkeypatch: pytest.MonkeyPatch) -> None:
     """On a terminal a file over :data:`PROGRESS_MIN_BYTES` shows a bar named for it; a small one none;
     and nothing reaches a log or a pipe (the bar is only drawn on a terminal)."""
-    from bipedsim import io as bio
+    from bipedsim import files as bio
 
     big, small = tmp_path / "big.bvh", tmp_path / "small.bvh"
     humanoid_bvh(big, PROGRESS_MIN_BYTES + (1 << 20))

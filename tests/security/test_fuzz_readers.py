@@ -25,7 +25,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from bipedsim.errors import BipedsimError
-from bipedsim.io import INPUT_LIMITS_MB
+from bipedsim.files import INPUT_LIMITS_MB
 
 REPO = Path(__file__).resolve().parents[2]
 DATA = REPO / "src" / "bipedsim" / "data"
@@ -233,8 +233,8 @@ def walk_skeleton() -> Any:
 
 
 def _read_script(p: Path) -> Any:
+    from bipedsim.files import read_input_text
     from bipedsim.graph.script import parse
-    from bipedsim.io import read_input_text
 
     return parse(read_input_text(p, "script"), str(p), ("Upper-Body",))
 

@@ -22,7 +22,7 @@ from bipedsim import cli
 from bipedsim.cli import main
 from bipedsim.data import builtin_walk_path
 from bipedsim.errors import OutputError
-from bipedsim.io import MANIFEST_FILE, OutputFolder, atomic_writer, check_distinct_paths
+from bipedsim.files import MANIFEST_FILE, OutputFolder, atomic_writer, check_distinct_paths
 from bipedsim.render import video
 from bipedsim.render.gl import RenderError, choose_backend
 from bipedsim.render.plots import PLOT_FILES

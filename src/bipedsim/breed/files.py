@@ -9,7 +9,7 @@ from pathlib import Path
 
 from bipedsim.breed.evolve import X_RANGE, BreedReport, breed, load_joint_map
 from bipedsim.errors import ConfigError, ModelError
-from bipedsim.io import atomic_write_json, atomic_write_text, check_output_file
+from bipedsim.files import atomic_write_json, atomic_write_text, check_output_file
 from bipedsim.model.build import build_model
 from bipedsim.model.creature_kind import detect_body_kind
 from bipedsim.motion.bvh import load_bvh, write_bvh

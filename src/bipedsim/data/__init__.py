@@ -11,7 +11,7 @@ import os
 from pathlib import Path
 
 from bipedsim import __version__
-from bipedsim.io import atomic_write_text
+from bipedsim.files import atomic_write_text
 from bipedsim.model import build_model
 from bipedsim.model.profile import PROFILE_DIR
 from bipedsim.motion import load_bvh

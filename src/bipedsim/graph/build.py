@@ -45,9 +45,9 @@ from scipy.sparse.csgraph import floyd_warshall
 from bipedsim import config
 from bipedsim.config import limit_from_env
 from bipedsim.errors import BipedsimError, ConfigError
+from bipedsim.files import atomic_write_bytes
 from bipedsim.graph.distance import distance_matrix
 from bipedsim.graph.prune import Transition, choose_threshold, labels_of
-from bipedsim.io import atomic_write_bytes
 from bipedsim.motion.bvh import load_bvh
 from bipedsim.motion.motion import Motion
 from bipedsim.motion.reroot import fold_static_root

@@ -8,11 +8,11 @@ from pathlib import Path
 from typing import Any
 
 from bipedsim.errors import ConfigError
+from bipedsim.files import atomic_write_json, check_distinct_paths, check_output_file, read_input_text
 from bipedsim.graph.build import FULL, MotionGraph, build_graph, load_graph_config
 from bipedsim.graph.player import Player
 from bipedsim.graph.script import parse
 from bipedsim.graph.store import read_graph
-from bipedsim.io import atomic_write_json, check_distinct_paths, check_output_file, read_input_text
 from bipedsim.motion.bvh import write_bvh
 
 PathLike = str | os.PathLike[str]

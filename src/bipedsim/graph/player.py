@@ -24,11 +24,11 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.config import limit_from_env
 from bipedsim.errors import BipedsimError
+from bipedsim.files import progress_bar
 from bipedsim.graph.build import FULL, Layer, MotionGraph, Transition
 from bipedsim.graph.distance import align_2d, apply_2d
 from bipedsim.graph.prune import describe_loss, kept_span
 from bipedsim.graph.script import Command, Target
-from bipedsim.io import progress_bar
 from bipedsim.motion.motion import Motion, canonical_quat
 
 FloatArray = npt.NDArray[np.float64]

@@ -22,6 +22,7 @@ import numpy.typing as npt
 
 from bipedsim import config
 from bipedsim.errors import BipedsimError, InputError
+from bipedsim.files import check_input_file
 from bipedsim.graph.build import (
     FULL,
     MAX_CANDIDATES,
@@ -33,7 +34,6 @@ from bipedsim.graph.build import (
     max_graph_frames,
 )
 from bipedsim.graph.prune import Transition
-from bipedsim.io import check_input_file
 from bipedsim.motion.motion import Motion
 from bipedsim.motion.skeleton import Skeleton
 

@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 
 from bipedsim.errors import ConfigError, ModelError
-from bipedsim.io import atomic_write_text
+from bipedsim.files import atomic_write_text
 from bipedsim.model.creature import creature_plan
 from bipedsim.model.humanoid import humanoid_plan
 from bipedsim.model.plan import BodyPlanSet, ModelBuilder, model_hash, plan_from_model

@@ -11,7 +11,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.errors import ModelError
-from bipedsim.io import atomic_write_bytes
+from bipedsim.files import atomic_write_bytes
 
 FloatArray = npt.NDArray[np.float64]
 

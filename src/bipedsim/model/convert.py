@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from bipedsim.io import check_distinct_paths, check_output_file
+from bipedsim.files import check_distinct_paths, check_output_file
 from bipedsim.model.build import build_model, check_total_mass
 from bipedsim.model.creature_kind import AUTO
 from bipedsim.model.humanoid import sides_note, toes_note

@@ -6,7 +6,7 @@ with 6 channels (position channels detected as absolute -- ``replace`` -- or add
 like ``.0083333`` and ``1e-05``, no final newline, 1-frame files, a UTF-8 byte-order mark. Anything
 malformed raises :class:`~bipedsim.errors.BVHError` naming the file, the line and what was expected.
 
-Files up to the BVH input limit (:data:`bipedsim.io.INPUT_LIMITS_MB`, raised with ``BIPEDSIM_MAX_BVH_MB``)
+Files up to the BVH input limit (:data:`bipedsim.files.INPUT_LIMITS_MB`, raised with ``BIPEDSIM_MAX_BVH_MB``)
 are read in a few times their size in memory: the frame lines go straight from the file's bytes into one
 float array, a window at a time, and a file over :data:`PROGRESS_MIN_BYTES` shows a progress bar on a
 terminal.
@@ -32,7 +32,7 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import BVHError, InputError
-from bipedsim.io import atomic_write_text, progress_bar, read_input_bytes
+from bipedsim.files import atomic_write_text, progress_bar, read_input_bytes
 from bipedsim.motion.conventions import (
     AMBIGUOUS_SCORE_MARGIN,
     UNIT_SCALES,

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bipedsim.io import save_figure
+from bipedsim.files import save_figure
 from bipedsim.sim.recorder import Trajectory
 
 DEFAULT_JOINTS = ("left_hip_y", "left_knee", "left_ankle", "right_hip_y", "right_knee", "right_ankle")

@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from bipedsim.errors import BipedsimError, ConfigError
-from bipedsim.io import check_output_file, progress_bar
+from bipedsim.files import check_output_file, progress_bar
 from bipedsim.render.gl import RenderError, backend_env, backends_tried, choose_backend
 from bipedsim.sim.recorder import Trajectory
 

@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
-from bipedsim.io import atomic_write_text
+from bipedsim.files import atomic_write_text
 from bipedsim.model.plan import BodyPlanSet
 from bipedsim.model.source import rest_points
 from bipedsim.motion.bvh import write_bvh

@@ -23,7 +23,7 @@ import numpy.typing as npt
 from bipedsim.control.reference import clip_speed, describe_clip, step_time
 from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
-from bipedsim.io import (
+from bipedsim.files import (
     NamedPath,
     OutputFolder,
     atomic_write_text,
@@ -102,7 +102,7 @@ def check_run_outputs(out: PathLike, *, csv: PathLike | None = None, export_bvh:
     """Check (and create) every output location of a run before the simulation starts: the run folder
     ``out`` and the optional files (each error names its flag), and that every file the run writes
     into the folder without being asked by name (the run files; the plots with ``plots``) is absent or
-    one bipedsim wrote, unchanged (:class:`~bipedsim.io.OutputFolder`). Returns the folder, with its
+    one bipedsim wrote, unchanged (:class:`~bipedsim.files.OutputFolder`). Returns the folder, with its
     manifest."""
     prepare_output_dir(out, "--out")
     for flag, path, suffixes in (("--csv", csv, ()), ("--export-bvh", export_bvh, ()),

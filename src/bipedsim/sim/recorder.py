@@ -26,7 +26,7 @@ import numpy.typing as npt
 
 from bipedsim.control.base import Controller
 from bipedsim.errors import BipedsimError, ConfigError
-from bipedsim.io import atomic_writer
+from bipedsim.files import atomic_writer
 
 FloatArray = npt.NDArray[np.floating]
 FORMAT = "bipedsim.Trajectory/1"

@@ -16,7 +16,7 @@ from ruamel.yaml.util import load_yaml_guess_indent
 
 from bipedsim.config import parse_yaml
 from bipedsim.errors import BipedsimError
-from bipedsim.io import atomic_write_text, read_input_text
+from bipedsim.files import atomic_write_text, read_input_text
 from bipedsim.sim.experiment import EXPECTATIONS, Suite, load_suite, resolve_relative
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario

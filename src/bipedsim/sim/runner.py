@@ -23,7 +23,7 @@ from bipedsim.control.config import (
 from bipedsim.control.simbicon import body_mass, leg_length
 from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
 from bipedsim.errors import ConfigError
-from bipedsim.io import atomic_write_json, versions
+from bipedsim.files import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature_kind import AUTO, resolve_profile

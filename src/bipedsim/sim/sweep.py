@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from bipedsim.errors import ConfigError, OutputError
-from bipedsim.io import (
+from bipedsim.files import (
     atomic_write_text,
     os_reason,
     prepare_output_dir,

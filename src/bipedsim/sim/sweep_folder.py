@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from bipedsim.errors import BipedsimError, InputError
-from bipedsim.io import (
+from bipedsim.files import (
     atomic_write_text,
     json_kind,
     read_input_bytes,

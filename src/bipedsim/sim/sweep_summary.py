@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from bipedsim.io import (
+from bipedsim.files import (
     save_figure,
 )
 from bipedsim.sim.rollout import PUSH_NOT_APPLIED

@@ -32,7 +32,7 @@ import numpy as np
 
 from bipedsim import config
 from bipedsim.errors import BipedsimError, ConfigError
-from bipedsim.io import atomic_write_json, prepare_output_dir, progress_bar
+from bipedsim.files import atomic_write_json, prepare_output_dir, progress_bar
 from bipedsim.sim.backends import backend_session, check_backend, worker_count
 from bipedsim.tune.evaluate import Setup, evaluate
 from bipedsim.tune.history import _load_history, _record, _write_history, history_columns

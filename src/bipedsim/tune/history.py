@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from bipedsim.errors import BipedsimError, OutputError
-from bipedsim.io import (
+from bipedsim.files import (
     atomic_write_text,
     os_reason,
     read_input_bytes,

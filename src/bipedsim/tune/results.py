@@ -13,7 +13,7 @@ import numpy as np
 import yaml
 
 from bipedsim import config
-from bipedsim.io import (
+from bipedsim.files import (
     atomic_write_bytes,
     atomic_write_text,
     versions,

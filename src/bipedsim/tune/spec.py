@@ -36,7 +36,7 @@ MAX_EVALUATIONS = 100_000
 MAX_POPSIZE = 10_000
 #: The most candidate values (evaluations x parameters) a tune may record: its saved state holds every
 #: candidate evaluated (about 20 bytes a value in JSON), so this keeps the state under 40 MB, within the
-#: size a resumed tune reads back without raising a limit (``bipedsim.io.INPUT_LIMITS_MB["json"]``).
+#: size a resumed tune reads back without raising a limit (``bipedsim.files.INPUT_LIMITS_MB["json"]``).
 MAX_STATE_VALUES = 2_000_000
 
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from bipedsim import config
 from bipedsim.errors import BipedsimError, InputError
-from bipedsim.io import (
+from bipedsim.files import (
     atomic_write_text,
     read_input_text,
 )

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from bipedsim.errors import InputError
-from bipedsim.io import json_kind
+from bipedsim.files import json_kind
 from bipedsim.tune.spec import MAX_POPSIZE
 
 STATE_FILE, HISTORY_FILE = "state.json", "history.csv"

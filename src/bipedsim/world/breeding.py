@@ -19,7 +19,7 @@ from typing import Any
 
 from bipedsim.breed import breed
 from bipedsim.breed.files import CHILD_UNITS_PER_M
-from bipedsim.io import atomic_write_json, atomic_write_text, check_distinct_paths, check_output_file
+from bipedsim.files import atomic_write_json, atomic_write_text, check_distinct_paths, check_output_file
 from bipedsim.motion.bvh import load_bvh, write_bvh
 from bipedsim.world.creature import load_creature
 from bipedsim.world.tiles import TRAVEL_MODES, World, WorldError, load_world

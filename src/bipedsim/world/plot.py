@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-from bipedsim.io import atomic_writer
+from bipedsim.files import atomic_writer
 from bipedsim.world.tiles import World
 
 #: Tile colours by kind name (other kinds: grey by height).

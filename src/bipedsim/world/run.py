@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from bipedsim.io import atomic_write_json, check_distinct_paths, check_output_file, versions
+from bipedsim.files import atomic_write_json, check_distinct_paths, check_output_file, versions
 from bipedsim.model.clip import STANCE_LEVEL_PERCENTILE
 from bipedsim.motion.bvh import write_bvh
 from bipedsim.world.creature import NAME_PATTERN, Creature, _foot_points, creature_summary, load_creature

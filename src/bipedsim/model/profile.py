@@ -94,14 +94,14 @@ class Geometry:
     heel_length: float = field(default=0.05, metadata={"min": 0.0})
     foot_top: float = field(default=0.02, metadata={"min": 0.0})
     #: the sole's length, heel to toe tip, as a share of the height, where a skeleton's toe has no
-    #: tip to measure (:meth:`~bipedsim.model.humanoid._HumanoidBuilder.toe_length_without_tip`)
+    #: tip to measure (:meth:`~bipedsim.model.humanoid_builder._HumanoidBuilder.toe_length_without_tip`)
     foot_length_share: float = field(default=0.152, metadata={"gt": 0.0, "max": 0.5})
 
 
 @dataclass(frozen=True)
 class HumanoidProfile:
     masses: dict[str, float] = field(default_factory=dict)
-    #: total mass (kg): a number; "auto", from the legs (:func:`~bipedsim.model.humanoid.mass_from_legs`: a
+    #: total mass (kg): a number; "auto", from the legs (:func:`~bipedsim.model.humanoid_proportions.mass_from_legs`: a
     #: person whose hip-to-ankle legs are ``leg_share`` of the height, at body-mass index ``mass_bmi``);
     #: null, the segments' masses as written
     total_mass: float | Literal["auto"] | None = field(default="auto", metadata={"min": MASS_RANGE_KG[0],

@@ -21,8 +21,9 @@ from conftest import REPO
 from bipedsim import cli
 from bipedsim.cli import main
 from bipedsim.data import builtin_walk_path
-from bipedsim.errors import OutputError
+from bipedsim.errors import ModelError, OutputError
 from bipedsim.files import MANIFEST_FILE, OutputFolder, atomic_writer, check_distinct_paths
+from bipedsim.model.build import load_model
 from bipedsim.render import video
 from bipedsim.render.gl import RenderError, choose_backend
 from bipedsim.render.plots import PLOT_FILES
@@ -330,3 +331,11 @@ def test_a_signal_during_a_video_leaves_no_temporary_file(sig: signal.Signals, t
     assert err.strip().splitlines()[-1] == "bipedsim run: interrupted", err
     assert [q.name for q in tmp_path.rglob("*") if "tmp" in q.name] == []
     assert not (d / "v.mp4").exists() and (d / "outcome.json").is_file()
+
+
+@pytest.mark.parametrize("extra", ['<include file="/etc/hostname"/>', '<asset><mesh name="m" file="/etc/x.stl"/></asset>'])
+def test_a_run_folders_model_that_names_other_files_is_refused(tmp_path: Path, extra: str) -> None:
+    xml = tmp_path / "model.xml"
+    xml.write_text(f"<mujoco>{extra}<worldbody/></mujoco>")
+    with pytest.raises(ModelError, match="names other files"):
+        load_model(xml)

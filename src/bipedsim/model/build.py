@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -11,8 +12,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from bipedsim.errors import ConfigError, ModelError
-from bipedsim.files import atomic_write_text
+from bipedsim.errors import ConfigError, InputError, ModelError
+from bipedsim.files import atomic_write_text, read_input_text
 from bipedsim.model.creature import creature_plan
 from bipedsim.model.humanoid import humanoid_plan
 from bipedsim.model.plan import BodyPlanSet, ModelBuilder, model_hash, plan_from_model
@@ -152,13 +153,20 @@ def _check_depth(plan: BodyPlanSet) -> None:
                          "merge_fraction, convert --profile-file)")
 
 
+#: What makes an MJCF file read other files (meshes, textures, height fields, included XML).
+EXTERNAL_FILE = re.compile(r"<\s*include\b|\bfile\s*=", re.IGNORECASE)
+
+
 def load_model(path: str | os.PathLike[str]) -> BuiltModel:
     """Load an MJCF file written by bipedsim (its body plan travels inside it)."""
     p = Path(path)
     try:
-        xml = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ModelError(f"{p}: cannot read: {exc.strerror or exc}") from None
+        xml = read_input_text(p, "xml")
+    except InputError as exc:
+        raise ModelError(str(exc)) from None
+    if EXTERNAL_FILE.search(xml):
+        # bipedsim writes self-contained models; a file= or <include> would make MuJoCo open other files
+        raise ModelError(f"{p}: names other files (file= or <include>): not a model bipedsim wrote")
     try:
         model = mujoco.MjModel.from_xml_string(xml)
     except ValueError as exc:

@@ -23,6 +23,7 @@ import numpy as np
 
 from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.files import check_output_file, progress_bar
+from bipedsim.model.build import load_model
 from bipedsim.render.gl import RenderError, backend_env, backends_tried, choose_backend
 from bipedsim.sim.recorder import Trajectory
 
@@ -81,7 +82,7 @@ def frame_times(t0: float, t1: float, opts: VideoOptions) -> np.ndarray:
 def render_frames(run_dir: str | os.PathLike[str], opts: VideoOptions, progress: bool = False):  # noqa: ANN201
     """Yield RGB frames (H, W, 3 uint8). Must run in a process whose MUJOCO_GL works."""
     run = Path(run_dir)
-    model = mujoco.MjModel.from_xml_path(str(run / MODEL_FILE))
+    model = load_model(run / MODEL_FILE).model
     tr = Trajectory.load(run / TRAJECTORY_FILE)
     outcome = {}
     if (run / OUTCOME_FILE).is_file():

@@ -33,7 +33,7 @@ from bipedsim.files import (
     prepare_output_dir,
     progress_bar,
 )
-from bipedsim.model.build import check_total_mass
+from bipedsim.model.build import check_total_mass, load_model
 from bipedsim.model.describe import pace_note
 from bipedsim.model.humanoid import sides_note, toes_note
 from bipedsim.render.gl import RenderError
@@ -203,7 +203,7 @@ def write_plots(folder: PathLike, tr: Trajectory | None = None) -> list[Path]:
     folder = Path(folder)
     if tr is None:
         tr = Trajectory.load(folder / TRAJECTORY_FILE)
-    model = mujoco.MjModel.from_xml_path(str(folder / MODEL_FILE))
+    model = load_model(folder / MODEL_FILE).model
     names, q, qr = joint_series(model, tr)
     return plot_run(tr, names, q, qr, foot_tracks(model, tr), foot_names(tr), folder)
 
@@ -245,7 +245,7 @@ def finish_outputs(folder: PathLike, *, plots: bool = False, csv: PathLike | Non
         for p in write_plots(folder, tr):
             wrote(p)
     if csv:
-        model = mujoco.MjModel.from_xml_path(str(folder / MODEL_FILE))
+        model = load_model(folder / MODEL_FILE).model
         write_joint_csv(tr, *joint_series(model, tr), csv)
         wrote(csv)
     if export_bvh:

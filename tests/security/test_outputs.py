@@ -333,7 +333,8 @@ def test_a_signal_during_a_video_leaves_no_temporary_file(sig: signal.Signals, t
     assert not (d / "v.mp4").exists() and (d / "outcome.json").is_file()
 
 
-@pytest.mark.parametrize("extra", ['<include file="/etc/hostname"/>', '<asset><mesh name="m" file="/etc/x.stl"/></asset>'])
+@pytest.mark.parametrize("extra", ['<include file="/etc/hostname"/>',
+                                   '<asset><mesh name="m" file="/etc/x.stl"/></asset>'])
 def test_a_run_folders_model_that_names_other_files_is_refused(tmp_path: Path, extra: str) -> None:
     xml = tmp_path / "model.xml"
     xml.write_text(f"<mujoco>{extra}<worldbody/></mujoco>")

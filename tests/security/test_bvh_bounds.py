@@ -20,7 +20,7 @@ import pytest
 
 from bipedsim.cli import main
 from bipedsim.errors import BVHError
-from bipedsim.motion import bvh
+from bipedsim.motion import bvh, bvh_bytes
 from bipedsim.motion.bvh import MAX_HEADER_LINE_BYTES, PROGRESS_MIN_BYTES, read_bvh
 
 #: The address space (KiB, ``ulimit -v``) a file at the BVH size limit must read within.
@@ -187,7 +187,7 @@ def test_values_and_errors_do_not_depend_on_the_window(tmp_path: Path, monkeypat
     path_bad.write_text(head + "\n".join(rows) + "\n", newline="\r\n", encoding="utf-8")
     ref, _ = read_bvh(path_good)
     for window in (1, 2, 3, 7, 64, 1000):
-        monkeypatch.setattr(bvh, "WINDOW_BYTES", window)
+        monkeypatch.setattr(bvh_bytes, "WINDOW_BYTES", window)
         m, info = read_bvh(path_good)
         assert np.array_equal(m.rotations, ref.rotations) and info.line_endings == "CRLF"
         with pytest.raises(BVHError, match="expected a number for a frame value, got '-9é.000'") as exc:

@@ -13,8 +13,8 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bipedsim.breed.evolve import breed
 from bipedsim.motion import Motion, Skeleton
+from bipedsim.synthesis.breed.evolve import breed
 
 PAPER_S = {"crossover": 0.016, "mutation": 0.016, "survivor": 1.235}
 

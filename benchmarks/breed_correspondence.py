@@ -15,12 +15,12 @@ import sys
 import time
 from pathlib import Path
 
-from bipedsim.breed.evolve import BreedError, crossover
 from bipedsim.data import HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.motion import load_bvh
 from bipedsim.motion.correspondence import correspondence
 from bipedsim.motion.reroot import fold_static_root
 from bipedsim.motion.roles import find_roles
+from bipedsim.synthesis.breed.evolve import BreedError, crossover
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 

@@ -19,11 +19,11 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from bipedsim.breed.files import breed_files
 from bipedsim.data import HORSE_WALK
 from bipedsim.sim.contacts import StanceContacts
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
+from bipedsim.synthesis.breed.files import breed_files
 
 REPO = Path(__file__).resolve().parent.parent
 ANIMALS = REPO.parent / "shared" / "data" / "bvh" / "animal"

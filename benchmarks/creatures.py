@@ -28,12 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
-from bipedsim.breed.files import breed_files
 from bipedsim.control.creature import CreatureController, make_creature_controller
 from bipedsim.control.creature_config import CreatureBalanceConfig
 from bipedsim.data import HORSE_WALK
 from bipedsim.sim.rollout import RolloutSpec, rollout
 from bipedsim.sim.runner import load_scenario, run_scenario, run_seeds
+from bipedsim.synthesis.breed.files import breed_files
 
 REPO = Path(__file__).resolve().parent.parent
 ANIMALS = REPO.parent / "shared" / "data" / "bvh" / "animal"

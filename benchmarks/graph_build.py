@@ -11,7 +11,7 @@ import sys
 import time
 from pathlib import Path
 
-from bipedsim.graph.build import ClipSpec, GraphConfig, PartSpec, build_graph
+from bipedsim.synthesis.graph.build import ClipSpec, GraphConfig, PartSpec, build_graph
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh" / "human"
 

@@ -21,9 +21,9 @@ from pathlib import Path
 
 import numpy as np
 
-from bipedsim.graph.build import FULL, ClipSpec, GraphConfig, PartSpec, build_graph, summed_part_distance
-from bipedsim.graph.player import Player
-from bipedsim.graph.script import parse
+from bipedsim.synthesis.graph.build import FULL, ClipSpec, GraphConfig, PartSpec, build_graph, summed_part_distance
+from bipedsim.synthesis.graph.player import Player
+from bipedsim.synthesis.graph.script import parse
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh" / "human"
 WALK = SHARED / "cmu_02_01_walk__holden31_crlf.bvh"

@@ -22,10 +22,10 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
-from bipedsim.graph.build import ClipSpec, GraphConfig, PartSpec, build_graph
-from bipedsim.graph.prune import DEFAULT_QUANTILE, Transition, prune
 from bipedsim.motion import load_bvh, write_bvh
 from bipedsim.motion.reroot import add_static_root
+from bipedsim.synthesis.graph.build import ClipSpec, GraphConfig, PartSpec, build_graph
+from bipedsim.synthesis.graph.prune import DEFAULT_QUANTILE, Transition, prune
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh" / "human"
 

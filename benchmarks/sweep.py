@@ -11,8 +11,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from bipedsim.sim.experiment import load_experiment
-from bipedsim.sim.sweep import run_sweep
+from bipedsim.experiments.experiment import load_experiment
+from bipedsim.experiments.sweep import run_sweep
 
 DEFAULT = Path(__file__).resolve().parents[1] / "experiments" / "push_200n.yaml"
 

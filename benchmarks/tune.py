@@ -19,11 +19,11 @@ import time
 from pathlib import Path
 
 from bipedsim import config
-from bipedsim.sim.sweep import backend_session
-from bipedsim.tune import load_tune
-from bipedsim.tune.cmaes import _setup, _values
-from bipedsim.tune.evaluate import evaluate
-from bipedsim.tune.state import _new_state
+from bipedsim.experiments.sweep import backend_session
+from bipedsim.experiments.tune import load_tune
+from bipedsim.experiments.tune.cmaes import _setup, _values
+from bipedsim.experiments.tune.evaluate import evaluate
+from bipedsim.experiments.tune.state import _new_state
 
 DEFAULT = Path(__file__).resolve().parents[1] / "experiments" / "tune_broken_start.yaml"
 

@@ -25,12 +25,12 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bipedsim.world import load_creature, load_world, parse_world
-from bipedsim.world.breeding import breed_world_files
-from bipedsim.world.creature import _foot_points
-from bipedsim.world.path import Path as TilePath
-from bipedsim.world.run import foot_skate
-from bipedsim.world.synth import Synthesis, synthesize
+from bipedsim.synthesis.world import load_creature, load_world, parse_world
+from bipedsim.synthesis.world.breeding import breed_world_files
+from bipedsim.synthesis.world.creature import _foot_points
+from bipedsim.synthesis.world.path import Path as TilePath
+from bipedsim.synthesis.world.run import foot_skate
+from bipedsim.synthesis.world.synth import Synthesis, synthesize
 
 REPO = Path(__file__).resolve().parents[1]
 WORLDS = REPO / "examples" / "worlds"
@@ -62,7 +62,7 @@ def quality(syn: Synthesis, creature) -> dict[str, float]:  # noqa: ANN001
     win = windows(syn)
     base = float(np.median(acc[~win])) if (~win).any() else float(np.median(acc))
     _, idx = _foot_points(syn.motion, creature.feet)
-    from bipedsim.world.synth import body_points
+    from bipedsim.synthesis.world.synth import body_points
 
     tips = body_points(syn.motion)[:, idx]
     ground = np.array([not lab.startswith("fly") and not lab.endswith("fly") for lab in syn.mode])
@@ -85,7 +85,7 @@ def _acc(q: np.ndarray, dt: float) -> np.ndarray:
 def blend_excess(syn: Synthesis, acc: np.ndarray) -> float:
     """Mean over transitions of the largest joint acceleration the blend adds (rad/s^2): the output's
     minus the P-weighted mix of the two time-warped intervals' own accelerations."""
-    from bipedsim.world.blend import WEIGHTS, warp_times
+    from bipedsim.synthesis.world.blend import WEIGHTS, warp_times
 
     clips = syn.clips
     out = []
@@ -123,7 +123,7 @@ def scenarios(tmp: Path) -> list[tuple[str, object, object, object, list[str]]]:
     except Exception as exc:  # the shared clip lives beside the repository
         print(f"dog scenario skipped: {exc}")
         return out
-    from bipedsim.world.path import find_path, path_modes
+    from bipedsim.synthesis.world.path import find_path, path_modes
 
     ridge = load_world(WORLDS / "ridge.yaml")
     p = find_path(ridge, dog.travel_modes, dog.name)

@@ -24,7 +24,7 @@ PACKAGE = SRC / "bipedsim"
 #: its longest matching prefix (``bipedsim`` itself matches only the package's ``__init__``). The
 #: reference layer (a Motion made into a ReferenceClip for one body) has no package of its own yet:
 #: retargeting, gait events and feasibility live in ``model/``. ``sim/outputs.py`` (a run folder's plots
-#: and videos) and ``world/scene.py`` (the world's video) render, and sit with ``render/``.
+#: and videos) and ``synthesis/world/scene.py`` (the world's video) render, and sit with ``render/``.
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("base", ("bipedsim", "bipedsim.errors", "bipedsim.files", "bipedsim.config")),
     ("motion", ("bipedsim.motion",)),
@@ -32,10 +32,9 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("reference", ()),
     ("control", ("bipedsim.control",)),
     ("sim", ("bipedsim.sim",)),
-    ("experiments", ("bipedsim.sim.experiment", "bipedsim.sim.sweep", "bipedsim.sim.sweep_folder",
-                     "bipedsim.sim.sweep_summary", "bipedsim.sim.backends", "bipedsim.sim.regress", "bipedsim.tune")),
-    ("synthesis", ("bipedsim.breed", "bipedsim.graph", "bipedsim.world")),
-    ("render", ("bipedsim.render", "bipedsim.sim.outputs", "bipedsim.world.scene")),
+    ("experiments", ("bipedsim.experiments",)),
+    ("synthesis", ("bipedsim.synthesis",)),
+    ("render", ("bipedsim.render", "bipedsim.sim.outputs", "bipedsim.synthesis.world.scene")),
     ("cli", ("bipedsim.cli",)),
 ]
 
@@ -49,11 +48,11 @@ LAZY_IMPORTS: dict[str, tuple[frozenset[str], str]] = {
                                   "the command line imports files at start-up: --help stays quick"),
     "bipedsim.render.plots": (frozenset({"matplotlib"}), "plotting is optional output (--plots)"),
     "bipedsim.render.video": (frozenset({"PIL", "imageio"}), "video writing is optional output"),
-    "bipedsim.sim.backends": (frozenset({"ray"}), "Ray is an optional extra"),
-    "bipedsim.sim.sweep_summary": (frozenset({"matplotlib"}), "the polar plot is optional output"),
-    "bipedsim.tune.results": (frozenset({"matplotlib"}), "the convergence plot is optional output"),
-    "bipedsim.world.plot": (frozenset({"matplotlib"}), "the paths plot is optional output (--plot)"),
-    "bipedsim.world.run": (frozenset({"bipedsim.world.scene", "bipedsim.world.plot"}),
+    "bipedsim.experiments.backends": (frozenset({"ray"}), "Ray is an optional extra"),
+    "bipedsim.experiments.sweep_summary": (frozenset({"matplotlib"}), "the polar plot is optional output"),
+    "bipedsim.experiments.tune.results": (frozenset({"matplotlib"}), "the convergence plot is optional output"),
+    "bipedsim.synthesis.world.plot": (frozenset({"matplotlib"}), "the paths plot is optional output (--plot)"),
+    "bipedsim.synthesis.world.run": (frozenset({"bipedsim.synthesis.world.scene", "bipedsim.synthesis.world.plot"}),
                            "the world video (GL rendering) and the paths plot load only when asked for"),
 }
 

@@ -191,8 +191,8 @@ def test_a_smaller_body_walks_its_similar_walk_only_when_the_controller_is_scale
 def test_tuning_candidates_get_the_settings_a_run_gets(tmp_path: Path) -> None:
     """``bipedsim tune`` swaps each candidate's settings into a loaded scenario: they are scaled to the
     body and their "auto" switches resolved exactly as ``load_scenario`` does for ``bipedsim run``."""
+    from bipedsim.experiments.tune.evaluate import with_settings
     from bipedsim.sim import runner
-    from bipedsim.tune.evaluate import with_settings
 
     sc = runner.load_scenario(None, _similar_walk(tmp_path, 1.25))
     assert sc.cfg.body.leg_min > ControllerConfig().body.leg_max  # scaled to a body outside the range

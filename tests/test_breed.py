@@ -11,12 +11,20 @@ import pytest
 from conftest import SHARED_BVH, need_shared, shared_params
 from scipy.spatial.transform import Rotation
 
-from bipedsim.breed.evolve import BreedError, breed, crossover, floor_constraint, joint_activity, mutate, survivor
 from bipedsim.cli import main
 from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT, sample_texts
 from bipedsim.errors import ConfigError
 from bipedsim.model import build_model, retarget
 from bipedsim.motion import Motion, Skeleton, load_bvh
+from bipedsim.synthesis.breed.evolve import (
+    BreedError,
+    breed,
+    crossover,
+    floor_constraint,
+    joint_activity,
+    mutate,
+    survivor,
+)
 
 WINGS = [f"{s}{w}" for s in ("Left", "Right") for w in ("Wing1", "Wing2", "Wing3", "WingFinger")]
 
@@ -191,7 +199,7 @@ def test_breed_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     bad_map.write_text("Hips: Hips\nMane: Crest\n")
     assert main(["breed", str(HORSE_WALK), str(PTEROSAUR_FLIGHT), "-o", out, "--map", str(bad_map)]) == 2
     with pytest.raises(ConfigError, match="parent A has no joint 'Mane'"):
-        from bipedsim.breed.evolve import load_joint_map
+        from bipedsim.synthesis.breed.evolve import load_joint_map
 
         load_joint_map(bad_map, load_bvh(HORSE_WALK).skeleton, load_bvh(PTEROSAUR_FLIGHT).skeleton)
 
@@ -245,7 +253,7 @@ def test_child_of_two_standing_quadrupeds_stands_on_four_feet(x: float) -> None:
 def test_rest_alignment_keeps_every_point_where_it_was() -> None:
     """B re-expressed in A's rest pose (joint frames turned) moves no joint and no End Site, and its
     rest pose takes A's bone directions at the paired joints."""
-    from bipedsim.breed.alignment import _rest_positions, in_rest_of, on_typical_rest
+    from bipedsim.synthesis.breed.alignment import _rest_positions, in_rest_of, on_typical_rest
 
     h, p = load_bvh(HORSE_WALK).to_project_frame(), load_bvh(PTEROSAUR_FLIGHT).to_project_frame()
     h, p = on_typical_rest(h), on_typical_rest(p.resample(h.fps))
@@ -267,8 +275,8 @@ def test_bred_child_is_read_back_at_its_parents_size_and_speed(tmp_path: Path) -
     without flags, its head up makes it 'upright' by its extents, and a unit guessed from a human's
     height would be inches (the whole child 2.54 x too large); a body measured as a creature has its
     unit guessed from its largest extent: centimetres, the dog's size and speed."""
-    from bipedsim.breed.files import breed_files
     from bipedsim.sim.runner import load_scenario
+    from bipedsim.synthesis.breed.files import breed_files
 
     need_shared()
     dog_path = SHARED_BVH / "animal" / "mann_dog_D1_007_KAN01_001_locomotion.bvh"

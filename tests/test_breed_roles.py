@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 from conftest import SHARED_BVH, need_shared
 
-from bipedsim.breed import breed, breed_files
 from bipedsim.cli import main
 from bipedsim.data import HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.errors import ModelError
@@ -22,6 +21,7 @@ from bipedsim.motion.correspondence import correspondence
 from bipedsim.motion.reroot import add_static_root, fold_static_root
 from bipedsim.motion.role_names import name_side, name_words
 from bipedsim.motion.roles import find_roles
+from bipedsim.synthesis.breed import breed, breed_files
 
 HUMAN = SHARED_BVH / "human"
 ANIMAL = SHARED_BVH / "animal"
@@ -331,8 +331,8 @@ def test_child_bvh_reads_back_as_bred(tmp_path: Path) -> None:
 
 
 def test_floor_constraint_lifts_end_sites_too() -> None:
-    from bipedsim.breed import floor_constraint
     from bipedsim.motion import Skeleton
+    from bipedsim.synthesis.breed import floor_constraint
 
     sk = Skeleton(names=("Hips", "Thigh", "Shin"), parents=np.array([-1, 0, 1]),
                   offsets=np.array([[0, 0, 0], [0, 0, -0.4], [0, 0, -0.4]], dtype=float),

@@ -683,8 +683,8 @@ def test_pushes_on_the_shared_cmu_walk_meet_the_issue_s_target(tmp_path: Path) -
     default controller survives at least 6 of 8 in each stance (docs/results.md)."""
     import csv
 
-    from bipedsim.sim.experiment import load_experiment
-    from bipedsim.sim.sweep import run_sweep
+    from bipedsim.experiments.experiment import load_experiment
+    from bipedsim.experiments.sweep import run_sweep
 
     need_shared()
     exp = Path(__file__).resolve().parents[1] / "experiments" / "push_cmu_02_01.yaml"

@@ -268,8 +268,8 @@ def test_run_a_dog_without_flags_and_sweep_it(tmp_path: Path) -> None:
     import json
 
     from bipedsim.cli import main
-    from bipedsim.sim.experiment import load_experiment
-    from bipedsim.sim.sweep import run_sweep
+    from bipedsim.experiments.experiment import load_experiment
+    from bipedsim.experiments.sweep import run_sweep
 
     need_shared()
     assert main(["run", "--bvh", str(DOG), "--seconds", "0.5", "--out", str(tmp_path / "r")]) == 0

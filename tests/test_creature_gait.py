@@ -195,8 +195,8 @@ def test_every_creature_walks_20_s() -> None:
     every seed, the flamingo (in place) 20 s without a fall."""
     import tempfile
 
-    from bipedsim.breed.files import breed_files
     from bipedsim.sim.runner import run_seeds
+    from bipedsim.synthesis.breed.files import breed_files
 
     child = Path(tempfile.mkdtemp()) / "child.bvh"
     breed_files(_clip(DOG), HORSE_WALK, child, mutations=0)
@@ -305,7 +305,7 @@ def test_centred_sweep_stays_inside_each_legs_reach() -> None:
 def bred_child(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The child bred from the shared dog and the shipped horse (no mutations), as benchmarks/creatures.py
     breeds it."""
-    from bipedsim.breed.files import breed_files
+    from bipedsim.synthesis.breed.files import breed_files
 
     child = tmp_path_factory.mktemp("child") / "dog_x_horse.bvh"
     breed_files(_clip(DOG), HORSE_WALK, child, mutations=0)

@@ -11,10 +11,19 @@ from conftest import SHARED_BVH, need_shared
 from scipy.optimize import minimize
 
 from bipedsim.cli import main
-from bipedsim.graph import FULL, MotionGraph, Player, ScriptError, build_graph, load_graph_config, parse, read_graph
-from bipedsim.graph.build import summed_part_distance
-from bipedsim.graph.distance import align_2d, apply_2d, distance_matrix, windows
-from bipedsim.graph.prune import prune
+from bipedsim.synthesis.graph import (
+    FULL,
+    MotionGraph,
+    Player,
+    ScriptError,
+    build_graph,
+    load_graph_config,
+    parse,
+    read_graph,
+)
+from bipedsim.synthesis.graph.build import summed_part_distance
+from bipedsim.synthesis.graph.distance import align_2d, apply_2d, distance_matrix, windows
+from bipedsim.synthesis.graph.prune import prune
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / "examples" / "graphs" / "walk_wave.yaml"
@@ -188,7 +197,7 @@ def test_cli_build_play_and_run(graph: MotionGraph, tmp_path: Path) -> None:
 def test_play_errors_from_the_graph_name_the_script_file_and_line(graph: MotionGraph, tmp_path: Path,
                                                                    capsys: pytest.CaptureFixture[str]) -> None:
     """A tag the graph lacks is reported FILE:LINE: as a syntax error is (it said `line 2:` alone)."""
-    from bipedsim.graph import PlayError, play_script
+    from bipedsim.synthesis.graph import PlayError, play_script
 
     g = tmp_path / "g.npz"
     graph.save(g)

@@ -13,12 +13,12 @@ from conftest import SHARED_BVH, need_shared
 
 from bipedsim.cli import main
 from bipedsim.errors import BipedsimError
-from bipedsim.graph import FULL, MotionGraph, Player, build_graph, load_graph_config, parse
-from bipedsim.graph.play import build_graph_file, play_script
-from bipedsim.graph.player import PlayError
-from bipedsim.graph.prune import DEFAULT_QUANTILE, Transition, choose_threshold, prune
 from bipedsim.motion import load_bvh, write_bvh
 from bipedsim.motion.reroot import add_static_root
+from bipedsim.synthesis.graph import FULL, MotionGraph, Player, build_graph, load_graph_config, parse
+from bipedsim.synthesis.graph.play import build_graph_file, play_script
+from bipedsim.synthesis.graph.player import PlayError
+from bipedsim.synthesis.graph.prune import DEFAULT_QUANTILE, Transition, choose_threshold, prune
 
 HUMAN = SHARED_BVH / "human"
 WALK = HUMAN / "cmu_02_01_walk__holden31_crlf.bvh"

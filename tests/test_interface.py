@@ -125,9 +125,9 @@ def test_scenario_errors(kwargs: dict, words: str) -> None:
 
 def test_creature_sweep_and_suite(tmp_path: Path) -> None:
     """Sweeps and regression suites run any body kind (``profile``, ``support``) through the same loop."""
-    from bipedsim.sim.experiment import load_experiment
-    from bipedsim.sim.regress import run_suite
-    from bipedsim.sim.sweep import run_sweep
+    from bipedsim.experiments.experiment import load_experiment
+    from bipedsim.experiments.regress import run_suite
+    from bipedsim.experiments.sweep import run_sweep
 
     exp = tmp_path / "horse.yaml"
     exp.write_text(f"name: horse\nreference: {HORSE_WALK}\nprofile: creature\nseconds: 1.5\n"

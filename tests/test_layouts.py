@@ -104,9 +104,9 @@ def test_an_experiment_reads_a_file_as_run_does(tmp_path: Path) -> None:
     file's identity pose (no standing body: 'stands 0.38 m tall') instead of the standing rest pose
     `bipedsim run` uses (model.prepare.read_for_build); and a build error names its file."""
     from bipedsim.errors import ModelError
+    from bipedsim.experiments.experiment import load_experiment
     from bipedsim.model.build import build_model
     from bipedsim.motion.bvh import load_bvh
-    from bipedsim.sim.experiment import load_experiment
 
     bandai = shared_or_standin("human/bandai2_walk_exhausted_001.bvh")
     exp = tmp_path / "e.yaml"

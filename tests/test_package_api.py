@@ -12,16 +12,16 @@ import pytest
 from conftest import REPO, need_shared
 
 from bipedsim import cli
-from bipedsim.breed import breed_files, format_breed_summary
 from bipedsim.data import builtin_walk_path
 from bipedsim.errors import ConfigError, OutputError
-from bipedsim.graph import build_graph_file, format_graph_summary, format_play_summary, play_script
+from bipedsim.experiments.sweep import format_summary, interrupted_message
 from bipedsim.model import convert_bvh, describe_bvh, format_convert_summary, format_description
 from bipedsim.render.gl import RenderError, choose_backend
 from bipedsim.render.video import VideoOptions
 from bipedsim.sim import outputs
 from bipedsim.sim.outputs import check_run_options, render_folder, run_to_folder, written_line
-from bipedsim.sim.sweep import format_summary, interrupted_message
+from bipedsim.synthesis.breed import breed_files, format_breed_summary
+from bipedsim.synthesis.graph import build_graph_file, format_graph_summary, format_play_summary, play_script
 
 DATA = REPO / "src" / "bipedsim" / "data"
 

@@ -13,14 +13,14 @@ import pytest
 
 from bipedsim.cli import main
 from bipedsim.errors import BipedsimError, ConfigError
-from bipedsim.sim import sweep
-from bipedsim.sim.experiment import MAX_ROLLOUTS, load_experiment, load_suite
+from bipedsim.experiments import sweep
+from bipedsim.experiments.experiment import MAX_ROLLOUTS, load_experiment, load_suite
+from bipedsim.experiments.regress import run_suite, update_expectations
+from bipedsim.experiments.sweep import RESULT_COLUMNS, load_results, run_sweep, worker_count
 from bipedsim.sim.limits import MAX_ROLLOUT_S
 from bipedsim.sim.push import MAX_PUSH_N, Push, check_pushes
-from bipedsim.sim.regress import run_suite, update_expectations
 from bipedsim.sim.rollout import PUSH_NOT_APPLIED, RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
-from bipedsim.sim.sweep import RESULT_COLUMNS, load_results, run_sweep, worker_count
 
 #: Two quick rollouts (1.5 s each, pushed at 1 s for 0.1 s).
 SMALL = "name: small\nseconds: 1.5\ngrid: {magnitude: [50, 100], direction: [0], duration: [0.1], start: [1.0]}\n"
@@ -230,8 +230,8 @@ def test_progress_bar_shows_on_a_terminal_that_reports_no_width(tmp_path: Path, 
     out = tmp_path / "out"
     out.mkdir()
     write_results(out / "results.csv", fake_rows(small)[:1])
-    code = ("import sys\nfrom bipedsim.sim.experiment import load_experiment\n"
-            "from bipedsim.sim.sweep import run_sweep\n"
+    code = ("import sys\nfrom bipedsim.experiments.experiment import load_experiment\n"
+            "from bipedsim.experiments.sweep import run_sweep\n"
             f"run_sweep(load_experiment({str(small.path)!r}), {str(out)!r}, progress=sys.stderr.isatty())")
     main_fd, sub_fd = pty.openpty()  # a fresh pty: 0 rows x 0 columns
     proc = subprocess.Popen([sys.executable, "-c", code], stderr=sub_fd, stdout=subprocess.DEVNULL)

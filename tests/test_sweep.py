@@ -15,11 +15,11 @@ import pytest
 
 from bipedsim.cli import main
 from bipedsim.errors import ConfigError
-from bipedsim.sim.experiment import load_experiment
+from bipedsim.experiments.experiment import load_experiment
+from bipedsim.experiments.sweep import RESULT_COLUMNS, TIMING_COLUMNS, run_sweep
 from bipedsim.sim.push import Push, random_pushes
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
-from bipedsim.sim.sweep import RESULT_COLUMNS, TIMING_COLUMNS, run_sweep
 
 REPO = Path(__file__).resolve().parent.parent
 EXP = REPO / "experiments"

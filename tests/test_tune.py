@@ -17,10 +17,10 @@ import yaml
 from bipedsim.cli import main
 from bipedsim.control.config import load_controller
 from bipedsim.errors import BipedsimError, ConfigError
+from bipedsim.experiments.tune import Objective, load_tune, run_tune
+from bipedsim.experiments.tune import cmaes as tune_cmaes
+from bipedsim.experiments.tune.objective import DEVIATION_CAP, TERMS, Cadence, GaitMeter, push_terms, walk_terms
 from bipedsim.sim.runner import load_scenario
-from bipedsim.tune import Objective, load_tune, run_tune
-from bipedsim.tune import cmaes as tune_cmaes
-from bipedsim.tune.objective import DEVIATION_CAP, TERMS, Cadence, GaitMeter, push_terms, walk_terms
 
 REPO = Path(__file__).resolve().parent.parent
 BROKEN = REPO / "experiments" / "controllers" / "no_balance_feedback.yaml"
@@ -471,7 +471,7 @@ def test_each_candidate_is_scored_on_the_reference_its_own_settings_prepare() ->
     import dataclasses
 
     from bipedsim.control.config import ControllerConfig
-    from bipedsim.tune import evaluate
+    from bipedsim.experiments.tune import evaluate
 
     default = ControllerConfig()
     forced = dataclasses.replace(default, reference=dataclasses.replace(default.reference, feasible=True))

@@ -1,4 +1,4 @@
-"""Motion-tile worlds: the equations and rules on small synthetic inputs (bipedsim.world)."""
+"""Motion-tile worlds: the equations and rules on small synthetic inputs (bipedsim.synthesis.world)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
 from bipedsim.motion import Motion, Skeleton, load_bvh, write_bvh
-from bipedsim.world import (
+from bipedsim.synthesis.world import (
     ModeClip,
     WorldError,
     ability_weights,
@@ -29,10 +29,10 @@ from bipedsim.world import (
     smoothstep_weights,
     warp_times,
 )
-from bipedsim.world import path as path_mod
-from bipedsim.world.creature import load_creature
-from bipedsim.world.events import ANGLES_DEG, GRAVITY, ccd_frame
-from bipedsim.world.scene import scene_xml
+from bipedsim.synthesis.world import path as path_mod
+from bipedsim.synthesis.world.creature import load_creature
+from bipedsim.synthesis.world.events import ANGLES_DEG, GRAVITY, ccd_frame
+from bipedsim.synthesis.world.scene import scene_xml
 
 REPO = Path(__file__).resolve().parents[1]
 RIDGE = REPO / "examples" / "worlds" / "ridge.yaml"
@@ -213,7 +213,7 @@ def test_legend_adds_a_tile_kind() -> None:
 
 
 def test_creature_file_errors(tmp_path: Path) -> None:
-    from bipedsim.world import load_creature
+    from bipedsim.synthesis.world import load_creature
 
     f = tmp_path / "c.yaml"
     f.write_text("name: x\nclips: {run: a.bvh}\n")
@@ -313,7 +313,7 @@ def test_a_creature_file_key_that_does_not_exist_is_named(tmp_path: Path, text: 
 
 
 def test_world_breeding_refuses_bvh_parents(tmp_path: Path) -> None:
-    from bipedsim.world.breeding import breed_world_files
+    from bipedsim.synthesis.world.breeding import breed_world_files
 
     with pytest.raises(WorldError, match="with --world the parents are creature files"):
         breed_world_files(tmp_path / "a.bvh", tmp_path / "b.bvh", tmp_path / "w.yaml", tmp_path / "c.yaml")

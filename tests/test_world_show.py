@@ -12,8 +12,8 @@ from conftest import need_shared
 
 from bipedsim.cli import main
 from bipedsim.motion import load_bvh
-from bipedsim.world import cross_world, load_creature, load_world, parent_weights
-from bipedsim.world.synth import body_points
+from bipedsim.synthesis.world import cross_world, load_creature, load_world, parent_weights
+from bipedsim.synthesis.world.synth import body_points
 
 REPO = Path(__file__).resolve().parents[1]
 WORLDS = REPO / "examples" / "worlds"

@@ -234,7 +234,7 @@ def walk_skeleton() -> Any:
 
 def _read_script(p: Path) -> Any:
     from bipedsim.files import read_input_text
-    from bipedsim.graph.script import parse
+    from bipedsim.synthesis.graph.script import parse
 
     return parse(read_input_text(p, "script"), str(p), ("Upper-Body",))
 
@@ -250,15 +250,15 @@ def _info(p: Path) -> None:
 
 def _reader(name: str) -> Callable[[Path], Any]:
     """The function that reads a file of kind ``name``, as the command line calls it."""
-    from bipedsim.breed.evolve import load_joint_map
     from bipedsim.control.config import load_controller
-    from bipedsim.graph.build import load_graph_config
+    from bipedsim.experiments.experiment import load_experiment, load_suite
+    from bipedsim.experiments.tune.spec import load_tune
     from bipedsim.model.gait import load_events
     from bipedsim.motion.bvh import read_bvh
-    from bipedsim.sim.experiment import load_experiment, load_suite
-    from bipedsim.tune.spec import load_tune
-    from bipedsim.world.creature import load_creature
-    from bipedsim.world.tiles import load_world
+    from bipedsim.synthesis.breed.evolve import load_joint_map
+    from bipedsim.synthesis.graph.build import load_graph_config
+    from bipedsim.synthesis.world.creature import load_creature
+    from bipedsim.synthesis.world.tiles import load_world
 
     return {
         "bvh": read_bvh, "info": _info, "controller": load_controller, "experiment": load_experiment,

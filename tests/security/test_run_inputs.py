@@ -164,7 +164,7 @@ def test_a_file_restating_the_defaults_serves_both_kinds(tmp_path: Path) -> None
 
 def test_experiments_and_suites_check_their_controllers_against_the_body(tmp_path: Path) -> None:
     from bipedsim.data import BUILTIN_WALK
-    from bipedsim.sim.experiment import load_experiment, load_suite
+    from bipedsim.experiments.experiment import load_experiment, load_suite
 
     _write(tmp_path / "h.yaml", "balance: {torso_kp: 900.0}\n")
     _write(tmp_path / "c.yaml", "creature: {support_kp: 30.0}\n")
@@ -181,7 +181,7 @@ def test_experiments_and_suites_check_their_controllers_against_the_body(tmp_pat
 @pytest.mark.parametrize("name", ["\x1b[2J\x1b[31mred", "two\nlines", "tab\there", "\u202eevil", "bell\x07"])
 def test_names_with_control_characters_are_refused(tmp_path: Path, name: str,
                                                    capsys: pytest.CaptureFixture[str]) -> None:
-    from bipedsim.sim.experiment import load_experiment
+    from bipedsim.experiments.experiment import load_experiment
 
     quoted = json.dumps(name)  # a YAML double-quoted string
     suite = _write(tmp_path / "s.yaml", f"scenarios:\n  - {{name: {quoted}, seconds: 1}}\n")
@@ -197,8 +197,8 @@ def test_names_with_control_characters_are_refused(tmp_path: Path, name: str,
 
 def test_printable_names_pass_and_the_table_escapes_what_it_prints(monkeypatch: pytest.MonkeyPatch,
                                                                   capsys: pytest.CaptureFixture[str]) -> None:
-    from bipedsim.sim import regress
-    from bipedsim.sim.experiment import Suite, SuiteScenario, check_name
+    from bipedsim.experiments import regress
+    from bipedsim.experiments.experiment import Suite, SuiteScenario, check_name
 
     check_name("Gehen über 200 N -- 10 % links")  # letters of any script, spaces, punctuation
     with pytest.raises(ValueError, match="at most 200"):
@@ -284,7 +284,7 @@ def test_deeply_nested_yaml_is_one_line_for_every_command(tmp_path: Path, capsys
 def test_suite_update_reads_the_file_as_every_input_before_the_round_trip(tmp_path: Path) -> None:
     """``regress --update`` hands the text to ruamel.yaml (for the rewrite that keeps comments) only after
     the project's reader has checked it: size, nesting, duplicate keys."""
-    from bipedsim.sim.regress import update_expectations
+    from bipedsim.experiments.regress import update_expectations
 
     deep = _write(tmp_path / "deep.yaml", "scenarios: " + "[" * 5000 + "]" * 5000 + "\n")
     with pytest.raises(ConfigError, match="nested more than"):
@@ -299,7 +299,7 @@ def test_suite_update_reads_the_file_as_every_input_before_the_round_trip(tmp_pa
 
 # ---------------------------------------------------------------------- bounds on run lengths and settings
 def test_run_length_is_bounded(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from bipedsim.sim.experiment import load_experiment
+    from bipedsim.experiments.experiment import load_experiment
 
     assert main(["run", "--seconds", "1e12", "--out", str(tmp_path / "o")]) == 2
     _one_line_error(capsys, "--seconds: must be a run length in (0, 3600] s")

@@ -16,18 +16,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bipedsim.breed import breed, horse_walk, pterosaur_flight
-from bipedsim.breed.evolve import BreedError
 from bipedsim.cli import main
 from bipedsim.data import builtin_walk_path
-from bipedsim.graph import read_graph
-from bipedsim.graph.build import MAX_GRAPH_FPS, MAX_GRAPH_FRAMES
-from bipedsim.graph.player import MAX_PLAY_FRAMES
-from bipedsim.graph.script import MAX_SCRIPT_COMMANDS
 from bipedsim.motion import Motion
-from bipedsim.world.creature import LOOP_SEARCH_MAX_FRAMES, find_loop
-from bipedsim.world.synth import MAX_WORLD_FRAMES
-from bipedsim.world.tiles import MAX_WORLD_CELLS
+from bipedsim.synthesis.breed import breed, horse_walk, pterosaur_flight
+from bipedsim.synthesis.breed.evolve import BreedError
+from bipedsim.synthesis.graph import read_graph
+from bipedsim.synthesis.graph.build import MAX_GRAPH_FPS, MAX_GRAPH_FRAMES
+from bipedsim.synthesis.graph.player import MAX_PLAY_FRAMES
+from bipedsim.synthesis.graph.script import MAX_SCRIPT_COMMANDS
+from bipedsim.synthesis.world.creature import LOOP_SEARCH_MAX_FRAMES, find_loop
+from bipedsim.synthesis.world.synth import MAX_WORLD_FRAMES
+from bipedsim.synthesis.world.tiles import MAX_WORLD_CELLS
 
 REPO = Path(__file__).resolve().parents[2]
 HORSE_BVH = REPO / "src" / "bipedsim" / "data" / "horse_walk.bvh"
@@ -311,7 +311,7 @@ def test_a_creature_clip_that_is_no_file_name_is_one_line(tmp_path: Path, capsys
 
 
 def test_a_creature_file_without_a_name_is_named_by_its_file_made_safe(tmp_path: Path) -> None:
-    from bipedsim.world import load_creature
+    from bipedsim.synthesis.world import load_creature
 
     p = tmp_path / "my horse (v2).yaml"
     p.write_text(f"clips:\n  walk: {HORSE_BVH}\n")
@@ -545,7 +545,7 @@ def test_a_weight_that_is_no_finite_number_is_refused(tmp_path: Path, capsys) ->
 
 
 def test_the_survivor_step_compares_long_parents_in_blocks_with_the_same_child(monkeypatch) -> None:
-    from bipedsim.breed import transfer as evolve
+    from bipedsim.synthesis.breed import transfer as evolve
 
     a, b = horse_walk(cycles=6), pterosaur_flight(cycles=8)
     whole, _ = breed(a, b, x=0.4)
@@ -555,7 +555,7 @@ def test_the_survivor_step_compares_long_parents_in_blocks_with_the_same_child(m
 
 
 def test_graph_distances_in_blocks_equal_the_whole(monkeypatch) -> None:
-    from bipedsim.graph import distance
+    from bipedsim.synthesis.graph import distance
 
     rng = np.random.default_rng(0)
     pa, pb = rng.normal(size=(90, 5, 3)), rng.normal(size=(70, 5, 3))

@@ -21,13 +21,13 @@ import yaml
 from bipedsim.cli import main
 from bipedsim.config import from_dict
 from bipedsim.errors import ConfigError
-from bipedsim.sim import sweep
-from bipedsim.sim.experiment import load_experiment
-from bipedsim.sim.sweep import RESULT_COLUMNS, run_sweep
-from bipedsim.tune import cmaes as tune_cmaes
-from bipedsim.tune import load_tune, run_tune
-from bipedsim.tune.objective import TERMS
-from bipedsim.tune.spec import MAX_POPSIZE, MAX_STATE_VALUES, TuneSpec
+from bipedsim.experiments import sweep
+from bipedsim.experiments.experiment import load_experiment
+from bipedsim.experiments.sweep import RESULT_COLUMNS, run_sweep
+from bipedsim.experiments.tune import cmaes as tune_cmaes
+from bipedsim.experiments.tune import load_tune, run_tune
+from bipedsim.experiments.tune.objective import TERMS
+from bipedsim.experiments.tune.spec import MAX_POPSIZE, MAX_STATE_VALUES, TuneSpec
 
 REPO = Path(__file__).resolve().parents[2]
 BROKEN = REPO / "experiments" / "controllers" / "no_balance_feedback.yaml"

@@ -75,10 +75,10 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------------- breed and graph
 def cmd_breed(args: argparse.Namespace) -> int:
-    if args.world:  # creature files bred for a world: bipedsim.world's block below
+    if args.world:  # creature files bred for a world: bipedsim.synthesis.world's block below
         return cmd_breed_world(args)
-    from bipedsim.breed import breed_files, format_breed_summary
     from bipedsim.files import check_distinct_paths
+    from bipedsim.synthesis.breed import breed_files, format_breed_summary
 
     check_distinct_paths([("-o", args.output), ("--report", args.report), ("--save-map", args.save_map)],
                          [("PARENT_A", args.parent_a), ("PARENT_B", args.parent_b), ("--map", args.map)])
@@ -90,14 +90,14 @@ def cmd_breed(args: argparse.Namespace) -> int:
 
 
 def cmd_graph_build(args: argparse.Namespace) -> int:
-    from bipedsim.graph import build_graph_file, format_graph_summary
+    from bipedsim.synthesis.graph import build_graph_file, format_graph_summary
 
     print(format_graph_summary(build_graph_file(args.config, args.output, args.report), args.output, args.report))
     return 0
 
 
 def cmd_graph_play(args: argparse.Namespace) -> int:
-    from bipedsim.graph import format_play_summary, play_script
+    from bipedsim.synthesis.graph import format_play_summary, play_script
 
     rep = play_script(args.graph, args.script, args.output, start=args.start, report=args.report)
     print(format_play_summary(rep, args.output))
@@ -110,9 +110,9 @@ SWEEP_FILES = ("results.csv", "summary.json", "experiment.json", "push_polar.png
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
+    from bipedsim.experiments.experiment import load_experiment
+    from bipedsim.experiments.sweep import check_backend, format_summary, interrupted_message, run_sweep
     from bipedsim.files import check_distinct_paths, folder_files, prepare_output_dir
-    from bipedsim.sim.experiment import load_experiment
-    from bipedsim.sim.sweep import check_backend, format_summary, interrupted_message, run_sweep
 
     check_backend(args.backend)  # before the output folder is made
     exp = load_experiment(args.experiment)  # every check before any rollout
@@ -140,7 +140,7 @@ def _resumable(command: str, run: Callable[[], str], interrupted: Callable[[], s
 
 
 def cmd_regress(args: argparse.Namespace) -> int:
-    from bipedsim.sim.regress import run_suite
+    from bipedsim.experiments.regress import run_suite
 
     return run_suite(args.suite, update=args.update)
 
@@ -179,8 +179,8 @@ def _creature_inputs(creatures: Sequence[str]) -> tuple[list[tuple[str, Any]], l
 def cmd_world(args: argparse.Namespace) -> int:
     from bipedsim.files import check_distinct_paths
     from bipedsim.render.video import VideoOptions
-    from bipedsim.world import run_world
-    from bipedsim.world.run import output_paths
+    from bipedsim.synthesis.world import run_world
+    from bipedsim.synthesis.world.run import output_paths
 
     inputs, names = _creature_inputs(args.creatures)
     if None in names:  # a creature file that does not read: the command says so before writing anything
@@ -201,8 +201,8 @@ def cmd_world(args: argparse.Namespace) -> int:
 
 def cmd_breed_world(args: argparse.Namespace) -> int:
     from bipedsim.files import check_distinct_paths
-    from bipedsim.world import breed_world_files, format_world_breed_summary
-    from bipedsim.world.tiles import TRAVEL_MODES
+    from bipedsim.synthesis.world import breed_world_files, format_world_breed_summary
+    from bipedsim.synthesis.world.tiles import TRAVEL_MODES
 
     inputs, _ = _creature_inputs([args.parent_a, args.parent_b])
     out = Path(args.output)
@@ -222,9 +222,9 @@ TUNE_FILES = ("best.yaml", "convergence.png", "summary.json")
 
 
 def cmd_tune(args: argparse.Namespace) -> int:
+    from bipedsim.experiments.tune import format_tune_summary, interrupted_message, load_tune, run_tune
+    from bipedsim.experiments.tune.cmaes import HISTORY_FILE, STATE_FILE
     from bipedsim.files import check_distinct_paths, folder_files
-    from bipedsim.tune import format_tune_summary, interrupted_message, load_tune, run_tune
-    from bipedsim.tune.cmaes import HISTORY_FILE, STATE_FILE
 
     tune = load_tune(args.tune)  # every check before any rollout
     check_distinct_paths(folder_files("the --out file", args.out, (*TUNE_FILES, HISTORY_FILE, STATE_FILE)),

@@ -1,4 +1,4 @@
-"""Rollouts: the physics loop, pushes, fall detection, metrics, sweeps."""
+"""Rollouts: the physics loop, pushes, fall detection, metrics, the recorder."""
 
 from __future__ import annotations
 

@@ -31,9 +31,9 @@ FIELDS = ["file", "size", "scaled", "legs_m", "runs_ok", "runs", "mean_walked_s"
 
 
 def run_one(job: tuple[str, float, bool, float, int, str, str | None]) -> dict[str, object]:
-    from bipedsim.control.config import load_controller
-    from bipedsim.control.reference import clip_speed
-    from bipedsim.control.simbicon import leg_length
+    from bipedsim.control.humanoid.simbicon import leg_length
+    from bipedsim.control.humanoid.sources import clip_speed
+    from bipedsim.control.settings import load_controller
     from bipedsim.sim import runner
 
     name, size, scaled, seconds, seeds, tmp, config = job

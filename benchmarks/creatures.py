@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bipedsim.control.creature import CreatureController, make_creature_controller
-from bipedsim.control.creature_config import CreatureBalanceConfig
+from bipedsim.control.creature.controller import CreatureController, make_creature_controller
+from bipedsim.control.creature.settings import CreatureBalanceConfig
 from bipedsim.data import HORSE_WALK
 from bipedsim.sim.rollout import RolloutSpec, rollout
 from bipedsim.sim.runner import load_scenario, run_scenario, run_seeds

@@ -108,7 +108,7 @@ def _turning(m: Motion, deg_per_s: float = 15.0) -> Motion:
 def _cycle(path: str, m: Motion) -> Motion:
     """One gait cycle of the walk (the loop ``bipedsim run`` plays, right strike to right strike, both
     frames kept), in place: a game animation's walk cycle."""
-    from bipedsim.control.reference import clip_cycle
+    from bipedsim.control.humanoid.sources import clip_cycle
     from bipedsim.sim.runner import load_scenario
 
     sc = load_scenario(None, path)

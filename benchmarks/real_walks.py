@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 from rows import Rows  # the benchmarks' resumable CSV (benchmarks/rows.py)
 
-from bipedsim.control.config import load_controller
-from bipedsim.control.reference import clip_speed
+from bipedsim.control.humanoid.sources import clip_speed
+from bipedsim.control.settings import load_controller
 from bipedsim.errors import BipedsimError
 from bipedsim.sim import runner
 

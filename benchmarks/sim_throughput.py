@@ -17,7 +17,7 @@ from dataclasses import replace
 
 import mujoco
 
-from bipedsim.control.simbicon import gait_source
+from bipedsim.control.humanoid.simbicon import gait_source
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
 

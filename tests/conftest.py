@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 if TYPE_CHECKING:
-    from bipedsim.control.config import ControllerConfig
+    from bipedsim.control.settings import ControllerConfig
 
 REPO = Path(__file__).resolve().parent.parent
 #: The real BVH samples beside the repository (``../shared/data/bvh``); ``BIPEDSIM_SHARED_DATA`` names
@@ -127,7 +127,7 @@ def swing_as_measured(cfg: ControllerConfig) -> ControllerConfig:
     contrasts do not fail on their weaker side."""
     from dataclasses import replace
 
-    from bipedsim.control.config import ControllerConfig
+    from bipedsim.control.settings import ControllerConfig
 
     default = ControllerConfig().balance.sagittal.cv
     sag = cfg.balance.sagittal
@@ -141,7 +141,7 @@ def velocity_as_measured(cfg: ControllerConfig) -> ControllerConfig:
     velocity tuning and the torso law show their contrast."""
     from dataclasses import replace
 
-    from bipedsim.control.config import ControllerConfig
+    from bipedsim.control.settings import ControllerConfig
 
     default = ControllerConfig().balance.velocity.filter_s
     vel = cfg.balance.velocity
@@ -156,7 +156,7 @@ def torso_as_measured(cfg: ControllerConfig) -> ControllerConfig:
     both sides of these contrasts survive or keep their speed."""
     from dataclasses import replace
 
-    from bipedsim.control.config import ControllerConfig
+    from bipedsim.control.settings import ControllerConfig
 
     default = ControllerConfig().balance.torso_kd
     return replace(cfg, balance=replace(cfg.balance, torso_kd=cfg.balance.torso_kd * 100.0 / default,

@@ -1,5 +1,5 @@
 """The controller's settings scaled to bodies of other sizes and masses (dynamic similarity,
-``control.config.for_body``, docs/controller.md "Bodies of any size")."""
+``control.settings.for_body``, docs/controller.md "Bodies of any size")."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from bipedsim.control.config import BODY_SCALED, ControllerConfig, for_body, load_controller
+from bipedsim.control.settings import BODY_SCALED, ControllerConfig, for_body, load_controller
 from bipedsim.errors import ConfigError
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh" / "human"
@@ -91,7 +91,7 @@ def _numbers(obj: object, prefix: str = "") -> list[str]:
 
 
 def test_every_number_of_the_humanoid_settings_is_scaled_or_said_not_to_be() -> None:
-    from bipedsim.control.config import BODY_UNSCALED
+    from bipedsim.control.settings import BODY_UNSCALED
 
     cfg = ControllerConfig()
     keys = [k for k in _numbers(cfg) if not k.startswith(("creature.", "pose_gait.state_", "pose_gait.elbow"))]
@@ -173,7 +173,7 @@ def test_a_smaller_body_walks_its_similar_walk_only_when_the_controller_is_scale
     0.66 m, below the measured 0.78-0.94 m; 39.5 kg) walking the same walk at the same Froude number:
     scaled, it walks 20 s at >= 70 % of its clip's speed (seed 0; seeds 0-3 all do); with the settings as
     written it falls within 5 s."""
-    from bipedsim.control.cycles import clip_speed
+    from bipedsim.control.humanoid.cycles import clip_speed
     from bipedsim.sim import runner
     from bipedsim.sim.rollout import RolloutSpec
 
@@ -206,8 +206,8 @@ def test_the_controller_scales_settings_once_however_it_is_built(tmp_path: Path)
     39.5 kg) and the built-in body (mass alone, 79.4 kg) get the same settings from the scenario, from
     the controller built on them, and from one built directly on unscaled settings (after the same
     reference switches)."""
-    from bipedsim.control.config import for_reference
-    from bipedsim.control.simbicon import body_mass, leg_length, make_humanoid
+    from bipedsim.control.humanoid.simbicon import body_mass, leg_length, make_humanoid
+    from bipedsim.control.settings import for_reference
     from bipedsim.sim import runner
 
     for sc in (runner.load_scenario(None, _similar_walk(tmp_path, 0.8, "cmu_02_02_walk__daz43")),

@@ -77,7 +77,7 @@ def test_a_head_joint_on_the_neck_does_not_stop_the_build(tmp_path: Path) -> Non
 def test_rebased_limbs_rest_straight_so_the_walk_stays_within_the_knee_range() -> None:
     """Each leg and arm of a rebased skeleton rests as it is straightest: the retargeted knees and
     elbows stay within their ranges (from a bent rest knee they were 1.15 rad beyond)."""
-    from bipedsim.control.reference import Hinges
+    from bipedsim.control.humanoid.sources import Hinges
     from bipedsim.model import retarget
 
     m = standing_rest(read_bvh(shared_dir() / BANDAI)[0].to_project_frame())

@@ -19,7 +19,7 @@ from conftest import (
 from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
-from bipedsim.control.balance import (
+from bipedsim.control.humanoid.balance import (
     euler_from_matrix,
     feedback_angle,
     hinges_to_world,
@@ -27,11 +27,11 @@ from bipedsim.control.balance import (
     stance_share,
     world_to_hinges,
 )
-from bipedsim.control.config import ControllerConfig, controller_yaml, load_controller
-from bipedsim.control.fsm import GaitFSM
-from bipedsim.control.simbicon import SimbiconController as Controller
-from bipedsim.control.simbicon import gait_source
-from bipedsim.control.torso import torso_torque
+from bipedsim.control.humanoid.fsm import GaitFSM
+from bipedsim.control.humanoid.simbicon import SimbiconController as Controller
+from bipedsim.control.humanoid.simbicon import gait_source
+from bipedsim.control.humanoid.torso import torso_torque
+from bipedsim.control.settings import ControllerConfig, controller_yaml, load_controller
 from bipedsim.errors import ConfigError
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario, run_seeds
@@ -155,7 +155,7 @@ def hard_soles(scenario):
 def _as_on_64kg(sc, force: float = 200.0) -> float:
     """The push (N) that gives this scenario's body the acceleration ``force`` gives a 64 kg body: the
     push tests below were measured on the built-in body at 64 kg; it now weighs 79.4 kg from its legs."""
-    from bipedsim.control.simbicon import body_mass
+    from bipedsim.control.humanoid.simbicon import body_mass
 
     return force * body_mass(sc.built.model) / 64.0
 
@@ -364,8 +364,8 @@ def test_pose_gait_source_walks(tmp_path: Path) -> None:
 
 def test_hot_path_rotation_helpers_match_scipy() -> None:
     """The controller's float-only helpers: rotation vector, one- and two-hinge angles."""
-    from bipedsim.control.feet import hinge_angles_small
-    from bipedsim.control.torso import rotvec3
+    from bipedsim.control.humanoid.feet import hinge_angles_small
+    from bipedsim.control.humanoid.torso import rotvec3
 
     rng = np.random.default_rng(5)
     for r in Rotation.random(20, random_state=7):
@@ -397,7 +397,7 @@ def test_velocity_tuning_virtual_force_holds_the_walking_speed() -> None:
     mass toward the reference's mean speed, so after a backward push the walk gets back to its speed."""
     from dataclasses import replace
 
-    from bipedsim.control.config import VelocityConfig, load_controller
+    from bipedsim.control.settings import VelocityConfig, load_controller
     from bipedsim.sim.push import Push
     from bipedsim.sim.runner import settings_for
 
@@ -458,7 +458,7 @@ def test_tempo_rate_drives_the_gait_clock(scenario, v_excess: float, minimum: fl
 
     import mujoco
 
-    from bipedsim.control.config import TempoConfig
+    from bipedsim.control.settings import TempoConfig
 
     tempo = TempoConfig(gain=2.0, deadband=0.1, min=minimum, max=1.5)
     cfg = replace(scenario.cfg, fsm=replace(scenario.cfg.fsm, tempo=tempo))
@@ -500,7 +500,7 @@ def test_tempo_recovers_forward_pushes_late_in_the_swing(request, direction: flo
     yaw limit 0.35: ``torso_as_measured``); the default (175, 0.6) survives both pushes as well."""
     from dataclasses import replace
 
-    from bipedsim.control.config import TempoConfig
+    from bipedsim.control.settings import TempoConfig
     from bipedsim.sim.push import Push
 
     scenario = request.getfixturevalue(body)
@@ -518,7 +518,7 @@ def test_tempo_recovers_forward_pushes_late_in_the_swing(request, direction: flo
 
 
 def test_torso_law_on_the_running_method(scenario) -> None:
-    """The torso law as the control step computes it (:func:`bipedsim.control.torso.torso_torque`): a pelvis
+    """The torso law as the control step computes it (:func:`bipedsim.control.humanoid.torso.torso_torque`): a pelvis
     pitched by delta from its target and turning at omega about world y gets the world torque
     (0, kp delta - kd omega, 0) whatever its heading (roll and pitch gains equal by default)."""
     import mujoco
@@ -566,14 +566,14 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles
     velocity survives too."""
     from dataclasses import replace
 
-    from bipedsim.control.config import VelocityConfig
+    from bipedsim.control.settings import VelocityConfig
     from bipedsim.sim.push import Push
 
     sc = hard_soles
     base = sc.cfg
     assert base.balance.velocity.kv_sagittal > 0.0 and base.balance.velocity.filter_s > 0.0
     push = [Push(_as_on_64kg(sc), 45.0, 0.2, state=4, fraction=0.5)]
-    from bipedsim.control.config import load_controller
+    from bipedsim.control.settings import load_controller
     from bipedsim.sim.runner import settings_for
 
     written = load_controller(None)  # the override scaled to the body with the rest of the settings
@@ -596,7 +596,7 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     speed while seeds 1-5 walk at 0.77-0.82; docs/controller.md "Speed deficit")."""
     from dataclasses import replace
 
-    from bipedsim.control.cycles import clip_speed
+    from bipedsim.control.humanoid.cycles import clip_speed
 
     need_shared()
     with toes_as_measured():  # as measured (with today's toes, on these old settings, it falls at 5.4-19.6 s with it)
@@ -624,7 +624,7 @@ def test_froude_scheduled_cd_lets_a_fast_capture_stride_out() -> None:
     keeps 0.55."""
     from dataclasses import replace
 
-    from bipedsim.control.cycles import clip_speed
+    from bipedsim.control.humanoid.cycles import clip_speed
 
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")

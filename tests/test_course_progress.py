@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from conftest import SHARED_BVH, need_shared, torso_as_measured, velocity_as_measured
 
-from bipedsim.control.course import Course, CourseTracker
-from bipedsim.control.cycles import clip_speed
+from bipedsim.control.humanoid.course import Course, CourseTracker
+from bipedsim.control.humanoid.cycles import clip_speed
 from bipedsim.sim.rollout import RolloutSpec, _outcome
 from bipedsim.sim.runner import load_scenario, run_scenario
 

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from conftest import SHARED_BVH, need_shared, shared_params
 
-from bipedsim.control.creature import CreatureController, make_creature_controller
-from bipedsim.control.creature_balance import ClipBalance
-from bipedsim.control.creature_config import CreatureBalanceConfig
-from bipedsim.control.creature_forces import distribute_wrench
-from bipedsim.control.creature_reference import loop_segment
+from bipedsim.control.creature.balance import ClipBalance
+from bipedsim.control.creature.controller import CreatureController, make_creature_controller
+from bipedsim.control.creature.forces import distribute_wrench
+from bipedsim.control.creature.reference import loop_segment
+from bipedsim.control.creature.settings import CreatureBalanceConfig
 from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.errors import ModelError
 from bipedsim.model.creature import creature_legs, trunk_bodies
@@ -93,7 +93,7 @@ def test_the_balance_height_of_a_root_at_the_floor_is_the_legs() -> None:
     error"): such a root's height gives way to the legs' roots' height above the feet."""
     from dataclasses import replace
 
-    from bipedsim.control.creature_legs import leg_height
+    from bipedsim.control.creature.legs import leg_height
 
     sc = load_scenario(bvh=HORSE_WALK)
     m, clip = sc.built.model, sc.clip

@@ -1,5 +1,5 @@
 """Creatures on two legs: soles measured from the skeleton (model/creature_sole.py), the two-legged
-planned gait (control/creature_biped.py) chosen by leg count, and an in-place creature walk's travel
+planned gait (control/creature/biped.py) chosen by leg count, and an in-place creature walk's travel
 rebuilt from its feet (model.prepare.creature_motion)."""
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from conftest import SHARED_BVH
 
-from bipedsim.control.creature_biped import BipedRules, smootherstep
-from bipedsim.control.creature_gait import PlannedGait
-from bipedsim.control.creature_legs import geom_bottom
-from bipedsim.control.creature_many_legs import ManyLegs
+from bipedsim.control.creature.biped import BipedRules, smootherstep
+from bipedsim.control.creature.gait import PlannedGait
+from bipedsim.control.creature.legs import geom_bottom
+from bipedsim.control.creature.many_legs import ManyLegs
 from bipedsim.data import HORSE_WALK
 from bipedsim.errors import BipedsimError
 from bipedsim.model.creature_sole import BIPED_LEG_SHARE
@@ -161,7 +161,7 @@ def test_the_flamingo_walks_20_s_at_half_its_clip_speed(flamingo) -> None:
 def test_the_two_legged_gait_takes_its_settings_from_the_controller_yaml(tmp_path) -> None:
     """``creature: {biped: ...}`` in a controller YAML reaches the two-legged gait (its own timing and the
     balance settings it replaces on two legs); the rest stay the dataclass defaults."""
-    from bipedsim.control.creature_config import BipedGaitConfig
+    from bipedsim.control.creature.settings import BipedGaitConfig
 
     if not FLAMINGO.is_file():
         pytest.skip(f"shared BVH file not found: {FLAMINGO}")

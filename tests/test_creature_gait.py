@@ -1,4 +1,4 @@
-"""The planned creature gait (control/creature_gait.py and its parts: stance, reach, clock, planner): a
+"""The planned creature gait (control/creature/gait.py and its parts: stance, reach, clock, planner): a
 stance the built body can carry, legs by IK inside their joint ranges, the re-posed body standing, and
 (slow) the long walks."""
 
@@ -13,11 +13,11 @@ import pytest
 from conftest import SHARED_BVH, need_shared
 from scipy.spatial.transform import Rotation
 
-from bipedsim.control.creature import CreatureController, make_creature_controller
-from bipedsim.control.creature_config import CreatureBalanceConfig
-from bipedsim.control.creature_gait import PlannedGait
-from bipedsim.control.creature_many_legs import shift_share
-from bipedsim.control.creature_reach import REACH_STEP, REACH_TOL, reach_error
+from bipedsim.control.creature.controller import CreatureController, make_creature_controller
+from bipedsim.control.creature.gait import PlannedGait
+from bipedsim.control.creature.many_legs import shift_share
+from bipedsim.control.creature.reach import REACH_STEP, REACH_TOL, reach_error
+from bipedsim.control.creature.settings import CreatureBalanceConfig
 from bipedsim.data import HORSE_WALK
 from bipedsim.sim.rollout import RolloutSpec, rollout
 from bipedsim.sim.runner import load_scenario, run_scenario
@@ -220,8 +220,8 @@ def test_creature_settings_come_from_the_controller_yaml(tmp_path: Path) -> None
     """The ``creature:`` section of a controller YAML reaches the creature controller (layered over the
     dataclass defaults, the one source of them) and is recorded with the outcome; the shipped
     default.yaml restates those defaults."""
-    from bipedsim.control.config import ControllerConfig, load_controller
-    from bipedsim.control.creature_config import CreatureControlConfig
+    from bipedsim.control.creature.settings import CreatureControlConfig
+    from bipedsim.control.settings import ControllerConfig, load_controller
 
     assert load_controller(Path(__file__).resolve().parent.parent / "controllers" / "default.yaml").creature \
         == CreatureControlConfig() == ControllerConfig().creature
@@ -246,7 +246,7 @@ def test_creature_settings_come_from_the_controller_yaml(tmp_path: Path) -> None
 ])
 def test_bad_creature_settings_are_refused(tmp_path: Path, text: str, key: str, words: str, capsys) -> None:
     from bipedsim.cli import main
-    from bipedsim.control.config import load_controller
+    from bipedsim.control.settings import load_controller
     from bipedsim.errors import ConfigError
 
     p = _creature_yaml(tmp_path, text)
@@ -263,7 +263,7 @@ def test_zmp_limited_keeps_the_zero_moment_point_over_the_feet() -> None:
     kept; fewer than three feet leave it as it is."""
     from scipy.spatial import Delaunay
 
-    from bipedsim.control.creature_gait import zmp_limited
+    from bipedsim.control.creature.gait import zmp_limited
 
     feet = np.array([[0.3, 0.1, 0.0], [0.3, -0.1, 0.0], [-0.3, 0.1, 0.0], [-0.3, -0.1, 0.0]])
     com, weight = np.array([0.05, 0.0, 0.5]), 100.0

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from conftest import IN_PLACE_SPEED, need_shared, shared_files, shared_params
 
-from bipedsim.control.reference import (
+from bipedsim.control.humanoid.sources import (
     CYCLE_COST_TOLERANCE,
     CYCLE_STANCE_FLOAT_M,
     CYCLE_STEADY_SPEED,
@@ -96,7 +96,7 @@ def test_the_cycle_of_every_shared_walk_is_a_steady_walk(path) -> None:
     """Every shared human clip that travels loops a walk: strikes alternating, steps alike in time and
     speed, stance feet on the floor, faster than the whole clip's average (a start-walk-stop clip
     loops its walking part, not its start or stop), with no standing frame in it."""
-    from bipedsim.control.reference import clip_cycle, clip_speed
+    from bipedsim.control.humanoid.sources import clip_cycle, clip_speed
     from bipedsim.model.gait import smooth
     from bipedsim.sim.runner import load_scenario
 
@@ -121,7 +121,7 @@ def test_a_clip_without_a_clean_cycle_says_so() -> None:
     """CMU 131 has one and a half cycles of walking between a leap and a stop: its best loop's ends differ
     by 0.885 rad, and `bipedsim run` says the clip has no clean gait cycle; every other shared walk's loop
     closes within :data:`CYCLE_SEAM_WARN` and gets no such line."""
-    from bipedsim.control.reference import CYCLE_SEAM_WARN, describe_clip
+    from bipedsim.control.humanoid.sources import CYCLE_SEAM_WARN, describe_clip
     from bipedsim.sim.runner import load_scenario
 
     need_shared()
@@ -156,7 +156,7 @@ def test_a_clip_with_one_right_strike_loops_from_left_strike_to_left_strike(tmp_
     import mujoco
     from conftest import SHARED_BVH, need_shared
 
-    from bipedsim.control.reference import clip_cycle
+    from bipedsim.control.humanoid.sources import clip_cycle
     from bipedsim.motion.bvh import read_bvh, write_bvh
     from bipedsim.sim.rollout import RolloutSpec
     from bipedsim.sim.runner import load_scenario, run_scenario

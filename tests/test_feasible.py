@@ -84,7 +84,7 @@ def test_blend_zero_keeps_the_clip_and_the_upper_body_is_always_kept() -> None:
 
 
 def test_controller_key_switches_it_on_and_is_checked(tmp_path) -> None:
-    from bipedsim.control.config import load_controller
+    from bipedsim.control.settings import load_controller
 
     good = tmp_path / "f.yaml"
     good.write_text("reference: {feasible: true, blend: 0.5}\n")

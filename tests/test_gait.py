@@ -172,7 +172,7 @@ def test_shared_walk_tracked_20s_at_70_percent_of_its_speed(name: str) -> None:
     *Soft soles*: CMU 02_01 0.84-0.88 then, 0.93 now; CMU 12_03 1.45-1.46 then, 1.28-1.32 now, overshooting)."""
     import numpy as np
 
-    from bipedsim.control.reference import clip_speed
+    from bipedsim.control.humanoid.sources import clip_speed
     from bipedsim.sim.runner import load_scenario, run_seeds
 
     need_shared()

@@ -11,7 +11,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from bipedsim.control import CONTROLLERS, Controller, CreatureController, SimbiconController
-from bipedsim.control.creature import quat_error_rotvecs
+from bipedsim.control.creature.controller import quat_error_rotvecs
 from bipedsim.data import HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.errors import ConfigError
 from bipedsim.sim.push import Push

@@ -88,7 +88,7 @@ def test_a_walk_in_place_is_tracked(name: str, tmp_path: Path) -> None:
     """The CMU 02_02 walks written in place (a game export's layout) walk 20 s on seeds 0-2 at >= 60 % of
     the rebuilt clip's speed (0.69 and 0.71 by the median; they fell at 1.0 and 1.3 s with the travel
     rebuilt from the lowest foot joint alone; docs/controller.md, *The same walks in other layouts*)."""
-    from bipedsim.control.reference import clip_speed
+    from bipedsim.control.humanoid.sources import clip_speed
     from bipedsim.sim.runner import load_scenario, run_seeds
 
     path = _variant(name, "in_place", tmp_path)
@@ -278,7 +278,7 @@ def test_game_rig_layouts_build_the_same_humanoid(name: str, kind: str, tmp_path
     five had stopped at a bone of no length (a rig prefix hiding the names, a foot or head End Site on
     its joint); four Mixamo exports padded with a held pose had hidden their loop (``held_tail``):
     docs/controller.md, *Walks from thirteen more repositories*."""
-    from bipedsim.control.simbicon import leg_length
+    from bipedsim.control.humanoid.simbicon import leg_length
     from bipedsim.sim.runner import load_scenario
 
     src = shared_or_standin(f"human/{name}.bvh")

@@ -496,7 +496,7 @@ def test_a_toe_without_a_tip_reaches_a_person_s_foot_length(tmp_path: Path) -> N
     toe end sites (Bandai-Namco's and the Holden CMU layouts have them): the sole reaches, heel to toe
     tip, ``foot_length_share`` x the height (the legs over ``leg_share``: 0.152 H in Winter's table),
     where the toe box used to stop at its 3 cm minimum (a 17 cm foot on a 1.63 m body)."""
-    from bipedsim.control.simbicon import leg_length
+    from bipedsim.control.humanoid.simbicon import leg_length
     from bipedsim.model.humanoid import toes_note
     from bipedsim.motion import load_bvh
 

@@ -10,9 +10,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from bipedsim.control.config import ModulationConfig, StanceAnkleConfig, SwingFootConfig
-from bipedsim.control.modulation import stance_tilt, swing_foot_ik, two_link
-from bipedsim.control.simbicon import SimbiconController, gait_source
+from bipedsim.control.humanoid.modulation import stance_tilt, swing_foot_ik, two_link
+from bipedsim.control.humanoid.simbicon import SimbiconController, gait_source
+from bipedsim.control.settings import ModulationConfig, StanceAnkleConfig, SwingFootConfig
 from bipedsim.sim.runner import load_scenario
 
 
@@ -121,7 +121,7 @@ def test_auto_modulation_is_on_for_a_capture_and_off_for_the_built_in_walk() -> 
     walk generated for it; the resolved switches are what the controller and outcome.json see."""
     from conftest import SHARED_BVH, need_shared
 
-    from bipedsim.control.config import ControllerConfig, for_reference
+    from bipedsim.control.settings import ControllerConfig, for_reference
     from bipedsim.sim.runner import load_scenario
 
     d = ControllerConfig()

@@ -1,7 +1,7 @@
 """Heading and course control: the body walks where the reference walks.
 
-The law (``balance.course``, control/simbicon.py ``SimbiconController._steer``): the COM's lateral offset e from
-the reference's own course (its cycle-averaged path, looped with the clip's per-cycle motion) turns the
+The law (``balance.course``, control/humanoid/simbicon.py ``SimbiconController._steer``): the COM's lateral
+offset e from the reference's own course (its cycle-averaged path, looped with the clip's per-cycle motion) turns the
 torso law's heading target, ``h_ref + clamp(-k_y e_b - k_v e_dot, +-max_turn)`` with e_b the offset beyond a
 deadband. These tests check the law at equation level, the course and the tracker on synthetic paths, and
 the walks: the default walk holds the reference's line for 60 s, a veering reference is followed, and the
@@ -20,11 +20,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from bipedsim.config import from_dict, to_dict
-from bipedsim.control.balance import beyond, course_turn
-from bipedsim.control.config import ControllerConfig, load_controller, merged
-from bipedsim.control.reference import ClipSource, Course, CourseTracker, GaitSource, Hinges, clip_course
-from bipedsim.control.simbicon import SimbiconController as Controller
-from bipedsim.control.simbicon import gait_source
+from bipedsim.control.humanoid.balance import beyond, course_turn
+from bipedsim.control.humanoid.simbicon import SimbiconController as Controller
+from bipedsim.control.humanoid.simbicon import gait_source
+from bipedsim.control.humanoid.sources import ClipSource, Course, CourseTracker, GaitSource, Hinges, clip_course
+from bipedsim.control.settings import ControllerConfig, load_controller, merged
 from bipedsim.errors import ConfigError
 from bipedsim.sim.rollout import RolloutSpec, rollout
 from bipedsim.sim.runner import load_scenario, run_scenario

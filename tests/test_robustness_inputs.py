@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from bipedsim.cli import main
-from bipedsim.control.config import MAX_CONTROL_DT, ControllerConfig, load_controller
+from bipedsim.control.settings import MAX_CONTROL_DT, ControllerConfig, load_controller
 from bipedsim.errors import ConfigError
 
 

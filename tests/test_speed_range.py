@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from bipedsim.control.balance import froude, sagittal_cd
-from bipedsim.control.config import BalanceConfig, PlaneGains
+from bipedsim.control.humanoid.balance import froude, sagittal_cd
+from bipedsim.control.settings import BalanceConfig, PlaneGains
 from bipedsim.motion.bvh import bvh_text
 from bipedsim.motion.gaitgen import WalkParams, walk_bvh_motion
 from bipedsim.sim.rollout import RolloutSpec

@@ -26,10 +26,10 @@ from conftest import (
     without_modulation,
 )
 
-from bipedsim.control.balance import yaw_within
-from bipedsim.control.config import ControllerConfig
-from bipedsim.control.simbicon import SimbiconController, gait_source
-from bipedsim.control.torso import torso_heading, torso_torque
+from bipedsim.control.humanoid.balance import yaw_within
+from bipedsim.control.humanoid.simbicon import SimbiconController, gait_source
+from bipedsim.control.humanoid.torso import torso_heading, torso_torque
+from bipedsim.control.settings import ControllerConfig
 from bipedsim.sim.runner import load_scenario
 
 

@@ -15,7 +15,7 @@ import pytest
 import yaml
 
 from bipedsim.cli import main
-from bipedsim.control.config import load_controller
+from bipedsim.control.settings import load_controller
 from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.experiments.tune import Objective, load_tune, run_tune
 from bipedsim.experiments.tune import cmaes as tune_cmaes
@@ -470,7 +470,7 @@ def test_each_candidate_is_scored_on_the_reference_its_own_settings_prepare() ->
     settings force the feasible reference gets that clip, not the one built for the default settings."""
     import dataclasses
 
-    from bipedsim.control.config import ControllerConfig
+    from bipedsim.control.settings import ControllerConfig
     from bipedsim.experiments.tune import evaluate
 
     default = ControllerConfig()

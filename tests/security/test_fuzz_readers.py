@@ -250,7 +250,7 @@ def _info(p: Path) -> None:
 
 def _reader(name: str) -> Callable[[Path], Any]:
     """The function that reads a file of kind ``name``, as the command line calls it."""
-    from bipedsim.control.config import load_controller
+    from bipedsim.control.settings import load_controller
     from bipedsim.experiments.experiment import load_experiment, load_suite
     from bipedsim.experiments.tune.spec import load_tune
     from bipedsim.model.gait import load_events

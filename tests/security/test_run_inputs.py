@@ -154,7 +154,7 @@ def test_creature_settings_in_a_humanoids_controller_file_are_refused(tmp_path: 
 
 def test_a_file_restating_the_defaults_serves_both_kinds(tmp_path: Path) -> None:
     """controllers/default.yaml names every key of both kinds, each at its default: nothing is ignored."""
-    from bipedsim.control.config import load_controller, unread_settings
+    from bipedsim.control.settings import load_controller, unread_settings
 
     cfg = load_controller(REPO / "controllers" / "default.yaml")
     assert unread_settings(cfg, "creature") == [] and unread_settings(cfg, "humanoid") == []
@@ -321,7 +321,7 @@ def test_run_length_is_bounded(tmp_path: Path, capsys: pytest.CaptureFixture[str
 def test_absurd_controller_settings_are_refused(tmp_path: Path, text: str, key: str) -> None:
     """Each of these had ended in a traceback (an overflow, an array too large, NaN targets) or scaled the
     controller by an absurd factor."""
-    from bipedsim.control.config import load_controller
+    from bipedsim.control.settings import load_controller
 
     ctl = _write(tmp_path / "ctl.yaml", text)
     with pytest.raises(ConfigError, match="ctl.yaml: " + key.replace(".", r"\.")):

@@ -46,7 +46,7 @@ def cmd_convert(args: argparse.Namespace) -> int:
 
 # ---------------------------------------------------------------------- config, run and render
 def cmd_config(args: argparse.Namespace) -> int:
-    from bipedsim.control.config import controller_yaml
+    from bipedsim.control.settings import controller_yaml
 
     sys.stdout.write(controller_yaml(args.controller))
     return 0

@@ -18,7 +18,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.balance import heading_of
+from bipedsim.control.humanoid.balance import heading_of
 
 FloatArray = npt.NDArray[np.float64]
 

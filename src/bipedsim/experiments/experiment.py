@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from bipedsim import config
-from bipedsim.control.config import check_settings_for_body, load_controller, unread_settings
+from bipedsim.control.settings import check_settings_for_body, load_controller, unread_settings
 from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.model.build import build_model

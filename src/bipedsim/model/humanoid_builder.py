@@ -98,7 +98,7 @@ class _HumanoidBuilder:
     def _group_hinges(self, prefix: str, group: str, bone: FloatArray, mirror: bool = False, *,
                       spec: JointSpec | None = None, parent_bone: FloatArray | None = None) -> list[JointPlan]:
         """The hinges of one joint group, with the group's spec (unless ``spec``). They carry no PD gains
-        (0): a humanoid's are its controller's (``pd.gains``, :data:`bipedsim.control.config.DEFAULT_GAINS`)."""
+        (0): a humanoid's are its controller's (``pd.gains``, :data:`bipedsim.control.settings.DEFAULT_GAINS`)."""
         spec = spec if spec is not None else self.profile.joints[group]
         return _hinges(prefix, spec, bone, mirror, 0.0, 0.0, group, parent_bone=parent_bone)
 
@@ -396,7 +396,7 @@ class _HumanoidBuilder:
     # ----------------------------------------------------------------- whole body
     def leg_length(self) -> float:
         """The legs' length (m): hip to knee plus knee to ankle in the rest pose, the two sides' mean
-        (:func:`bipedsim.control.simbicon.leg_length` on the built model)."""
+        (:func:`bipedsim.control.humanoid.simbicon.leg_length` on the built model)."""
         total = 0.0
         for side in ("left", "right"):
             leg = self.hm.legs[side]

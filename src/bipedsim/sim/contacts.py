@@ -2,7 +2,7 @@
 
 :class:`StanceContacts` is passed to :func:`~bipedsim.sim.runner.run_scenario` (``hooks=[...]``) with
 a controller that has ``contact_state(data, t)`` (a creature's planned gait,
-:class:`~bipedsim.control.creature_gait.PlannedGait`). From ``after_s`` on it counts, per
+:class:`~bipedsim.control.creature.gait.PlannedGait`). From ``after_s`` on it counts, per
 leg and control step, whether the leg is planned in stance and whether it touches the floor, and
 reports:
 

@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.reference import clip_speed, describe_clip, step_time
+from bipedsim.control.humanoid.sources import clip_speed, describe_clip, step_time
 from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.files import (

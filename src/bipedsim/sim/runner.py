@@ -12,7 +12,8 @@ import numpy as np
 
 from bipedsim.config import to_dict
 from bipedsim.control import CONTROLLERS, Controller, CreatureControlConfig
-from bipedsim.control.config import (
+from bipedsim.control.humanoid.simbicon import body_mass, leg_length
+from bipedsim.control.settings import (
     ControllerConfig,
     check_settings_for_body,
     describe_body_scale,
@@ -20,7 +21,6 @@ from bipedsim.control.config import (
     for_reference,
     load_controller,
 )
-from bipedsim.control.simbicon import body_mass, leg_length
 from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
 from bipedsim.errors import ConfigError
 from bipedsim.files import atomic_write_json, versions
@@ -95,7 +95,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     ``support`` (root support, or the section's ``support``) is a creature's. ``scale``, ``up``,
     ``positions`` and ``fps`` (the capture's frame rate) say how to read ``bvh``
     (:func:`~bipedsim.motion.bvh.read_bvh`). A controller file that changes settings the body's controller
-    never reads (:func:`~bipedsim.control.config.check_settings_for_body`) or a humanoid's ``control_dt``
+    never reads (:func:`~bipedsim.control.settings.check_settings_for_body`) or a humanoid's ``control_dt``
     that is no whole number of physics steps (:func:`~bipedsim.sim.rollout.control_every`) is refused,
     naming the file and the keys."""
     profile = AUTO if profile is None else profile
@@ -153,9 +153,9 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
 
 def settings_for(sc: Scenario, settings: ControllerConfig) -> ControllerConfig:
     """A humanoid controller's ``settings`` made for this scenario's body and reference as
-    :func:`load_scenario` makes its own: scaled to the body (:func:`~bipedsim.control.config.for_body`)
+    :func:`load_scenario` makes its own: scaled to the body (:func:`~bipedsim.control.settings.for_body`)
     and the ``"auto"`` modulation switches resolved for its reference
-    (:func:`~bipedsim.control.config.for_reference`). Both leave settings already made so unchanged."""
+    (:func:`~bipedsim.control.settings.for_reference`). Both leave settings already made so unchanged."""
     m = sc.built.model
     return for_reference(for_body(settings, leg_length(m), body_mass(m)), "feasible" in sc.extra)
 

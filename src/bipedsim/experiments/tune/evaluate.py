@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from bipedsim import config
-from bipedsim.control.config import ControllerConfig
+from bipedsim.control.settings import ControllerConfig
 from bipedsim.experiments.experiment import Row
 from bipedsim.experiments.tune.objective import TERMS, Cadence, GaitMeter, Objective, push_terms, walk_terms
 from bipedsim.experiments.tune.spec import CONFIG_CLASSES

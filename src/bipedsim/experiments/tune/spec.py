@@ -16,8 +16,8 @@ from pathlib import Path
 from typing import Any
 
 from bipedsim import config
-from bipedsim.control.config import ControllerConfig, load_controller
-from bipedsim.control.creature import CreatureControlConfig
+from bipedsim.control.creature.controller import CreatureControlConfig
+from bipedsim.control.settings import ControllerConfig, load_controller
 from bipedsim.errors import ConfigError
 from bipedsim.experiments.experiment import Experiment, ExperimentSpec, check_experiment, resolve_relative
 from bipedsim.experiments.tune.objective import Objective

@@ -1,5 +1,5 @@
 """The creature controller's settings (one source of defaults), read from the ``creature:`` section of a
-controller YAML (:func:`~bipedsim.control.config.load_controller`): root support and the legged
+controller YAML (:func:`~bipedsim.control.settings.load_controller`): root support and the legged
 balance's dimensionless gains (scaled by the body's mass, size and gravity in the controllers).
 
 Kept apart from the controllers so the YAML loader can import them without importing the controllers."""
@@ -45,11 +45,11 @@ class CreatureBalanceConfig:
     velocity_feedforward: bool = True
     #: window (s) over which the clip's root velocity is averaged for the speed target
     velocity_window_s: float = field(default=0.5, metadata={"gt": 0.0, "max": MAX_WINDOW_S})
-    # ---- the planned gait (``gait: planned``, control/creature_gait.py); ``clip``: the clip-timed balance
-    # (control/creature_balance.py)
+    # ---- the planned gait (``gait: planned``, control/creature/gait.py); ``clip``: the clip-timed balance
+    # (control/creature/balance.py)
     gait: str = field(default="planned", metadata={"choices": ("planned", "clip")})
     #: walking speed as a fraction of the clip's mean root speed, at most (the legs' measured reach may
-    #: lower it: control/creature_reach.py)
+    #: lower it: control/creature/reach.py)
     speed_fraction: float = field(default=0.8, metadata={"min": 0.0})
     #: the legs' swings in one cycle, summed, as a share of the cycle (each leg swings share/n: on four
     #: legs 0.9/4, a duty factor of 0.775); a shorter total swing shortens each swing and, where the
@@ -176,9 +176,9 @@ class CreatureControlConfig:
     support_kp: float = field(default=20.0, metadata={"min": 0.0})
     support_kd: float = field(default=2.0, metadata={"min": 0.0})
     loop: bool = True
-    #: the legged balance (control/creature_gait.py, or with ``gait: clip`` control/creature_balance.py)
+    #: the legged balance (control/creature/gait.py, or with ``gait: clip`` control/creature/balance.py)
     balance: CreatureBalanceConfig = field(default_factory=CreatureBalanceConfig)
-    #: a two-legged creature's planned gait (control/creature_biped.py): its timing, and the settings of
+    #: a two-legged creature's planned gait (control/creature/biped.py): its timing, and the settings of
     #: ``balance`` that it replaces on two legs
     biped: BipedGaitConfig = field(default_factory=BipedGaitConfig)
 

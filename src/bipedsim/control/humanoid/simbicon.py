@@ -4,17 +4,17 @@ interface): PD tracking + gait FSM + SIMBICON balance, with the gain fade and re
 One call maps (model, data, time) to actuator controls. Per control step:
 
 1. The gait clock and the FSM advance; a foot strike is matched to the reference's (resynchronisation),
-   and the reference frame F moves on (:mod:`~bipedsim.control.stepping`).
+   and the reference frame F moves on (:mod:`~bipedsim.control.humanoid.stepping`).
 2. PD tracking (eq. 1) of every hinge toward the reference, with the gravity feedforward
-   (:mod:`~bipedsim.control.tracking`).
+   (:mod:`~bipedsim.control.humanoid.tracking`).
 3. Balance, when enabled: the course law steers the heading target, the torso law computes the pelvis's
-   world torque (:mod:`~bipedsim.control.torso`); eq. 6's feedback (:mod:`~bipedsim.control.feedback`)
-   and the swing-foot IK (:mod:`~bipedsim.control.modulation`) turn the swing thigh's world target; the
-   feet aim at their world targets (:mod:`~bipedsim.control.feet`); the stance hip takes the rest, shared
-   by the feet's loads (eq. 2-5, :mod:`~bipedsim.control.hips`); velocity tuning's virtual force last.
+   world torque (:mod:`~bipedsim.control.humanoid.torso`); eq. 6's feedback (:mod:`~bipedsim.control.humanoid.feedback`)
+   and the swing-foot IK (:mod:`~bipedsim.control.humanoid.modulation`) turn the swing thigh's world target; the
+   feet aim at their world targets (:mod:`~bipedsim.control.humanoid.feet`); the stance hip takes the rest, shared
+   by the feet's loads (eq. 2-5, :mod:`~bipedsim.control.humanoid.hips`); velocity tuning's virtual force last.
 4. Torque limits, and the actuators' controls.
 
-The constants every step reads are one frozen :class:`~bipedsim.control.humanoid_tables.HumanoidTables`
+The constants every step reads are one frozen :class:`~bipedsim.control.humanoid.tables.HumanoidTables`
 (``self.tables``), built at construction.
 """
 
@@ -28,17 +28,24 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.control.base import Controller, register
-from bipedsim.control.config import ControllerConfig, for_body
-from bipedsim.control.feedback import feedback_angles, heading_frame_com, virtual_force
-from bipedsim.control.feet import feet_world
-from bipedsim.control.fsm import GaitFSM
-from bipedsim.control.hips import split_hip_torques, swing_hip_torques
-from bipedsim.control.humanoid_tables import HumanoidTables, build_tables
-from bipedsim.control.modulation import stance_tilt, swing_foot_ik
-from bipedsim.control.reference import SIDES, ClipSource, GaitSource, Hinges, PoseSource
-from bipedsim.control.stepping import Playback, ResyncEvent, advance, resync, tempo_rate
-from bipedsim.control.torso import CourseSteering, torso_heading, torso_torque
-from bipedsim.control.tracking import Drive, fade_scale, gravity_feedforward, limit_torques, pd_torques, set_controls
+from bipedsim.control.humanoid.feedback import feedback_angles, heading_frame_com, virtual_force
+from bipedsim.control.humanoid.feet import feet_world
+from bipedsim.control.humanoid.fsm import GaitFSM
+from bipedsim.control.humanoid.hips import split_hip_torques, swing_hip_torques
+from bipedsim.control.humanoid.modulation import stance_tilt, swing_foot_ik
+from bipedsim.control.humanoid.sources import SIDES, ClipSource, GaitSource, Hinges, PoseSource
+from bipedsim.control.humanoid.stepping import Playback, ResyncEvent, advance, resync, tempo_rate
+from bipedsim.control.humanoid.tables import HumanoidTables, build_tables
+from bipedsim.control.humanoid.torso import CourseSteering, torso_heading, torso_torque
+from bipedsim.control.humanoid.tracking import (
+    Drive,
+    fade_scale,
+    gravity_feedforward,
+    limit_torques,
+    pd_torques,
+    set_controls,
+)
+from bipedsim.control.settings import ControllerConfig, for_body
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
@@ -210,7 +217,7 @@ class SimbiconController(Controller):
             self.drive.scale_gains(scale)
 
     def _resync(self, foot: str, t: float) -> None:
-        """A strike of ``foot`` at time ``t`` (:func:`~bipedsim.control.stepping.resync`)."""
+        """A strike of ``foot`` at time ``t`` (:func:`~bipedsim.control.humanoid.stepping.resync`)."""
         self.frame = resync(self.playback, self.source, self.cfg.resync, self.frame, foot, t)
 
     # ------------------------------------------------------------------ the control law
@@ -305,7 +312,7 @@ class SimbiconController(Controller):
 
     def _torso_heading(self, data: mujoco.MjData, forces: dict[str, float]) -> FloatArray:
         """The torso law's heading rotation: the heading target's, within ``balance.stance_yaw_limit`` of
-        the loaded stance foot's yaw (:func:`~bipedsim.control.torso.torso_heading`)."""
+        the loaded stance foot's yaw (:func:`~bipedsim.control.humanoid.torso.torso_heading`)."""
         lim, stance = self.cfg.balance.stance_yaw_limit, self.fsm.stance
         loaded = lim is not None and forces[stance] > 0.0
         foot_ref = self.source.foot_target(self.frame, self.fsm.state, stance) if loaded else None

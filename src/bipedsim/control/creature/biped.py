@@ -1,5 +1,5 @@
 """The planned gait's rules on two legs (a bird, a bred biped): a dynamic walk where the quasi-static
-one of :class:`~bipedsim.control.creature_many_legs.ManyLegs` cannot stand.
+one of :class:`~bipedsim.control.creature.many_legs.ManyLegs` cannot stand.
 
 On four legs three feet stay down while one swings: the quasi-static plan rests the body on a support
 polygon. On two legs the support while a leg swings is one foot, so the body is an inverted pendulum
@@ -35,13 +35,13 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_clock import GaitClock
-from bipedsim.control.creature_config import BipedGaitConfig, CreatureBalanceConfig
-from bipedsim.control.creature_frames import axis_heading, rot_z
-from bipedsim.control.creature_legs import LegSet
-from bipedsim.control.creature_planner import GaitPlanner
-from bipedsim.control.creature_reference import LoopedReference
-from bipedsim.control.creature_tracking import CreatureBody, ball_joints
+from bipedsim.control.creature.clock import GaitClock
+from bipedsim.control.creature.frames import axis_heading, rot_z
+from bipedsim.control.creature.legs import LegSet
+from bipedsim.control.creature.planner import GaitPlanner
+from bipedsim.control.creature.reference import LoopedReference
+from bipedsim.control.creature.settings import BipedGaitConfig, CreatureBalanceConfig
+from bipedsim.control.creature.tracking import CreatureBody, ball_joints
 from bipedsim.model.plan import BodyPlanSet
 
 #: a sole's orientation is measured over the loop's frames where it is lowest: this percentile of its height

@@ -14,10 +14,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bipedsim.control.config import ControllerConfig
-from bipedsim.control.fsm import GaitFSM
-from bipedsim.control.humanoid_config import ResyncConfig, TempoConfig
-from bipedsim.control.reference import GaitSource
+from bipedsim.control.humanoid.fsm import GaitFSM
+from bipedsim.control.humanoid.settings import ResyncConfig, TempoConfig
+from bipedsim.control.humanoid.sources import GaitSource
+from bipedsim.control.settings import ControllerConfig
 
 
 @dataclass

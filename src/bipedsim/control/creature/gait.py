@@ -4,20 +4,20 @@ by inverse kinematics on the built body every few milliseconds, instead of track
 angles (a pose that need not be feasible on the built body). Its parts:
 
 - the **neutral stance** measured from the clip and posed on the body
-  (:mod:`~bipedsim.control.creature_stance`), and the legs' **reach** from it
-  (:mod:`~bipedsim.control.creature_reach`);
-- the **gait clock** measured from the clip (:mod:`~bipedsim.control.creature_clock`), its stride held
+  (:mod:`~bipedsim.control.creature.stance`), and the legs' **reach** from it
+  (:mod:`~bipedsim.control.creature.reach`);
+- the **gait clock** measured from the clip (:mod:`~bipedsim.control.creature.clock`), its stride held
   to the reach;
-- the **plan** in time (:mod:`~bipedsim.control.creature_planner`): trunk path and support shift, feet,
-  legs by IK (:mod:`~bipedsim.control.creature_ik`);
+- the **plan** in time (:mod:`~bipedsim.control.creature.planner`): trunk path and support shift, feet,
+  legs by IK (:mod:`~bipedsim.control.creature.ik`);
 - the **control step** here: the legs' joints PD-tracked toward the plan (a swinging leg softer, its
   planned velocity fed forward, its own weight carried), and gravity, the body's position and velocity
   and its attitude held by a virtual wrench through the legs that touch the floor
-  (:meth:`~bipedsim.control.creature_legs.LegSet.stance_torques`).
+  (:meth:`~bipedsim.control.creature.legs.LegSet.stance_torques`).
 
 What differs with the number of legs is a strategy chosen at construction
-(:class:`~bipedsim.control.creature_many_legs.ManyLegs`, or two legs'
-:class:`~bipedsim.control.creature_biped.BipedRules`). The clip's non-leg joints (spine, neck, tail) are
+(:class:`~bipedsim.control.creature.many_legs.ManyLegs`, or two legs'
+:class:`~bipedsim.control.creature.biped.BipedRules`). The clip's non-leg joints (spine, neck, tail) are
 held at the neutral pose.
 """
 
@@ -28,18 +28,18 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_balance import balance_metrics
-from bipedsim.control.creature_clock import GaitClock, forward_axis
-from bipedsim.control.creature_config import CreatureBalanceConfig
-from bipedsim.control.creature_forces import zmp_limited
-from bipedsim.control.creature_frames import axis_heading
-from bipedsim.control.creature_ik import LegIK
-from bipedsim.control.creature_legs import LegSet, geom_bottom
-from bipedsim.control.creature_planner import GaitPlanner, LegRules
-from bipedsim.control.creature_reach import Reach, measure_reach, measure_reach_out
-from bipedsim.control.creature_reference import LoopedReference
-from bipedsim.control.creature_stance import Stance, body_axis, measure_stance
-from bipedsim.control.creature_tracking import CreatureBody, Tracking
+from bipedsim.control.creature.balance import balance_metrics
+from bipedsim.control.creature.clock import GaitClock, forward_axis
+from bipedsim.control.creature.forces import zmp_limited
+from bipedsim.control.creature.frames import axis_heading
+from bipedsim.control.creature.ik import LegIK
+from bipedsim.control.creature.legs import LegSet, geom_bottom
+from bipedsim.control.creature.planner import GaitPlanner, LegRules
+from bipedsim.control.creature.reach import Reach, measure_reach, measure_reach_out
+from bipedsim.control.creature.reference import LoopedReference
+from bipedsim.control.creature.settings import CreatureBalanceConfig
+from bipedsim.control.creature.stance import Stance, body_axis, measure_stance
+from bipedsim.control.creature.tracking import CreatureBody, Tracking
 
 #: plans made at a rollout's start, each warm-starting the legs' IK from the last
 START_PLANS = 6

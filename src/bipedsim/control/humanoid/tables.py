@@ -4,7 +4,7 @@
 to the body) and fixes everything the control step looks up: per-hinge gains, torque limits and target
 ranges, the hips' and ankles' hinges, the legs' lengths, the feet's bodies and touch sensors, and the
 switches and gains the config implies. Indices are into the model's hinge list
-(:class:`~bipedsim.control.reference.Hinges`); where the hinges a step reads are contiguous they are
+(:class:`~bipedsim.control.humanoid.sources.Hinges`); where the hinges a step reads are contiguous they are
 slices (a view, no gather). The gains and target ranges are held as arrays for the whole-body vector
 maths and as plain-float lists for the few hinges the balance laws read one at a time (a numpy element
 costs more to read than the arithmetic on it).
@@ -20,10 +20,10 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.balance import sagittal_cd
-from bipedsim.control.config import ControllerConfig
-from bipedsim.control.humanoid_config import DEFAULT_GAINS
-from bipedsim.control.reference import SIDES, GaitSource, Hinges, foot_points
+from bipedsim.control.humanoid.balance import sagittal_cd
+from bipedsim.control.humanoid.settings import DEFAULT_GAINS
+from bipedsim.control.humanoid.sources import SIDES, GaitSource, Hinges, foot_points
+from bipedsim.control.settings import ControllerConfig
 from bipedsim.errors import ConfigError
 from bipedsim.model.plan import BodyPlanSet, JointPlan
 from bipedsim.model.retarget import hinge_basis
@@ -152,7 +152,7 @@ def build_tables(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, c
         cd_sagittal=sagittal_cd(b, speed, leg, -float(model.opt.gravity[2])), kv_sagittal=kv_sagittal,
         velocity_on=b.enabled and kv_sagittal > 0, roll_kp=b.torso_kp if b.roll_kp is None else b.roll_kp,
         course_on=b.enabled and b.course.enabled,
-        # "auto" is resolved for the reference when a scenario is loaded (control.config.for_reference);
+        # "auto" is resolved for the reference when a scenario is loaded (control.settings.for_reference);
         # left unresolved, it is off
         ik_on=cfg.modulation.swing_foot.enabled is True and source.swing_leg(source.loop_start, "left") is not None,
         ankle_feedback_on=cfg.modulation.stance_ankle.enabled is True)

@@ -13,9 +13,9 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.balance import euler_from_matrix
-from bipedsim.control.humanoid_tables import HumanoidTables
-from bipedsim.control.reference import SIDES, GaitSource
+from bipedsim.control.humanoid.balance import euler_from_matrix
+from bipedsim.control.humanoid.sources import SIDES, GaitSource
+from bipedsim.control.humanoid.tables import HumanoidTables
 
 FloatArray = npt.NDArray[np.float64]
 

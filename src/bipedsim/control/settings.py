@@ -1,8 +1,8 @@
 """Controller configuration: ``controllers/*.yaml`` validated into typed objects.
 
 The defaults live here, once: the dataclasses' defaults *are* the default controller (the humanoid's
-sections in :mod:`~bipedsim.control.humanoid_config`, the creature's in
-:mod:`~bipedsim.control.creature_config`, both importable from here).
+sections in :mod:`~bipedsim.control.humanoid.settings`, the creature's in
+:mod:`~bipedsim.control.creature.settings`, both importable from here).
 ``controllers/default.yaml`` is generated from them (``bipedsim config``, :func:`controller_yaml`; a test
 keeps the two equal). A controller file is layered over these defaults: a file that names only
 ``pd.gains.hip.kp`` is the default controller with that one value changed (mappings are merged key by
@@ -23,8 +23,8 @@ from typing import Any
 import yaml
 
 from bipedsim import config
-from bipedsim.control.creature_config import CreatureControlConfig
-from bipedsim.control.humanoid_config import (
+from bipedsim.control.creature.settings import CreatureControlConfig
+from bipedsim.control.humanoid.settings import (
     DEFAULT_GAINS,
     PD_MODES,
     BalanceConfig,
@@ -111,7 +111,7 @@ class ControllerConfig:
     pose_gait: PoseGait = field(default_factory=PoseGait)
     #: the body the values above are for, scaled to the body run (:func:`for_body`)
     body: BodyScaleConfig = field(default_factory=BodyScaleConfig)
-    #: a creature's controller (control/creature_gait.py): used instead of the sections above when the
+    #: a creature's controller (control/creature/gait.py): used instead of the sections above when the
     #: body is a creature
     creature: CreatureControlConfig = field(default_factory=CreatureControlConfig)
 
@@ -148,7 +148,7 @@ YAML_WIDTH = 120
 #: what :func:`controller_yaml` writes above the default controller
 DEFAULT_YAML_HEADER = """\
 # The default controller: every key with its default value. Generated from the typed settings in
-# src/bipedsim/control/config.py by `bipedsim config > controllers/default.yaml`; do not edit (a test
+# src/bipedsim/control/settings.py by `bipedsim config > controllers/default.yaml`; do not edit (a test
 # keeps the two equal). What each term computes: docs/controller.md. A controller file of your own names
 # only the keys it changes; `bipedsim config FILE` prints it merged over these defaults.
 """

@@ -16,8 +16,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_config import CreatureBalanceConfig
-from bipedsim.control.creature_legs import LegSet
+from bipedsim.control.creature.legs import LegSet
+from bipedsim.control.creature.settings import CreatureBalanceConfig
 from bipedsim.model.clip import ReferenceClip
 
 #: a clip whose root travels slower than this (m/s, mean over the loop) walks in place

@@ -1,6 +1,6 @@
 """PD tracking of the humanoid's hinges (eq. 1), its gravity feedforward, torque limits and actuation.
 
-Torques are N*m per hinge, in the order of :class:`~bipedsim.control.reference.Hinges`. The kp
+Torques are N*m per hinge, in the order of :class:`~bipedsim.control.humanoid.sources.Hinges`. The kp
 (theta_d - theta) term runs in MuJoCo's position servos (``pd.servo``): each control step sets the servo
 target u = theta + tau / kp that gives the controller's torque tau now, and the servo keeps acting as a
 spring between control steps. With implicit damping (``pd.implicit_damping``) the -kd theta_dot term is
@@ -14,10 +14,10 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.config import ControllerConfig
-from bipedsim.control.humanoid_config import FadeConfig
-from bipedsim.control.humanoid_tables import HumanoidTables
-from bipedsim.control.reference import SIDES
+from bipedsim.control.humanoid.settings import FadeConfig
+from bipedsim.control.humanoid.sources import SIDES
+from bipedsim.control.humanoid.tables import HumanoidTables
+from bipedsim.control.settings import ControllerConfig
 
 FloatArray = npt.NDArray[np.float64]
 #: With ``pd.net_limit``: the joint speed (rad/s) up to which a servo's force range leaves room for the

@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_config import CreatureControlConfig
+from bipedsim.control.creature.settings import CreatureControlConfig
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet

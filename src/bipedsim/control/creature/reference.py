@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_legs import LegSet, geom_bottom
+from bipedsim.control.creature.legs import LegSet, geom_bottom
 from bipedsim.model.clip import ReferenceClip
 
 #: frames whose root stands lower than this fraction of the clip's median root height are not part of

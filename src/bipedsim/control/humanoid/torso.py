@@ -17,9 +17,9 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.balance import beyond, course_turn, heading_of, yaw_matrix, yaw_within
-from bipedsim.control.humanoid_config import BalanceConfig, CourseConfig
-from bipedsim.control.reference import Course, CourseTracker, GaitSource
+from bipedsim.control.humanoid.balance import beyond, course_turn, heading_of, yaw_matrix, yaw_within
+from bipedsim.control.humanoid.settings import BalanceConfig, CourseConfig
+from bipedsim.control.humanoid.sources import Course, CourseTracker, GaitSource
 
 FloatArray = npt.NDArray[np.float64]
 Vec3 = tuple[float, float, float]

@@ -1,17 +1,17 @@
 """The creature's controller (behind :class:`~bipedsim.control.base.Controller`), for any skeleton: one
 class that holds its parts, chosen at construction.
 
-- the **body** (:class:`~bipedsim.control.creature_tracking.CreatureBody`): its ball joints, gains,
+- the **body** (:class:`~bipedsim.control.creature.tracking.CreatureBody`): its ball joints, gains,
   limits, mass;
 - **PD tracking** of the clip on every ball joint, with the optional **root support**
-  (:class:`~bipedsim.control.creature_tracking.Tracking`): the whole control without a balance, and
+  (:class:`~bipedsim.control.creature.tracking.Tracking`): the whole control without a balance, and
   the control of every gait while the root is supported;
 - with a balance (``balance``; the registered controller always has one): the **legs**
-  (:class:`~bipedsim.control.creature_legs.LegSet`), the clip as their **reference** (looped,
-  re-levelled: :class:`~bipedsim.control.creature_reference.LoopedReference`) and the **gait** its
-  ``gait`` names -- the planned gait (:class:`~bipedsim.control.creature_gait.PlannedGait`, the
+  (:class:`~bipedsim.control.creature.legs.LegSet`), the clip as their **reference** (looped,
+  re-levelled: :class:`~bipedsim.control.creature.reference.LoopedReference`) and the **gait** its
+  ``gait`` names -- the planned gait (:class:`~bipedsim.control.creature.gait.PlannedGait`, the
   default; its rules by leg count: :func:`leg_rules`) or the clip-timed balance
-  (:class:`~bipedsim.control.creature_balance.ClipBalance`).
+  (:class:`~bipedsim.control.creature.balance.ClipBalance`).
 """
 
 from __future__ import annotations
@@ -20,15 +20,15 @@ import mujoco
 import numpy as np
 
 from bipedsim.control.base import Controller, FloatArray, register
-from bipedsim.control.creature_balance import ClipBalance
-from bipedsim.control.creature_biped import BipedRules
-from bipedsim.control.creature_config import CreatureBalanceConfig, CreatureControlConfig
-from bipedsim.control.creature_gait import PlannedGait
-from bipedsim.control.creature_legs import LegSet
-from bipedsim.control.creature_many_legs import ManyLegs
-from bipedsim.control.creature_planner import LegRules
-from bipedsim.control.creature_reference import LoopedReference
-from bipedsim.control.creature_tracking import CreatureBody, Tracking, quat_error_rotvecs
+from bipedsim.control.creature.balance import ClipBalance
+from bipedsim.control.creature.biped import BipedRules
+from bipedsim.control.creature.gait import PlannedGait
+from bipedsim.control.creature.legs import LegSet
+from bipedsim.control.creature.many_legs import ManyLegs
+from bipedsim.control.creature.planner import LegRules
+from bipedsim.control.creature.reference import LoopedReference
+from bipedsim.control.creature.settings import CreatureBalanceConfig, CreatureControlConfig
+from bipedsim.control.creature.tracking import CreatureBody, Tracking, quat_error_rotvecs
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
 
@@ -36,8 +36,8 @@ from bipedsim.model.plan import BodyPlanSet
 def leg_rules(plan: BodyPlanSet, body: CreatureBody, legs: LegSet, ref: LoopedReference,
               cfg: CreatureControlConfig) -> LegRules:
     """The planned gait's rules for these legs: two legs walk the dynamic gait of
-    :class:`~bipedsim.control.creature_biped.BipedRules` (``cfg.biped``), any other number the
-    quasi-static one of :class:`~bipedsim.control.creature_many_legs.ManyLegs`."""
+    :class:`~bipedsim.control.creature.biped.BipedRules` (``cfg.biped``), any other number the
+    quasi-static one of :class:`~bipedsim.control.creature.many_legs.ManyLegs`."""
     if len(legs) == 2:
         return BipedRules(plan, body, legs, ref, cfg.biped)
     return ManyLegs()

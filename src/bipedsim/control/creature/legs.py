@@ -17,8 +17,8 @@ import mujoco
 import numpy as np
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_forces import distribute_wrench, in_cone
-from bipedsim.control.creature_tracking import CreatureBody, ball_joints
+from bipedsim.control.creature.forces import distribute_wrench, in_cone
+from bipedsim.control.creature.tracking import CreatureBody, ball_joints
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature import Leg, creature_legs
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet

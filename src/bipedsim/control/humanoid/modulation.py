@@ -20,9 +20,9 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.balance import axis_rotation
-from bipedsim.control.humanoid_config import StanceAnkleConfig, SwingFootConfig
-from bipedsim.control.humanoid_tables import HumanoidTables
+from bipedsim.control.humanoid.balance import axis_rotation
+from bipedsim.control.humanoid.settings import StanceAnkleConfig, SwingFootConfig
+from bipedsim.control.humanoid.tables import HumanoidTables
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -32,7 +32,7 @@ def swing_foot_ik(sf: SwingFootConfig, t: HumanoidTables, data: mujoco.MjData, l
                   tau: FloatArray) -> float:
     """Swing-foot height by two-link IK: the reference's leg ``leg`` (ankle from hip, forward and up in the
     heading frame; the foot's height above the other foot) at ``phase`` (0-1 through the step) raised by
-    dz (see :class:`~bipedsim.control.config.SwingFootConfig`). The knee target in ``q_d`` (and its torque
+    dz (see :class:`~bipedsim.control.settings.SwingFootConfig`). The knee target in ``q_d`` (and its torque
     in ``tau``, at the stiffness ``akp``) changes by the knee angle that shortens the leg so; the returned
     angle (rad, forward) turns the swing thigh's world target to keep the ankle on the raised point."""
     if leg is None or phase is None:

@@ -2,7 +2,7 @@
 
 PD tracking (``pd``), the gait machine (``fsm``), SIMBICON balance (``balance``), the gain fade (``fade``),
 resynchronisation (``resync``), reference modulation (``modulation``) and the key-pose gait (``pose_gait``).
-Each dataclass's defaults are the default controller's; :class:`~bipedsim.control.config.ControllerConfig`
+Each dataclass's defaults are the default controller's; :class:`~bipedsim.control.settings.ControllerConfig`
 puts them together with the body scaling and the creature's section. Units: kp N*m/rad, kd N*m*s/rad,
 c_d rad/m, c_v rad/(m/s), times s, lengths m, forces N, angles rad.
 """

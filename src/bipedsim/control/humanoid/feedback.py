@@ -13,10 +13,10 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.balance import feedback_angle
-from bipedsim.control.humanoid_config import BalanceConfig, VelocityConfig
-from bipedsim.control.humanoid_tables import HumanoidTables
-from bipedsim.control.reference import SIDES, GaitSource
+from bipedsim.control.humanoid.balance import feedback_angle
+from bipedsim.control.humanoid.settings import BalanceConfig, VelocityConfig
+from bipedsim.control.humanoid.sources import SIDES, GaitSource
+from bipedsim.control.humanoid.tables import HumanoidTables
 
 FloatArray = npt.NDArray[np.float64]
 #: the COM's (d forward, d left, v forward, v left) in the heading frame (m, m/s)

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.humanoid_config import BalanceConfig
+from bipedsim.control.humanoid.settings import BalanceConfig
 
 FloatArray = npt.NDArray[np.float64]
 

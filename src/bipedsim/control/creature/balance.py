@@ -25,13 +25,13 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bipedsim.control.balance import heading_of
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_config import CreatureBalanceConfig
-from bipedsim.control.creature_frames import rot_z, yaw_between
-from bipedsim.control.creature_legs import LegSet
-from bipedsim.control.creature_reference import LoopedReference
-from bipedsim.control.creature_tracking import CreatureBody, Tracking
+from bipedsim.control.creature.frames import rot_z, yaw_between
+from bipedsim.control.creature.legs import LegSet
+from bipedsim.control.creature.reference import LoopedReference
+from bipedsim.control.creature.settings import CreatureBalanceConfig
+from bipedsim.control.creature.tracking import CreatureBody, Tracking
+from bipedsim.control.humanoid.balance import heading_of
 
 
 def balance_metrics(track: Tracking, name: str, legs: LegSet, resyncs: int,

@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.balance import (
+from bipedsim.control.humanoid.balance import (
     euler_from_matrix,
     hinges_to_world,
     hinges_to_world3,
@@ -23,7 +23,7 @@ from bipedsim.control.balance import (
     stance_share,
     world_to_hinges,
 )
-from bipedsim.control.humanoid_tables import HumanoidTables
+from bipedsim.control.humanoid.tables import HumanoidTables
 
 FloatArray = npt.NDArray[np.float64]
 Vec3 = tuple[float, float, float]

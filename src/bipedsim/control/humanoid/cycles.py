@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.hinges import SIDES, Hinges
+from bipedsim.control.humanoid.hinges import SIDES, Hinges
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.feasible_measure import sole_heights

@@ -26,12 +26,12 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_config import CreatureBalanceConfig
-from bipedsim.control.creature_frames import axis_heading, rot_z
-from bipedsim.control.creature_ik import Attitude, LegIK
-from bipedsim.control.creature_legs import LegSet
-from bipedsim.control.creature_reference import LoopedReference
-from bipedsim.control.creature_tracking import CreatureBody
+from bipedsim.control.creature.frames import axis_heading, rot_z
+from bipedsim.control.creature.ik import Attitude, LegIK
+from bipedsim.control.creature.legs import LegSet
+from bipedsim.control.creature.reference import LoopedReference
+from bipedsim.control.creature.settings import CreatureBalanceConfig
+from bipedsim.control.creature.tracking import CreatureBody
 
 #: the neutral stance lowers the body by at most this share of the clip's root height so every leg
 #: reaches the floor

@@ -20,11 +20,11 @@ import mujoco
 import numpy as np
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_clock import GaitClock
-from bipedsim.control.creature_config import CreatureBalanceConfig
-from bipedsim.control.creature_legs import LegSet
-from bipedsim.control.creature_planner import GaitPlanner
-from bipedsim.control.creature_stance import Stance
+from bipedsim.control.creature.clock import GaitClock
+from bipedsim.control.creature.legs import LegSet
+from bipedsim.control.creature.planner import GaitPlanner
+from bipedsim.control.creature.settings import CreatureBalanceConfig
+from bipedsim.control.creature.stance import Stance
 
 
 def shift_share(bal: CreatureBalanceConfig, period: float, stance: Stance, height: float, gravity: float) -> float:

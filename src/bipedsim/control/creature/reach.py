@@ -15,9 +15,9 @@ import mujoco
 import numpy as np
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_config import CreatureBalanceConfig
-from bipedsim.control.creature_ik import Attitude, LegIK
-from bipedsim.control.creature_stance import Stance
+from bipedsim.control.creature.ik import Attitude, LegIK
+from bipedsim.control.creature.settings import CreatureBalanceConfig
+from bipedsim.control.creature.stance import Stance
 
 #: a foot the IK brings within this share of the root height of its target is reached
 REACH_TOL = 0.04

@@ -14,8 +14,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_legs import LegSet
-from bipedsim.control.creature_tracking import ball_joints
+from bipedsim.control.creature.legs import LegSet
+from bipedsim.control.creature.tracking import ball_joints
 
 #: the orientation (3x3, world) leg i's foot site is aimed at, or None
 Attitude = Callable[[int], "FloatArray | None"]

@@ -14,8 +14,8 @@ solved by IK, re-planned every ``plan_dt_s``.
 
 What differs with the number of legs -- where a swing lands, where the root goes, which velocity the
 placement reads -- is the strategy's (:class:`LegRules`:
-:class:`~bipedsim.control.creature_many_legs.ManyLegs`, the two-legged
-:class:`~bipedsim.control.creature_biped.BipedRules`). Lengths in m, times in s, world frame.
+:class:`~bipedsim.control.creature.many_legs.ManyLegs`, the two-legged
+:class:`~bipedsim.control.creature.biped.BipedRules`). Lengths in m, times in s, world frame.
 """
 
 from __future__ import annotations
@@ -28,14 +28,14 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature_clock import GaitClock
-from bipedsim.control.creature_config import CreatureBalanceConfig
-from bipedsim.control.creature_frames import rot_z
-from bipedsim.control.creature_ik import LegIK
-from bipedsim.control.creature_legs import LegSet
-from bipedsim.control.creature_reach import Reach
-from bipedsim.control.creature_stance import Stance
-from bipedsim.control.creature_tracking import CreatureBody
+from bipedsim.control.creature.clock import GaitClock
+from bipedsim.control.creature.frames import rot_z
+from bipedsim.control.creature.ik import LegIK
+from bipedsim.control.creature.legs import LegSet
+from bipedsim.control.creature.reach import Reach
+from bipedsim.control.creature.settings import CreatureBalanceConfig
+from bipedsim.control.creature.stance import Stance
+from bipedsim.control.creature.tracking import CreatureBody
 
 
 def smoothstep(s: float) -> float:
@@ -46,8 +46,8 @@ def smoothstep(s: float) -> float:
 
 class LegRules(Protocol):
     """What the planned gait does differently for a number of legs
-    (:class:`~bipedsim.control.creature_many_legs.ManyLegs`, and two legs'
-    :class:`~bipedsim.control.creature_biped.BipedRules`)."""
+    (:class:`~bipedsim.control.creature.many_legs.ManyLegs`, and two legs'
+    :class:`~bipedsim.control.creature.biped.BipedRules`)."""
 
     #: the controller's name in the outcome
     name: str

@@ -5,8 +5,9 @@ hinge targets and target velocities, the pelvis's heading-free target orientatio
 heading-free world target (for the swing hip), and the reference's own COM offset from the stance
 ankle and COM velocity (heading frame) so balance feedback can act on deviations.
 
-The course (:mod:`~bipedsim.control.course`), the cycle (:mod:`~bipedsim.control.cycles`) and the hinge
-table (:mod:`~bipedsim.control.hinges`) have modules of their own; their names are importable from here too.
+The course (:mod:`~bipedsim.control.humanoid.course`), the cycle (:mod:`~bipedsim.control.humanoid.cycles`)
+and the hinge table (:mod:`~bipedsim.control.humanoid.hinges`) have modules of their own;
+their names are importable from here too.
 """
 
 from __future__ import annotations
@@ -15,9 +16,9 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.balance import axis_rotation, heading_of, yaw_matrix
-from bipedsim.control.course import MIN_CYCLE_TRAVEL, Course, CourseTracker, clip_course
-from bipedsim.control.cycles import (
+from bipedsim.control.humanoid.balance import axis_rotation, heading_of, yaw_matrix
+from bipedsim.control.humanoid.course import MIN_CYCLE_TRAVEL, Course, CourseTracker, clip_course
+from bipedsim.control.humanoid.cycles import (
     CLIP_SPEED_SMOOTH_S,
     CYCLE_COST_TOLERANCE,
     CYCLE_SEAM_WARN,
@@ -36,8 +37,8 @@ from bipedsim.control.cycles import (
     stance_heights,
     step_time,
 )
-from bipedsim.control.hinges import SIDES, Hinges, foot_points
-from bipedsim.control.humanoid_config import PoseGait
+from bipedsim.control.humanoid.hinges import SIDES, Hinges, foot_points
+from bipedsim.control.humanoid.settings import PoseGait
 from bipedsim.errors import ModelError
 from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet

@@ -14,8 +14,9 @@ from pathlib import Path
 import mujoco
 
 from bipedsim.data import BUILTIN_WALK
-from bipedsim.model import build_model, retarget
+from bipedsim.model import build_model
 from bipedsim.motion import load_bvh
+from bipedsim.reference import retarget
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh"
 

@@ -11,7 +11,7 @@ row by row (``--resume`` keeps the rows already there).
 
     python benchmarks/real_walks.py                 # ~1-3 min on one core
     python benchmarks/real_walks.py --seconds 60 --csv /tmp/walks.csv
-    python benchmarks/real_walks.py --feasible      # the legs made feasible first (model/feasible.py)
+    python benchmarks/real_walks.py --feasible      # the legs made feasible first (reference/feasible.py)
     python benchmarks/real_walks.py --seeds 3       # seeds 0-2 (0.02 rad/s of initial noise on 1, 2): medians
 
 With ``--seeds N`` each file is walked N times (seed 0 without noise, seeds 1..N-1 with 0.02 rad/s of

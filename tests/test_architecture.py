@@ -21,15 +21,14 @@ PACKAGE = SRC / "bipedsim"
 
 #: The pipeline a run takes, lowest first: a module may import from its own layer and the layers before
 #: it, never from one after it. Each layer lists module-name prefixes; a module belongs to the layer of
-#: its longest matching prefix (``bipedsim`` itself matches only the package's ``__init__``). The
-#: reference layer (a Motion made into a ReferenceClip for one body) has no package of its own yet:
-#: retargeting, gait events and feasibility live in ``model/``. ``sim/outputs.py`` (a run folder's plots
+#: its longest matching prefix (``bipedsim`` itself matches only the package's ``__init__``).
+#: ``sim/outputs.py`` (a run folder's plots
 #: and videos) and ``synthesis/world/scene.py`` (the world's video) render, and sit with ``render/``.
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("base", ("bipedsim", "bipedsim.errors", "bipedsim.files", "bipedsim.config")),
     ("motion", ("bipedsim.motion",)),
     ("model", ("bipedsim.model", "bipedsim.data")),
-    ("reference", ()),
+    ("reference", ("bipedsim.reference",)),
     ("control", ("bipedsim.control",)),
     ("sim", ("bipedsim.sim",)),
     ("experiments", ("bipedsim.experiments",)),

@@ -14,8 +14,9 @@ from scipy.spatial.transform import Rotation
 from bipedsim.cli import main
 from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT, sample_texts
 from bipedsim.errors import ConfigError
-from bipedsim.model import build_model, retarget
+from bipedsim.model import build_model
 from bipedsim.motion import Motion, Skeleton, load_bvh
+from bipedsim.reference import retarget
 from bipedsim.synthesis.breed.evolve import (
     BreedError,
     breed,

@@ -15,12 +15,13 @@ from conftest import SHARED_BVH, need_shared
 from bipedsim.cli import main
 from bipedsim.data import HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.errors import ModelError
-from bipedsim.model import build_model, retarget
+from bipedsim.model import build_model
 from bipedsim.motion import Motion, load_bvh, write_bvh
 from bipedsim.motion.correspondence import correspondence
 from bipedsim.motion.reroot import add_static_root, fold_static_root
 from bipedsim.motion.role_names import name_side, name_words
 from bipedsim.motion.roles import find_roles
+from bipedsim.reference import retarget
 from bipedsim.synthesis.breed import breed, breed_files
 
 HUMAN = SHARED_BVH / "human"

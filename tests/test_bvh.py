@@ -186,7 +186,7 @@ def test_whole_frame_lines_past_the_declared_count_are_read_and_said(tmp_path: P
     """An exporter's 'Frames:' one short (a real take, exported at 30 and 100 fps, declares 418 and 1392
     frames over 419 and 1393 rows): every whole frame line is motion, read with a note; an extra line
     that is no whole frame is still refused (``BAD_CASES``)."""
-    from bipedsim.model.describe import describe_bvh, format_description
+    from bipedsim.reference.describe import describe_bvh, format_description
 
     path = _write(tmp_path, SIMPLE.replace("Frames: 2", "Frames: 1"))
     m, info = read_bvh(path)

@@ -11,10 +11,11 @@ from conftest import SHARED_BVH, need_shared
 
 from bipedsim.cli import main
 from bipedsim.errors import BVHError
-from bipedsim.model import build_model, describe_bvh
+from bipedsim.model import build_model
 from bipedsim.motion import read_bvh
 from bipedsim.motion.conventions import score_reading
 from bipedsim.motion.rest import standing_rest
+from bipedsim.reference import describe_bvh
 
 BANDAI = "human/bandai2_walk_exhausted_001.bvh"
 
@@ -78,7 +79,7 @@ def test_rebased_limbs_rest_straight_so_the_walk_stays_within_the_knee_range() -
     """Each leg and arm of a rebased skeleton rests as it is straightest: the retargeted knees and
     elbows stay within their ranges (from a bent rest knee they were 1.15 rad beyond)."""
     from bipedsim.control.humanoid.sources import Hinges
-    from bipedsim.model import retarget
+    from bipedsim.reference import retarget
 
     m = standing_rest(read_bvh(shared_dir() / BANDAI)[0].to_project_frame())
     b = build_model(m)
@@ -131,8 +132,8 @@ def test_a_clip_faster_than_a_walk_says_so_and_names_the_flag() -> None:
     (the Froude number from its own speed and hip height) and names ``--clip-fps``; at its own rate, or
     given its rate back, it says nothing."""
     from bipedsim.data import builtin_walk_path
-    from bipedsim.model.describe import GRAVITY, WALK_FROUDE_MAX
     from bipedsim.motion.conventions import HIP_PER_STATURE
+    from bipedsim.reference.describe import GRAVITY, WALK_FROUDE_MAX
 
     path = builtin_walk_path()
     d0 = describe_bvh(path)

@@ -383,7 +383,7 @@ def test_hot_path_rotation_helpers_match_scipy() -> None:
     # the same rotation about the opposite axes is the opposite angles
     assert np.allclose(hinge_angles_small(m, [(0.0, -1.0, 0.0), (-1.0, 0.0, 0.0)]), [-a, -b])
     # two hinges off x, y, z (a flexion axis along the shin's, then roll about x), in their own basis
-    from bipedsim.model.retarget import hinge_basis
+    from bipedsim.reference.retarget import hinge_basis
 
     flex = np.array([0.0, np.cos(0.2), np.sin(0.2)])
     axes = [flex, np.array([-1.0, 0.0, 0.0])]

@@ -290,21 +290,21 @@ def test_a_human_run_as_a_creature_keeps_its_unit_and_folds_a_static_root() -> N
     keeps the humanoid reading's size and speed, not a creature's guess from its largest extent (0.16 m/s
     instead of 0.82 before); and Bandai's static ``joint_Root`` at the floor is folded into the hips
     (built as a bone it touched the floor at once and the clip read as standing still)."""
-    from bipedsim.model.creature_kind import read_for_body
+    from bipedsim.model.creature_kind import read_source
 
     need_shared()
     walk = SHARED_BVH / "human" / "cmu_12_03_walk__cgspeed_mb31.bvh"
-    _, info_h, m_h, kind_h = read_for_body(walk)
-    _, info_c, m_c, kind_c = read_for_body(walk, profile="creature")
+    _, info_h, m_h, kind_h = read_source(walk)
+    _, info_c, m_c, kind_c = read_source(walk, profile="creature")
     assert (kind_h, kind_c) == ("humanoid", "creature")
     assert info_c.unit_scale == pytest.approx(info_h.unit_scale)
     assert np.allclose(m_c.root_translation, m_h.root_translation)
     bandai = SHARED_BVH / "human" / "bandai2_walk_exhausted_001.bvh"
-    raw, _, m_b, _ = read_for_body(bandai, profile="creature")
+    raw, _, m_b, _ = read_source(bandai, profile="creature")
     assert raw.skeleton.names[0] != "joint_Root" and "joint_Root" not in raw.skeleton.names
     travel = np.linalg.norm(m_b.root_translation[-1, :2] - m_b.root_translation[0, :2])
     assert travel > 5.0  # the 9 m walk travels; a static floor root would read 0
-    _, _, m_bh, _ = read_for_body(bandai)  # the humanoid reading folds it too (tests/test_layouts.py)
+    _, _, m_bh, _ = read_source(bandai)  # the humanoid reading folds it too (tests/test_layouts.py)
     assert m_bh.skeleton.names == m_b.skeleton.names
 
 

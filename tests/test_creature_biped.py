@@ -1,6 +1,6 @@
 """Creatures on two legs: soles measured from the skeleton (model/creature_sole.py), the two-legged
 planned gait (control/creature/biped.py) chosen by leg count, and an in-place creature walk's travel
-rebuilt from its feet (model.prepare.creature_motion)."""
+rebuilt from its feet (reference.prepare.creature_motion)."""
 
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ from bipedsim.control.creature.many_legs import ManyLegs
 from bipedsim.data import HORSE_WALK
 from bipedsim.errors import BipedsimError
 from bipedsim.model.creature_sole import BIPED_LEG_SHARE
-from bipedsim.model.prepare import creature_motion
 from bipedsim.motion.bvh import read_bvh
+from bipedsim.reference.prepare import creature_motion
 from bipedsim.sim.runner import load_scenario
 
 FLAMINGO = SHARED_BVH / "animal" / "truebones_flamingo_walk_inplace.bvh"

@@ -97,7 +97,7 @@ def test_the_cycle_of_every_shared_walk_is_a_steady_walk(path) -> None:
     speed, stance feet on the floor, faster than the whole clip's average (a start-walk-stop clip
     loops its walking part, not its start or stop), with no standing frame in it."""
     from bipedsim.control.humanoid.sources import clip_cycle, clip_speed
-    from bipedsim.model.gait import smooth
+    from bipedsim.reference.gait_events import smooth
     from bipedsim.sim.runner import load_scenario
 
     sc = load_scenario(None, path)

@@ -1,4 +1,4 @@
-"""The feasible lower-body reference (model/feasible.py): stance feet on the floor, flat where the clip's
+"""The feasible lower-body reference (reference/feasible.py): stance feet on the floor, flat where the clip's
 foot is, planted; legs within reach and within their joint ranges; IK that reproduces its targets on the
 built body; and the controller key that switches it on."""
 
@@ -12,10 +12,10 @@ import pytest
 from conftest import SHARED_BVH, need_shared
 
 from bipedsim.errors import ConfigError
-from bipedsim.model.feasible import FeasibleConfig, feasible_clip
-from bipedsim.model.feasible_feet import plan_feet
-from bipedsim.model.feasible_legs import SIDES, _kinematics, _Leg
-from bipedsim.model.feasible_measure import infeasible_because, measure, resolve_because
+from bipedsim.reference.feasible import FeasibleConfig, feasible_clip
+from bipedsim.reference.feasible_feet import plan_feet
+from bipedsim.reference.feasible_legs import SIDES, _kinematics, _Leg
+from bipedsim.reference.feasible_measure import infeasible_because, measure, resolve_because
 from bipedsim.sim import runner
 
 RAW = Path(__file__).resolve().parent / "data" / "reference_as_captured.yaml"  # reference: {feasible: false}
@@ -116,8 +116,8 @@ def test_feasible_reference_lets_the_cmu_02_02_walk_go_20s(tmp_path) -> None:
 def test_pendulum_moves_the_zmp_toward_the_stance_feet() -> None:
     """The pendulum term: the COM's linear-inverted-pendulum ZMP, c - c''/w^2, nearer the stance foot's
     bearing point in single support (the clip's COM is a capture's, on another body), by a few cm."""
-    from bipedsim.model.feasible_legs import _com_path
-    from bipedsim.model.feasible_pelvis import pendulum_shift
+    from bipedsim.reference.feasible_legs import _com_path
+    from bipedsim.reference.feasible_pelvis import pendulum_shift
 
     need_shared()
     sc = _scenario("cmu_02_01_walk__holden31_crlf")
@@ -203,7 +203,7 @@ def test_a_solve_stalled_on_a_straight_knee_is_restarted_bent_and_reaches() -> N
     reaches a target within the leg's length."""
     import mujoco
 
-    from bipedsim.model.feasible_ik import IK_REACH_TOL, solve_leg, solve_reaching
+    from bipedsim.reference.feasible_ik import IK_REACH_TOL, solve_leg, solve_reaching
 
     sc = _scenario(None)
     model = sc.built.model

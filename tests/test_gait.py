@@ -10,11 +10,12 @@ import pytest
 from conftest import SHARED_BVH, need_shared
 
 from bipedsim.errors import ConfigError
-from bipedsim.model import build_model, retarget
-from bipedsim.model.gait import contacts_from_strikes, load_events, point_contacts
-from bipedsim.model.prepare import humanoid_motion, in_place
+from bipedsim.model import build_model
 from bipedsim.motion import read_bvh
 from bipedsim.motion.rest import standing_rest
+from bipedsim.reference import retarget
+from bipedsim.reference.gait_events import contacts_from_strikes, load_events, point_contacts
+from bipedsim.reference.prepare import humanoid_motion, in_place
 
 #: Strikes per foot counted by hand from each clip's heel/toe heights and speeds (the contact that is
 #: under way when a clip starts is no strike). Start-walk-stop: the left foot slides twice (a pivot, a

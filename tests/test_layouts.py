@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import SHARED_BVH, shared_files, shared_or_standin
 
-from bipedsim.model.creature_kind import detect_body_kind, read_for_body
+from bipedsim.model.creature_kind import detect_body_kind, read_source
 from bipedsim.motion.bvh import read_bvh, write_bvh
 from bipedsim.motion.reroot import add_static_root
 
@@ -37,8 +37,8 @@ def test_a_static_root_at_the_floor_changes_nothing(name: str, tmp_path: Path) -
     m, info = read_bvh(src)
     path = tmp_path / "static_root.bvh"
     write_bvh(add_static_root(m), path)
-    raw0, info0, motion0, kind0 = read_for_body(src)
-    raw1, info1, motion1, kind1 = read_for_body(path)
+    raw0, info0, motion0, kind0 = read_source(src)
+    raw1, info1, motion1, kind1 = read_source(path)
     assert kind0 == kind1 == "humanoid", detect_body_kind(motion1).describe()
     assert info1.unit_scale == pytest.approx(info0.unit_scale) and info1.up == info0.up
     assert motion1.skeleton.names == motion0.skeleton.names  # folded: no floor joint left
@@ -50,7 +50,7 @@ def test_a_walk_that_comes_back_is_not_in_place() -> None:
     The public Emilya figure-eight walk (15 m of path, 0.35 m net) had been taken for a walk in place and
     its real root travel replaced by one rebuilt from its feet; in place is now the root's path (smoothed
     over a stride), not its net displacement."""
-    from bipedsim.model.prepare import humanoid_motion, in_place
+    from bipedsim.reference.prepare import humanoid_motion, in_place
 
     m = read_bvh(shared_or_standin("human/cmu_02_01_walk__holden31_crlf.bvh"))[0]
     circle = humanoid_motion(_probe()._turning(m, 128.0))  # one full turn in the clip's 2.8 s
@@ -65,8 +65,8 @@ def test_in_place_travel_rebuilt_from_rolling_feet(name: str) -> None:
     """Every shared steady walk with its translation removed: the rebuilt travel is within 10 % of the
     original's and its speed within a step follows the original's (the lowest foot joint alone had rebuilt
     CMU 02_02's 19-joint walk at 71 % of its travel, 0.9 m/s off on average)."""
-    from bipedsim.model.gait import smooth
-    from bipedsim.model.prepare import humanoid_motion, in_place, reconstruct_root
+    from bipedsim.reference.gait_events import smooth
+    from bipedsim.reference.prepare import humanoid_motion, in_place, reconstruct_root
 
     m = humanoid_motion(read_bvh(shared_or_standin(f"human/{name}.bvh"))[0])
     flat = _probe()._in_place(m)
@@ -102,7 +102,7 @@ def test_a_walk_in_place_is_tracked(name: str, tmp_path: Path) -> None:
 def test_an_experiment_reads_a_file_as_run_does(tmp_path: Path) -> None:
     """An experiment naming the Bandai walk is accepted: its body-name check had built the body from the
     file's identity pose (no standing body: 'stands 0.38 m tall') instead of the standing rest pose
-    `bipedsim run` uses (model.prepare.read_for_build); and a build error names its file."""
+    `bipedsim run` uses (reference.prepare.load_source); and a build error names its file."""
     from bipedsim.errors import ModelError
     from bipedsim.experiments.experiment import load_experiment
     from bipedsim.model.build import build_model
@@ -130,7 +130,7 @@ def test_a_walk_cycle_is_repeated_seamlessly(tmp_path: Path) -> None:
     """One gait cycle cut from a shared walk and put in place (a game animation's walk cycle: one strike
     per foot) is recognised as a loop and repeated with its seam closed; it had been refused ("1 right and
     1 left foot strikes"). A clip that is no loop is left as it is."""
-    from bipedsim.model.prepare import LOOP_REPEAT_S, repeat_loop
+    from bipedsim.reference.prepare import LOOP_REPEAT_S, repeat_loop
 
     path = _variant("cmu_02_02_walk__daz43", "cycle", tmp_path)
     m = read_bvh(path)[0].to_project_frame()
@@ -165,7 +165,7 @@ def test_a_one_cycle_game_walk_is_not_refused() -> None:
 def test_info_reports_the_speed_a_walk_in_place_walks(tmp_path: Path) -> None:
     """`bipedsim info` on a walk in place reports its root as still (as the file has it) and the speed it
     walks at, its travel rebuilt from its feet: within 10 % of the original walk's root speed."""
-    from bipedsim.model.describe import describe_bvh, format_description
+    from bipedsim.reference.describe import describe_bvh, format_description
 
     original = describe_bvh(shared_or_standin("human/cmu_02_02_walk__daz43.bvh"))
     assert "walked_speed_mps" not in original
@@ -221,7 +221,7 @@ def test_side_names_that_contradict_the_legs(name: str, tmp_path: Path) -> None:
     np.testing.assert_allclose(b.built.model.body_pos, a.built.model.body_pos, atol=1e-9)
     np.testing.assert_allclose(b.built.model.jnt_axis, a.built.model.jnt_axis, atol=1e-9)
     np.testing.assert_allclose(b.clip.qpos, a.clip.qpos, atol=1e-6)
-    from bipedsim.model import describe_bvh
+    from bipedsim.reference import describe_bvh
 
     assert describe_bvh(swapped)["sides_note"] == note and "sides_note" not in describe_bvh(src)  # info says so
 
@@ -237,7 +237,7 @@ def test_side_evidence_on_every_shared_human_and_its_rule() -> None:
 
     for f in shared_files("human") + shared_files("odd"):
         try:
-            _, _, m, kind = read_for_body(f)
+            _, _, m, kind = read_source(f)
             hm = recognise_humanoid(m.skeleton)
         except Exception:  # not a humanoid by name: nothing to check
             continue
@@ -288,7 +288,7 @@ def test_game_rig_layouts_build_the_same_humanoid(name: str, kind: str, tmp_path
         pytest.skip(f"{kind} does not apply to {name} (it has toe joints)")
     path = tmp_path / f"{kind}.bvh"
     write_bvh(made[kind](), path)
-    assert read_for_body(path)[3] == "humanoid", detect_body_kind(read_bvh(path)[0]).describe()
+    assert read_source(path)[3] == "humanoid", detect_body_kind(read_bvh(path)[0]).describe()
     sc0, sc = load_scenario(None, src), load_scenario(None, path)
     assert [sc.built.model.body(i).name for i in range(sc.built.model.nbody)] == \
         [sc0.built.model.body(i).name for i in range(sc0.built.model.nbody)]
@@ -332,7 +332,7 @@ def test_rig_prefixes_are_told_from_role_words() -> None:
 def test_a_held_tail_is_dropped_only_when_it_is_padding() -> None:
     """Frames that repeat the last moving frame exactly for at least HELD_TAIL_S are padding; one repeated
     frame (CMU 131's last in its metres copy) or a wholly still clip is left as it is."""
-    from bipedsim.model.prepare import HELD_TAIL_S, trim_held_tail
+    from bipedsim.reference.prepare import HELD_TAIL_S, trim_held_tail
 
     m = read_bvh(shared_or_standin("human/cmu_02_01_walk__holden31_crlf.bvh"))[0].to_project_frame()
     notes: list[str] = []

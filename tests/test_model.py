@@ -14,19 +14,20 @@ from scipy.spatial.transform import Rotation
 from bipedsim.cli import main
 from bipedsim.data import BUILTIN_HUMANOID, BUILTIN_WALK, builtin_humanoid_xml
 from bipedsim.errors import BipedsimError, ConfigError, ModelError
-from bipedsim.model import ReferenceClip, build_model, load_model, load_profile, retarget
-from bipedsim.model.gait import ground_level
+from bipedsim.model import build_model, load_model, load_profile
 from bipedsim.model.hinge_angles import _hinge_angles
 from bipedsim.model.naming import MapFile, load_map, split_name
 from bipedsim.model.profile import PROFILE_DIR
-from bipedsim.model.retarget import (
+from bipedsim.motion import Motion, Skeleton, load_bvh
+from bipedsim.motion.rest import standing_rest
+from bipedsim.reference import ReferenceClip, retarget
+from bipedsim.reference.gait_events import ground_level
+from bipedsim.reference.retarget import (
     foot_heights,
     kabsch,
     marker_positions,
     source_marker_positions,
 )
-from bipedsim.motion import Motion, Skeleton, load_bvh
-from bipedsim.motion.rest import standing_rest
 
 #: Replay tolerance (m): pelvis, knees, ankles, shoulders, elbows, wrists on every frame.
 REPLAY_TOL = 0.02
@@ -193,11 +194,11 @@ def test_shared_humans_convert_simulate_and_replay(path: Path) -> None:
     assert low.min() > -0.01
     # (labels: within 5 cm of the foot's resting level and slower than 0.5 m/s, then debounced: gaps
     # under 60 ms filled, touches under 120 ms dropped)
-    # (heights above the ground under the feet, model.gait.ground_level: a capture floor may drift)
+    # (heights above the ground under the feet, reference.gait_events.ground_level: a capture floor may drift)
     fh = clip.foot_heights
     above = np.stack([fh[:, k] - ground_level(fh[:, [k]], clip.frame_time) for k in range(fh.shape[1])], axis=1)
     level = np.percentile(above, 5, axis=0)
-    near = above < level + 0.08  # heel and toe each rest at their own level (model.gait); the side's lowest
+    near = above < level + 0.08  # heel and toe each rest at their own level (reference.gait_events); the side's lowest
     # point therefore sits up to their difference above the side's level during contact
     assert (near[clip.contacts]).mean() > 0.95
     assert not np.any(clip.contacts & (above > level + 0.10))

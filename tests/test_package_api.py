@@ -15,7 +15,7 @@ from bipedsim import cli
 from bipedsim.data import builtin_walk_path
 from bipedsim.errors import ConfigError, OutputError
 from bipedsim.experiments.sweep import format_summary, interrupted_message
-from bipedsim.model import convert_bvh, describe_bvh, format_convert_summary, format_description
+from bipedsim.reference import convert_bvh, describe_bvh, format_convert_summary, format_description
 from bipedsim.render.gl import RenderError, choose_backend
 from bipedsim.render.video import VideoOptions
 from bipedsim.sim import outputs

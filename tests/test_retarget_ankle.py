@@ -61,12 +61,12 @@ def _sole_error(path, two: bool) -> tuple[float, float, float]:
     from bipedsim.model import build_model
     from bipedsim.model.flat_foot import _flat_frames
     from bipedsim.model.naming import recognise_humanoid
-    from bipedsim.model.prepare import read_for_build
     from bipedsim.model.profile import load_profile
-    from bipedsim.model.retarget import fit_orientations, retarget
     from bipedsim.model.source import motion_points
+    from bipedsim.reference.prepare import load_source
+    from bipedsim.reference.retarget import fit_orientations, retarget
 
-    _, _, motion, _ = read_for_build(path, profile="auto")
+    _, _, motion, _ = load_source(path, profile="auto")
     b = build_model(motion, replace(load_profile("humanoid"), ankle_2dof=two), name="x")
     clip = retarget(motion, b.model, plan=b.plan, xml=b.xml)
     pts = motion_points(motion[clip.trimmed_frames:])

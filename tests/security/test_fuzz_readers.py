@@ -253,8 +253,8 @@ def _reader(name: str) -> Callable[[Path], Any]:
     from bipedsim.control.settings import load_controller
     from bipedsim.experiments.experiment import load_experiment, load_suite
     from bipedsim.experiments.tune.spec import load_tune
-    from bipedsim.model.gait import load_events
     from bipedsim.motion.bvh import read_bvh
+    from bipedsim.reference.gait_events import load_events
     from bipedsim.synthesis.breed.evolve import load_joint_map
     from bipedsim.synthesis.graph.build import load_graph_config
     from bipedsim.synthesis.world.creature import load_creature

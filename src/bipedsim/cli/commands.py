@@ -26,7 +26,7 @@ def video_options(args: argparse.Namespace):  # noqa: ANN201
 # ---------------------------------------------------------------------- info and convert
 def cmd_info(args: argparse.Namespace) -> int:
     from bipedsim.data import builtin_walk_path
-    from bipedsim.model import describe_bvh, format_description
+    from bipedsim.reference import describe_bvh, format_description
 
     d = describe_bvh(args.file or str(builtin_walk_path()), scale=args.scale, up=args.up, positions=args.positions,
                      fps=args.clip_fps)
@@ -35,7 +35,7 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 def cmd_convert(args: argparse.Namespace) -> int:
-    from bipedsim.model import convert_bvh, format_convert_summary
+    from bipedsim.reference import convert_bvh, format_convert_summary
 
     summary = convert_bvh(args.input, args.output, profile=args.profile, profile_file=args.profile_file,
                           mass=args.mass, map=args.map, clip=args.clip, scale=args.scale, up=args.up,

@@ -44,8 +44,8 @@ from bipedsim.control.humanoid.settings import (
     VelocityConfig,
 )
 from bipedsim.errors import ConfigError
-from bipedsim.model.feasible import FeasibleConfig
 from bipedsim.model.profile import JOINT_GROUPS, MASS_RANGE_KG
+from bipedsim.reference.feasible import FeasibleConfig
 
 __all__ = [
     "DEFAULT_GAINS", "PD_MODES", "SOURCES", "BalanceConfig", "BodyScaleConfig", "ControllerConfig", "CourseConfig",
@@ -106,7 +106,7 @@ class ControllerConfig:
     resync: ResyncConfig = field(default_factory=ResyncConfig)
     #: corrections of a capture's reference to the body (Lee, Kim & Lee 2010)
     modulation: ModulationConfig = field(default_factory=ModulationConfig)
-    #: the reference made feasible for the built body before tracking (model/feasible.py)
+    #: the reference made feasible for the built body before tracking (reference/feasible.py)
     reference: FeasibleConfig = field(default_factory=FeasibleConfig)
     pose_gait: PoseGait = field(default_factory=PoseGait)
     #: the body the values above are for, scaled to the body run (:func:`for_body`)
@@ -258,10 +258,10 @@ def check_settings_for_body(cfg: ControllerConfig, profile: str, path: str | os.
 def for_reference(cfg: ControllerConfig, resolved: bool) -> ControllerConfig:
     """``cfg`` with every ``"auto"`` reference-modulation switch (``modulation.swing_foot``,
     ``modulation.stance_ankle``) made true for a reference whose legs were ``resolved`` for the body
-    (``reference: {feasible: auto}`` re-solves every capture, :func:`bipedsim.model.feasible_measure.resolve_because`),
-    false otherwise (the built-in walk generated for the body; a clip tracked as it is, ``feasible:
-    false``): the modulation corrects a capture's legs to the body, and would only move the built-in
-    walk off its course."""
+    (``reference: {feasible: auto}`` re-solves every capture,
+    :func:`bipedsim.reference.feasible_measure.resolve_because`), false otherwise (the built-in walk
+    generated for the body; a clip tracked as it is, ``feasible: false``): the modulation corrects a
+    capture's legs to the body, and would only move the built-in walk off its course."""
     mod = cfg.modulation
     sf, sa = mod.swing_foot, mod.stance_ankle
     if sf.enabled != "auto" and sa.enabled != "auto":

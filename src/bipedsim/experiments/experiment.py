@@ -23,7 +23,7 @@ from bipedsim.control.settings import check_settings_for_body, load_controller, 
 from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.model.build import build_model
-from bipedsim.model.prepare import read_for_build
+from bipedsim.reference.prepare import load_source
 from bipedsim.sim.limits import MAX_ROLLOUT_S
 from bipedsim.sim.push import DEFAULT_AFTER_S, DEFAULT_PUSH_BODY, Push, check_pushes, random_pushes
 from bipedsim.sim.rollout import FallCriteria
@@ -334,7 +334,7 @@ def _check_controller(ctl: str, kind: str, path: Path, key: str) -> None:
 def _body_names(reference: str | None, profile: str = "auto", support: bool = False) -> tuple[set[str], str]:
     """The names of the bodies built from ``reference`` (None: the built-in walk) as the rollouts build
     them, and the body's kind (``humanoid`` or ``creature``)."""
-    _, _, motion, kind = read_for_build(reference or BUILTIN_WALK, profile=profile,  # as the rollouts read it
+    _, _, motion, kind = load_source(reference or BUILTIN_WALK, profile=profile,  # as the rollouts read it
                                         support=support)
     built = build_model(motion, kind, source=reference or BUILTIN_WALK)
     return {built.model.body(i).name for i in range(1, built.model.nbody)}, kind
@@ -347,7 +347,7 @@ def _body_kind(reference: str | None, profile: str, support: bool) -> str:
         return profile
     if reference is None:
         return "humanoid"
-    return read_for_build(reference, profile=profile, support=support)[3]
+    return load_source(reference, profile=profile, support=support)[3]
 
 
 # ---------------------------------------------------------------------- regression suites

@@ -249,7 +249,7 @@ def resolve_profile(motion: Motion, profile: str | None = AUTO, *, support: bool
     return kind.kind
 
 
-def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = None, up: str | None = None,
+def read_source(path: str | os.PathLike[str], *, scale: float | str | None = None, up: str | None = None,
                   positions: str | None = None, profile: str | None = AUTO,
                   support: bool = False, fps: float | None = None) -> tuple[Motion, BVHInfo, Motion, str]:
     """A BVH file read for the body it will build: the raw motion and what reading found, the motion in
@@ -276,4 +276,4 @@ def read_for_body(path: str | os.PathLike[str], *, scale: float | str | None = N
     return raw, info, motion, profile
 
 
-__all__ = ["AUTO", "BodyKind", "detect_body_kind", "read_for_body", "resolve_profile"]
+__all__ = ["AUTO", "BodyKind", "detect_body_kind", "read_source", "resolve_profile"]

@@ -4,7 +4,7 @@ Both profiles (humanoid, creature) produce a :class:`BodyPlan`; :class:`ModelBui
 an MJCF model with MuJoCo's native ``MjSpec``. Every body frame is parallel to the world frame in the
 rest pose (the source skeleton's rest pose, turned to face +x, in metres, Z up), so a body's
 orientation in the world is the rotation that carries its rest-pose points to where the motion puts
-them; :mod:`bipedsim.model.retarget` relies on that.
+them; :mod:`bipedsim.reference.retarget` relies on that.
 
 The plan is stored in the MJCF file itself (``<custom><text name="bipedsim.plan">`` as JSON), so a
 model file alone is enough to retarget motions onto it.

@@ -51,7 +51,7 @@ class BVHInfo:
     end_sites: int = 0
     standing_height_m: float = 0.0  # from the hip's height (conventions.leg_stature); 0: no named feet
     reading_note: str = ""  # when another reading (up axis, position modes) was nearly as plausible
-    notes: list[str] = field(default_factory=list)  # what preparing the motion did (model.gait.humanoid_motion)
+    notes: list[str] = field(default_factory=list)  # what preparing the motion did (reference.prepare.humanoid_motion)
 
     @property
     def fps(self) -> float:

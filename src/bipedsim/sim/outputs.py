@@ -34,8 +34,8 @@ from bipedsim.files import (
     progress_bar,
 )
 from bipedsim.model.build import check_total_mass, load_model
-from bipedsim.model.describe import pace_note
 from bipedsim.model.humanoid import sides_note, toes_note
+from bipedsim.reference.describe import pace_note
 from bipedsim.render.gl import RenderError
 from bipedsim.render.plots import PLOT_FILES, plot_run
 from bipedsim.render.video import (
@@ -393,7 +393,7 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
                   say: Callable[[str], None] | None = None) -> RunResult:
     """Everything ``bipedsim run`` does: track the reference (``bvh``, else the built-in walk; its
     ``scale``, ``up``, ``positions``, ``fps``: see :func:`~bipedsim.motion.bvh.read_bvh`; ``events``: a YAML of
-    foot strikes given by hand, :func:`~bipedsim.model.gait.load_events`) with the controller
+    foot strikes given by hand, :func:`~bipedsim.reference.gait_events.load_events`) with the controller
     YAML ``config`` on the ``profile`` body (``mass`` in kg;
     ``support``: hold a creature's root) for ``seconds`` (simulated s) from ``seed`` (``init_noise``:
     initial velocity std, rad/s and m/s) with ``pushes`` (``MAG:DIR:DUR:START`` strings or

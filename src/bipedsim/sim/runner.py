@@ -25,13 +25,13 @@ from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
 from bipedsim.errors import ConfigError
 from bipedsim.files import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
-from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature_kind import AUTO, resolve_profile
-from bipedsim.model.feasible import feasible_clip
-from bipedsim.model.feasible_measure import measure, resolve_because
-from bipedsim.model.prepare import read_for_build
-from bipedsim.model.retarget import retarget
 from bipedsim.motion.bvh import read_bvh
+from bipedsim.reference.clip import ReferenceClip
+from bipedsim.reference.feasible import feasible_clip
+from bipedsim.reference.feasible_measure import measure, resolve_because
+from bipedsim.reference.prepare import load_source
+from bipedsim.reference.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.rollout import FallCriteria, FloatArray, Outcome, RolloutSpec, control_every, rollout
 
@@ -106,7 +106,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     cfg = config if isinstance(config, ControllerConfig) else load_controller(config)
     motion = info = None
     if bvh is not None:
-        raw, info, motion, profile = read_for_build(bvh, scale=scale, up=up, positions=positions, profile=profile,
+        raw, info, motion, profile = load_source(bvh, scale=scale, up=up, positions=positions, profile=profile,
                                                     support=support, creature_support=cfg.creature.support, fps=fps)
         if profile == "creature":
             support = support or cfg.creature.support
@@ -137,7 +137,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
         cfg = for_body(cfg, leg, kg)
     clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)
     resolved = False
-    if cfg.reference.feasible is not False and profile == "humanoid":  # model/feasible.py
+    if cfg.reference.feasible is not False and profile == "humanoid":  # reference/feasible.py
         forced = cfg.reference.feasible is True
         generated = bvh is None or Path(bvh).resolve() == Path(BUILTIN_WALK).resolve()  # the built-in walk
         why = ["reference: {feasible: true}"] if forced else resolve_because(measure(clip, built.model),

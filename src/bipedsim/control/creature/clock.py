@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 from bipedsim.control.base import FloatArray
 from bipedsim.control.creature.legs import LegSet
 from bipedsim.control.creature.settings import CreatureBalanceConfig
-from bipedsim.model.clip import ReferenceClip
+from bipedsim.reference.clip import ReferenceClip
 
 #: a clip whose root travels slower than this (m/s, mean over the loop) walks in place
 IN_PLACE_MPS = 0.1

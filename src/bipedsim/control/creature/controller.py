@@ -29,8 +29,8 @@ from bipedsim.control.creature.planner import LegRules
 from bipedsim.control.creature.reference import LoopedReference
 from bipedsim.control.creature.settings import CreatureBalanceConfig, CreatureControlConfig
 from bipedsim.control.creature.tracking import CreatureBody, Tracking, quat_error_rotvecs
-from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
+from bipedsim.reference.clip import ReferenceClip
 
 
 def leg_rules(plan: BodyPlanSet, body: CreatureBody, legs: LegSet, ref: LoopedReference,

@@ -19,9 +19,9 @@ import numpy as np
 from bipedsim.control.base import FloatArray
 from bipedsim.control.creature.forces import distribute_wrench, in_cone
 from bipedsim.control.creature.tracking import CreatureBody, ball_joints
-from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.creature import Leg, creature_legs
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
+from bipedsim.reference.clip import ReferenceClip
 
 #: frames sampled (at most) to measure the legs' roots' height above the feet
 HEIGHT_SAMPLES = 40

@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from bipedsim.control.base import FloatArray
 from bipedsim.control.creature.legs import LegSet, geom_bottom
-from bipedsim.model.clip import ReferenceClip
+from bipedsim.reference.clip import ReferenceClip
 
 #: frames whose root stands lower than this fraction of the clip's median root height are not part of
 #: the walk (a dog lying down before it gets up)

@@ -21,8 +21,8 @@ import numpy as np
 from bipedsim.control.base import FloatArray
 from bipedsim.control.creature.settings import CreatureControlConfig
 from bipedsim.errors import ModelError
-from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
+from bipedsim.reference.clip import ReferenceClip
 
 #: the root support's rotational gains as a share of its positional ones (N*m/rad per N/m)
 SUPPORT_ROTATION_SHARE = 0.1

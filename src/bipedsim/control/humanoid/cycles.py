@@ -16,10 +16,10 @@ import numpy.typing as npt
 
 from bipedsim.control.humanoid.hinges import SIDES, Hinges
 from bipedsim.errors import ModelError
-from bipedsim.model.clip import ReferenceClip
-from bipedsim.model.feasible_measure import sole_heights
-from bipedsim.model.gait import smooth
 from bipedsim.model.plan import BodyPlanSet
+from bipedsim.reference.clip import ReferenceClip
+from bipedsim.reference.feasible_measure import sole_heights
+from bipedsim.reference.gait_events import smooth
 
 FloatArray = npt.NDArray[np.float64]
 

@@ -54,7 +54,7 @@ def hinge_angles_small(local: FloatArray, axes: list[tuple[float, float, float]]
                        basis: FloatArray | None = None) -> tuple[float, ...]:
     """Angles of 1 or 2 hinges (unit axes, applied in order) best reproducing a local rotation matrix.
     Two hinges off x, y and z (a flexion axis along a bone's) take their ``basis``
-    (:func:`bipedsim.model.retarget.hinge_basis`: the first axis, the second, their cross product)."""
+    (:func:`bipedsim.reference.retarget.hinge_basis`: the first axis, the second, their cross product)."""
     if len(axes) == 1:
         x, y, z = axes[0]
         m00, m01, m02, m10, m11, m12, m20, m21, m22 = local.ravel().tolist()

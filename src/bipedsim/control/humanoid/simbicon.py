@@ -47,8 +47,8 @@ from bipedsim.control.humanoid.tracking import (
 )
 from bipedsim.control.settings import ControllerConfig, for_body
 from bipedsim.errors import ModelError
-from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
+from bipedsim.reference.clip import ReferenceClip
 
 FloatArray = npt.NDArray[np.float64]
 #: the shortest nominal swing state (s) a phase-timed push assumes when the reference's step is

@@ -40,8 +40,8 @@ from bipedsim.control.humanoid.cycles import (
 from bipedsim.control.humanoid.hinges import SIDES, Hinges, foot_points
 from bipedsim.control.humanoid.settings import PoseGait
 from bipedsim.errors import ModelError
-from bipedsim.model.clip import ReferenceClip
 from bipedsim.model.plan import BodyPlanSet
+from bipedsim.reference.clip import ReferenceClip
 
 FloatArray = npt.NDArray[np.float64]
 #: A rollout starts this fraction of a step after the first right-foot strike of the loop.

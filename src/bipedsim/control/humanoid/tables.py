@@ -26,7 +26,7 @@ from bipedsim.control.humanoid.sources import SIDES, GaitSource, Hinges, foot_po
 from bipedsim.control.settings import ControllerConfig
 from bipedsim.errors import ConfigError
 from bipedsim.model.plan import BodyPlanSet, JointPlan
-from bipedsim.model.retarget import hinge_basis
+from bipedsim.reference.retarget import hinge_basis
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -55,7 +55,8 @@ class AnkleTable:
 
     idx: list[int]  #: hinge indices
     axes: list[tuple[float, float, float]]  #: unit hinge axes in the shin's frame
-    basis: FloatArray | None  #: two hinges off x, y and z: their basis (:func:`~bipedsim.model.retarget.hinge_basis`)
+    #: two hinges off x, y and z: their basis (:func:`~bipedsim.reference.retarget.hinge_basis`)
+    basis: FloatArray | None
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ and key frames (foot strikes, or wing beats when no foot touches down).
 What the world needs of a clip is measured, not assumed: the travel direction and speed from the root's
 path over the loop (the root's own axes may point anywhere: the shared dog's root x axis points
 backwards), the loop as the pair of frames with the closest poses (any clip, not only a cycle that
-already closes), the feet from the creature body plan, contacts from :mod:`bipedsim.model.clip`.
+already closes), the feet from the creature body plan, contacts from :mod:`bipedsim.reference.clip`.
 """
 
 from __future__ import annotations
@@ -25,13 +25,13 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.config import load_yaml
 from bipedsim.errors import BipedsimError
-from bipedsim.model.clip import STANCE_LEVEL_PERCENTILE, contact_labels, debounce, foot_speeds, gait_events
 from bipedsim.model.creature import creature_plan
 from bipedsim.model.profile import load_profile
-from bipedsim.model.retarget import retarget
 from bipedsim.model.source import motion_points
 from bipedsim.motion.bvh import load_bvh
 from bipedsim.motion.motion import Motion, canonical_quat
+from bipedsim.reference.clip import STANCE_LEVEL_PERCENTILE, contact_labels, debounce, foot_speeds, gait_events
+from bipedsim.reference.retarget import retarget
 from bipedsim.synthesis.world.blend import slerp
 from bipedsim.synthesis.world.tiles import TRAVEL_MODES, WorldError
 
@@ -60,7 +60,7 @@ NAME_PATTERN = re.compile(r"\w[\w.-]{0,63}")
 
 
 def retarget_default(name: str) -> float:
-    """The contact thresholds the project retargets with (model.retarget's defaults): one source."""
+    """The contact thresholds the project retargets with (reference.retarget's defaults): one source."""
     return float(inspect.signature(retarget).parameters[name].default)
 
 

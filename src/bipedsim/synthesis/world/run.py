@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 
 from bipedsim.files import atomic_write_json, check_distinct_paths, check_output_file, versions
-from bipedsim.model.clip import STANCE_LEVEL_PERCENTILE
 from bipedsim.motion.bvh import write_bvh
+from bipedsim.reference.clip import STANCE_LEVEL_PERCENTILE
 from bipedsim.synthesis.world.creature import NAME_PATTERN, Creature, _foot_points, creature_summary, load_creature
 from bipedsim.synthesis.world.path import find_path, path_modes
 from bipedsim.synthesis.world.synth import Synthesis, body_points, synthesize

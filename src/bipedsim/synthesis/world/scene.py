@@ -13,8 +13,8 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.model.build import build_model
-from bipedsim.model.retarget import retarget
 from bipedsim.motion.motion import Motion
+from bipedsim.reference.retarget import retarget
 from bipedsim.render.video import MODEL_FILE, TRAJECTORY_FILE, VideoOptions, render_video
 from bipedsim.sim.recorder import SAMPLE_DTYPES, Trajectory
 from bipedsim.synthesis.world.tiles import World

@@ -9,14 +9,14 @@ from typing import Any
 import numpy as np
 
 from bipedsim.errors import BipedsimError, ModelError
-from bipedsim.model.creature_kind import read_for_body
+from bipedsim.model.creature_kind import read_source
 from bipedsim.model.humanoid import check_sides, sides_note
 from bipedsim.model.naming import recognise_humanoid
-from bipedsim.model.prepare import motion_for_body
 from bipedsim.model.source import motion_points
 from bipedsim.motion.bvh import BVHInfo, read_bvh
 from bipedsim.motion.conventions import HIP_PER_STATURE, horizontal_axes
 from bipedsim.motion.motion import check_extent
+from bipedsim.reference.prepare import motion_for_body
 
 #: The Froude number v^2 / (g h) (v the speed, h the hip's height standing) above which people run rather
 #: than walk: the walk-run transition lies near 0.5 across body sizes (Alexander 1989, "Optimization and
@@ -60,7 +60,7 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
     walk gets ``pace_note`` (:func:`pace_note`)."""
     built = None
     try:
-        raw, info, m, body = read_for_body(path, scale=scale, up=up, positions=positions, fps=fps)
+        raw, info, m, body = read_source(path, scale=scale, up=up, positions=positions, fps=fps)
     except ModelError:  # no body kind can be told: the file as read, its body unknown
         motion, info = read_bvh(path, scale=scale, up=up, positions=positions, fps=fps)
         check_extent(motion, path)
@@ -85,7 +85,7 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
         "root_displacement_m": net,
         "root_speed_mps": path_len / m.duration if m.duration > 0 else 0.0,
     })
-    # a walk cycle repeated, a walk in place given its travel back (model.prepare): the speed it walks at
+    # a walk cycle repeated, a walk in place given its travel back (reference.prepare): the speed it walks at
     made = [n for n in info.notes if n.startswith(("a loop:", "walks in place:"))]
     if built is not None and made and built.duration > 0:
         d["walked_speed_mps"] = travel(built)[0] / built.duration

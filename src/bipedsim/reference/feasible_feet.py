@@ -12,8 +12,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
-from bipedsim.model.clip import ReferenceClip
-from bipedsim.model.feasible_legs import _Leg
+from bipedsim.reference.clip import ReferenceClip
+from bipedsim.reference.feasible_legs import _Leg
 
 FloatArray = npt.NDArray[np.float64]
 

@@ -8,10 +8,10 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.model.clip import ReferenceClip
-from bipedsim.model.feasible import FeasibleConfig
-from bipedsim.model.feasible_feet import FLAT_BAND, _runs, _tilt
-from bipedsim.model.feasible_legs import SIDES, _kinematics, _Leg
+from bipedsim.reference.clip import ReferenceClip
+from bipedsim.reference.feasible import FeasibleConfig
+from bipedsim.reference.feasible_feet import FLAT_BAND, _runs, _tilt
+from bipedsim.reference.feasible_legs import SIDES, _kinematics, _Leg
 
 FloatArray = npt.NDArray[np.float64]
 

@@ -1,7 +1,7 @@
 """A motion read from a BVH file made ready for the body built from it -- the one way through for
 ``run``, sweeps, suites, tunes, ``convert`` and ``info``: an export's held tail dropped, a short loop
 repeated, a standing rest pose, a length for a foot or head that has none, and for a walk in place its
-root travel rebuilt from the stance feet (:func:`read_for_build`).
+root travel rebuilt from the stance feet (:func:`load_source`).
 """
 
 from __future__ import annotations
@@ -13,12 +13,12 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
-from bipedsim.model.creature_kind import AUTO, detect_body_kind, read_for_body
-from bipedsim.model.gait import LEVEL_PERCENTILE, smooth
+from bipedsim.model.creature_kind import AUTO, detect_body_kind, read_source
 from bipedsim.model.humanoid import with_tips
 from bipedsim.motion.conventions import foot_joints
 from bipedsim.motion.motion import Motion, canonical_quat
 from bipedsim.motion.rest import standing_rest
+from bipedsim.reference.gait_events import LEVEL_PERCENTILE, smooth
 
 if TYPE_CHECKING:
     from bipedsim.motion.bvh import BVHInfo
@@ -295,14 +295,14 @@ def motion_for_body(raw: Motion, motion: Motion, kind: str, notes: list[str], su
     return motion if support else creature_motion(motion, notes)
 
 
-def read_for_build(path: str | os.PathLike[str], *, scale: float | str | None = None, up: str | None = None,
+def load_source(path: str | os.PathLike[str], *, scale: float | str | None = None, up: str | None = None,
                    positions: str | None = None, profile: str | None = AUTO, support: bool = False,
                    creature_support: bool = False, fps: float | None = None) -> tuple[Motion, BVHInfo, Motion, str]:
     """A BVH file read as every command builds a body from it -- one way through for ``run``, sweeps,
-    suites, tunes and ``convert``: :func:`~bipedsim.model.creature_kind.read_for_body` (reading, body kind,
+    suites, tunes and ``convert``: :func:`~bipedsim.model.creature_kind.read_source` (reading, body kind,
     unit, a static floor root folded), then :func:`motion_for_body` (root support: ``support``, or
     ``creature_support`` from a creature's controller). Returns the raw motion, what reading found (its
     ``notes`` extended), the motion to build from (project frame) and the body kind."""
-    raw, info, motion, kind = read_for_body(path, scale=scale, up=up, positions=positions, profile=profile,
+    raw, info, motion, kind = read_source(path, scale=scale, up=up, positions=positions, profile=profile,
                                             support=support, fps=fps)
     return raw, info, motion_for_body(raw, motion, kind, info.notes, support or creature_support), kind

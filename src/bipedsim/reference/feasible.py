@@ -4,7 +4,7 @@ track made physically possible for the built body.
 A capture's legs cannot be replayed as they are by a box-footed body: its stance feet roll from heel
 to toe, float or sink by centimetres and slide; its stance knees straighten to the singularity; its
 swing toes drag (docs/controller.md, *Feasible reference*). From the clip's own gait events (the
-contacts :mod:`bipedsim.model.gait` measured) and footprints, every frame gets:
+contacts :mod:`bipedsim.reference.gait_events` measured) and footprints, every frame gets:
 
 - **stance feet** planted at the clip's footprint: per stance, the ankle's median position and the
   foot's median heading over the stance's flattest frames (the sole's tilt in its lowest third), where
@@ -27,10 +27,10 @@ contacts :mod:`bipedsim.model.gait` measured) and footprints, every frame gets:
 and the upper body stays the clip's. ``blend`` mixes the clip's legs (0) and the feasible ones (1).
 Step timing, lengths, widths and turns are the clip's, so its speed is too.
 
-The steps: :mod:`~bipedsim.model.feasible_legs` (the legs on the body and their kinematics),
-:mod:`~bipedsim.model.feasible_feet` (footprints and swing paths), :mod:`~bipedsim.model.feasible_pelvis`
-(pendulum shift, pelvis lowering), :mod:`~bipedsim.model.feasible_ik` (leg IK); how feasible a clip is:
-:mod:`~bipedsim.model.feasible_measure`.
+The steps: :mod:`~bipedsim.reference.feasible_legs` (the legs on the body and their kinematics),
+:mod:`~bipedsim.reference.feasible_feet` (footprints and swing paths), :mod:`~bipedsim.reference.feasible_pelvis`
+(pendulum shift, pelvis lowering), :mod:`~bipedsim.reference.feasible_ik` (leg IK); how feasible a clip is:
+:mod:`~bipedsim.reference.feasible_measure`.
 """
 
 from __future__ import annotations
@@ -43,12 +43,12 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.errors import ModelError
-from bipedsim.model.clip import ReferenceClip
-from bipedsim.model.feasible_feet import plan_feet
-from bipedsim.model.feasible_ik import solve_reaching
-from bipedsim.model.feasible_legs import SIDES, _com_path, _kinematics, _Leg
-from bipedsim.model.feasible_pelvis import pelvis_drop, pendulum_shift
-from bipedsim.model.retarget import velocities
+from bipedsim.reference.clip import ReferenceClip
+from bipedsim.reference.feasible_feet import plan_feet
+from bipedsim.reference.feasible_ik import solve_reaching
+from bipedsim.reference.feasible_legs import SIDES, _com_path, _kinematics, _Leg
+from bipedsim.reference.feasible_pelvis import pelvis_drop, pendulum_shift
+from bipedsim.reference.retarget import velocities
 
 FloatArray = npt.NDArray[np.float64]
 

@@ -14,7 +14,7 @@ when it is near its own ground level and nearly still:
 
 A stance begins near and still and lasts while the point stays within :data:`HOLD_FACTOR` of both
 thresholds (hysteresis). A side is in contact when its heel or its toe is; contact runs are debounced
-(:func:`~bipedsim.model.clip.debounce`). Gait events given by hand (:func:`load_events`) replace the
+(:func:`~bipedsim.reference.clip.debounce`). Gait events given by hand (:func:`load_events`) replace the
 detected strikes where detection fails.
 """
 

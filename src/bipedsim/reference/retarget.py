@@ -16,7 +16,7 @@ Euler decomposition on their axes, single hinges by the twist about their axis, 
 quaternions. Velocities come from ``mj_differentiatePos`` (central differences on the manifold).
 
 The fits live in :mod:`~bipedsim.model.orientations`, the split into hinges in
-:mod:`~bipedsim.model.hinge_angles`, the feet's heights and the floor in :mod:`~bipedsim.model.clip_floor`.
+:mod:`~bipedsim.model.hinge_angles`, the feet's heights and the floor in :mod:`~bipedsim.reference.clip_floor`.
 """
 
 from __future__ import annotations
@@ -29,14 +29,14 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
-from bipedsim.model.clip import ReferenceClip, contact_labels, debounce, foot_speeds, gait_events
-from bipedsim.model.clip_floor import _put_on_floor, floor_tilt, foot_heights, geom_lowest_z
-from bipedsim.model.gait import contacts_from_strikes, load_events, side_contacts
 from bipedsim.model.hinge_angles import _hinge_angles, _in_range_euler, hinge_basis
 from bipedsim.model.orientations import fit_orientations, kabsch
 from bipedsim.model.plan import BodyPlanSet, model_hash, plan_from_model
 from bipedsim.model.source import SourcePoints, motion_points
 from bipedsim.motion.motion import Motion
+from bipedsim.reference.clip import ReferenceClip, contact_labels, debounce, foot_speeds, gait_events
+from bipedsim.reference.clip_floor import _put_on_floor, floor_tilt, foot_heights, geom_lowest_z
+from bipedsim.reference.gait_events import contacts_from_strikes, load_events, side_contacts
 
 __all__ = ["fit_orientations", "floor_tilt", "foot_heights", "geom_lowest_z", "hinge_basis", "kabsch",
            "leading_glitch_frames", "marker_positions", "retarget", "source_marker_positions", "velocities"]
@@ -56,11 +56,11 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
     """Retarget a motion (project frame: metres, Z up) onto a model built by bipedsim.
 
     Contacts: a humanoid's heel and toe each touch when near their own ground level and nearly still,
-    thresholds measured on the clip (:mod:`bipedsim.model.gait`); a creature's feet when the lowest
+    thresholds measured on the clip (:mod:`bipedsim.reference.gait_events`); a creature's feet when the lowest
     point is below ``contact_height`` (m) and it moves slower than ``contact_speed`` (m/s). With ``trim_glitches``,
     leading frames that jump away from the rest of the take (the T-pose frame some releases start
     with) are dropped; ``clip.trimmed_frames`` says how many. ``events``: a YAML of foot strikes given
-    by hand (:func:`bipedsim.model.gait.load_events`; frames of the file) that replaces the detected ones.
+    by hand (:func:`bipedsim.reference.gait_events.load_events`; frames of the file) that replaces the detected ones.
     """
     plan = plan or plan_from_model(model)
     trimmed = leading_glitch_frames(motion) if trim_glitches else 0
@@ -77,7 +77,7 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
     qvel = velocities(model, qpos, motion.frame_time)
     side_feet = _foot_groups(plan, feet)
     low_g = _group_min(low, feet, side_feet)
-    if plan.profile == "humanoid":  # heel and toe separately, thresholds measured on the clip (model.gait)
+    if plan.profile == "humanoid":  # heel and toe separately, thresholds measured on the clip (reference.gait_events)
         groups = [[feet.index(f) for f in fs] for fs in side_feet.values()]
         grouped = debounce(side_contacts(low, fpos, motion.frame_time, groups), motion.frame_time,
                            min_gap=MIN_SWING_S)

@@ -12,9 +12,9 @@ from bipedsim.model.build import build_model, check_total_mass
 from bipedsim.model.creature_kind import AUTO
 from bipedsim.model.humanoid import sides_note, toes_note
 from bipedsim.model.naming import load_map
-from bipedsim.model.prepare import read_for_build
 from bipedsim.model.profile import HumanoidProfile, load_profile
-from bipedsim.model.retarget import retarget
+from bipedsim.reference.prepare import load_source
+from bipedsim.reference.retarget import retarget
 
 PathLike = str | os.PathLike[str]
 
@@ -44,8 +44,8 @@ def convert_bvh(input: PathLike, output: PathLike, *, profile: str = AUTO, profi
         kind = "humanoid" if isinstance(load_profile(profile_file), HumanoidProfile) else "creature"
     else:
         kind = "humanoid" if map and profile == AUTO else profile
-    # read as `bipedsim run` reads it (model.prepare.read_for_build): unit, static root, rest pose, in place
-    _, info, motion, profile = read_for_build(input, scale=scale, up=up, positions=positions, profile=kind, fps=fps)
+    # read as `bipedsim run` reads it (reference.prepare.load_source): unit, static root, rest pose, in place
+    _, info, motion, profile = load_source(input, scale=scale, up=up, positions=positions, profile=kind, fps=fps)
     check_output_file(output, "-o")
     if clip:
         check_output_file(clip, "--clip")

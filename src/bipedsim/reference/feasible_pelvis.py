@@ -10,8 +10,8 @@ from scipy.ndimage import maximum_filter1d, uniform_filter1d
 from scipy.sparse import diags, vstack
 from scipy.sparse.linalg import spsolve
 
-from bipedsim.model.feasible_feet import FootPlan, _runs
-from bipedsim.model.feasible_legs import _Leg
+from bipedsim.reference.feasible_feet import FootPlan, _runs
+from bipedsim.reference.feasible_legs import _Leg
 
 FloatArray = npt.NDArray[np.float64]
 

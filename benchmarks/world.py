@@ -27,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.synthesis.world import load_creature, load_world, parse_world
 from bipedsim.synthesis.world.breeding import breed_world_files
-from bipedsim.synthesis.world.creature import _foot_points
+from bipedsim.synthesis.world.creature_file import _foot_points
 from bipedsim.synthesis.world.path import Path as TilePath
 from bipedsim.synthesis.world.run import foot_skate
 from bipedsim.synthesis.world.synth import Synthesis, synthesize

@@ -18,7 +18,7 @@ from bipedsim.control.creature.reference import loop_segment
 from bipedsim.control.creature.settings import CreatureBalanceConfig
 from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.errors import ModelError
-from bipedsim.model.creature import creature_legs, trunk_bodies
+from bipedsim.model.creature_builder import creature_legs, trunk_bodies
 from bipedsim.model.creature_kind import detect_body_kind
 from bipedsim.motion.bvh import load_bvh, read_bvh
 from bipedsim.sim.rollout import FallCriteria, FallDetector, RolloutSpec
@@ -320,9 +320,9 @@ def _small_dog(tmp_path: Path) -> Path:
 
 def test_joint_damping_and_armature_are_held_to_the_bodys_own_scale(tmp_path: Path) -> None:
     """The profile's absolute joint damping and armature are capped at a share of M s^2 sqrt(g/s) and
-    M s^2 (model.creature.DAMPING_SHARE, ARMATURE_SHARE): the small dog's are capped, the shared dog's
+    M s^2 (model.creature_builder.DAMPING_SHARE, ARMATURE_SHARE): the small dog's are capped, the shared dog's
     (a 0.017 and 0.0011 share) are the profile's own."""
-    from bipedsim.model.creature import ARMATURE_SHARE, DAMPING_SHARE
+    from bipedsim.model.creature_builder import ARMATURE_SHARE, DAMPING_SHARE
 
     need_shared()  # the real dog's own size and mass
 

@@ -16,7 +16,7 @@ from bipedsim.errors import BipedsimError
 from bipedsim.motion import load_bvh, write_bvh
 from bipedsim.motion.reroot import add_static_root
 from bipedsim.synthesis.graph import FULL, MotionGraph, Player, build_graph, load_graph_config, parse
-from bipedsim.synthesis.graph.play import build_graph_file, play_script
+from bipedsim.synthesis.graph.commands import build_graph_file, play_script
 from bipedsim.synthesis.graph.player import PlayError
 from bipedsim.synthesis.graph.prune import DEFAULT_QUANTILE, Transition, choose_threshold, prune
 

@@ -30,7 +30,7 @@ from bipedsim.synthesis.world import (
     warp_times,
 )
 from bipedsim.synthesis.world import path as path_mod
-from bipedsim.synthesis.world.creature import load_creature
+from bipedsim.synthesis.world.creature_file import load_creature
 from bipedsim.synthesis.world.events import ANGLES_DEG, GRAVITY, ccd_frame
 from bipedsim.synthesis.world.scene import scene_xml
 

@@ -257,7 +257,7 @@ def _reader(name: str) -> Callable[[Path], Any]:
     from bipedsim.reference.gait_events import load_events
     from bipedsim.synthesis.breed.evolve import load_joint_map
     from bipedsim.synthesis.graph.build import load_graph_config
-    from bipedsim.synthesis.world.creature import load_creature
+    from bipedsim.synthesis.world.creature_file import load_creature
     from bipedsim.synthesis.world.tiles import load_world
 
     return {

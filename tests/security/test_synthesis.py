@@ -25,7 +25,7 @@ from bipedsim.synthesis.graph import read_graph
 from bipedsim.synthesis.graph.build import MAX_GRAPH_FPS, MAX_GRAPH_FRAMES
 from bipedsim.synthesis.graph.player import MAX_PLAY_FRAMES
 from bipedsim.synthesis.graph.script import MAX_SCRIPT_COMMANDS
-from bipedsim.synthesis.world.creature import LOOP_SEARCH_MAX_FRAMES, find_loop
+from bipedsim.synthesis.world.creature_file import LOOP_SEARCH_MAX_FRAMES, find_loop
 from bipedsim.synthesis.world.synth import MAX_WORLD_FRAMES
 from bipedsim.synthesis.world.tiles import MAX_WORLD_CELLS
 

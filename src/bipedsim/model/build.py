@@ -14,7 +14,7 @@ import numpy as np
 
 from bipedsim.errors import ConfigError, InputError, ModelError
 from bipedsim.files import atomic_write_text, read_input_text
-from bipedsim.model.creature import creature_plan
+from bipedsim.model.creature_builder import creature_plan
 from bipedsim.model.humanoid import humanoid_plan
 from bipedsim.model.plan import BodyPlanSet, ModelBuilder, model_hash, plan_from_model
 from bipedsim.model.profile import MASS_RANGE_KG, CreatureProfile, HumanoidProfile, load_profile

@@ -137,7 +137,7 @@ def add_soles(bodies: list[BodyPlan], legs: list, moving: SourcePoints, rest: So
               body_source: dict[str, set[str]]) -> dict[str, str]:
     """Give each leg of a creature on at most SOLE_MAX_LEGS legs a sole on its foot segment (see the
     module text); returns leg root -> sole site name ({} for more legs). ``legs``: the body's
-    :class:`~bipedsim.model.creature.Leg` list; ``body_source``: each body's source joints (its own and
+    :class:`~bipedsim.model.creature_builder.Leg` list; ``body_source``: each body's source joints (its own and
     the ones merged into it); ``rest``/``moving``: the skeleton's rest-pose and per-frame points."""
     if not legs or len(legs) > SOLE_MAX_LEGS:
         return {}

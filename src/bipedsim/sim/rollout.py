@@ -21,7 +21,7 @@ import numpy.typing as npt
 
 from bipedsim.control.base import Controller
 from bipedsim.errors import ConfigError
-from bipedsim.model.creature import trunk_bodies
+from bipedsim.model.creature_builder import trunk_bodies
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
 from bipedsim.sim.push import PushSchedule
 

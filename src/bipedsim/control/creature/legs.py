@@ -1,5 +1,5 @@
 """A creature's legs as its balance uses them: found from the body
-(:func:`~bipedsim.model.creature.creature_legs`: foot end effectors walked up to where they leave the
+(:func:`~bipedsim.model.creature_builder.creature_legs`: foot end effectors walked up to where they leave the
 trunk), any number; per leg its degrees of freedom and actuators, its feet and their touch sites, the
 geoms of its lower end that meet the floor; which legs touch the floor now, and the joint torques that
 make a foot push the ground with a given force (Jacobian transpose).
@@ -19,7 +19,7 @@ import numpy as np
 from bipedsim.control.base import FloatArray
 from bipedsim.control.creature.forces import distribute_wrench, in_cone
 from bipedsim.control.creature.tracking import CreatureBody, ball_joints
-from bipedsim.model.creature import Leg, creature_legs
+from bipedsim.model.creature_builder import Leg, creature_legs
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
 from bipedsim.reference.clip import ReferenceClip
 

@@ -1,6 +1,6 @@
 """Motion-tile worlds: a creature crosses a 2D tile map by walking, flying or swimming.
 
-World files (:mod:`.tiles`), creature files and their clips cut into loops (:mod:`.creature`), path
+World files (:mod:`.tiles`), creature files and their clips cut into loops (:mod:`.creature_file`), path
 finding with the creature's modes and the motion priority per tile (:mod:`.path`), time warp + P(n)
 blending (:mod:`.blend`), synthesis along the path (:mod:`.synth`), terrain events (:mod:`.events`),
 environment-weighted breeding (:mod:`.breeding`), the paths plot (:mod:`.plot`), the MuJoCo scene and
@@ -18,7 +18,7 @@ from bipedsim.synthesis.world.breeding import (
     mode_x,
     parent_weights,
 )
-from bipedsim.synthesis.world.creature import Creature, ModeClip, load_creature
+from bipedsim.synthesis.world.creature_file import Creature, ModeClip, load_creature
 from bipedsim.synthesis.world.events import best_direction
 from bipedsim.synthesis.world.path import Path, choose_mode, find_path, path_modes, priority_scores
 from bipedsim.synthesis.world.run import cross_world, format_creature_line, run_world

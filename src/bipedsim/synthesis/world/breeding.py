@@ -21,7 +21,7 @@ from bipedsim.files import atomic_write_json, atomic_write_text, check_distinct_
 from bipedsim.motion.bvh import load_bvh, write_bvh
 from bipedsim.synthesis.breed import breed
 from bipedsim.synthesis.breed.files import CHILD_UNITS_PER_M
-from bipedsim.synthesis.world.creature import load_creature
+from bipedsim.synthesis.world.creature_file import load_creature
 from bipedsim.synthesis.world.tiles import TRAVEL_MODES, World, WorldError, load_world
 
 PathLike = str | os.PathLike[str]

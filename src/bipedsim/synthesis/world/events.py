@@ -19,7 +19,7 @@ import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from bipedsim.motion.motion import Motion, canonical_quat
-from bipedsim.synthesis.world.creature import foot_tips, tip_joint
+from bipedsim.synthesis.world.creature_file import foot_tips, tip_joint
 
 FloatArray = npt.NDArray[np.float64]
 

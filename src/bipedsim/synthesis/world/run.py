@@ -13,7 +13,7 @@ import numpy as np
 from bipedsim.files import atomic_write_json, check_distinct_paths, check_output_file, versions
 from bipedsim.motion.bvh import write_bvh
 from bipedsim.reference.clip import STANCE_LEVEL_PERCENTILE
-from bipedsim.synthesis.world.creature import NAME_PATTERN, Creature, _foot_points, creature_summary, load_creature
+from bipedsim.synthesis.world.creature_file import NAME_PATTERN, Creature, _foot_points, creature_summary, load_creature
 from bipedsim.synthesis.world.path import find_path, path_modes
 from bipedsim.synthesis.world.synth import Synthesis, body_points, synthesize
 from bipedsim.synthesis.world.tiles import MIN_TILE_BODY_FRACTION, World, WorldError, load_world
@@ -25,7 +25,7 @@ BVH_UP = "y"
 
 def output_paths(output: PathLike, names: list[str]) -> list[Path]:
     """One BVH per creature: ``output`` itself for one, ``<stem>_<name>.bvh`` beside it for several (the
-    names are checked file-name parts, :data:`~bipedsim.synthesis.world.creature.NAME_PATTERN`: nothing is written
+    names are checked file-name parts, :data:`~bipedsim.synthesis.world.creature_file.NAME_PATTERN`: nothing is written
     outside ``output``'s folder)."""
     out = Path(output)
     if len(names) == 1:

@@ -19,7 +19,7 @@ from bipedsim.errors import BipedsimError
 from bipedsim.model.source import motion_points
 from bipedsim.motion.motion import Motion, canonical_quat
 from bipedsim.synthesis.world.blend import WEIGHTS, slerp, warp_times
-from bipedsim.synthesis.world.creature import Creature, ModeClip, retarget_default
+from bipedsim.synthesis.world.creature_file import Creature, ModeClip, retarget_default
 from bipedsim.synthesis.world.events import JumpPlan, plan_jump, push_ik
 from bipedsim.synthesis.world.path import Path
 from bipedsim.synthesis.world.tiles import World, WorldError

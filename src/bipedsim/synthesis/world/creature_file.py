@@ -25,7 +25,7 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.config import load_yaml
 from bipedsim.errors import BipedsimError
-from bipedsim.model.creature import creature_plan
+from bipedsim.model.creature_builder import creature_plan
 from bipedsim.model.profile import load_profile
 from bipedsim.model.source import motion_points
 from bipedsim.motion.bvh import load_bvh

@@ -96,7 +96,7 @@ def reconstruct_root(motion: Motion, feet: list[int] | None = None) -> Motion:
     forward), height, continuity and the weight's way forward can.
     The floor is the clip's 5th-percentile lowest foot point. ``motion`` in the project frame (m, Z up);
     the vertical stays as it is. Where a capture's feet slide the rebuilt speed dips at the strikes
-    (``tests/test_layouts.py`` compares the rebuilt travel with a walk's own)."""
+    (``tests/model/test_layouts.py`` compares the rebuilt travel with a walk's own)."""
     sk = motion.skeleton
     feet = foot_joints(sk.names) if feet is None else feet
     dt = motion.frame_time

@@ -116,7 +116,7 @@ def test_scrambled_parent_gets_the_named_parents_pairs() -> None:
 def _side_words_exchanged(m: Motion) -> Motion:  # benchmarks/layout_variants.py's ``side_names`` variant
     import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     import layout_variants
 
     return layout_variants._side_names(m)
@@ -307,7 +307,7 @@ def test_readme_breed_and_graph_commands_run(tmp_path: Path, monkeypatch: pytest
     import re
 
     need_shared()
-    repo = Path(__file__).resolve().parent.parent
+    repo = Path(__file__).resolve().parents[2]
     block = re.search(r"<!-- breed-graph-commands -->\s*```bash\n(.*?)```", (repo / "README.md").read_text(),
                       re.DOTALL)
     assert block

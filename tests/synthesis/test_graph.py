@@ -25,7 +25,7 @@ from bipedsim.synthesis.graph.build import summed_part_distance
 from bipedsim.synthesis.graph.distance import align_2d, apply_2d, distance_matrix, windows
 from bipedsim.synthesis.graph.prune import prune
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 CONFIG = REPO / "examples" / "graphs" / "walk_wave.yaml"
 #: Documented bound: no output frame moves any joint more than this factor times the largest
 #: per-frame joint displacement found in the source clips.
@@ -250,7 +250,7 @@ def test_loading_what_is_no_graph_file_says_so_and_how_to_make_one(tmp_path: Pat
 def test_a_threshold_that_prunes_every_frame_is_refused_and_nothing_written(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     need_shared()
-    example = Path(__file__).resolve().parents[1] / "examples" / "graphs" / "walk_wave.yaml"
+    example = Path(__file__).resolve().parents[2] / "examples" / "graphs" / "walk_wave.yaml"
     text = example.read_text().replace("../../../shared", str(SHARED_BVH.parents[1]))
     cfg = tmp_path / "g.yaml"
     text = re.sub(r"(?m)^threshold_quantile:.*$", "threshold_quantile: 0.02", text)

@@ -15,7 +15,7 @@ from bipedsim.motion import load_bvh
 from bipedsim.synthesis.world import cross_world, load_creature, load_world, parent_weights
 from bipedsim.synthesis.world.synth import body_points
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 WORLDS = REPO / "examples" / "worlds"
 RIDGE = WORLDS / "ridge.yaml"
 

@@ -19,7 +19,7 @@ from bipedsim.sim.recorder import Recorder
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
 
-SIM = Path(__file__).resolve().parent.parent / "src" / "bipedsim" / "sim"
+SIM = Path(__file__).resolve().parents[2] / "src" / "bipedsim" / "sim"
 
 
 def test_one_step_loop_in_sim() -> None:

@@ -304,7 +304,7 @@ def test_a_human_run_as_a_creature_keeps_its_unit_and_folds_a_static_root() -> N
     assert raw.skeleton.names[0] != "joint_Root" and "joint_Root" not in raw.skeleton.names
     travel = np.linalg.norm(m_b.root_translation[-1, :2] - m_b.root_translation[0, :2])
     assert travel > 5.0  # the 9 m walk travels; a static floor root would read 0
-    _, _, m_bh, _ = read_source(bandai)  # the humanoid reading folds it too (tests/test_layouts.py)
+    _, _, m_bh, _ = read_source(bandai)  # the humanoid reading folds it too (tests/model/test_layouts.py)
     assert m_bh.skeleton.names == m_b.skeleton.names
 
 

@@ -18,7 +18,7 @@ from bipedsim.motion.reroot import add_static_root
 def _probe():  # benchmarks/layout_variants.py, the probe's own variants
     import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     import layout_variants
 
     return layout_variants

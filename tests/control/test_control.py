@@ -36,7 +36,7 @@ from bipedsim.errors import ConfigError
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario, run_seeds
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 
 
 def test_pd_step_is_eq1(scenario) -> None:
@@ -687,7 +687,7 @@ def test_pushes_on_the_shared_cmu_walk_meet_the_issue_s_target(tmp_path: Path) -
     from bipedsim.experiments.sweep import run_sweep
 
     need_shared()
-    exp = Path(__file__).resolve().parents[1] / "experiments" / "push_cmu_02_01.yaml"
+    exp = Path(__file__).resolve().parents[2] / "experiments" / "push_cmu_02_01.yaml"
     run_sweep(load_experiment(exp), tmp_path / "out", progress=False)
     rows = list(csv.DictReader((tmp_path / "out" / "results.csv").open()))
     assert len(rows) == 16

@@ -332,7 +332,7 @@ def test_a_veering_reference_is_followed(walk) -> None:
 
 
 def test_pose_gait_course_is_straight_ahead() -> None:
-    sc = load_scenario(Path(__file__).resolve().parent.parent / "controllers" / "pose_gait.yaml")
+    sc = load_scenario(Path(__file__).resolve().parents[2] / "controllers" / "pose_gait.yaml")
     src = gait_source(sc.built.model, sc.built.plan, sc.clip, sc.cfg)
     assert src.course() == GaitSource().course() and src.course_start(0.0) == ((0.0, 0.0, 0.0), 0)
 

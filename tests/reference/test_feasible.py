@@ -18,7 +18,7 @@ from bipedsim.reference.feasible_legs import SIDES, _kinematics, _Leg
 from bipedsim.reference.feasible_measure import infeasible_because, measure, resolve_because
 from bipedsim.sim import runner
 
-RAW = Path(__file__).resolve().parent / "data" / "reference_as_captured.yaml"  # reference: {feasible: false}
+RAW = Path(__file__).resolve().parents[1] / "data" / "reference_as_captured.yaml"  # reference: {feasible: false}
 
 
 @lru_cache(maxsize=4)

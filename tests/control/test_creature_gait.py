@@ -223,7 +223,7 @@ def test_creature_settings_come_from_the_controller_yaml(tmp_path: Path) -> None
     from bipedsim.control.creature.settings import CreatureControlConfig
     from bipedsim.control.settings import ControllerConfig, load_controller
 
-    assert load_controller(Path(__file__).resolve().parent.parent / "controllers" / "default.yaml").creature \
+    assert load_controller(Path(__file__).resolve().parents[2] / "controllers" / "default.yaml").creature \
         == CreatureControlConfig() == ControllerConfig().creature
     p = _creature_yaml(tmp_path, "creature:\n  balance: {speed_fraction: 0.3, step_height: 0.1}\n")
     sc = load_scenario(p, bvh=HORSE_WALK)

@@ -13,7 +13,7 @@ import pytest
 from bipedsim.control.settings import BODY_SCALED, ControllerConfig, for_body, load_controller
 from bipedsim.errors import ConfigError
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh" / "human"
+SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "bvh" / "human"
 
 
 def _get(cfg: object, key: str) -> object:

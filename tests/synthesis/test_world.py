@@ -34,7 +34,7 @@ from bipedsim.synthesis.world.creature_file import load_creature
 from bipedsim.synthesis.world.events import ANGLES_DEG, GRAVITY, ccd_frame
 from bipedsim.synthesis.world.scene import scene_xml
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 RIDGE = REPO / "examples" / "worlds" / "ridge.yaml"
 
 

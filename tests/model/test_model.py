@@ -415,7 +415,7 @@ def test_two_segment_spine_where_the_source_bends() -> None:
 
 def test_spine_segments_validated(tmp_path: Path) -> None:
     bad = tmp_path / "humanoid.yaml"
-    text = (Path(__file__).resolve().parents[1] / "src/bipedsim/profiles/humanoid.yaml").read_text()
+    text = (Path(__file__).resolve().parents[2] / "src/bipedsim/profiles/humanoid.yaml").read_text()
     bad.write_text(text.replace("spine_segments: auto", "spine_segments: 3"))
     with pytest.raises(ConfigError, match="spine_segments"):
         load_profile(bad)

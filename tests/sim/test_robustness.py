@@ -15,7 +15,7 @@ import pytest
 from bipedsim.cli import main
 from bipedsim.data import BUILTIN_WALK
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 
 
 def one_line_error(capsys: pytest.CaptureFixture[str], *words: str) -> str:

@@ -21,7 +21,7 @@ from bipedsim.sim.push import Push, random_pushes
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 EXP = REPO / "experiments"
 
 

@@ -22,7 +22,7 @@ from bipedsim.experiments.tune import cmaes as tune_cmaes
 from bipedsim.experiments.tune.objective import DEVIATION_CAP, TERMS, Cadence, GaitMeter, push_terms, walk_terms
 from bipedsim.sim.runner import load_scenario
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 BROKEN = REPO / "experiments" / "controllers" / "no_balance_feedback.yaml"
 HORSE = REPO / "src" / "bipedsim" / "data" / "horse_walk.bvh"
 

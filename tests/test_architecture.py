@@ -25,9 +25,9 @@ PACKAGE = SRC / "bipedsim"
 #: ``sim/outputs.py`` (a run folder's plots
 #: and videos) and ``synthesis/world/scene.py`` (the world's video) render, and sit with ``render/``.
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
-    ("base", ("bipedsim", "bipedsim.errors", "bipedsim.files", "bipedsim.config")),
+    ("base", ("bipedsim", "bipedsim.errors", "bipedsim.files", "bipedsim.config", "bipedsim.data")),
     ("motion", ("bipedsim.motion",)),
-    ("model", ("bipedsim.model", "bipedsim.data")),
+    ("model", ("bipedsim.model",)),
     ("reference", ("bipedsim.reference",)),
     ("control", ("bipedsim.control",)),
     ("sim", ("bipedsim.sim",)),

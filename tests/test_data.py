@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from generated import assert_text_close
 
-from bipedsim.data import BUILTIN_WALK, SHIPPED_BVH_PRECISION, builtin_walk_text
+from bipedsim.data import BUILTIN_WALK, SHIPPED_BVH_PRECISION
+from bipedsim.model import builtin
 from bipedsim.motion import read_bvh
 from bipedsim.motion.gaitgen import WalkParams
+from bipedsim.motion.samples import builtin_walk_text
 
 
 def test_builtin_walk_regenerates_identically() -> None:
@@ -32,7 +34,7 @@ def test_an_installed_package_builds_the_humanoid_into_a_cache_named_by_its_inpu
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     monkeypatch.setattr(data, "BUILTIN_HUMANOID", tmp_path / "absent.xml")
-    path = data.builtin_humanoid_path()
+    path = builtin.builtin_humanoid_path()
     assert path.parent == tmp_path / "bipedsim" and re.fullmatch(r"humanoid-[0-9a-f]{12}\.xml", path.name)
-    assert_xml_close(path.read_text(), data.builtin_humanoid_xml())
-    assert data.builtin_humanoid_path() == path  # found again, not rebuilt under another name
+    assert_xml_close(path.read_text(), builtin.builtin_humanoid_xml())
+    assert builtin.builtin_humanoid_path() == path  # found again, not rebuilt under another name

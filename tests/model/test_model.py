@@ -12,9 +12,10 @@ from conftest import SHARED_BVH, need_shared, shared_params
 from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
-from bipedsim.data import BUILTIN_HUMANOID, BUILTIN_WALK, builtin_humanoid_xml
+from bipedsim.data import BUILTIN_HUMANOID, BUILTIN_WALK
 from bipedsim.errors import BipedsimError, ConfigError, ModelError
 from bipedsim.model import build_model, load_model, load_profile
+from bipedsim.model.builtin import builtin_humanoid_xml
 from bipedsim.model.hinge_angles import _hinge_angles
 from bipedsim.model.naming import MapFile, load_map, split_name
 from bipedsim.model.profile import PROFILE_DIR

@@ -12,10 +12,11 @@ from conftest import SHARED_BVH, need_shared, shared_params
 from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
-from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT, sample_texts
+from bipedsim.data import BUILTIN_WALK, HORSE_WALK, PTEROSAUR_FLIGHT
 from bipedsim.errors import ConfigError
 from bipedsim.model import build_model
 from bipedsim.motion import Motion, Skeleton, load_bvh
+from bipedsim.motion.samples import sample_texts
 from bipedsim.reference import retarget
 from bipedsim.synthesis.breed.evolve import (
     BreedError,

@@ -8,9 +8,14 @@ moving along +X.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bipedsim.data import HORSE_WALK, PTEROSAUR_FLIGHT, SHIPPED_BVH_PRECISION
+from bipedsim.motion.bvh_write import bvh_text
+from bipedsim.motion.gaitgen import walk_bvh_motion
 from bipedsim.motion.motion import Motion, canonical_quat
 from bipedsim.motion.skeleton import Skeleton
 
@@ -115,3 +120,16 @@ def pterosaur_flight(cycles: int = 4, frames_per_cycle: int = 40, speed: float =
     q[:, idx["Neck"]] = _rot("y", 0.05 * np.sin(ph))
     root = np.stack([speed * t, np.zeros(n), altitude + 0.05 * np.sin(ph)], axis=1)
     return Motion(skeleton=sk, frame_time=dt, root_translation=root, rotations=canonical_quat(q), unit=1.0, up="z")
+
+
+def builtin_walk_text() -> str:
+    """The text of the built-in walk BVH (:data:`bipedsim.data.BUILTIN_WALK`), generated afresh."""
+    return bvh_text(walk_bvh_motion(), precision=SHIPPED_BVH_PRECISION)
+
+
+def sample_texts() -> dict[Path, str]:
+    """The sample creatures' BVH texts (:data:`bipedsim.data.HORSE_WALK`, ``PTEROSAUR_FLIGHT``), generated
+    afresh."""
+    return {HORSE_WALK: bvh_text(horse_walk().with_up("y").scaled(100.0), precision=SHIPPED_BVH_PRECISION),
+            PTEROSAUR_FLIGHT: bvh_text(pterosaur_flight().with_up("y").scaled(100.0),
+                                       precision=SHIPPED_BVH_PRECISION)}

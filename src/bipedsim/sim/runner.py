@@ -21,10 +21,11 @@ from bipedsim.control.settings import (
     for_reference,
     load_controller,
 )
-from bipedsim.data import BUILTIN_WALK, builtin_humanoid_path
+from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.files import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
+from bipedsim.model.builtin import builtin_humanoid_path
 from bipedsim.model.creature_kind import AUTO, resolve_profile
 from bipedsim.motion.bvh import read_bvh
 from bipedsim.reference.clip import ReferenceClip

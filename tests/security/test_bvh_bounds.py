@@ -11,6 +11,7 @@ import subprocess
 import sys
 import textwrap
 import tracemalloc
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -19,6 +20,7 @@ import numpy as np
 import pytest
 
 from bipedsim.cli import main
+from bipedsim.data import builtin_walk_path
 from bipedsim.errors import BVHError
 from bipedsim.motion import bvh, bvh_bytes
 from bipedsim.motion.bvh import MAX_HEADER_LINE_BYTES, PROGRESS_MIN_BYTES, read_bvh
@@ -242,3 +244,20 @@ def test_file_at_the_limit_reads_within_1_gb(tmp_path: Path) -> None:
                           capture_output=True, text=True, env=env, timeout=600, check=False)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert f"frames {frames} 31" in proc.stdout
+
+
+@pytest.mark.parametrize("value", ["1e300", "-3e10"])
+def test_corrupt_magnitudes_are_refused_quietly(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                value: str) -> None:
+    lines = builtin_walk_path().read_text().split("\n")
+    first = next(i for i, line in enumerate(lines) if line.startswith("Frame Time")) + 1
+    values = lines[first].split()
+    values[0] = value
+    lines[first] = " ".join(values)
+    bad = tmp_path / "corrupt.bvh"
+    bad.write_text("\n".join(lines))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow warning on the way to the error
+        assert main(["info", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"bipedsim info: error: {bad}: frame 1 holds a value of") and "corrupt" in err, err

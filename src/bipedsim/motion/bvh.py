@@ -63,6 +63,25 @@ GIVEN_SCALE_SIZE_RANGE_M = (0.02, 30.0)
 PROGRESS_MIN_BYTES = 5 << 20
 
 
+#: The largest value a BVH file may hold (an OFFSET, a position or an angle, in the file's own units): a
+#: billion millimetres is 1000 km, a billion degrees nearly 3 million turns. Larger numbers are corrupt, and
+#: would overflow the arithmetic that chooses the file's reading.
+MAX_FILE_VALUE = 1e9
+
+
+def _check_magnitudes(offsets: np.ndarray, data: np.ndarray, path: str) -> None:
+    """Refuse a file whose OFFSETs or frame values pass :data:`MAX_FILE_VALUE`, naming the first one."""
+    if offsets.size and np.abs(offsets).max() > MAX_FILE_VALUE:
+        raise BVHError(f"an OFFSET of {np.abs(offsets).max():g} file units: larger than {MAX_FILE_VALUE:g}, "
+                       "the file's numbers are corrupt", path)
+    if data.size:
+        big = np.abs(data).max(axis=1) > MAX_FILE_VALUE
+        if big.any():
+            row = int(np.flatnonzero(big)[0])
+            raise BVHError(f"frame {row + 1} holds a value of {np.abs(data[row]).max():g}: larger than "
+                           f"{MAX_FILE_VALUE:g} (file units or degrees), the file's numbers are corrupt", path)
+
+
 def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
              up: str | None = None, positions: str | None = None,
              upright: bool | None = None, fps: float | None = None) -> tuple[Motion, BVHInfo]:
@@ -110,6 +129,7 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
         if bar is not None:
             bar.close()
     del raw  # the values are read: the file's bytes need not stay while the readings are compared
+    _check_magnitudes(sk.offsets, data, p)
     info.file_frame_time = frame_time
     if fps is not None:
         frame_time = info.frame_time = _given_frame_time(fps, p)

@@ -1,8 +1,11 @@
 """bipedsim: physics-based character simulation on MuJoCo.
 
-BVH motion capture -> :mod:`bipedsim.motion` -> :mod:`bipedsim.model` (MJCF bodies and reference
-clips) -> :mod:`bipedsim.control` (PD + SIMBICON balance) -> :mod:`bipedsim.sim` (rollouts, pushes,
-sweeps). Units are SI everywhere inside the package; the world is Z-up.
+BVH motion capture -> :mod:`bipedsim.motion` (reading) -> :mod:`bipedsim.model` (MJCF bodies) ->
+:mod:`bipedsim.reference` (the clip made a reference for one body) -> :mod:`bipedsim.control` (PD +
+SIMBICON balance, creature balance) -> :mod:`bipedsim.sim` (rollouts, pushes) ->
+:mod:`bipedsim.experiments` (sweeps, tuning, regression suites); :mod:`bipedsim.synthesis` (breeding,
+motion graphs, tile worlds) and :mod:`bipedsim.render` (videos, plots). Units are SI everywhere inside
+the package; the world is Z-up.
 """
 
 from __future__ import annotations
@@ -17,6 +20,13 @@ _VALID_GL = ("glfw", "egl", "osmesa", "glx", "cgl", "wgl")
 if _os.environ.get("MUJOCO_GL", "").lower() not in ("", *_VALID_GL):
     _os.environ["BIPEDSIM_MUJOCO_GL"] = _os.environ.pop("MUJOCO_GL")
 
-from bipedsim.errors import BipedsimError, BVHError, ConfigError, ModelError  # noqa: E402
+from bipedsim.errors import (  # noqa: E402
+    BipedsimError,
+    BVHError,
+    ConfigError,
+    InputError,
+    ModelError,
+    OutputError,
+)
 
-__all__ = ["BVHError", "BipedsimError", "ConfigError", "ModelError", "__version__"]
+__all__ = ["BVHError", "BipedsimError", "ConfigError", "InputError", "ModelError", "OutputError", "__version__"]

@@ -9,6 +9,10 @@ when ``../shared`` is there and the stand-in otherwise, so it checks what the la
 What a stand-in cannot have (a real performer's numbers: strike counts, speeds, seam errors) stays with
 the tests that need the real file.
 
+The odd/ folder's stand-ins keep each file's layout (joint count and tree, position channels and their
+mode, unit, up axis, line endings) on the generated walk or stand; their performances are not the real
+ones (a walk for the crouch, fewer frames than the long takes).
+
 The stand-ins are written once per test session into one folder (``standin_dir``), laid out as
 ``../shared/data/bvh`` is (``human/``, ``animal/``, ``odd/``).
 """
@@ -110,11 +114,13 @@ def rest_turned(m: Motion, turns: dict[str, Rotation]) -> Motion:
     return m.reframed(base)
 
 
-def six_channels(m: Motion) -> Motion:
-    """Every joint with 3 position channels holding its OFFSET (absolute), before its rotations."""
+def six_channels(m: Motion, mode: str = "replace", only: frozenset[str] | None = None) -> Motion:
+    """Every joint (or those named in ``only``) with 3 position channels before its rotations: holding its
+    OFFSET (``mode`` "replace", absolute) or zero ("add", added to the OFFSET)."""
     sk = m.skeleton
-    channels = tuple(ch if sk.has_positions(i) else ROOT6 + ch for i, ch in enumerate(sk.channels))
-    modes = tuple("replace" for _ in channels)
+    channels = tuple(ch if sk.has_positions(i) or (only is not None and sk.names[i] not in only) else ROOT6 + ch
+                     for i, ch in enumerate(sk.channels))
+    modes = tuple("replace" if i == 0 else mode for i in range(len(channels)))
     return m.copy(skeleton=sk.replace(channels=channels, position_modes=modes), translations=m.local_translations())
 
 
@@ -293,6 +299,193 @@ def _max31() -> tuple[list[J], list[E]]:
     return js, ends
 
 
+def _max31_metres() -> tuple[list[J], list[E]]:
+    """The same 3ds-Max-friendly skeleton as the repo author's metres copy names it (lowerback, lowerneck)."""
+    rename = {"LowerBack": "lowerback", "LowerNeck": "lowerneck"}
+    js, ends = _max31()
+    js = [J(rename.get(j.name, j.name), rename.get(j.parent, j.parent) if j.parent else None, j.anchor, j.at, j.order)
+          for j in js]
+    return js, [E(rename.get(e.parent, e.parent), e.at) for e in ends]
+
+
+def _crouch19() -> tuple[list[J], list[E]]:
+    """The mocapbank 19-joint skeleton (Chest, Chest2, collars, LeftHip/Knee/Ankle without toes), ZXY."""
+    js = [J("Hips", None, "Hips", order="ZXY"), J("Chest", "Hips", "Spine", order="ZXY"),
+          J("Chest2", "Chest", "Spine1", order="ZXY")]
+    ends = []
+    for side in ("Left", "Right"):
+        js += [J(f"{side}Collar", "Chest2", f"{side}Shoulder", order="ZXY"),
+               J(f"{side}Shoulder", f"{side}Collar", f"{side}Arm", order="ZXY"),
+               J(f"{side}Elbow", f"{side}Shoulder", f"{side}ForeArm", order="ZXY"),
+               J(f"{side}Wrist", f"{side}Elbow", f"{side}Hand", order="ZXY")]
+        ends.append(E(f"{side}Wrist", (0.0, 0.0, -0.08)))
+    js += [J("Neck", "Chest2", "Neck", order="ZXY"), J("Head", "Neck", "Head", order="ZXY")]
+    ends.append(E("Head", (0.0, 0.0, 0.2)))
+    for side in ("Left", "Right"):
+        js += [J(f"{side}Hip", "Hips", f"{side}UpLeg", order="ZXY"),
+               J(f"{side}Knee", f"{side}Hip", f"{side}Leg", order="ZXY"),
+               J(f"{side}Ankle", f"{side}Knee", f"{side}Foot", order="ZXY")]
+        ends.append(E(f"{side}Ankle", (0.17, 0.0, -0.05)))
+    return js, ends
+
+
+def _spec18() -> tuple[list[J], list[E]]:
+    """The classic 18-joint sample (Hips, Chest, LeftCollar, LeftUpArm, LeftLowArm, LeftUpLeg ...), ZXY."""
+    js = [J("Hips", None, "Hips", order="ZXY"), J("Chest", "Hips", "Spine", order="ZXY"),
+          J("Neck", "Chest", "Neck", order="ZXY"), J("Head", "Neck", "Head", order="ZXY")]
+    ends = [E("Head", (0.0, 0.0, 0.2))]
+    for side in ("Left", "Right"):
+        js += [J(f"{side}Collar", "Chest", f"{side}Shoulder", order="ZXY"),
+               J(f"{side}UpArm", f"{side}Collar", f"{side}Arm", order="ZXY"),
+               J(f"{side}LowArm", f"{side}UpArm", f"{side}ForeArm", order="ZXY"),
+               J(f"{side}Hand", f"{side}LowArm", f"{side}Hand", order="ZXY")]
+        ends.append(E(f"{side}Hand", (0.0, 0.0, -0.08)))
+    for side in ("Left", "Right"):
+        js += [J(f"{side}UpLeg", "Hips", f"{side}UpLeg", order="ZXY"),
+               J(f"{side}LowLeg", f"{side}UpLeg", f"{side}Leg", order="ZXY"),
+               J(f"{side}Foot", f"{side}LowLeg", f"{side}Foot", order="ZXY")]
+    ends.append(E("RightFoot", (0.17, 0.0, -0.05)))
+    return js, ends
+
+
+def _blender19() -> tuple[list[J], list[E]]:
+    """bvhtools' Blender-rig names (pelvis, spine.001, thigh.L ...): XYZ, the shoulders and hip bones YXZ."""
+    js = [J("pelvis", None, "Hips", order="XYZ"), J("spine", "pelvis", "Spine", order="XYZ"),
+          J("spine.001", "spine", "Spine1", order="XYZ"), J("neck", "spine.001", "Neck", order="XYZ"),
+          J("face", "neck", "Head", order="XYZ")]
+    ends = [E("face", (0.0, 0.0, 0.2))]
+    for s in ("L", "R"):
+        side = "Left" if s == "L" else "Right"
+        js += [J(f"shoulder.{s}", "spine.001", f"{side}Shoulder", order="YXZ"),
+               J(f"upper_arm.{s}", f"shoulder.{s}", f"{side}Arm", order="XYZ"),
+               J(f"forearm.{s}", f"upper_arm.{s}", f"{side}ForeArm", order="XYZ")]
+        ends.append(E(f"forearm.{s}", (0.0, 0.0, -0.25)))
+    for s, w in (("L", 1.0), ("R", -1.0)):
+        js.append(J(f"pelvis.{s}", "pelvis", "Hips", (0.0, w * 0.06, -0.02), order="YXZ"))
+        ends.append(E(f"pelvis.{s}", (0.05, w * 0.06, 0.04)))
+    for s in ("L", "R"):
+        side = "Left" if s == "L" else "Right"
+        js += [J(f"thigh.{s}", "pelvis", f"{side}UpLeg", order="XYZ"),
+               J(f"shin.{s}", f"thigh.{s}", f"{side}Leg", order="XYZ"),
+               J(f"foot.{s}", f"shin.{s}", f"{side}Foot", order="XYZ")]
+        ends.append(E(f"foot.{s}", (0.17, 0.0, -0.05)))
+    return js, ends
+
+
+def _mh_walk75() -> tuple[list[J], list[E]]:
+    """MakeHuman's 75-joint game rig (Root, Spine1-3, __ helper bones, five-finger hands, a Hips bone
+    joining both legs under Root), XYZ."""
+    js = [J("Root", None, "Hips", order="XYZ"), J("Spine1", "Root", "Spine", order="XYZ"),
+          J("Spine2", "Spine1", "Spine1", order="XYZ"), J("Spine3", "Spine2", "Spine1", (0.0, 0.0, 0.12), order="XYZ"),
+          J("Neck", "Spine3", "Neck", order="XYZ"), J("Head", "Neck", "Head", order="XYZ"),
+          J("__Jaw", "Head", "Head", (0.03, 0.0, 0.0), order="XYZ"),
+          J("Jaw", "__Jaw", "Head", (0.04, 0.0, 0.0), order="XYZ"),
+          J("__Tongue1", "Jaw", "Head", (0.05, 0.0, 0.01), order="XYZ"),
+          J("Tongue1", "Jaw", "Head", (0.06, 0.0, 0.01), order="XYZ"),
+          J("Tongue2", "Tongue1", "Head", (0.07, 0.0, 0.01), order="XYZ"),
+          J("Tongue3", "Tongue2", "Head", (0.08, 0.0, 0.01), order="XYZ")]
+    ends = [E("__Tongue1", (0.01, 0.0, 0.0)), E("Tongue3", (0.01, 0.0, 0.0))]
+    for s, w in (("L", 1.0), ("R", -1.0)):
+        js += [J(f"__Eye_{s}", "Head", "Head", (0.08, w * 0.03, 0.08), order="XYZ"),
+               J(f"Eye_{s}", f"__Eye_{s}", "Head", (0.09, w * 0.03, 0.08), order="XYZ")]
+        ends.append(E(f"Eye_{s}", (0.01, 0.0, 0.0)))
+    for s, side in (("L", "Left"), ("R", "Right")):
+        js += [J(f"__Clavicle_{s}", "Spine3", f"{side}Shoulder", order="XYZ"),
+               J(f"Clavicle_{s}", f"__Clavicle_{s}", f"{side}Shoulder", (0.0, 0.0, 0.01), order="XYZ"),
+               J(f"UpArm_{s}", f"Clavicle_{s}", f"{side}Arm", order="XYZ"),
+               J(f"LoArm_{s}", f"UpArm_{s}", f"{side}ForeArm", order="XYZ"),
+               J(f"Hand_{s}", f"LoArm_{s}", f"{side}Hand", order="XYZ")]
+        for f, finger in enumerate(("Thumb", "Index", "Middle", "Ring", "Pinky")):
+            x = 0.03 - 0.015 * f
+            parent = f"Hand_{s}"
+            if finger != "Middle":
+                js.append(J(f"__{finger}1_{s}", parent, f"{side}Hand", (x, 0.0, -0.03), order="XYZ"))
+                parent = f"__{finger}1_{s}"
+            for k in (1, 2, 3):
+                js.append(J(f"{finger}{k}_{s}", parent, f"{side}Hand", (x, 0.0, -0.04 - 0.025 * k), order="XYZ"))
+                parent = f"{finger}{k}_{s}"
+            ends.append(E(parent, (0.0, 0.0, -0.02)))
+    js.append(J("Hips", "Root", "Hips", order="XYZ"))
+    for s, side, w in (("L", "Left", 1.0), ("R", "Right", -1.0)):
+        js += [J(f"__UpLeg_{s}", "Hips", "Hips", (0.0, w * 0.09, -0.07), order="XYZ"),
+               J(f"UpLeg_{s}", f"__UpLeg_{s}", f"{side}UpLeg", order="XYZ"),
+               J(f"LoLeg_{s}", f"UpLeg_{s}", f"{side}Leg", order="XYZ"),
+               J(f"Foot_{s}", f"LoLeg_{s}", f"{side}Foot", order="XYZ"),
+               J(f"Toe_{s}", f"Foot_{s}", f"{side}ToeBase", order="XYZ")]
+        ends.append(E(f"Toe_{s}", (0.05, 0.0, 0.0)))
+    return js, ends
+
+
+#: the face bones of MakeHuman's default rig stood in for by chains on the head: (stem, joints per side)
+_MH_FACE = (("levator", 6), ("oris", 7), ("orbicularis", 4), ("eyelid", 3), ("temporalis", 3), ("risorius", 3),
+            ("cheek", 3), ("nose", 3), ("tongue", 4), ("jaw", 1))
+#: MakeHuman's default body (1.66 m to the top of the head) over the generated walker's (1.80 m with the
+#: face bones): its height decides the unit guessed, decimetres
+MH_SCALE = 0.92
+#: joints of MakeHuman's default rig without the face bones (``_mh_default``)
+MH_BODY_JOINTS = 112
+
+
+def _mh_default(face_joints: int) -> tuple[list[J], list[E]]:
+    """MakeHuman's default rig (root, pelvis.L/R, upperleg01-02, metatarsals and toes, spine05-01,
+    neck01-03, clavicle ... wrist, metacarpals and fingers), XYZ, and ``face_joints`` face bones on the head."""
+    js = [J("root", None, "Hips", order="XYZ")]
+    ends: list[E] = []
+    for s, side, w in (("R", "Right", -1.0), ("L", "Left", 1.0)):
+        js += [J(f"pelvis.{s}", "root", "Hips", order="XYZ"),
+               J(f"upperleg01.{s}", f"pelvis.{s}", f"{side}UpLeg", order="XYZ"),
+               J(f"upperleg02.{s}", f"upperleg01.{s}", f"{side}UpLeg", (0.0, 0.0, -0.2), order="XYZ"),
+               J(f"lowerleg01.{s}", f"upperleg02.{s}", f"{side}Leg", order="XYZ"),
+               J(f"lowerleg02.{s}", f"lowerleg01.{s}", f"{side}Leg", (0.0, 0.0, -0.2), order="XYZ"),
+               J(f"foot.{s}", f"lowerleg02.{s}", f"{side}Foot", order="XYZ")]
+        for t in range(1, 6):
+            y = w * (0.04 - 0.02 * t)
+            js.append(J(f"metatarsal{t}.{s}", f"foot.{s}", f"{side}Foot", (0.06, y, -0.04), order="XYZ"))
+            parent = f"metatarsal{t}.{s}"
+            for k in range(1, 3 if t == 1 else 4):
+                js.append(J(f"toe{t}-{k}.{s}", parent, f"{side}Foot", (0.12 + 0.015 * k, y, -0.05), order="XYZ"))
+                parent = f"toe{t}-{k}.{s}"
+            ends.append(E(parent, (0.01, 0.0, 0.0)))
+    js += [J("spine05", "root", "Spine", order="XYZ"), J("spine04", "spine05", "Spine", (0.0, 0.0, 0.1), order="XYZ"),
+           J("spine03", "spine04", "Spine1", order="XYZ"),
+           J("spine02", "spine03", "Spine1", (0.0, 0.0, 0.1), order="XYZ"),
+           J("spine01", "spine02", "Spine1", (0.0, 0.0, 0.18), order="XYZ"),
+           J("neck01", "spine01", "Neck", order="XYZ"), J("neck02", "neck01", "Neck", (0.0, 0.0, 0.03), order="XYZ"),
+           J("neck03", "neck02", "Neck", (0.0, 0.0, 0.06), order="XYZ"), J("head", "neck03", "Head", order="XYZ")]
+    for s, side in (("R", "Right"), ("L", "Left")):
+        js += [J(f"clavicle.{s}", "spine01", f"{side}Shoulder", order="XYZ"),
+               J(f"shoulder01.{s}", f"clavicle.{s}", f"{side}Arm", order="XYZ"),
+               J(f"upperarm01.{s}", f"shoulder01.{s}", f"{side}Arm", (0.0, 0.0, -0.05), order="XYZ"),
+               J(f"upperarm02.{s}", f"upperarm01.{s}", f"{side}Arm", (0.0, 0.0, -0.15), order="XYZ"),
+               J(f"lowerarm01.{s}", f"upperarm02.{s}", f"{side}ForeArm", order="XYZ"),
+               J(f"lowerarm02.{s}", f"lowerarm01.{s}", f"{side}ForeArm", (0.0, 0.0, -0.12), order="XYZ"),
+               J(f"wrist.{s}", f"lowerarm02.{s}", f"{side}Hand", order="XYZ")]
+        for f in range(1, 6):
+            x = 0.03 - 0.015 * (f - 1)
+            parent = f"wrist.{s}"
+            if f > 1:
+                js.append(J(f"metacarpal{f - 1}.{s}", parent, f"{side}Hand", (x, 0.0, -0.03), order="XYZ"))
+                parent = f"metacarpal{f - 1}.{s}"
+            for k in (1, 2, 3):
+                js.append(J(f"finger{f}-{k}.{s}", parent, f"{side}Hand", (x, 0.0, -0.04 - 0.025 * k), order="XYZ"))
+                parent = f"finger{f}-{k}.{s}"
+            ends.append(E(parent, (0.0, 0.0, -0.02)))
+    face = [(stem, k) for stem, n in _MH_FACE for k in range(1, n + 1)]
+    added = 0
+    for stem, k in face:
+        for s, w in (("L", 1.0), ("R", -1.0)):
+            if added < face_joints:
+                parent = "head" if k == 1 else f"{stem}{k - 1:02d}.{s}"
+                at = (0.06 + 0.01 * k, w * 0.04, 0.04 + 0.005 * len(stem))
+                js.append(J(f"{stem}{k:02d}.{s}", parent, "Head", at, order="XYZ"))
+                added += 1
+    assert added == face_joints, "too few face bones"
+    names = {j.name for j in js}
+    parents = {j.parent for j in js}
+    ends += [E(n, (0.01, 0.0, 0.0)) for n in sorted(names - parents) if not any(e.parent == n for e in ends)]
+    return js, ends
+
+
 def _splayed_rest(m: Motion, thigh: str, shin: str, foot: str, toe: str | None, side: float,
                   splay_deg: float = 20.0, foot_down_deg: float = 10.0) -> dict[str, Rotation]:
     """Rest-pose turns of one leg: splayed ``splay_deg`` outward from the hip, the foot pointing
@@ -312,8 +505,12 @@ def _to_file_frame(m: Motion, unit_m: float, up: str, fps: float | None) -> Moti
 
 
 def _text(m: Motion, *, eol: str = "\n", final_newline: bool = True, frames_tab: bool = False,
-          frame_time: str | None = None) -> bytes:
+          frame_time: str | None = None, values_tab: bool = False) -> bytes:
     text = bvh_text(m, precision=PRECISION)
+    if values_tab:  # the frame lines' values separated by tabs
+        head, motion = text.split("Frame Time:", 1)
+        first, rest = motion.split("\n", 1)
+        text = head + "Frame Time:" + first + "\n" + rest.replace(" ", "\t")
     if frames_tab:
         text = text.replace("Frames: ", "Frames:\t", 1)
     if frame_time is not None:
@@ -351,6 +548,75 @@ def _human(layout: str) -> Motion:
         # bone-aligned joint frames: the identity pose lies on its back
         m = rest_turned(m, {n: Rotation.from_euler("y", -90, degrees=True) for n in m.skeleton.names})
     return m
+
+
+def _in_place(m: Motion) -> Motion:
+    """``m`` with its root's mean horizontal travel taken out (a cycle walked on the spot)."""
+    root = m.root_translation.copy()
+    t = np.arange(m.num_frames) / max(m.num_frames - 1, 1)
+    root[:, :2] -= t[:, None] * (root[-1, :2] - root[0, :2])
+    return m.copy(root_translation=root)
+
+
+def _stand(frames: int, fps: float) -> Motion:
+    """``frames`` identical frames of the generated skeleton standing in its rest pose."""
+    m = _standing_wave()[:1]
+    idx = np.zeros(frames, dtype=int)
+    return m.copy(frame_time=1.0 / fps, root_translation=m.root_translation[idx], rotations=m.rotations[idx])
+
+
+def _face_moves(m: Motion, seed: int = 0) -> Motion:
+    """``m`` with every face bone (a joint past ``MH_BODY_JOINTS``) turned a different way each frame."""
+    rng = np.random.default_rng(seed)
+    rot = m.rotations.copy()
+    turns = Rotation.from_rotvec(rng.normal(scale=0.2, size=(m.num_frames * (m.num_joints - MH_BODY_JOINTS), 3)))
+    rot[:, MH_BODY_JOINTS:] = turns.as_quat().reshape(m.num_frames, -1, 4)
+    return m.copy(rotations=canonical_quat(rot))
+
+
+def _sinusoidal(frames: int = 120, fps: float = 60.0) -> Motion:
+    """A synthetic 4-joint chain (no End Site on its leaf) turning sinusoidally about each axis, in
+    unitless numbers about 5 long a bone (metres here, written as they are)."""
+    names = ("base", "child1", "child2", "child3")
+    offsets = np.array([[0.0, 0.0, 0.0], [0.0, 5.0, 0.0], [-5.0, 0.0, 0.0], [0.0, 0.0, 5.0]])
+    xyz = tuple(f"{a}rotation" for a in "XYZ")
+    sk = Skeleton(names=names, parents=np.array([-1, 0, 1, 2]), offsets=offsets,
+                  channels=(ROOT6 + xyz, xyz, xyz, xyz),
+                  end_site_parents=np.zeros(0, dtype=np.int64), end_site_offsets=np.zeros((0, 3)))
+    t = np.arange(frames) / fps
+    ang = np.stack([0.5 * np.sin(2 * np.pi * (0.5 + 0.25 * j) * t + j) for j in range(12)], axis=1)
+    rot = Rotation.from_euler("XYZ", ang.reshape(frames * 4, 3)).as_quat().reshape(frames, 4, 4)
+    root = np.stack([np.sin(2 * np.pi * t), np.zeros(frames), np.cos(2 * np.pi * t)], axis=1)
+    return Motion(skeleton=sk, frame_time=1.0 / fps, root_translation=root, rotations=canonical_quat(rot),
+                  unit=1.0, up="y")
+
+
+def _odd(layout: str) -> Motion:
+    """The generated walk or stand in one of the odd/ folder's layouts (metres, Z up)."""
+    if layout == "max31_metres":
+        return relaid(_walk(), *_max31_metres())
+    if layout == "crouch19":
+        return relaid(_walk(), *_crouch19())
+    if layout == "spec18":  # two frames of the arm raised
+        m = _standing_wave()
+        return relaid(m[120:122].copy(frame_time=1.0 / 30.0), *_spec18())
+    if layout == "blender19":
+        m = relaid(_walk(7.0), *_blender19())
+        return six_channels(m, only=frozenset(j.name for j in _blender19()[0]) - {"spine.001"})
+    if layout == "mh_walk75":
+        # one gait cycle in 13 frames (its last frame its first's), played at 24 fps: a game walk cycle
+        cycle = generate_walk(WalkParams(frames_per_cycle=13, cycles=4))[13:27].copy(frame_time=1.0 / 24.0)
+        return _in_place(relaid(cycle, *_mh_walk75())).scaled(MH_SCALE)
+    if layout == "pfnn31":
+        return relaid(_stand(60, 30.0), *_holden31())
+    if layout == "mh_tpose173":
+        js, ends = _mh_default(173 - MH_BODY_JOINTS)
+        three = {"pelvis.L", "pelvis.R"} | {j.name for j in js[MH_BODY_JOINTS:MH_BODY_JOINTS + 27]}
+        m = relaid(_stand(1, 24.0), js, ends)
+        return six_channels(m.scaled(MH_SCALE), mode="add", only=frozenset(j.name for j in js[1:]) - three)
+    if layout == "mh_face163":
+        return _face_moves(relaid(_stand(60, 24.0), *_mh_default(163 - MH_BODY_JOINTS))).scaled(MH_SCALE)
+    raise KeyError(layout)
 
 
 def _dog() -> Motion:
@@ -397,11 +663,29 @@ STANDINS: dict[str, tuple[str, float, str, float | None, dict[str, object]]] = {
                                                              {"eol": "mixed", "frame_time": ".0083333"}),
     "human/cmu_141_16_wave_hello__holden31_crlf.bvh": ("holden31_wave", CMU_UNIT_M, "y", None, {"eol": "\r\n"}),
     "animal/mann_dog_D1_007_KAN01_001_locomotion.bvh": ("dog", 0.01, "y", 60.0, {"eol": "\r\n", "frames_tab": True}),
+    "odd/cmu_131_01_start_walk_stop__metres.bvh": ("max31_metres", 1.0, "y", 120.0, {}),
+    "odd/mocapbank_crouch__crlf.bvh": ("crouch19", 0.01, "y", 30.0, {"eol": "\r\n", "frames_tab": True}),
+    "odd/mocapbank_crouch__lf.bvh": ("crouch19", 0.01, "y", 30.0, {"frames_tab": True}),
+    "odd/bvh_spec_sample__2frames.bvh": ("spec18", 0.0254, "y", None,
+                                         {"final_newline": False, "values_tab": True}),
+    "odd/bvhtools_test3__YXZ_XYZ_metres_first600f__DERIVED.bvh": ("blender19", 1.0, "y", 24.0, {}),
+    "odd/makehuman_walk1__zup_decimetre.bvh": ("mh_walk75", 0.1, "z", None, {}),
+    "odd/fairmotion_pfnn_hierarchy__crlf_metres_static.bvh": ("pfnn31", 1.0, "y", None,
+                                                               {"eol": "\r\n", "final_newline": False}),
+    "odd/makehuman_tpose__173j_144six-channel.bvh": ("mh_tpose173", 0.1, "z", None, {}),
+    "odd/makehuman_face_poseunits__163j.bvh": ("mh_face163", 0.1, "z", None, {}),
+    "odd/fairmotion_sinusoidal__synthetic_no_endsite.bvh": ("sinusoidal", 1.0, "y", None,
+                                                            {"final_newline": False, "values_tab": True}),
 }
+#: the odd/ folder's layouts (``_odd``)
+ODD_LAYOUTS = frozenset({"max31_metres", "crouch19", "spec18", "blender19", "mh_walk75", "pfnn31", "mh_tpose173",
+                         "mh_face163"})
 
 
 def _standin_motion(kind: str, unit_m: float, up: str, fps: float | None) -> Motion:
-    m = _dog() if kind == "dog" else _human(kind)
+    if kind == "sinusoidal":  # synthetic, written in its own frame
+        return _sinusoidal()
+    m = _dog() if kind == "dog" else _odd(kind) if kind in ODD_LAYOUTS else _human(kind)
     m = _to_file_frame(m, unit_m, up, fps)
     return six_channels(m) if kind == "bandai" else m
 

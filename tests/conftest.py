@@ -47,9 +47,22 @@ def need_shared() -> None:
         pytest.skip(f"shared BVH data not found at {SHARED_DATA / 'bvh'} (it lives beside the repository)")
 
 
+#: the example motion graph (the shared CMU walk and wave on Holden's skeleton)
+GRAPH_EXAMPLE = REPO / "examples" / "graphs" / "walk_wave.yaml"
+
+
+def example_graph_config(folder: Path) -> Path:
+    """The example graph's YAML written into ``folder`` with its clips read from :data:`SHARED_BVH`: the
+    real walk and wave, or without ``../shared`` their generated stand-ins."""
+    text = GRAPH_EXAMPLE.read_text().replace("../../../shared/data/bvh", str(SHARED_BVH))
+    path = folder / GRAPH_EXAMPLE.name
+    path.write_text(text)
+    return path
+
+
 @pytest.fixture
 def shared_dir() -> Path:
-    need_shared()
+    """:data:`SHARED_BVH`: the real samples, or their stand-ins (for the tests of a layout's properties)."""
     return SHARED_BVH
 
 

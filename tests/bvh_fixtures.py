@@ -406,8 +406,8 @@ def _mh_walk75() -> tuple[list[J], list[E]]:
                 parent = f"{finger}{k}_{s}"
             ends.append(E(parent, (0.0, 0.0, -0.02)))
     js.append(J("Hips", "Root", "Hips", order="XYZ"))
-    for s, side, w in (("L", "Left", 1.0), ("R", "Right", -1.0)):
-        js += [J(f"__UpLeg_{s}", "Hips", "Hips", (0.0, w * 0.09, -0.07), order="XYZ"),
+    for s, side in (("L", "Left"), ("R", "Right")):
+        js += [J(f"__UpLeg_{s}", "Hips", "Hips", order="XYZ"),  # a helper bone at the pelvis centre
                J(f"UpLeg_{s}", f"__UpLeg_{s}", f"{side}UpLeg", order="XYZ"),
                J(f"LoLeg_{s}", f"UpLeg_{s}", f"{side}Leg", order="XYZ"),
                J(f"Foot_{s}", f"LoLeg_{s}", f"{side}Foot", order="XYZ"),
@@ -640,15 +640,75 @@ def _dog() -> Motion:
         ends.append(E(f"{side}Foot", (0.06, 0.0, -0.08)))
     js += [J("Tail", "Hips", "Tail1", order="ZXY"), J("Tail1", "Tail", "Tail2", order="ZXY")]
     ends.append(E("Tail1", (-0.25, 0.0, -0.25)))
-    m = relaid(horse_walk(), js, ends)
-    # a real animal moves every joint a little: the back and shoulders turn 0.2 rad side to side
+    return _swayed(relaid(horse_walk(), js, ends))
+
+
+def _swayed(m: Motion, still: frozenset[str] = frozenset()) -> Motion:
+    """``m`` with every joint it holds still (but those named in ``still``) turning a little: a real animal
+    moves every joint; here the back and shoulders turn 0.2 rad side to side."""
     t = np.arange(m.num_frames) * m.frame_time
     sway = 0.2 * np.sin(2 * np.pi * t / m.duration)  # slow: the stance feet stay put
     rot = m.rotations.copy()
     for k in range(1, m.num_joints):
-        if Rotation.from_quat(rot[:, k]).magnitude().max() < 0.2:  # a joint the horse holds still
+        if m.skeleton.names[k] not in still and Rotation.from_quat(rot[:, k]).magnitude().max() < 0.2:
             rot[:, k] = (Rotation.from_quat(rot[:, k]) * Rotation.from_euler("z", sway[:, None])).as_quat()
     return m.copy(rotations=canonical_quat(rot))
+
+
+#: the flamingo over the generated walker (its hips at 0.48 m, the walker's at 0.95 m)
+FLAMINGO_SCALE = 0.5
+
+
+def _flamingo() -> Motion:
+    """The generated walk, half size and in place, on the Truebones flamingo's skeleton (Bip01 names with
+    3-character suffixes, thighs under the spine, a horse-link in each leg, toes, folded wings, a tail and
+    a six-joint neck reaching forward), ZXY. The body above the legs turns with the walker's hips: its
+    trunk lies forward of them, as a bird's does."""
+    js = [J("Hips__w4v", None, "Hips", order="ZXY"), J("Bip01_Pelvis__bBo", "Hips__w4v", "Hips", order="ZXY"),
+          J("BN_Tail_01__8Ri", "Bip01_Pelvis__bBo", "Hips", (-0.05, 0.0, 0.03), order="ZXY"),
+          J("BN_Tail_R_01__vdN", "BN_Tail_01__8Ri", "Hips", (-0.13, -0.018, 0.04), order="ZXY"),
+          J("BN_Tail_L_01__Qcw", "BN_Tail_01__8Ri", "Hips", (-0.13, 0.018, 0.04), order="ZXY"),
+          J("Bip01_Spine__UlJ", "Bip01_Pelvis__bBo", "Hips", (0.04, 0.0, -0.05), order="ZXY")]
+    ends = [E("BN_Tail_R_01__vdN", (0.0, 0.0, 0.0)), E("BN_Tail_L_01__Qcw", (0.0, 0.0, 0.0))]
+    for s, sfx, w in (("L", ("tJN", "JiJ", "ror", "il9"), 1.0), ("R", ("8dz", "5Px", "nhh", "dxX"), -1.0)):
+        for k in range(4):
+            parent = "Bip01_Spine__UlJ" if k == 0 else f"BN_Forearm_{s}_{k:02d}__{sfx[k - 1]}"
+            js.append(J(f"BN_Forearm_{s}_{k + 1:02d}__{sfx[k]}", parent, "Hips",
+                        (0.05 - 0.03 * k, w * 0.063, -0.04), order="ZXY"))
+        ends.append(E(js[-1].name, (0.0, 0.0, 0.0)))
+    js += [J("Bone02__old", "Bip01_Spine__UlJ", "Hips", (0.07, 0.0, -0.08), order="ZXY"),
+           J("Bone03__f96", "Bone02__old", "Hips", (0.15, 0.0, -0.08), order="ZXY")]
+    ends.append(E("Bone03__f96", (0.0, 0.0, 0.0)))
+    toes = {"R": (("Toe2__w2t", None), ("Toe1__eMA", None), ("Toe0__vYg", None)),
+            "L": (("Toe2__w7U", "Toe21__Dqe"), ("Toe1__zUA", "Toe11__DhW"), ("Toe0__8VZ", "Toe01__haX"))}
+    for s, side, sfx, w in (("R", "Right", ("qPK", "swj", "kyi", "bwL"), -1.0),
+                            ("L", "Left", ("UfG", "IXD", "Idl", "ouF"), 1.0)):
+        thigh, calf, link, foot = (f"Bip01_{s}_{n}__{x}" for n, x in zip(("Thigh", "Calf", "HorseLink", "Foot"), sfx))
+        js += [J(thigh, "Bip01_Spine__UlJ", f"{side}UpLeg", order="ZXY"), J(calf, thigh, f"{side}Leg", order="ZXY"),
+               J(link, calf, f"{side}Leg", (0.0, 0.0, -0.12), order="ZXY"), J(foot, link, f"{side}Foot", order="ZXY")]
+        for t, (toe, tip) in enumerate(toes[s]):
+            y = w * (0.01 * t - 0.01)
+            # on the floor: the walker's ankle is 2.5 cm up at this size
+            js.append(J(f"Bip01_{s}_{toe}", foot, f"{side}Foot", (0.015, y, -0.023), order="ZXY"))
+            if tip is not None:
+                js.append(J(f"Bip01_{s}_{tip}", f"Bip01_{s}_{toe}", f"{side}Foot", (0.03, y, -0.024), order="ZXY"))
+            ends.append(E(js[-1].name, (0.0, 0.0, 0.0)))
+    neck = (("Bip01_Spine1__OBc", (0.08, 0.0, -0.06)), ("Bip01_Neck__OQw", (0.14, 0.0, -0.07)),
+            ("Bip01_Neck1__6Ap", (0.21, 0.0, -0.07)), ("Bip01_Neck2__9K1", (0.28, 0.0, -0.06)),
+            ("Bip01_Neck3__A5z", (0.34, 0.0, -0.04)), ("Bip01_Neck4__PB6", (0.39, 0.0, -0.02)),
+            ("Bip01_Head__N3g", (0.43, 0.0, 0.0)), ("BN_Mouth_01__VD1", (0.48, 0.0, -0.01)))
+    parent = "Bip01_Spine__UlJ"
+    for name, at in neck:
+        js.append(J(name, parent, "Hips", at, order="ZXY"))
+        parent = name
+    ends.append(E("BN_Mouth_01__VD1", (0.0, 0.0, 0.0)))
+    # the joints the legs hang from stay as the walker holds them: the feet keep their footing
+    still = frozenset({"Hips__w4v", "Bip01_Pelvis__bBo", "Bip01_Spine__UlJ"})
+    m = _swayed(_in_place(relaid(_walk(2.7).scaled(FLAMINGO_SCALE), js, ends)), still)
+    # and turn from their rest pose, the pelvis 90 deg (the identity pose lies along X, as the
+    # flamingo's does) and the spine back 60 deg of it
+    return rest_turned(m, {"Bip01_Pelvis__bBo": Rotation.from_euler("y", -90, degrees=True),
+                           "Bip01_Spine__UlJ": Rotation.from_euler("y", -30, degrees=True)})
 
 
 #: what each stand-in is: the shared file's name -> (performance and layout, unit (m), up, fps, text quirks)
@@ -663,6 +723,7 @@ STANDINS: dict[str, tuple[str, float, str, float | None, dict[str, object]]] = {
                                                              {"eol": "mixed", "frame_time": ".0083333"}),
     "human/cmu_141_16_wave_hello__holden31_crlf.bvh": ("holden31_wave", CMU_UNIT_M, "y", None, {"eol": "\r\n"}),
     "animal/mann_dog_D1_007_KAN01_001_locomotion.bvh": ("dog", 0.01, "y", 60.0, {"eol": "\r\n", "frames_tab": True}),
+    "animal/truebones_flamingo_walk_inplace.bvh": ("flamingo", 0.01, "y", 30.0, {"frames_tab": True}),
     "odd/cmu_131_01_start_walk_stop__metres.bvh": ("max31_metres", 1.0, "y", 120.0, {}),
     "odd/mocapbank_crouch__crlf.bvh": ("crouch19", 0.01, "y", 30.0, {"eol": "\r\n", "frames_tab": True}),
     "odd/mocapbank_crouch__lf.bvh": ("crouch19", 0.01, "y", 30.0, {"frames_tab": True}),
@@ -685,7 +746,8 @@ ODD_LAYOUTS = frozenset({"max31_metres", "crouch19", "spec18", "blender19", "mh_
 def _standin_motion(kind: str, unit_m: float, up: str, fps: float | None) -> Motion:
     if kind == "sinusoidal":  # synthetic, written in its own frame
         return _sinusoidal()
-    m = _dog() if kind == "dog" else _odd(kind) if kind in ODD_LAYOUTS else _human(kind)
+    makers = {"dog": _dog, "flamingo": _flamingo}
+    m = makers[kind]() if kind in makers else _odd(kind) if kind in ODD_LAYOUTS else _human(kind)
     m = _to_file_frame(m, unit_m, up, fps)
     return six_channels(m) if kind == "bandai" else m
 

@@ -71,7 +71,6 @@ def test_shipped_clips_body_kind(path: Path, legs: int) -> None:
 
 
 def test_shared_animals_are_creatures_with_their_legs() -> None:
-    need_shared()
     dog = detect_body_kind(load_bvh(DOG))
     assert dog.kind == "creature" and len(dog.legs) == 4
     bird = detect_body_kind(load_bvh(FLAMINGO))
@@ -81,7 +80,6 @@ def test_shared_animals_are_creatures_with_their_legs() -> None:
 
 
 def test_profile_flag_overrides_and_birds_need_no_flag() -> None:
-    need_shared()
     assert load_scenario(bvh=FLAMINGO).profile == "creature"  # was "no left leg" without --profile
     assert resolve_profile(load_bvh(FLAMINGO).to_project_frame(), "humanoid") == "humanoid"
     assert load_scenario(bvh=PTEROSAUR_FLIGHT, support=True).profile == "creature"
@@ -271,7 +269,6 @@ def test_run_a_dog_without_flags_and_sweep_it(tmp_path: Path) -> None:
     from bipedsim.experiments.experiment import load_experiment
     from bipedsim.experiments.sweep import run_sweep
 
-    need_shared()
     assert main(["run", "--bvh", str(DOG), "--seconds", "0.5", "--out", str(tmp_path / "r")]) == 0
     out = json.loads((tmp_path / "r" / "outcome.json").read_text())
     assert out["config"]["profile"] == "creature" and out["extra"]["controller"] == "creature_gait"
@@ -292,7 +289,6 @@ def test_a_human_run_as_a_creature_keeps_its_unit_and_folds_a_static_root() -> N
     (built as a bone it touched the floor at once and the clip read as standing still)."""
     from bipedsim.model.creature_kind import read_source
 
-    need_shared()
     walk = SHARED_BVH / "human" / "cmu_12_03_walk__cgspeed_mb31.bvh"
     _, info_h, m_h, kind_h = read_source(walk)
     _, info_c, m_c, kind_c = read_source(walk, profile="creature")

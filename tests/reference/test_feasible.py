@@ -29,8 +29,8 @@ def _scenario(name: str | None):
 
 
 def _feasible(name: str | None):
-    if name is not None:
-        need_shared()
+    """The scenario of the built-in walk or the shared walk ``name`` (its stand-in without ``../shared``:
+    the tests taking it check what the re-solve does to any capture's legs) and its feasible clip."""
     sc = _scenario(name)
     return sc, feasible_clip(sc.clip, sc.built.model)
 

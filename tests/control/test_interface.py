@@ -93,9 +93,8 @@ def test_phase_timed_push_needs_a_gait_machine(horse) -> None:
 
 def test_creature_fall_is_judged_against_the_reference_root() -> None:
     """The MANN dog's root frame is not upright: judged against world up it 'fell' at 0.00 s."""
-    from conftest import SHARED_BVH, need_shared
+    from conftest import SHARED_BVH
 
-    need_shared()
     sc = load_scenario(bvh=SHARED_BVH / "animal" / "mann_dog_D1_007_KAN01_001_locomotion.bvh", profile="creature")
     out, _ = run_scenario(sc, RolloutSpec(seconds=1.0))
     assert out.fall_time_s is None or out.fall_time_s > 0.5

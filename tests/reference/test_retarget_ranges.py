@@ -5,7 +5,7 @@ last word."""
 from __future__ import annotations
 
 import numpy as np
-from conftest import SHARED_BVH, need_shared
+from conftest import SHARED_BVH
 from scipy.spatial.transform import Rotation
 
 from bipedsim.model.hinge_angles import _hinge_angles, _in_range_euler
@@ -53,7 +53,6 @@ def test_twist_interpolated_through_a_nearly_straight_limb() -> None:
 
 
 def test_head_found_by_the_last_word_of_its_name() -> None:
-    need_shared()
     from bipedsim.model.naming import recognise_humanoid
     from bipedsim.motion.bvh import read_bvh
 
@@ -81,7 +80,6 @@ SHARED_TOES = {
 def test_toes_recognised_on_every_shared_human_layout() -> None:
     """Every shared humanoid's toe joints, games105's ``lToeJoint`` included (a toe word with a suffix):
     a body without toe segments loses the trailing foot's push-off (docs/controller.md)."""
-    need_shared()
     from bipedsim.model.naming import recognise_humanoid
     from bipedsim.motion.bvh import read_bvh
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared, shared_params
+from conftest import SHARED_BVH, shared_params
 from scipy.spatial.transform import Rotation
 
 from bipedsim.cli import main
@@ -239,7 +239,6 @@ def test_child_of_two_standing_quadrupeds_stands_on_four_feet(x: float) -> None:
     the clip (median <= 12 %), the lowest point of nearly every frame is a paw, and the head is well
     up (median >= 50 %). Before the fix (rotations blended from different rest poses) the head lay on
     the floor at x = 0.5 and the paws were 12-45 % up."""
-    need_shared()
     dog = load_bvh(SHARED_BVH / "animal" / "mann_dog_D1_007_KAN01_001_locomotion.bvh")
     child, _ = breed(dog, load_bvh(HORSE_WALK), x=x, mutations=0)
     names, rel = _heights_over_body(child)
@@ -280,7 +279,6 @@ def test_bred_child_is_read_back_at_its_parents_size_and_speed(tmp_path: Path) -
     from bipedsim.sim.runner import load_scenario
     from bipedsim.synthesis.breed.files import breed_files
 
-    need_shared()
     dog_path = SHARED_BVH / "animal" / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
     out = tmp_path / "child.bvh"
     breed_files(dog_path, HORSE_WALK, out, mutations=0)

@@ -294,7 +294,6 @@ def test_every_pair_breeds_converts_and_simulates(a: Path, b: Path, tmp_path: Pa
 def test_bred_child_runs_in_bipedsim_run(tmp_path: Path) -> None:
     """A child of two humans of different conventions (no joint removed: the humanoid builder needs the
     toes' bones) is a humanoid: `bipedsim run` takes it as it is."""
-    need_shared()
     out = tmp_path / "c.bvh"
     assert breed_files(HOLDEN, HIP19, out, mutations=0).body == "humanoid"
     assert convert_and_simulate(out, 0.5) == "humanoid"

@@ -119,7 +119,7 @@ def test_auto_modulation_is_on_for_a_capture_and_off_for_the_built_in_walk() -> 
     """``enabled: auto`` (the default of the swing-foot IK and the stance-ankle feedback) follows the
     feasibility measure: on for a capture whose legs measure infeasible for the body, off for the built-in
     walk generated for it; the resolved switches are what the controller and outcome.json see."""
-    from conftest import SHARED_BVH, need_shared
+    from conftest import SHARED_BVH
 
     from bipedsim.control.settings import ControllerConfig, for_reference
     from bipedsim.sim.runner import load_scenario
@@ -133,7 +133,6 @@ def test_auto_modulation_is_on_for_a_capture_and_off_for_the_built_in_walk() -> 
     assert for_reference(forced, True).modulation.swing_foot.enabled is False  # an explicit switch stays
     builtin = load_scenario(None)
     assert builtin.cfg.modulation.swing_foot.enabled is False and not builtin.controller().tables.ik_on
-    need_shared()
     cap = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
     c = cap.controller()
     assert cap.cfg.modulation.swing_foot.enabled is True and c.tables.ik_on and c.tables.ankle_feedback_on

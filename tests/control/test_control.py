@@ -649,7 +649,6 @@ def test_net_torque_limit_bounds_actuator_and_damping_together(mode: str, monkey
     Off, no torque passes the limit."""
     import dataclasses
 
-    need_shared()
     rec: list = []
     call = Controller.__call__
 

@@ -49,6 +49,7 @@ from bipedsim.render.video import (
 )
 from bipedsim.sim import runner
 from bipedsim.sim.export import simulated_motion, write_joint_csv, write_motion_bvh
+from bipedsim.sim.fidelity import Fidelity, measure_fidelity
 from bipedsim.sim.push import Push, check_pushes
 from bipedsim.sim.recorder import DEFAULT_RECORD_HZ, Recorder, Trajectory
 from bipedsim.sim.rollout import Outcome, RolloutSpec
@@ -147,9 +148,10 @@ def hinge_table(model: mujoco.MjModel) -> tuple[list[str], list[int]]:
 
 
 def save_run_files(folder: PathLike, scenario: Scenario, recorder: Recorder, outcome: Outcome,
-                   feet: Sequence[str] | None = None) -> Trajectory:
+                   feet: Sequence[str] | None = None, start_frame: float | None = None) -> Trajectory:
     """Write ``trajectory.npz`` (everything rendering and export read: the samples, the hinge table, the
-    outcome, the source file's unit and up axis) and ``model.xml`` into ``folder``, beside
+    outcome, the source file's unit and up axis; with ``start_frame``, the clip frame the run started at,
+    the clip itself for the ghost and the fidelity figures) and ``model.xml`` into ``folder``, beside
     ``outcome.json``; returns the trajectory. ``feet``: the controller's foot names, when known."""
     names, qadr = hinge_table(scenario.built.model)
     info = scenario.bvh_info
@@ -160,6 +162,8 @@ def save_run_files(folder: PathLike, scenario: Scenario, recorder: Recorder, out
             "profile": scenario.profile,
             "foot_names": list(feet if feet is not None else scenario.foot_names())}
     tr = recorder.trajectory(meta)
+    if start_frame is not None:
+        tr.with_clip(scenario.clip.qpos, scenario.clip.frame_time, start_frame)
     tr.save(Path(folder) / TRAJECTORY_FILE)
     atomic_write_text(Path(folder) / MODEL_FILE, scenario.built.xml)
     return tr
@@ -356,6 +360,18 @@ def outcome_line(out: Outcome, sc: Scenario) -> str:
             f"tracking RMSE {out.tracking_rmse_rad:.3f} rad{sup}")
 
 
+def run_fidelity(sc: Scenario, recorder: Recorder, start_frame: float | None, outcome: Outcome) -> Fidelity | None:
+    """The run against its clip (:func:`~bipedsim.sim.fidelity.measure_fidelity`) from the samples
+    recorded so far, the run having started at clip frame ``start_frame`` and lasted
+    ``outcome.sim_seconds``; None for a run that tracks no clip (``start_frame`` None: key poses) or
+    has nothing to compare."""
+    if start_frame is None or not recorder.num_samples:
+        return None
+    tr = recorder.trajectory()
+    return measure_fidelity(sc.built.model, tr.time, tr.qpos, sc.clip.qpos, sc.clip.frame_time, start_frame,
+                            run_seconds=outcome.sim_seconds)
+
+
 @dataclass
 class RunResult:
     """What :func:`run_to_folder` ran and wrote: the folder, the outcome, the scenario, the trajectory
@@ -431,11 +447,14 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     outdir = check_run_outputs(out, csv=csv, export_bvh=export_bvh, video=video, gif=gif, plots=plots)
     folder = outdir.path
     tick, close = _timed_bar(seconds, progress)
-    outcome, _ = runner.run_scenario(sc, RolloutSpec(seconds=seconds, seed=seed, init_noise=init_noise),
-                                     progress=tick, hooks=[rec], pushes=pushes)
+    outcome, ctrl = runner.run_scenario(sc, RolloutSpec(seconds=seconds, seed=seed, init_noise=init_noise),
+                                        progress=tick, hooks=[rec], pushes=pushes)
     close()
     if sc.profile == "humanoid":
         outcome.extra["clip_speed_mps"] = clip_speed(sc.clip)
+    start = float(ctrl.start_frame()) if sc.tracks_clip else None
+    fidelity = run_fidelity(sc, rec, start, outcome)
+    outcome.fidelity = fidelity.to_dict() if fidelity is not None else None
     removed, left = clear_stale(outdir, plots=plots, extra_files=(video, gif, csv, export_bvh))
     if removed:
         say(f"removed from an earlier run in {folder}: {', '.join(removed)}")
@@ -443,10 +462,12 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
         say(f"left alone in {folder}: {', '.join(left)} (not written there by bipedsim, or changed since)")
     path = runner.write_outcome(outcome, folder)
     outdir.record(path)
-    tr = save_run_files(folder, sc, rec, outcome, feet)
+    tr = save_run_files(folder, sc, rec, outcome, feet, start_frame=start)
     outdir.record(folder / TRAJECTORY_FILE, folder / MODEL_FILE)
     del rec  # the trajectory holds the samples
     say(outcome_line(outcome, sc))
+    if fidelity is not None:
+        say(fidelity.describe())
     for why in outcome.extra.get("pushes_not_applied", []):
         say(f"  push not applied: {why}")
     say(f"wrote {path}, {folder / TRAJECTORY_FILE}, {folder / MODEL_FILE}")

@@ -3,7 +3,10 @@
 Per recorded sample (``record_hz``, default 120 Hz): time (s), qpos, qvel, actuator torques (N*m,
 saved as ``ctrl``), each foot's vertical contact force (N, touch sensors), FSM state, reference frame,
 the reference's qpos at that frame (root at the reference's own place), applied external forces per
-body (N, world), and the centre of mass (m).
+body (N, world), and the centre of mass (m). A run that tracks a clip also keeps the clip itself
+(``clip_qpos``, one row per clip frame, with ``clip_frame_time`` and ``clip_start_frame`` in the meta): the
+clip at the run's time, which the reference frame is not once resynchronisation moves it, for the
+ghost of ``bipedsim render --ghost`` and for :mod:`bipedsim.sim.fidelity`.
 
 Storage is compact so memory stays flat in the run length (a 600 s run at 120 Hz is 72,000 samples):
 samples go into preallocated numpy buffers, never Python lists of small arrays (about 3 kB a sample
@@ -75,6 +78,9 @@ class Trajectory:
     xfrc: FloatArray  # (T, nbody, 3)
     com: FloatArray
     meta: dict[str, Any] = field(default_factory=dict)
+    #: (F, nq) the tracked clip's qpos per frame (float32, as the reference pose), or None: a run without
+    #: a clip (key poses) or a file written before clips were kept; see :meth:`clip_pose_frames`
+    clip_qpos: FloatArray | None = None
 
     @property
     def num_samples(self) -> int:
@@ -88,6 +94,8 @@ class Trajectory:
         """Write ``path`` (.npz, compressed), atomically. Fields are stored in :data:`SAMPLE_DTYPES`;
         the archive is streamed into the file, never built whole in memory."""
         arrays = {k: np.asarray(v, dtype=SAMPLE_DTYPES[k]) for k, v in self.arrays().items()}
+        if self.clip_qpos is not None:
+            arrays["clip_qpos"] = np.asarray(self.clip_qpos, dtype=np.float32)
         arrays["meta"] = np.array(json.dumps(dict(self.meta, format=FORMAT), default=str))
         with atomic_writer(path) as f:
             write_npz_compressed(f, arrays)
@@ -104,9 +112,24 @@ class Trajectory:
                 meta = json.loads(str(z["meta"]))
                 if meta.get("format") != FORMAT:
                     raise ValueError(f"format {meta.get('format')!r}")
-                return Trajectory(**{k: z[k] for k in SAMPLE_DTYPES}, meta=meta)
+                clip = z["clip_qpos"] if "clip_qpos" in z.files else None
+                return Trajectory(**{k: z[k] for k in SAMPLE_DTYPES}, meta=meta, clip_qpos=clip)
         except (OSError, KeyError, ValueError) as exc:
             raise BipedsimError(f"{path}: not a bipedsim trajectory ({exc})") from None
+
+    def with_clip(self, clip_qpos: FloatArray, frame_time: float, start_frame: float) -> Trajectory:
+        """This trajectory keeping the clip it tracked: ``clip_qpos`` (F, nq) per frame, ``frame_time``
+        (s per frame) and the frame the run started at (``start_frame``; sample time 0 is that frame)."""
+        self.clip_qpos = np.asarray(clip_qpos, dtype=np.float32)
+        self.meta = dict(self.meta, clip_frame_time=float(frame_time), clip_start_frame=float(start_frame))
+        return self
+
+    def clip_pose_frames(self) -> tuple[FloatArray, float, float] | None:
+        """(clip qpos per frame, frame time s, start frame) of the clip the run tracked, or None when the
+        file keeps none."""
+        if self.clip_qpos is None or "clip_frame_time" not in self.meta:
+            return None
+        return self.clip_qpos, float(self.meta["clip_frame_time"]), float(self.meta.get("clip_start_frame", 0.0))
 
     def pushes(self) -> list[tuple[float, float, int, FloatArray]]:
         """(start s, end s, body id, mean force N) of every window with an external force."""

@@ -125,6 +125,10 @@ class Outcome:
     course_offset_m: float | None = None
     versions: dict[str, str] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
+    #: the run against its clip over the clip's own duration (:meth:`bipedsim.sim.fidelity.Fidelity.to_dict`:
+    #: root path distances m, path and speed ratios, joint-position error cm); None where not measured
+    #: (a run without a recorder, key poses)
+    fidelity: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -60,6 +60,12 @@ class Scenario:
     def profile(self) -> str:
         return self.built.plan.profile
 
+    @property
+    def tracks_clip(self) -> bool:
+        """Whether the controller tracks :attr:`clip` (every creature; a humanoid unless its gait source
+        is SIMBICON's key poses, ``source: pose``), so the run can be judged against it."""
+        return self.profile == "creature" or self.cfg.source != "pose"
+
     def controller(self) -> Controller:
         """A fresh controller for this body, from the registry of controllers by body kind."""
         cfg = self.creature_cfg if self.profile == "creature" else self.cfg

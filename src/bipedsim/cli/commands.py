@@ -20,7 +20,7 @@ def video_options(args: argparse.Namespace):  # noqa: ANN201
 
     return VideoOptions(width=args.width, height=args.height, fps=args.fps, speed=args.speed,
                         distance=args.cam_distance, elevation=args.cam_elevation, azimuth=args.cam_azimuth,
-                        ghost=args.ghost)
+                        ghost=args.ghost, ghost_offset=args.ghost_offset)
 
 
 # ---------------------------------------------------------------------- info and convert

@@ -23,6 +23,8 @@ VIDEO_FLAGS: tuple[tuple[str, type, Any, str | None], ...] = (
     ("--cam-elevation", float, -15.0, "camera elevation (degrees)"),
     ("--cam-azimuth", float, 120.0, "camera azimuth (degrees)"),
 )
+#: Metres the --ghost stands beside the body (render.video.VideoOptions.ghost_offset; a test keeps them equal).
+GHOST_OFFSET_M = 1.0
 #: The world's camera stands farther back and higher than a run's: the terrain is part of the picture.
 WORLD_VIDEO_DEFAULTS = {"--cam-distance": 8.0, "--cam-elevation": -25.0}
 
@@ -55,7 +57,13 @@ def _video_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("video")
     for flag, kind, default, help_text in VIDEO_FLAGS:
         g.add_argument(flag, type=kind, default=default, help=help_text)
-    g.add_argument("--ghost", action="store_true", help="draw the reference pose as a translucent ghost")
+    g.add_argument("--ghost", action="store_true",
+                   help="draw the clip as a translucent ghost beside the body: its pose at the run's time, its root "
+                        "where the clip's goes (aligned at the start), --ghost-offset m to its left; after the "
+                        "clip's end, the controller's reference beside the body")
+    g.add_argument("--ghost-offset", type=float, default=GHOST_OFFSET_M, metavar="M",
+                   help=f"metres the ghost stands to the left (negative: right; 0 overlays; "
+                        f"default {GHOST_OFFSET_M:g})")
 
 
 

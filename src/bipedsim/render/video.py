@@ -1,9 +1,10 @@
 """Headless rollout videos (mp4 via imageio-ffmpeg's H.264, or gif) from a recorded trajectory.
 
 Rendering reads only the run folder: ``model.xml`` and ``trajectory.npz``. A follow camera tracks the
-pelvis smoothly (configurable distance, elevation, azimuth); pushes are drawn as arrows scaled by
-force while they act; the time, FSM state and outcome are written on each frame; the reference pose
-can be shown as a translucent ghost beside the body.
+pelvis smoothly (with the clip's ghost, the point between the two; configurable distance, elevation,
+azimuth); pushes are drawn as arrows scaled by
+force while they act; the time, FSM state and outcome are written on each frame; the clip can be shown
+as a translucent ghost beside the body (:mod:`bipedsim.render.ghost`).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy as np
 from bipedsim.errors import BipedsimError, ConfigError
 from bipedsim.files import check_output_file, progress_bar
 from bipedsim.model.build import load_model
+from bipedsim.render.ghost import Ghost
 from bipedsim.render.gl import RenderError, backend_env, backends_tried, choose_backend
 from bipedsim.sim.recorder import Trajectory
 
@@ -42,12 +44,13 @@ CAMERA_TIME_CONSTANT_S = 0.4
 #: (MuJoCo's offscreen buffer and H.264 both handle 16..4096); frames per second of video (1..240: below
 #: one frame a second is a slide show, above 240 no player shows them); playback speed (0.01..100:
 #: 100x slow motion to 100x fast forward; beyond that a 10 s run is days of frames or a single one);
-#: camera distance (m) and elevation (degrees; beyond +-90 the camera flips over).
+#: camera distance (m) and elevation (degrees; beyond +-90 the camera flips over); the ghost's sideways
+#: offset (m; negative: to the right; beyond 10 m it leaves the picture).
 VIDEO_LIMITS: dict[str, tuple[str, float, float, str]] = {
     "width": ("--width", 16, 4096, "pixels"), "height": ("--height", 16, 4096, "pixels"),
     "fps": ("--fps", 1.0, 240.0, "frames/s"), "speed": ("--speed", 0.01, 100.0, "x real time"),
     "distance": ("--cam-distance", 0.1, 100.0, "m"), "elevation": ("--cam-elevation", -90.0, 90.0, "degrees"),
-    "azimuth": ("--cam-azimuth", -360.0, 360.0, "degrees")}
+    "azimuth": ("--cam-azimuth", -360.0, 360.0, "degrees"), "ghost_offset": ("--ghost-offset", -10.0, 10.0, "m")}
 
 
 @dataclass
@@ -60,7 +63,8 @@ class VideoOptions:
     elevation: float = -15.0
     azimuth: float = 120.0
     ghost: bool = False
-    ghost_offset: float = 1.0  #: metres to the character's left; 0 overlays
+    #: metres the ghost stands to the clip's left (after the clip's end, the body's); 0 overlays
+    ghost_offset: float = 1.0
     label: bool = True
     start: float = 0.0
     end: float | None = None
@@ -92,6 +96,7 @@ def render_frames(run_dir: str | os.PathLike[str], opts: VideoOptions, progress:
     renderer = mujoco.Renderer(model, opts.height, opts.width)
     data = mujoco.MjData(model)
     ghost = mujoco.MjData(model)
+    shadow = Ghost(model, tr, opts.ghost_offset) if opts.ghost else None
     cam = mujoco.MjvCamera()
     cam.type = mujoco.mjtCamera.mjCAMERA_FREE
     cam.distance, cam.elevation, cam.azimuth = opts.distance, opts.elevation, opts.azimuth
@@ -111,24 +116,21 @@ def render_frames(run_dir: str | os.PathLike[str], opts: VideoOptions, progress:
         data.qvel[:] = tr.qvel[i]
         mujoco.mj_forward(model, data)
         target = data.xpos[1].copy()
+        if shadow is not None:
+            ghost.qpos[:] = shadow.pose(float(t), i, data.xmat[shadow.root].reshape(3, 3))
+            mujoco.mj_forward(model, ghost)
+            if shadow.shows_clip(float(t)):  # between the body and the clip, both in view as they part
+                target = 0.5 * (target + ghost.xpos[shadow.root])
         target[2] = 0.9
         look += alpha * (target - look)
         cam.lookat[:] = look
         renderer.update_scene(data, camera=cam, scene_option=vopt)
         scn = renderer.scene
-        if opts.ghost:
-            ghost.qpos[:] = tr.ref_qpos[i]
-            # beside the body: the reference's pose and heading, the simulated root's place
-            ghost.qpos[:2] = tr.qpos[i, :2]
-            r = data.xmat[1].reshape(3, 3)
-            left = np.array([-r[1, 0], r[0, 0], 0.0])
-            left /= max(np.linalg.norm(left), 1e-9)
-            ghost.qpos[:2] += opts.ghost_offset * left[:2]
-            mujoco.mj_forward(model, ghost)
+        if shadow is not None:
             n0 = scn.ngeom
             mujoco.mjv_addGeoms(model, ghost, vopt, pert, mujoco.mjtCatBit.mjCAT_DYNAMIC, scn)
             for g in range(n0, scn.ngeom):
-                scn.geoms[g].rgba[:] = [0.3, 0.6, 1.0, 0.35]
+                scn.geoms[g].rgba[:] = shadow.rgba(float(t))
         for b in range(tr.xfrc.shape[1]):
             f = tr.xfrc[i, b]
             mag = float(np.linalg.norm(f))
@@ -146,7 +148,8 @@ def render_frames(run_dir: str | os.PathLike[str], opts: VideoOptions, progress:
             status = outcome.get("outcome", "")
             if fall_t is not None and t < fall_t:
                 status = "walking"
-            img = _label(img, f"t = {t:5.2f} s   state {int(tr.fsm_state[i])}   {status}")
+            seen = f"   {shadow.label(float(t))}" if shadow is not None else ""
+            img = _label(img, f"t = {t:5.2f} s   state {int(tr.fsm_state[i])}   {status}{seen}")
         yield img
         if bar is not None:
             bar.update(1)

@@ -25,6 +25,7 @@ import yaml
 from bipedsim import config
 from bipedsim.control.creature.settings import CreatureControlConfig
 from bipedsim.control.humanoid.settings import (
+    ReconstructConfig,
     DEFAULT_GAINS,
     PD_MODES,
     BalanceConfig,
@@ -54,7 +55,7 @@ __all__ = [
     "check_settings_for_body", "controller_yaml", "for_body", "for_reference", "load_controller", "merged",
     "unread_settings"]
 
-SOURCES = ("clip", "pose")
+SOURCES = ("clip", "cycle", "pose")
 #: the slowest control step accepted (s): 20 Hz. A stance lasts 0.3-0.4 s; at a slower rate the FSM
 #: sees a foot strike late and the balance feedback acts on a step already over
 MAX_CONTROL_DT = 0.05
@@ -95,7 +96,8 @@ class ControllerConfig:
     """The whole controller: a humanoid's sections, and a creature's (``creature:``)."""
 
     name: str = "default"
-    #: what the humanoid tracks: the reference ``clip``, or SIMBICON's key ``pose`` gait (``pose_gait``)
+    #: what the humanoid tracks: the whole reference ``clip`` as captured (then its best gait cycle looped),
+    #: that ``cycle`` looped from the start, or SIMBICON's key ``pose`` gait (``pose_gait``)
     source: str = field(default="clip", metadata={"choices": SOURCES})
     #: seconds between control steps (null: every physics step); physics runs at the model's timestep
     control_dt: float | None = field(default=0.004, metadata={"gt": 0.0, "max": MAX_CONTROL_DT})
@@ -104,6 +106,8 @@ class ControllerConfig:
     balance: BalanceConfig = field(default_factory=BalanceConfig)
     fade: FadeConfig = field(default_factory=FadeConfig)
     resync: ResyncConfig = field(default_factory=ResyncConfig)
+    #: the feed-forward correction searched for a clip (sampling-based control reconstruction)
+    reconstruct: ReconstructConfig = field(default_factory=ReconstructConfig)
     #: corrections of a capture's reference to the body (Lee, Kim & Lee 2010)
     modulation: ModulationConfig = field(default_factory=ModulationConfig)
     #: the reference made feasible for the built body before tracking (reference/feasible.py)

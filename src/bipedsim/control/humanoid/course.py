@@ -1,7 +1,8 @@
-"""The reference's course: its sway-free path over one loop of the clip, and the body's place along it.
+"""The reference's course: its sway-free path, and the body's place along it.
 
 :func:`clip_course` makes the :class:`Course` of a clip's loop (the centre of mass averaged over one
-loop, so the walk's sway cancels and any veer stays); :class:`CourseTracker` lays it on the body at the
+loop, so the walk's sway cancels and any veer stays); :func:`whole_course` puts the clip played once
+before it (its turns, starts and stops); :class:`CourseTracker` lays it on the body at the
 start and, each control step, places the centre of mass on it: the lateral offset (m, positive left),
 its rate (m/s) and the course's heading there (rad). Positions m, world frame, Z up.
 """
@@ -26,27 +27,36 @@ MIN_CYCLE_TRAVEL = 0.05
 
 @dataclass(frozen=True)
 class Course:
-    """The reference's sway-free path over one loop of the clip, reference world frame (m, rad).
+    """The reference's sway-free path, reference world frame (m, rad): a part played once, then a loop.
 
     The loop ("cycle" here) runs from a foot strike to a later strike of the same foot: one or more gait
-    cycles. ``xy`` are course points, one per reference frame of the loop (first to last inclusive): the
-    reference's centre of mass averaged over one loop centred on that frame, which removes the
-    step-to-step sway and keeps any veer (an arc of radius R is kept R theta^2 / 24 inside, theta the
-    loop's turn). ``heading`` is the pelvis heading averaged the same way (unwrapped). ``cycle`` =
-    (angle rad, tx m, ty m) is the rigid planar motion that carries the loop's start onto its end,
-    p -> R(angle) p + t: the looped clip's k-th loop is the course moved k times."""
+    cycles. ``xy`` are course points, one per reference frame from ``first_frame`` to the loop's last
+    frame (inclusive): the reference's centre of mass averaged over one loop centred on that frame,
+    which removes the step-to-step sway and keeps any veer (an arc of radius R is kept R theta^2 / 24
+    inside, theta the loop's turn). ``heading`` is the pelvis heading averaged the same way (unwrapped).
+    Points ``loop_from`` on are the loop; those before it are played once (the clip before its loop).
+    ``cycle`` = (angle rad, tx m, ty m) is the rigid planar motion that carries the loop's start onto
+    its end, p -> R(angle) p + t: the k-th repetition of the loop is the loop moved k times."""
 
     xy: tuple[tuple[float, float], ...]
     heading: tuple[float, ...]
     cycle: tuple[float, float, float]
+    loop_from: int = 0  #: the index of the loop's first point
+    first_frame: int = 0  #: the reference frame of the first point
 
     @property
     def travel(self) -> float:
-        """How far (m) one cycle carries the course's first point."""
-        x, y = self.xy[0]
+        """How far (m) one cycle carries the loop's first point."""
+        x, y = self.xy[self.loop_from]
         cyc = _Rigid.of(*self.cycle)
         x1, y1 = cyc.apply(x, y)
         return float(np.hypot(x1 - x, y1 - y))
+
+    @property
+    def once_length(self) -> float:
+        """The length (m) of the part played once."""
+        pts = np.asarray(self.xy[:self.loop_from + 1])
+        return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()) if len(pts) > 1 else 0.0
 
 
 def clip_course(com_xy: FloatArray, heading: FloatArray, root_xy: FloatArray, a: int, b: int) -> Course:
@@ -81,7 +91,24 @@ def clip_course(com_xy: FloatArray, heading: FloatArray, root_xy: FloatArray, a:
     xy[-1] = rot @ xy[0] + shift
     h[-1] = h[0] + turn
     return Course(xy=tuple((float(x), float(y)) for x, y in xy), heading=tuple(float(v) for v in h),
-                  cycle=(turn, float(shift[0]), float(shift[1])))
+                  cycle=(turn, float(shift[0]), float(shift[1])), first_frame=a)
+
+
+def whole_course(com_xy: FloatArray, heading: FloatArray, root_xy: FloatArray, a: int, b: int) -> Course:
+    """The :class:`Course` of a reference played from frame 0 to ``a`` once, then looped over [a, b]
+    (arrays as :func:`clip_course`'s, covering frames 0 to ``b``). The loop's points are
+    :func:`clip_course`'s; a frame before ``a`` gets the centre of mass and heading averaged over a
+    window of one loop centred on it (shortened symmetrically near frame 0), so the path keeps the
+    clip's turns, starts and stops and loses its sway."""
+    loop = clip_course(com_xy, heading, root_xy, a, b)
+    half = (b - a) // 2
+    pts, hs = [], []
+    for t in range(a):
+        w = min(half, t)
+        pts.append(com_xy[t - w:t + w + 1].mean(axis=0))
+        hs.append(float(heading[t - w:t + w + 1].mean()))
+    xy = tuple((float(x), float(y)) for x, y in pts) + loop.xy
+    return Course(xy=xy, heading=tuple(hs) + loop.heading, cycle=loop.cycle, loop_from=a, first_frame=0)
 
 
 @dataclass(frozen=True)
@@ -141,7 +168,9 @@ class CourseTracker:
         self.ny = [x / n for x, n in zip(self.dx, norm)]
         self.cycle = _Rigid.of(*course.cycle)
         self.cycle_inv = self.cycle.inverse()
-        self.moving = course.travel >= MIN_CYCLE_TRAVEL
+        self.loop_from = course.loop_from  #: the loop's first segment (those before it are played once)
+        self.loops = 0  #: repetitions of the loop passed since the course's start (the current segment's)
+        self.moving = course.travel >= MIN_CYCLE_TRAVEL or course.once_length >= MIN_CYCLE_TRAVEL
         self.to_course = _Rigid.of(0.0, 0.0, 0.0)  #: world -> the current cycle's course coordinates
         self.origin = self.to_course  #: world -> the first cycle's course coordinates, as laid at reset
         self.seg = 0
@@ -149,6 +178,7 @@ class CourseTracker:
         self.arc = [0.0]
         for v in self.ll:
             self.arc.append(self.arc[-1] + math.sqrt(v))
+        self.loop_length = self.arc[-1] - self.arc[self.loop_from]  #: arc length (m) of one loop
 
     def reset(self, ref_pose: tuple[float, float, float], body_pose: tuple[float, float, float], seg: int) -> None:
         """``ref_pose``: the reference's root (x, y) (m) and pelvis heading (rad) at the start frame, in
@@ -159,24 +189,27 @@ class CourseTracker:
         tx, ty = _Rigid.of(bh - rh, 0.0, 0.0).apply(rx, ry)
         self.to_course = self.origin = _Rigid.of(bh - rh, bx - tx, by - ty).inverse()
         self.seg = min(max(seg, 0), self.n_seg - 1)
+        self.loops = 0
 
     #: cycles :meth:`locate` follows the course at most (a 20 s walk crosses about 20)
     MAX_CYCLES = 100_000
 
     def locate(self, cx: float, cy: float) -> tuple[float, float] | None:
         """Where a point (cx, cy) (world, m) lies along the course as laid at :meth:`reset`: (arc length
-        m from the course's first point, counting whole cycles, negative before it; lateral offset m,
-        positive left), by the nearest point of the course -- searched over whole cycles, from the first
-        one on, independent of :meth:`update`. None for a course that does not move (a walk in place)."""
+        m from the course's first point, counting whole loops, negative before it for a course that is
+        all loop; lateral offset m, positive left), by the nearest point of the course -- searched loop
+        by loop from the first, independent of :meth:`update`. None for a course that does not move
+        (a walk in place)."""
         if not self.moving:
             return None
         q = self.origin
         px, py = q.c * cx - q.s * cy + q.tx, q.s * cx + q.c * cy + q.ty
-        length, loops, direction = self.arc[-1], 0, 0
+        p, loops, direction = self.loop_from, 0, 0
         best = (0.0, 0.0)
         for _ in range(self.MAX_CYCLES):
-            best_d, best_i, best_u = math.inf, 0, 0.0
-            for i in range(self.n_seg):
+            lo = p if loops > 0 else 0  # a repeated loop has no part played once
+            best_d, best_i, best_u = math.inf, lo, 0.0
+            for i in range(lo, self.n_seg):
                 ex, ey = px - self.xs[i], py - self.ys[i]
                 u = (ex * self.dx[i] + ey * self.dy[i]) / self.ll[i] if self.ll[i] > 0.0 else 0.0
                 u = 0.0 if u < 0.0 else 1.0 if u > 1.0 else u
@@ -186,17 +219,24 @@ class CourseTracker:
                     best_d, best_i, best_u = d, i, u
             i, u = best_i, best_u
             ex, ey = px - self.xs[i], py - self.ys[i]
-            best = (loops * length + self.arc[i] + u * (self.arc[i + 1] - self.arc[i]),
-                    ex * self.nx[i] + ey * self.ny[i])
-            if i == self.n_seg - 1 and u >= 1.0 and direction >= 0:  # beyond this cycle's end: the next
+            best = (self._arc_at(loops, i) + u * (self.arc[i + 1] - self.arc[i]), ex * self.nx[i] + ey * self.ny[i])
+            if i == self.n_seg - 1 and u >= 1.0 and direction >= 0:  # beyond this loop's end: the next
                 px, py = self.cycle_inv.apply(px, py)
                 loops, direction = loops + 1, 1
-            elif i == 0 and u <= 0.0 and direction <= 0:  # before its start: the previous one
+            elif i == lo and u <= 0.0 and direction <= 0 and (p == 0 or loops > 0):  # the previous loop
                 px, py = self.cycle.apply(px, py)
                 loops, direction = loops - 1, -1
             else:
                 break
         return best
+
+    def _arc_at(self, loops: int, i: int) -> float:
+        """The arc length (m) from the course's first point to point ``i`` of repetition ``loops``."""
+        if self.loop_from == 0:
+            return loops * self.arc[-1] + self.arc[i]
+        if loops == 0:
+            return self.arc[i]
+        return self.arc[-1] + (loops - 1) * self.loop_length + self.arc[i] - self.arc[self.loop_from]
 
     def update(self, cx: float, cy: float, vx: float, vy: float) -> tuple[float, float, float]:
         """(lateral offset m, lateral velocity m/s, course heading rad) of a centre of mass at (cx, cy)
@@ -206,24 +246,29 @@ class CourseTracker:
         px, py = c * cx - s * cy + q.tx, s * cx + c * cy + q.ty
         ux, uy = c * vx - s * vy, s * vx + c * vy
         xs, ys, dx, dy, ll, i, n = self.xs, self.ys, self.dx, self.dy, self.ll, self.seg, self.n_seg
+        p, loops = self.loop_from, self.loops
         direction = 0
         for _ in range(self.MAX_SEARCH if self.moving else 0):
             u = ((px - xs[i]) * dx[i] + (py - ys[i]) * dy[i]) / ll[i] if ll[i] > 0.0 else 1.0
             if u > 1.0 and direction >= 0:
                 direction, i = 1, i + 1
-                if i == n:  # into the next cycle: its coordinates are this one's moved back by a cycle
-                    i, q = 0, q.then(self.cycle_inv)
+                if i == n:  # into the next loop: its coordinates are this one's moved back by a cycle
+                    i, q, loops = p, q.then(self.cycle_inv), loops + 1
                     px, py = self.cycle_inv.apply(px, py)
                     ux, uy = self.cycle_inv.rotate(ux, uy)
             elif u < 0.0 and direction <= 0:
-                direction, i = -1, i - 1
-                if i < 0:
-                    i, q = n - 1, q.then(self.cycle)
+                if i - 1 < (p if loops > 0 else 0):
+                    if p > 0 and loops == 0:  # the course's start: nothing before it
+                        break
+                    i, q, loops = n - 1, q.then(self.cycle), loops - 1  # into the previous loop
                     px, py = self.cycle.apply(px, py)
                     ux, uy = self.cycle.rotate(ux, uy)
+                else:
+                    i = i - 1
+                direction = -1
             else:
                 break
-        self.seg, self.to_course = i, q
+        self.seg, self.to_course, self.loops = i, q, loops
         if not self.moving or ll[i] <= 0.0:
             return 0.0, 0.0, self.hs[i] - q.angle
         ex, ey = px - xs[i], py - ys[i]

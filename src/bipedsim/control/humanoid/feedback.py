@@ -30,12 +30,13 @@ def heading_frame_com(dx: float, dy: float, vx: float, vy: float, c: float, s: f
 
 
 def feedback_angles(b: BalanceConfig, t: HumanoidTables, src: GaitSource, frame: float, stance: str,
-                    com: ComState) -> tuple[float, float]:
+                    com: ComState, speed: float) -> tuple[float, float]:
     """Eq. 6's feedback angles (rad), sagittal and coronal: ``c_d d + c_v v`` each clipped to
     ``max_feedback``, the COM ``com`` (:func:`heading_frame_com`) measured as ``balance.relative`` says:
     ``none`` raw; ``mean_velocity`` the sagittal v against the walk's mean speed; ``lateral_reference`` that,
     and the coronal d against the reference's own on this frame (its sway about the stance foot);
-    ``full`` d and v against the reference's own on this frame. 0 without ``balance.feedback``."""
+    ``full`` d and v against the reference's own on this frame; ``speed`` the walk's speed now (m/s). 0
+    without ``balance.feedback``."""
     if not b.feedback:
         return 0.0, 0.0
     d0, d1, v0, v1 = com
@@ -43,24 +44,24 @@ def feedback_angles(b: BalanceConfig, t: HumanoidTables, src: GaitSource, frame:
         d_ref, v_ref = src.com_reference(frame, stance)
         d0, d1, v0, v1 = d0 - float(d_ref[0]), d1 - float(d_ref[1]), v0 - float(v_ref[0]), v1 - float(v_ref[1])
     elif b.relative == "mean_velocity":
-        v0 -= t.speed
+        v0 -= speed
     elif b.relative == "lateral_reference":
         d1 -= src.lateral_reference(frame, stance)
-        v0 -= t.speed
+        v0 -= speed
     fs = feedback_angle(0.0, t.cd_sagittal, b.sagittal.cv, d0, v0, b.max_feedback)
     fc = feedback_angle(0.0, b.coronal.cd, b.coronal.cv, d1, v1, b.max_feedback)
     return fs, fc
 
 
 def virtual_force(vc: VelocityConfig, t: HumanoidTables, data: mujoco.MjData, tau: FloatArray,
-                  forces: dict[str, float], c: float, s: float, v_filtered: float) -> float:
+                  forces: dict[str, float], c: float, s: float, v_filtered: float, speed: float) -> float:
     """Velocity tuning: the forward virtual force F = kv (v_target - v) (N, heading frame whose yaw has
     cosine ``c`` and sine ``s``, at most ``max_force``) on the centre of mass, ``v_filtered`` the sagittal
     COM velocity low-passed (m/s). The loaded legs produce it with the foot as the chain's fixed end: each
     knee and ankle hinge adds -share a . ((com - anchor) x F) to ``tau`` (Jacobian transpose of the
     reversed chain; a joint's torque acts on its parent, the side toward the body, with the opposite
-    sign). Returns F (N)."""
-    f0 = t.kv_sagittal * (t.speed - v_filtered)
+    sign). ``speed``: the target, the walk's speed now (m/s). Returns F (N)."""
+    f0 = t.kv_sagittal * (speed - v_filtered)
     if abs(f0) > vc.max_force:
         f0 = f0 * vc.max_force / abs(f0)
     fx, fy = c * f0, s * f0

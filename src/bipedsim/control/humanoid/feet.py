@@ -22,11 +22,13 @@ FloatArray = npt.NDArray[np.float64]
 
 def feet_world(t: HumanoidTables, data: mujoco.MjData, src: GaitSource, frame: float, state: int, stance: str,
                ry: FloatArray, tilt: FloatArray | None, q: FloatArray, qd: FloatArray, q_d: FloatArray,
-               qd_d: FloatArray, tau: FloatArray, fade: float, ff: FloatArray | None) -> None:
+               qd_d: FloatArray, tau: FloatArray, fade: float, ff: FloatArray | None,
+               offsets: FloatArray | None = None) -> None:
     """Ankle torques (into ``tau``, targets into ``q_d``) aiming each foot at the reference's orientation
     in the heading frame (``ry``: its rotation); ``tilt``: a heading-frame rotation applied to the stance
     foot's target (stance-ankle feedback; None: none); ``fade`` scales the PD part; ``ff``: the gravity
-    feedforward added (None: none)."""
+    feedforward added (None: none); ``offsets``: per hinge, added to the ankles' angles (a correction's;
+    None: none)."""
     kp, kd, tlo, thi = t.kp_l, t.kd_l, t.tlo_l, t.thi_l
     ref_vel, implicit = t.ref_vel, t.implicit
     for side in SIDES:
@@ -39,7 +41,8 @@ def feet_world(t: HumanoidTables, data: mujoco.MjData, src: GaitSource, frame: f
         local = data.xmat[t.shin_body[side]].reshape(3, 3).T.dot(ry.dot(r_f))
         ang = hinge_angles_small(local, ankle.axes, ankle.basis)
         for k, i in enumerate(ankle.idx):
-            v = min(max(ang[k], tlo[i]), thi[i])
+            v = ang[k] if offsets is None else ang[k] + float(offsets[i])
+            v = min(max(v, tlo[i]), thi[i])
             q_d[i] = v
             t_i = fade * kp[i] * (v - float(q[i]))
             if ref_vel or not implicit:

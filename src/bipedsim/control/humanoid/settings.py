@@ -235,6 +235,36 @@ class ResyncConfig:
 
 
 @dataclass(frozen=True)
+class ReconstructConfig:
+    """Sampling-based control reconstruction (Liu et al. 2010; :mod:`bipedsim.sim.reconstruct`): a
+    feed-forward correction of the targets, searched window by window along the clip, that keeps the
+    body on it; the balance feedback acts on top. ``enabled``: ``bipedsim run --bvh`` searches (or
+    reads its cache) before the run.
+
+    Per window of ``window_s`` s, ``samples`` rollouts from the ``keep`` best states so far, each with
+    offsets drawn around its parent's (x ``coherence``) with standard deviations ``hinge_sigma`` (every
+    hinge's target), ``feedback_sigma`` (the swing hip's feedback angles) and ``torso_sigma`` (the
+    torso's pitch and roll), all rad. A state's cost against the clip at the same time: the weights
+    (per rad, m or m/s) of its hinge RMS error, root orientation, horizontal position, height and
+    horizontal velocity."""
+
+    enabled: bool = True
+    window_s: float = field(default=0.1, metadata={"min": 0.01, "max": 1.0})
+    samples: int = field(default=100, metadata={"min": 1, "max": 10000})
+    keep: int = field(default=10, metadata={"min": 1, "max": 1000})
+    coherence: float = field(default=0.7, metadata={"min": 0.0, "max": 1.0})
+    hinge_sigma: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
+    feedback_sigma: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
+    torso_sigma: float = field(default=0.03, metadata={"min": 0.0, "max": 1.0})
+    pose_weight: float = field(default=1.0, metadata={"min": 0.0})
+    root_weight: float = field(default=1.0, metadata={"min": 0.0})
+    position_weight: float = field(default=1.0, metadata={"min": 0.0})
+    height_weight: float = field(default=3.0, metadata={"min": 0.0})
+    velocity_weight: float = field(default=0.3, metadata={"min": 0.0})
+    seed: int = field(default=0, metadata={"min": 0})  #: the search's random draws
+
+
+@dataclass(frozen=True)
 class SwingFootConfig:
     """Swing-foot height by two-link leg IK (Lee, Kim & Lee 2010).
 

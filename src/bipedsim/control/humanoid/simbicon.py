@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.control.base import Controller, register
+from bipedsim.control.humanoid.correction import Correction, LiveCorrection, torso_offset
 from bipedsim.control.humanoid.feedback import feedback_angles, heading_frame_com, virtual_force
 from bipedsim.control.humanoid.feet import feet_world
 from bipedsim.control.humanoid.fsm import GaitFSM
@@ -117,6 +118,9 @@ class SimbiconController(Controller):
         self._ry = np.eye(3)  #: the pelvis's heading rotation
         self._r_fb = np.eye(3)  #: the swing hip's feedback rotation
         self._r_torso = np.eye(3)  #: the torso law's heading when the stance foot's yaw limits it
+        #: the feed-forward correction under the controller (:mod:`~bipedsim.control.humanoid.correction`)
+        self.correction: Correction | LiveCorrection | None = None
+        self._corr: FloatArray | None = None  #: this step's offsets
         self.drive.scale_gains(1.0)  # the gain tables; the model itself is left as it was
         self.restore_model()
 
@@ -130,7 +134,9 @@ class SimbiconController(Controller):
         self.frame = self.source.loop_start if frame is None else frame
         left = self.source.nearest_strike(self.frame, "left")
         right = self.source.nearest_strike(self.frame, "right")
-        start_left = left is not None and right is not None and abs(left - self.frame) < abs(right - self.frame)
+        stance = self.source.stance_at(self.frame)
+        start_left = (stance == "left" if stance is not None else
+                      left is not None and right is not None and abs(left - self.frame) < abs(right - self.frame))
         self.fsm.state, self.fsm.time_in_state, self.fsm.step_time = (3 if start_left else 1), 0.0, 0.0
         self.fsm.strikes.clear()
         self.steering.reset(self.source, self.frame, data, self.pelvis)
@@ -161,7 +167,7 @@ class SimbiconController(Controller):
         return self.source.reference_qpos(self.frame, self.fsm.state, self._qpos_now)
 
     def reference_speed(self) -> float:
-        return float(self.source.speed())
+        return float(self.source.speed_at(self.frame))
 
     def course_progress(self, data: mujoco.MjData) -> tuple[float, float] | None:
         """The centre of mass's progress (m) along the reference's course since :meth:`reset` (arc
@@ -232,7 +238,8 @@ class SimbiconController(Controller):
         touch = sd[tb.touch_idx].tolist()
         forces = {"right": sum(touch[:tb.n_touch_right]), "left": sum(touch[tb.n_touch_right:])}
         # the gait clock: real time, faster while the body outruns the reference (fsm.tempo)
-        rate = tempo_rate(cfg.fsm.tempo, self._v_sag, tb.speed) if cfg.fsm.tempo.gain > 0.0 else 1.0
+        speed = self.source.speed_at(self.frame)
+        rate = tempo_rate(cfg.fsm.tempo, self._v_sag, speed) if cfg.fsm.tempo.gain > 0.0 else 1.0
         dt_ref = dt * rate
         self.playback.clock += dt_ref
         # a strike is the swing foot's sole landing; its toe brushing the floor at lift-off is not
@@ -246,6 +253,9 @@ class SimbiconController(Controller):
         q = data.qpos[tb.qsel]
         qd = data.qvel[tb.dsel]
         self.tracking_error = q - q_d  # against the reference itself, before limits and balance
+        corr = self._corr = self.correction.at(self.frame) if self.correction is not None else None
+        if corr is not None:
+            q_d += corr[:self.tables.kp.shape[0]]
         np.minimum(np.maximum(q_d, tb.tlo, out=q_d), tb.thi, out=q_d)
         tau = pd_torques(self.drive, q_d, q, qd, qd_d)
         if cfg.pd.gravity_compensation:
@@ -254,16 +264,17 @@ class SimbiconController(Controller):
         st = self.state
         st.frame, st.fsm_state, st.fade, st.holding, st.tempo = self.frame, fsm.state, self.fade, holding, rate
         if cfg.balance.enabled:
-            self._balance(data, q, qd, q_d, qd_d, tau, forces, dt)
+            self._balance(data, q, qd, q_d, qd_d, tau, forces, dt, speed)
         self.torque = limit_torques(self.drive, tau, qd, fsm.swing)
         # a servo's target gives the unclipped torque (the servo clamps it); a net limit's, the clipped one
         set_controls(self.drive, self.ctrl, q, self.torque if tb.net_limit else tau, self.torque)
         return self.ctrl
 
     def _balance(self, data: mujoco.MjData, q: FloatArray, qd: FloatArray, q_d: FloatArray, qd_d: FloatArray,
-                 tau: FloatArray, forces: dict[str, float], dt: float) -> None:
+                 tau: FloatArray, forces: dict[str, float], dt: float, speed: float) -> None:
         """The balance terms of one control step, in order: course steering, the torso law, swing-hip
-        feedback (eq. 6), the feet's world targets, the hips' torque split (eq. 2-5), velocity tuning."""
+        feedback (eq. 6), the feet's world targets, the hips' torque split (eq. 2-5), velocity tuning;
+        ``speed`` the reference's walking speed now (m/s)."""
         b, tb, src, fsm, frame = self.cfg.balance, self.tables, self.source, self.fsm, self.frame
         stance, swing = fsm.stance, fsm.swing
         r_p = data.xmat[self.pelvis].reshape(3, 3)
@@ -279,12 +290,18 @@ class SimbiconController(Controller):
             self.state.heading_target = self.steering.heading_target
         ry = self._ry
         ry[0, 0], ry[0, 1], ry[1, 0], ry[1, 1] = c, -s, s, c
-        tau_torso = torso_torque(b, tb.roll_kp, self._torso_heading(data, forces), src.pelvis_target(frame, fsm.state),
+        corr = self._corr
+        pelvis_ref = src.pelvis_target(frame, fsm.state)
+        if corr is not None:
+            pelvis_ref = torso_offset(float(corr[-2]), float(corr[-1])).dot(pelvis_ref)
+        tau_torso = torso_torque(b, tb.roll_kp, self._torso_heading(data, forces), pelvis_ref,
                                  r_p, pm, data.qvel[3:6].tolist(), c, s)
         ax, ay, _ = data.xpos[tb.foot_body[stance]].tolist()
         self._com_hf = com = heading_frame_com(cx - ax, cy - ay, vx, vy, c, s)
         self._v_sag = com[2]
-        fs, fc = feedback_angles(b, tb, src, frame, stance, com)
+        fs, fc = feedback_angles(b, tb, src, frame, stance, com, speed)
+        if corr is not None:
+            fs, fc = fs + float(corr[-4]), fc + float(corr[-3])
         self.state.feedback_sagittal, self.state.feedback_coronal = fs, fc
         if tb.ik_on:
             fs += swing_foot_ik(self.cfg.modulation.swing_foot, tb, data, src.swing_leg(frame, swing),
@@ -299,7 +316,7 @@ class SimbiconController(Controller):
             tilt = (stance_tilt(self.cfg.modulation.stance_ankle, com, *src.com_reference(frame, stance))
                     if tb.ankle_feedback_on else None)
             feet_world(tb, data, src, frame, fsm.state, stance, ry, tilt, q, qd, q_d, qd_d, tau, self.fade,
-                       self._ff if self.cfg.pd.gravity_compensation else None)
+                       self._ff if self.cfg.pd.gravity_compensation else None, corr)
         self.state.gamma = split_hip_torques(tb, data, tau, tau_torso, t_b, forces, stance, swing, b.redistribution)
         self.state.tau_torso = tau_torso
         if tb.velocity_on:  # last: the feet's world targets above set the ankle torques outright
@@ -308,7 +325,7 @@ class SimbiconController(Controller):
             if vc.filter_s > 0.0:
                 self._vf_v += (v0 - self._vf_v) * min(1.0, dt / vc.filter_s)
                 v0 = self._vf_v
-            self.state.virtual_force = (virtual_force(vc, tb, data, tau, forces, c, s, v0), 0.0)
+            self.state.virtual_force = (virtual_force(vc, tb, data, tau, forces, c, s, v0, speed), 0.0)
 
     def _torso_heading(self, data: mujoco.MjData, forces: dict[str, float]) -> FloatArray:
         """The torso law's heading rotation: the heading target's, within ``balance.stance_yaw_limit`` of
@@ -343,4 +360,6 @@ def make_humanoid(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip,
 def gait_source(model: mujoco.MjModel, plan: BodyPlanSet, clip: ReferenceClip, cfg: ControllerConfig) -> GaitSource:
     """What the humanoid tracks: the clip (``source: clip``) or SIMBICON's key poses (``pose``)."""
     h = Hinges.of(model, plan)
-    return PoseSource(cfg.pose_gait, h) if cfg.source == "pose" else ClipSource(clip, model, plan, h)
+    if cfg.source == "pose":
+        return PoseSource(cfg.pose_gait, h)
+    return ClipSource(clip, model, plan, h, whole=cfg.source == "clip")

@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.control.humanoid.balance import axis_rotation, heading_of, yaw_matrix
-from bipedsim.control.humanoid.course import MIN_CYCLE_TRAVEL, Course, CourseTracker, clip_course
+from bipedsim.control.humanoid.course import MIN_CYCLE_TRAVEL, Course, CourseTracker, clip_course, whole_course
 from bipedsim.control.humanoid.cycles import (
     CLIP_SPEED_SMOOTH_S,
     CYCLE_COST_TOLERANCE,
@@ -38,6 +38,7 @@ from bipedsim.control.humanoid.cycles import (
     step_time,
 )
 from bipedsim.control.humanoid.hinges import SIDES, Hinges, foot_points
+from bipedsim.control.humanoid.playlist import cycle_playlist, whole_playlist
 from bipedsim.control.humanoid.settings import PoseGait
 from bipedsim.errors import ModelError
 from bipedsim.model.plan import BodyPlanSet
@@ -46,6 +47,9 @@ from bipedsim.reference.clip import ReferenceClip
 FloatArray = npt.NDArray[np.float64]
 #: A rollout starts this fraction of a step after the first right-foot strike of the loop.
 START_AFTER_STRIKE = 0.05
+#: A whole clip whose course moves slower than this at its first frame (m/s), both feet down, starts
+#: standing: the rollout starts there rather than at its first strike.
+STILL_SPEED = 0.2
 
 __all__ = [
     "CLIP_SPEED_SMOOTH_S", "CYCLE_COST_TOLERANCE", "CYCLE_SEAM_WARN", "CYCLE_STANCE_FLOAT_M", "CYCLE_STANCE_SCALE_M",
@@ -122,15 +126,25 @@ class GaitSource:
     def speed(self) -> float:
         return 0.0
 
+    def speed_at(self, f: float) -> float:
+        """The walking speed (m/s) the reference asks for at frame ``f``: :meth:`speed` unless it changes."""
+        return self.speed()
+
+    def stance_at(self, f: float) -> str | None:
+        """The stance foot at frame ``f`` where the reference says (None: from its nearest strikes)."""
+        return None
+
     def step_time(self) -> float:
         return 0.5
 
 
 class ClipSource(GaitSource):
-    """A :class:`ReferenceClip`, looped over its best gait cycle (:func:`best_cycle`; the seam blended,
-    :func:`blend_seam`)."""
+    """A :class:`ReferenceClip` played as :mod:`~bipedsim.control.humanoid.playlist` says: whole (its
+    frames as captured, then its best cycle looped; ``whole=True``) or its best gait cycle looped
+    (:func:`best_cycle`; the seam blended, :func:`blend_seam`)."""
 
-    def __init__(self, clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet, hinges: Hinges) -> None:
+    def __init__(self, clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet, hinges: Hinges,
+                 whole: bool = False) -> None:
         if clip.qpos.shape[1] != model.nq:
             raise ModelError(f"reference clip has {clip.qpos.shape[1]} coordinates, the model {model.nq}: "
                              f"retarget the motion onto this model")
@@ -142,7 +156,7 @@ class ClipSource(GaitSource):
         ls = clip.events["left"]["strike"]
         hq, hqd = clip.qpos[:, hinges.qadr], clip.qvel[:, hinges.dadr]
         cycle = clip_cycle(clip, model, plan, hinges)
-        if cycle is None:
+        if cycle is None and not whole:
             raise ModelError(f"the reference clip ({clip.source or 'clip'}) has {len(rs)} right and {len(ls)} "
                              f"left foot strikes (right at frames {rs}, left at {ls}; {clip.num_frames} frames at "
                              f"{1 / clip.frame_time:.4g} fps): a gait cycle to loop needs two strikes of one foot "
@@ -150,18 +164,22 @@ class ClipSource(GaitSource):
                              "strikes by hand: --events FILE, a YAML like 'right: [12, 140]' and 'left: [76]' "
                              "(frames, or times like '1.2s'); a shorter clip cannot be looped")
         self.cycle = cycle
-        self.a, self.b = float(cycle.a), float(cycle.b)
-        self.period = self.b - self.a
-        self.loop_start = self.a
-        self.strikes = {"right": np.array([s for s in rs if self.a <= s < self.b], dtype=float),
-                        "left": np.array([s for s in ls if self.a <= s < self.b], dtype=float)}
-        self.hinge_qadr = hinges.qadr
         blend = int(round(SEAM_BLEND_S / clip.frame_time))
-        self.q = blend_seam(hq, cycle.a, cycle.b, blend)
-        self.qd = blend_seam(hqd, cycle.a, cycle.b, blend)
+        pl = (whole_playlist(clip, cycle, hq, hqd, blend, hinges.qadr) if whole
+              else cycle_playlist(clip, cycle, hq, hqd, blend))
+        self.playlist = pl
+        self.whole = whole
+        self.a, self.b = float(pl.a), float(pl.b)
+        self.period = self.b - self.a
+        self.loop_start = 0.0 if whole else self.a
+        self.strikes = pl.loop
+        self.once = pl.once
+        self.hinge_qadr = hinges.qadr
+        self.q, self.qd = pl.q, pl.qd
+        self.qpos_played = pl.qpos
         self.nh = self.q.shape[1]
         self.q_qd = np.ascontiguousarray(np.hstack([self.q, self.qd]))  # one interpolation per step
-        n = self.n = clip.num_frames
+        n = self.n = len(pl.qpos)
         self._last_f, self._last_k = float("nan"), 0
         data = mujoco.MjData(model)
         pelvis = model.body("pelvis").id
@@ -177,7 +195,7 @@ class ClipSource(GaitSource):
         low = {s: np.zeros(n) for s in SIDES}
         self.foot_points = {s: foot_points(model, s) for s in SIDES}
         for t in range(n):
-            data.qpos[:] = clip.qpos[t]
+            data.qpos[:] = pl.qpos[t]
             mujoco.mj_kinematics(model, data)
             mujoco.mj_comPos(model, data)
             r = data.xmat[pelvis].reshape(3, 3)
@@ -208,12 +226,21 @@ class ClipSource(GaitSource):
         other = {"left": "right", "right": "left"}
         self._leg = {s: np.column_stack([hip[s][:, 0], hip[s][:, 2], low[s] - low[other[s]]])
                      for s in SIDES}
-        root = clip.qpos[:, :2]
-        self._speed = float(np.linalg.norm(root[int(self.b)] - root[int(self.a)]) / (self.period * self.frame_time))
+        root = pl.qpos[:, :2]
+        a, b = int(self.a), int(self.b)
+        self._speed = float(np.linalg.norm(root[b] - root[a]) / (self.period * self.frame_time))
         steps = np.sort(np.concatenate([self.strikes["right"], self.strikes["left"]]))
-        self._step = float(np.mean(np.diff(np.append(steps, self.b)))) * self.frame_time
+        self._step = (float(np.mean(np.diff(np.append(steps, self.b)))) * self.frame_time if len(steps)
+                      else step_time(clip) or GaitSource.step_time(self))
         self._heading = heading
-        self._course = clip_course(com[:, :2], np.unwrap(heading), clip.qpos[:, :2], int(self.a), int(self.b))
+        if whole:
+            self._course = whole_course(com[:, :2], np.unwrap(heading), root, a, b)
+            xy = np.asarray(self._course.xy)
+            # the clip's own speed along its course before the loop (m/s); the loop's mean speed after
+            self._speeds = (np.linalg.norm(np.diff(xy[:a + 1], axis=0), axis=1) / self.frame_time).tolist()
+        else:
+            self._course = clip_course(com[:, :2], np.unwrap(heading), root, a, b)
+            self._speeds = []
 
     def course(self) -> Course:
         return self._course
@@ -221,8 +248,8 @@ class ClipSource(GaitSource):
     def course_start(self, f: float) -> tuple[tuple[float, float, float], int]:
         w = self.wrap(f)
         t = min(int(round(w)), self.n - 1)
-        x, y = self.clip.qpos[t, :2].tolist()
-        seg = min(max(int(w - self.a), 0), len(self._course.xy) - 2)
+        x, y = self.qpos_played[t, :2].tolist()
+        seg = min(max(int(w - self._course.first_frame), 0), len(self._course.xy) - 2)
         return (x, y, float(self._heading[t])), seg
 
     # ------------------------------------------------------------------ frames
@@ -269,7 +296,7 @@ class ClipSource(GaitSource):
 
     def reference_qpos(self, f: float, state: int, qpos_now: FloatArray) -> FloatArray:
         """The clip's pose at frame ``f`` (nearest frame), root where the clip has it."""
-        return self.clip.qpos[self._nearest(f)].copy()
+        return self.qpos_played[self._nearest(f)].copy()
 
     def com_reference(self, f: float, stance: str) -> tuple[FloatArray, FloatArray]:
         return self._interp(self.d_ref[stance], f), self._interp(self.v_ref, f)
@@ -280,9 +307,40 @@ class ClipSource(GaitSource):
         return lo + u * (hi - lo)
 
     def _strikes_near(self, f: float, side: str) -> FloatArray:
-        k = np.floor((f - self.a) / self.period)
+        if not self.whole:
+            k = np.floor((f - self.a) / self.period)
+            base = self.strikes[side]
+            return np.concatenate([base + (k + d) * self.period for d in (-1, 0, 1, 2)])
+        # the strikes played once near f, then the loop's repetitions from its first on
+        once = self.once[side]
+        lo, hi = np.searchsorted(once, [f - 2 * self.period, f + 3 * self.period])
+        k = max(np.floor((f - self.a) / self.period), 0.0)
         base = self.strikes[side]
-        return np.concatenate([base + (k + d) * self.period for d in (-1, 0, 1, 2)])
+        loop = np.concatenate([base + (k + d) * self.period for d in (-1, 0, 1, 2)])
+        return np.concatenate([once[lo:hi], loop[loop >= self.a]])
+
+    def stance_at(self, f: float) -> str | None:
+        """The foot the body stands on at frame ``f`` of the whole clip: the one in contact, or of two
+        the one that stays down longer (None for a looped cycle, which starts on its strike)."""
+        if not self.whole:
+            return None
+        t = min(int(round(self.wrap(f))), self.n - 1)
+        on = self.playlist.contacts[t]
+        if on.sum() == 1:
+            return SIDES[int(np.argmax(on))]
+        if on.sum() == 2:
+            rest = self.playlist.contacts[t:]
+            lift = [int(np.argmin(rest[:, k])) if not rest[:, k].all() else len(rest) for k in range(2)]
+            return SIDES[int(np.argmax(lift))]
+        return None
+
+    def speed_at(self, f: float) -> float:
+        """The reference's walking speed at frame ``f`` (m/s): along its course before the loop (the
+        clip's speed changes, its starts and stops), the loop's mean speed in the loop."""
+        if f >= self.a or not self._speeds:
+            return self._speed
+        i = int(f) if f > 0.0 else 0
+        return self._speeds[min(i, len(self._speeds) - 1)]
 
     def next_strike(self, f: float, side: str) -> float | None:
         c = self._strikes_near(f, side)
@@ -307,10 +365,19 @@ class ClipSource(GaitSource):
         return (f - prv) / max(nxt - prv, 1e-6)
 
     def start_frame(self) -> float:
-        """Where a rollout starts: just after the loop's first strike (the right foot's, or the left's
-        for a left-to-left loop), when that foot already carries weight (starting exactly on the strike
-        frame leaves neither foot loaded)."""
-        return self.a + max(1.0, round(START_AFTER_STRIKE * self._step / self.frame_time))
+        """Where a rollout starts: a looped cycle just after its first strike (the right foot's, or the
+        left's for a left-to-left loop), when that foot already carries weight (starting exactly on the
+        strike frame leaves neither foot loaded); the whole clip at its first frame if it starts standing
+        still, else just after its first strike."""
+        after = max(1.0, round(START_AFTER_STRIKE * self._step / self.frame_time))
+        if not self.whole:
+            return self.a + after
+        if self.playlist.contacts[0].all() and self.speed_at(0.0) < STILL_SPEED:
+            return 0.0  # the clip starts standing: the body takes over at rest
+        # else at the clip's first strike, as a looped cycle starts on its own: the gait machine takes
+        # over with a foot just planted (a capture may begin anywhere in a step)
+        first = min((float(v[0]) for v in (self.once["left"], self.once["right"]) if len(v)), default=self.a)
+        return first + after
 
     def state1_time(self) -> float:
         return 0.5 * self._step

@@ -1,0 +1,95 @@
+"""A feed-forward correction under the humanoid controller: offsets found per short window of the clip.
+
+Sampling-based control reconstruction (Liu et al. 2010, "Sampling-based contact-rich motion control")
+finds, window by window, offsets of the controller's targets that keep the simulated body on the clip;
+:mod:`bipedsim.sim.reconstruct` runs that search. The result is a :class:`Correction`: from each
+window's first reference frame on, one row of offsets added to the targets, until the next window's.
+It is looked up by the reference frame, not by time, so under a push (when resynchronisation moves the
+frame) the offsets stay with the part of the clip they were found for; the balance feedback acts on top.
+
+A row holds, in order (rad): one offset per hinge (added to its PD target; the ankles' to their
+world-frame targets' angles), then the swing hip's sagittal and coronal feedback angles (added to eq. 6's
+``c_d d + c_v v``), then the torso's pitch and roll (turning the pelvis's target about the heading
+frame's lateral and forward axes).
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+#: offsets per row beyond the hinges': swing hip sagittal, swing hip coronal, torso pitch, torso roll
+EXTRA = 4
+
+
+@dataclass(frozen=True)
+class Correction:
+    """Offset rows (K, hinges + :data:`EXTRA`) (rad), row k from reference frame ``starts[k]`` until
+    ``starts[k + 1]``; none before the first or from ``end`` on."""
+
+    starts: tuple[float, ...]
+    rows: FloatArray
+    end: float
+
+    def __post_init__(self) -> None:
+        self.rows.setflags(write=False)
+
+    @property
+    def hinges(self) -> int:
+        return int(self.rows.shape[1]) - EXTRA
+
+    def at(self, frame: float) -> FloatArray | None:
+        """The offsets at reference ``frame``; None where there are none."""
+        if frame >= self.end:
+            return None
+        k = bisect.bisect_right(self.starts, frame) - 1
+        return self.rows[k] if k >= 0 else None
+
+    def to_dict(self) -> dict[str, object]:
+        return {"starts": list(self.starts), "rows": self.rows.tolist(), "end": self.end}
+
+    @staticmethod
+    def from_dict(d: dict[str, object], hinges: int) -> Correction:
+        """A correction read back (:meth:`to_dict`); ValueError if its shape or values are wrong."""
+        starts = tuple(float(v) for v in d["starts"])  # type: ignore[union-attr]
+        rows = np.asarray(d["rows"], dtype=float)
+        end = float(d["end"])  # type: ignore[arg-type]
+        if rows.ndim != 2 or rows.shape != (len(starts), hinges + EXTRA):
+            raise ValueError(f"rows of shape {rows.shape}, expected ({len(starts)}, {hinges + EXTRA})")
+        if not (np.all(np.isfinite(rows)) and np.all(np.abs(rows) <= math.pi)):
+            raise ValueError("offsets must be finite angles within +-pi rad")
+        if list(starts) != sorted(starts) or not math.isfinite(end):
+            raise ValueError("window starts must be increasing frames and the end finite")
+        return Correction(starts=starts, rows=rows, end=end)
+
+
+class LiveCorrection:
+    """The correction a search is building: one row at a time, set by the search for its window
+    (:meth:`set`); :meth:`at` gives it on every control step and notes the frame the row began at."""
+
+    def __init__(self, hinges: int) -> None:
+        self.row = np.zeros(hinges + EXTRA)
+        self.started: float | None = None  #: the reference frame of the row's first control step
+
+    def set(self, row: FloatArray) -> None:
+        self.row = row
+        self.started = None
+
+    def at(self, frame: float) -> FloatArray:
+        if self.started is None:
+            self.started = frame
+        return self.row
+
+
+def torso_offset(pitch: float, roll: float) -> FloatArray:
+    """The heading-frame rotation turning the pelvis's target by ``pitch`` about the lateral axis, then
+    ``roll`` about the forward axis (rad)."""
+    cp, sp, cr, sr = math.cos(pitch), math.sin(pitch), math.cos(roll), math.sin(roll)
+    r_y = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    r_x = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+    return r_x.dot(r_y)

@@ -330,6 +330,8 @@ def found_lines(sc: Scenario) -> list[str]:
     notes += [f"body: {n}" for n in (sides_note(sc.built.plan.extra), toes_note(sc.built.plan.extra)) if n]
     if "feasible" in sc.extra:
         notes.append("reference: legs made feasible for the body (" + "; ".join(sc.extra["feasible"]) + ")")
+    if "reconstruct" in sc.extra:
+        notes.append(sc.extra["reconstruct"])
     pace = pace_note(clip_speed(sc.clip), sc.bvh_info, step_time(sc.clip))
     return notes + scaled + describe_clip(sc.clip, sc.built.model, sc.built.plan) + ([f"pace: {pace}"] if pace else [])
 

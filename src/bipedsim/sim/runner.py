@@ -12,7 +12,8 @@ import numpy as np
 
 from bipedsim.config import to_dict
 from bipedsim.control import CONTROLLERS, Controller, CreatureControlConfig
-from bipedsim.control.humanoid.simbicon import body_mass, leg_length
+from bipedsim.control.humanoid.correction import Correction
+from bipedsim.control.humanoid.simbicon import SimbiconController, body_mass, leg_length
 from bipedsim.control.settings import (
     ControllerConfig,
     check_settings_for_body,
@@ -34,6 +35,7 @@ from bipedsim.reference.feasible_measure import measure, resolve_because
 from bipedsim.reference.prepare import load_source
 from bipedsim.reference.retarget import retarget
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
+from bipedsim.sim.reconstruct import correction_for
 from bipedsim.sim.rollout import FallCriteria, FloatArray, Outcome, RolloutSpec, control_every, rollout
 
 #: body kinds a scenario can be built as (``--profile``); ``auto``: measured from the skeleton
@@ -55,6 +57,8 @@ class Scenario:
     bvh_info: Any = None  #: what reading the source BVH found (unit, up axis)
     extra: dict[str, Any] = field(default_factory=dict)
     creature_cfg: CreatureControlConfig = field(default_factory=CreatureControlConfig)
+    #: the feed-forward correction a humanoid's controller runs with (:mod:`bipedsim.sim.reconstruct`)
+    correction: Correction | None = None
 
     @property
     def profile(self) -> str:
@@ -69,7 +73,10 @@ class Scenario:
     def controller(self) -> Controller:
         """A fresh controller for this body, from the registry of controllers by body kind."""
         cfg = self.creature_cfg if self.profile == "creature" else self.cfg
-        return CONTROLLERS[self.profile](self.built.model, self.built.plan, self.clip, cfg)
+        ctrl = CONTROLLERS[self.profile](self.built.model, self.built.plan, self.clip, cfg)
+        if self.correction is not None and isinstance(ctrl, SimbiconController):
+            ctrl.correction = self.correction
+        return ctrl
 
     def foot_names(self, ctrl: Controller | None = None) -> tuple[str, ...]:
         """The feet the controller reports contact forces for (the recorder's columns); ``ctrl``: a
@@ -94,7 +101,8 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
                   bvh: str | os.PathLike[str] | None = None, *,
                   scale: float | str | None = None, up: str | None = None, mass: float | None = None,
                   profile: str | None = AUTO, support: bool = False, positions: str | None = None,
-                  events: str | os.PathLike[str] | None = None, fps: float | None = None) -> Scenario:
+                  events: str | os.PathLike[str] | None = None, fps: float | None = None,
+                  reconstruct: bool | None = None) -> Scenario:
     """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
     retargeted onto it (``auto``: the kind measured from the skeleton, :func:`resolve_profile`). A
     controller YAML (or its settings, a :class:`ControllerConfig`) configures the humanoid's controller and
@@ -104,7 +112,9 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     (:func:`~bipedsim.motion.bvh.read_bvh`). A controller file that changes settings the body's controller
     never reads (:func:`~bipedsim.control.settings.check_settings_for_body`) or a humanoid's ``control_dt``
     that is no whole number of physics steps (:func:`~bipedsim.sim.rollout.control_every`) is refused,
-    naming the file and the keys."""
+    naming the file and the keys. A humanoid tracking its whole clip gets the clip's feed-forward
+    correction (:func:`~bipedsim.sim.reconstruct.correction_for`: searched, or read from the cache)
+    when ``reconstruct`` says so (None: as the settings' ``reconstruct.enabled`` say)."""
     profile = AUTO if profile is None else profile
     if profile not in PROFILES:
         raise ConfigError(f"unknown body profile {profile!r}; profiles: {', '.join(PROFILES)}", key="profile")
@@ -154,8 +164,13 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
             extra["feasible"] = why
             resolved = True
     cfg = for_reference(cfg, resolved)  # the "auto" modulation terms act on a re-solved reference
-    return Scenario(built=built, clip=clip, cfg=cfg, source_path=src, config_path=config_path, motion=motion,
-                    bvh_info=info, extra=extra, creature_cfg=replace(cfg.creature, support=support))
+    sc = Scenario(built=built, clip=clip, cfg=cfg, source_path=src, config_path=config_path, motion=motion,
+                  bvh_info=info, extra=extra, creature_cfg=replace(cfg.creature, support=support))
+    search = cfg.reconstruct.enabled if reconstruct is None else reconstruct
+    if search and profile == "humanoid" and cfg.source == "clip":
+        sc.correction, extra["reconstruct"] = correction_for(built.model, built.hash, sc.controller, clip, cfg,
+                                                             sc.fall_criteria())
+    return sc
 
 
 def settings_for(sc: Scenario, settings: ControllerConfig) -> ControllerConfig:

@@ -261,6 +261,9 @@ class ReconstructConfig:
     position_weight: float = field(default=1.0, metadata={"min": 0.0})
     height_weight: float = field(default=3.0, metadata={"min": 0.0})
     velocity_weight: float = field(default=0.3, metadata={"min": 0.0})
+    #: windows searched again (the one before, with up to 8x the samples) when every sample of one fell,
+    #: in all; then the correction ends where the search got to
+    retries: int = field(default=8, metadata={"min": 0, "max": 1000})
     seed: int = field(default=0, metadata={"min": 0})  #: the search's random draws
 
 

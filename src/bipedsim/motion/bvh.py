@@ -45,6 +45,7 @@ from bipedsim.motion.bvh_reading import (
 )
 from bipedsim.motion.bvh_write import bvh_text, write_bvh
 from bipedsim.motion.conventions import UNIT_SCALES, guess_unit, leg_stature
+from bipedsim.motion.lead_in import drop_lead_in
 from bipedsim.motion.motion import Motion
 
 __all__ = [
@@ -84,7 +85,7 @@ def _check_magnitudes(offsets: np.ndarray, data: np.ndarray, path: str) -> None:
 
 def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
              up: str | None = None, positions: str | None = None,
-             upright: bool | None = None, fps: float | None = None) -> tuple[Motion, BVHInfo]:
+             upright: bool | None = None, fps: float | None = None, lead_in: bool = True) -> tuple[Motion, BVHInfo]:
     """Read a BVH file in its own units and axes.
 
     Args:
@@ -100,6 +101,9 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
         fps: the capture's frame rate (frames per second), replacing the file's ``Frame Time`` for a file
             whose header does not give the rate it was captured at (``info.frame_time_source`` says which
             was used, ``info.file_frame_time`` keeps the file's).
+        lead_in: drop the leading frames that are no part of the take (a T-pose or rest pose before the
+            capture, :func:`~bipedsim.motion.lead_in.lead_in_frames`): ``info.lead_in_frames`` says how
+            many, a line in ``info.notes`` why, and ``info.num_frames`` counts the frames kept.
 
     The up axis and the position-channel modes are chosen together: every combination is read and
     scored for a plausible body (:func:`~bipedsim.motion.conventions.score_reading`: the hip at about a
@@ -136,14 +140,25 @@ def read_bvh(path: str | os.PathLike[str], *, scale: float | str | None = None,
         info.frame_time_source = "given"
     if up is not None and up.lower() not in ("y", "z"):
         raise BVHError(f"up axis must be 'y' or 'z', got {up!r}", p)
-    if positions is None:
-        modes, reasons, weak = _position_modes(sk, data, _column_starts(sk))
-        mode_options = _candidate_modes(sk, modes, weak)
-    else:
-        mode_options = [_forced_modes(sk, positions, p)]
-        reasons = {sk.names[j]: "given by the caller" for j in range(sk.num_joints) if sk.has_positions(j)}
     ups = (up.lower(),) if up is not None else ("y", "z")
-    motion, info.up, up_reason, note = _choose_reading(sk, frame_time, data, mode_options, ups)
+
+    def reading(values: np.ndarray) -> tuple[Motion, str, str, str, dict[str, str]]:
+        """The most plausible reading of the frame values (motion, up axis, why, note) and why each
+        joint's position channels were read as they were."""
+        if positions is None:
+            modes, reasons, weak = _position_modes(sk, values, _column_starts(sk))
+            mode_options = _candidate_modes(sk, modes, weak)
+        else:
+            mode_options = [_forced_modes(sk, positions, p)]
+            reasons = {sk.names[j]: "given by the caller" for j in range(sk.num_joints) if sk.has_positions(j)}
+        return (*_choose_reading(sk, frame_time, values, mode_options, ups), reasons)
+
+    motion, info.up, up_reason, note, reasons = reading(data)
+    if lead_in:  # a T-pose before the take: the reading is chosen again on the take alone
+        _, info.lead_in_frames = drop_lead_in(motion, info.notes)
+        if info.lead_in_frames:
+            motion, info.up, up_reason, note, reasons = reading(data[info.lead_in_frames:])
+            info.num_frames = motion.num_frames
     sk = motion.skeleton
     modes = sk.position_modes
     info.position_channels = {sk.names[j]: modes[j] for j in range(sk.num_joints) if modes[j]}

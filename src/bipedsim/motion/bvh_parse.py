@@ -22,6 +22,9 @@ FloatArray = npt.NDArray[np.float64]
 #: Plausible frame times (s): motion is captured and animated at 1 to 10,000 frames per second. A
 #: frame time outside this range is a broken header (``Frame Time: 1e30``), not a motion.
 FRAME_TIME_RANGE_S = (1e-4, 1.0)
+#: A channel keyword in any case (``XPOSITION``, ``xrotation``) is the standard one it spells: exporters
+#: disagree on the case, the meaning is the same.
+CHANNEL_KEYWORDS = {c.lower(): c for c in POSITION_CHANNELS + ROTATION_CHANNELS}
 
 
 @dataclass
@@ -30,7 +33,7 @@ class BVHInfo:
 
     path: str
     num_joints: int
-    num_frames: int
+    num_frames: int  # the frames read: the file's, less its lead-in (lead_in_frames)
     frame_time: float
     rotation_orders: dict[str, int]
     unit_name: str
@@ -51,6 +54,7 @@ class BVHInfo:
     end_sites: int = 0
     standing_height_m: float = 0.0  # from the hip's height (conventions.leg_stature); 0: no named feet
     reading_note: str = ""  # when another reading (up axis, position modes) was nearly as plausible
+    lead_in_frames: int = 0  # the file's first frames dropped as no part of the take (motion.lead_in)
     notes: list[str] = field(default_factory=list)  # what preparing the motion did (reference.prepare.humanoid_motion)
 
     @property
@@ -135,13 +139,13 @@ def _parse_hierarchy(lines: _Lines) -> tuple[list[str], list[int], list[list[flo
                 n = int(t[1])
             except ValueError:
                 raise BVHError(f"CHANNELS count must be an integer, got {t[1]!r}", path, ln2) from None
-            chans = tuple(t[2:])
-            if n != len(chans):
-                raise BVHError(f"CHANNELS says {n} but lists {len(chans)} names", path, ln2)
-            for c in chans:
-                if c not in POSITION_CHANNELS + ROTATION_CHANNELS:
+            if n != len(t) - 2:
+                raise BVHError(f"CHANNELS says {n} but lists {len(t) - 2} names", path, ln2)
+            for c in t[2:]:
+                if c.lower() not in CHANNEL_KEYWORDS:
                     raise BVHError(f"unknown channel {c!r}; allowed: "
-                                   f"{', '.join(POSITION_CHANNELS + ROTATION_CHANNELS)}", path, ln2)
+                                   f"{', '.join(POSITION_CHANNELS + ROTATION_CHANNELS)} (in any case)", path, ln2)
+            chans = tuple(CHANNEL_KEYWORDS[c.lower()] for c in t[2:])
             if len(set(chans)) != len(chans):
                 raise BVHError(f"repeated channel in {list(chans)}", path, ln2)
             t, ln2 = lines.next(f"JOINT, End Site or '}}' in joint {name!r}")

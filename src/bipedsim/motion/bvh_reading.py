@@ -12,6 +12,8 @@ from bipedsim.errors import BVHError
 from bipedsim.motion.bvh_channels import _channels_to_motion
 from bipedsim.motion.conventions import (
     AMBIGUOUS_SCORE_MARGIN,
+    BVH_DEFAULT_UP,
+    STANDING_HIP_MIN,
     ReadingScore,
     guess_unit,
     guess_up_axis,
@@ -114,8 +116,10 @@ def _sample_points(motion: Motion) -> tuple[FloatArray, FloatArray]:
 def _choose_reading(sk: Skeleton, frame_time: float, data: FloatArray, mode_options: list[tuple[str, ...]],
                     ups: tuple[str, ...]) -> tuple[Motion, str, str, str]:
     """Score every (position modes, up axis) reading of the file (:func:`score_reading`) and keep the
-    most plausible body. Returns the motion, the up axis, why, and a note on the alternatives ("" when
-    the choice is clear)."""
+    most plausible body; where the most plausible one is not Y up and stands no body on its legs (its hip
+    under :data:`~bipedsim.motion.conventions.STANDING_HIP_MIN` leg lengths above the feet), nothing
+    tells the up axis and the best Y-up reading is kept (the BVH convention). Returns the motion, the up
+    axis, why, and a note on the alternatives ("" when the choice is clear)."""
     scored = []
     for modes in mode_options:
         motion = _channels_to_motion(sk.replace(position_modes=modes), frame_time, data)
@@ -142,6 +146,13 @@ def _choose_reading(sk: Skeleton, frame_time: float, data: FloatArray, mode_opti
                         for j in differ)
         return f"{s[2].upper()} up{modes}"
 
+    if best[2] != BVH_DEFAULT_UP and best[0].hip_ratio < STANDING_HIP_MIN and len(ups) > 1:
+        # no reading stands the body on its legs: the other axis won on a floor that is no floor
+        default = next(s for s in scored if s[2] == BVH_DEFAULT_UP)
+        reason = (f"no reading shows a body on its legs ({label(best)}: hip {best[0].hip_ratio:.2f} leg lengths "
+                  f"above the lowest foot, under {STANDING_HIP_MIN}); read {label(default)}, the BVH convention")
+        note = "the up axis is the BVH convention, nothing in the clip tells it; force one with --up y|z"
+        return default[3], default[2], reason, note
     reason = f"most plausible reading ({label(best)}): {best[0].text()}"
     note = ""
     if len(scored) > 1 and scored[1][0].score - best[0].score < AMBIGUOUS_SCORE_MARGIN:

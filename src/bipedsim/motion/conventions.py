@@ -156,6 +156,13 @@ def guess_unit(positions: npt.NDArray[np.float64], up: str, upright: bool | None
 HIP_HEIGHT_PER_LEG = 0.9
 #: Two readings whose plausibility scores differ by less than this are reported as ambiguous.
 AMBIGUOUS_SCORE_MARGIN = 0.25
+#: A reading shows a body on its legs when its hip (the legs' branching joint) sits at least this many
+#: leg lengths above the lowest foot, median over the clip: thighs level over upright shins, a deep squat.
+#: Lower, the "floor" that reading finds is a horizontal axis the feet happen to line up along (a body
+#: flying level, its feet trailing behind it), and the reading tells nothing about which way is up.
+STANDING_HIP_MIN = 0.5
+#: The up axis of a BVH file where nothing in the clip tells it: the format's convention.
+BVH_DEFAULT_UP = "y"
 
 
 @dataclass(frozen=True)

@@ -57,7 +57,8 @@ def describe_bvh(path: str | os.PathLike[str], scale: float | str | None = None,
     ``bipedsim run`` reads it for the body it builds (``body``: the kind measured from the skeleton, None
     where none can be told); a walk in place or a short walk cycle also gets ``walked_speed_mps`` (its
     travel rebuilt from its feet) and ``walked_note`` (what was done); a humanoid clip faster than people
-    walk gets ``pace_note`` (:func:`pace_note`)."""
+    walk gets ``pace_note`` (:func:`pace_note`). A T-pose or rest pose before the take is dropped at
+    reading (``lead_in_frames``, a line in ``notes``): the frames, duration and speeds are the take's."""
     built = None
     try:
         raw, info, m, body = read_source(path, scale=scale, up=up, positions=positions, fps=fps)
@@ -121,7 +122,7 @@ def format_description(d: dict[str, Any]) -> str:
         f"frames      {d['num_frames']} at {d['fps']:.4g} fps (frame time {d['frame_time']:.6g} s"
         + (f", given; the file's {d['file_frame_time']:.6g} s" if d.get("frame_time_source") == "given" else "")
         + f"), duration {d['duration_s']:.3f} s",
-        *[f"            {n}" for n in d.get("notes", []) if n.startswith("'Frames:")],
+        *[f"            {n}" for n in d.get("notes", []) if n.startswith(("'Frames:", "lead-in:"))],
         f"rotations   {orders}",
     ]
     if six:

@@ -25,7 +25,6 @@ import yaml
 from bipedsim import config
 from bipedsim.control.creature.settings import CreatureControlConfig
 from bipedsim.control.humanoid.settings import (
-    ReconstructConfig,
     DEFAULT_GAINS,
     PD_MODES,
     BalanceConfig,
@@ -38,6 +37,7 @@ from bipedsim.control.humanoid.settings import (
     PlaneGains,
     PoseGait,
     PoseState,
+    ReconstructConfig,
     ResyncConfig,
     StanceAnkleConfig,
     SwingFootConfig,

@@ -20,6 +20,7 @@ import copy
 import hashlib
 import json
 import math
+import multiprocessing
 import os
 import time
 from collections.abc import Callable
@@ -34,13 +35,14 @@ from bipedsim.config import to_dict
 from bipedsim.control.humanoid.correction import EXTRA, Correction, LiveCorrection
 from bipedsim.control.humanoid.settings import ReconstructConfig
 from bipedsim.control.humanoid.simbicon import SimbiconController
+from bipedsim.control.humanoid.sources import ClipSource
 from bipedsim.control.settings import ControllerConfig
 from bipedsim.errors import BipedsimError, ModelError
 from bipedsim.files import atomic_write_text, read_input_text
 from bipedsim.files.progress import progress_bar
 from bipedsim.files.provenance import versions
 from bipedsim.reference.clip import ReferenceClip
-from bipedsim.sim.rollout import FallCriteria, FallDetector, control_every, diverged
+from bipedsim.sim.rollout import FallCriteria, FallDetector, control_every, walk_window
 
 FloatArray = npt.NDArray[np.float64]
 #: a window searched again after every sample fell gets up to this many times the samples
@@ -58,15 +60,33 @@ class _Node:
     cost: float
 
 
-def tracking_cost(model: mujoco.MjModel, data: mujoco.MjData, clip: ReferenceClip, frame: float,
+@dataclass(frozen=True)
+class _Search:
+    """What every sample of a search shares (set before the workers fork; they read it, never write)."""
+
+    model: mujoco.MjModel
+    frames: tuple[FloatArray, FloatArray]  #: the played frames' qpos and qvel (the cost's reference)
+    frame0: float
+    frame_time: float
+    cfg: ReconstructConfig
+    falls: FallDetector
+    shared: dict[int, object]
+    every: int
+    check_every: int
+    per_window: int
+    hinge_qadr: npt.NDArray[np.integer]
+
+
+def tracking_cost(data: mujoco.MjData, ref_qpos: FloatArray, ref_qvel: FloatArray, frame: float,
                   hinge_qadr: npt.NDArray[np.integer], cfg: ReconstructConfig) -> float:
-    """How far the body is from the clip at (fractional) clip ``frame``: the hinges' RMS angle error
-    (rad), the root's orientation error (rad), its horizontal and vertical position errors (m, the
-    body started on the clip's root) and its horizontal velocity error (m/s), weighted by ``cfg``."""
-    i = min(int(frame), clip.num_frames - 2)
+    """How far the body is from the reference frames ``ref_qpos``/``ref_qvel`` at (fractional)
+    ``frame``: the hinges' RMS angle error (rad), the root's orientation error (rad), its horizontal
+    and vertical position errors (m, the body started on the reference's root) and its horizontal
+    velocity error (m/s), weighted by ``cfg``."""
+    i = min(int(frame), len(ref_qpos) - 2)
     u = min(max(frame - i, 0.0), 1.0)
-    ref = (1.0 - u) * clip.qpos[i] + u * clip.qpos[i + 1]
-    vref = (1.0 - u) * clip.qvel[i] + u * clip.qvel[i + 1]
+    ref = (1.0 - u) * ref_qpos[i] + u * ref_qpos[i + 1]
+    vref = (1.0 - u) * ref_qvel[i] + u * ref_qvel[i + 1]
     q = data.qpos
     e_pose = float(np.sqrt(np.mean((q[hinge_qadr] - ref[hinge_qadr]) ** 2)))
     quat = ref[3:7] / np.linalg.norm(ref[3:7])
@@ -79,10 +99,6 @@ def tracking_cost(model: mujoco.MjModel, data: mujoco.MjData, clip: ReferenceCli
             + cfg.height_weight * e_z + cfg.velocity_weight * e_v)
 
 
-def _clone(ctrl: SimbiconController, shared: dict[int, object]) -> SimbiconController:
-    return copy.deepcopy(ctrl, dict(shared))
-
-
 def _shared(ctrl: SimbiconController) -> dict[int, object]:
     """What every copy of ``ctrl`` shares: the model and the per-run constants (a deep copy's memo)."""
     keep: list[object] = [ctrl.model, ctrl.plan, ctrl.source, ctrl.tables, ctrl.cfg, ctrl.hinges]
@@ -91,44 +107,55 @@ def _shared(ctrl: SimbiconController) -> dict[int, object]:
     return {id(x): x for x in keep}
 
 
-def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, clip: ReferenceClip, cfg: ReconstructConfig,
-                fall: FallCriteria, *, end_frame: float | None = None,
-                progress: Callable[[float, float], None] | None = None) -> Correction | None:
-    """The correction that keeps ``ctrl``'s body (``model``, fresh, not yet reset) on ``clip`` from the
-    controller's start frame to ``end_frame`` (default: the clip's last frame), or None when not even
-    the first window could be walked. ``progress(done_s, total_s)`` is called after each window."""
-    if not isinstance(ctrl, SimbiconController):
-        raise ModelError("reconstruction drives the humanoid's controller")
+def search_span(ctrl: SimbiconController) -> float:
+    """The seconds a search covers from the controller's start: the clip to its end."""
+    src = ctrl.source
+    assert isinstance(src, ClipSource)
+    return (src.clip.num_frames - 1 - ctrl.start_frame()) * src.frame_time
+
+
+def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: ReconstructConfig, fall: FallCriteria, *,
+                workers: int = 1, progress: Callable[[float, float], None] | None = None) -> Correction | None:
+    """The correction that keeps ``ctrl``'s body (``model``; the controller fresh, not yet reset) on its
+    whole clip (:func:`search_span`), or None when not even the first window could be walked.
+    ``workers`` processes sample each window (the result does not depend on how many);
+    ``progress(done_s, total_s)`` is called after each window."""
+    src = ctrl.source
+    if not isinstance(ctrl, SimbiconController) or not isinstance(src, ClipSource) or not src.whole:
+        raise ModelError("reconstruction drives the humanoid's controller tracking a whole clip (source: clip)")
     frame0 = float(ctrl.start_frame())
-    end = float(clip.num_frames - 1 if end_frame is None else end_frame)
-    total_s = (end - frame0) * clip.frame_time
+    total_s = search_span(ctrl)
     if total_s <= 0:
         return None
+    played = (src.qpos_played, src.playlist.qvel)
     data = mujoco.MjData(model)
-    data.qpos[:] = clip.qpos[int(frame0)]
-    data.qvel[:] = clip.qvel[int(frame0)]
+    data.qpos[:] = played[0][int(frame0)]
+    data.qvel[:] = played[1][int(frame0)]
     mujoco.mj_forward(model, data)
     nh = ctrl.tables.kp.shape[0]
     ctrl.correction = LiveCorrection(nh)
     ctrl.reset(data, frame0)
-    falls = FallDetector(model, ctrl.plan, fall, data, root=ctrl.root_body)
     dt = model.opt.timestep
     every = control_every(ctrl.control_dt, dt)
-    check_every = max(1, int(round(fall.check_every / dt)))
     per_window = max(every, int(round(cfg.window_s / dt / every)) * every)
     n_windows = int(math.ceil(total_s / (per_window * dt)))
     sigma = np.concatenate([np.full(nh, cfg.hinge_sigma), np.full(2, cfg.feedback_sigma),
                             np.full(EXTRA - 2, cfg.torso_sigma)])
     rng = np.random.default_rng(cfg.seed)
-    shared = _shared(ctrl)
+    search = _Search(model, played, frame0, src.frame_time, cfg,
+                     FallDetector(model, ctrl.plan, fall, data, root=ctrl.root_body), _shared(ctrl), every,
+                     max(1, int(round(fall.check_every / dt))), per_window, ctrl.hinges.qadr)
     history = [[_Node(data, ctrl, [], [], 0.0)]]  # the states kept at the start of each window
     retries, boost = 0, 1
     while len(history) <= n_windows:
         step = (len(history) - 1) * per_window
-        found = _window(model, clip, cfg, history[-1], step, per_window, every, check_every, falls, shared,
-                        sigma, rng, cfg.samples * boost, frame0)
+        parents = history[-1]
+        n = cfg.samples * boost
+        rows = [cfg.coherence * (parents[j % len(parents)].rows[-1] if parents[j % len(parents)].rows
+                                 else 0.0) + rng.normal(0.0, sigma) for j in range(n)]
+        found = _window(search, parents, rows, step, workers)
         if found:
-            history.append(found[:cfg.keep])
+            history.append(found)
             boost = 1
             if progress is not None:
                 progress(min((step + per_window) * dt, total_s), total_s)
@@ -140,55 +167,69 @@ def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, clip: Reference
         boost = min(2 * boost, MAX_BOOST)
         if len(history) > 1:
             history.pop()
-    nodes = history[-1]
-    best = nodes[0]
+    best = history[-1][0]
     if not best.rows:
         return None
-    return Correction(starts=tuple(best.starts), rows=np.array(best.rows), end=float(best.ctrl.frame))
+    return Correction(starts=tuple(best.starts), rows=np.array(best.rows), end=float(best.ctrl.frame),
+                      fade=cfg.fade_s / src.frame_time)
 
 
-def _window(model: mujoco.MjModel, clip: ReferenceClip, cfg: ReconstructConfig, parents: list[_Node], step: int,
-            n: int, every: int, check_every: int, falls: FallDetector, shared: dict[int, object], sigma: FloatArray,
-            rng: np.random.Generator, samples: int, frame0: float) -> list[_Node]:
-    """The samples of one window of ``n`` physics steps from ``step`` that stay up, drawn around
-    ``parents`` in turn, best first."""
-    dt = model.opt.timestep
-    qadr = parents[0].ctrl.hinges.qadr
-    found: list[_Node] = []
-    for j in range(samples):
-        parent = parents[j % len(parents)]
-        last = parent.rows[-1] if parent.rows else np.zeros(len(sigma))
-        row = cfg.coherence * last + rng.normal(0.0, sigma)
-        d = mujoco.MjData(model)
-        mujoco.mj_copyData(d, model, parent.data)
-        c = _clone(parent.ctrl, shared)
-        live = c.correction
-        assert isinstance(live, LiveCorrection)
-        live.set(row)
-        if not _walk(model, d, c, step, n, every, check_every, falls):
-            continue
-        cost = tracking_cost(model, d, clip, frame0 + (step + n) * dt / clip.frame_time, qadr, cfg)
-        found.append(_Node(d, c, parent.starts + [float(live.started)], parent.rows + [row], cost))
-    found.sort(key=lambda node: node.cost)
-    return found
+#: the search a forked worker reads (set by the parent before it forks, read-only in the workers)
+_FORK: tuple[_Search, list[_Node], list[FloatArray], int] | None = None
 
 
-def _walk(model: mujoco.MjModel, data: mujoco.MjData, ctrl: SimbiconController, step: int, n: int, every: int,
-          check_every: int, falls: FallDetector) -> bool:
-    """Run ``n`` physics steps from physics step ``step`` as :func:`~bipedsim.sim.rollout.rollout` does
-    (control, then ``every`` physics steps; fall and divergence checks every ``check_every``); whether
-    the body is still up."""
-    dt = model.opt.timestep
-    end = step + n
-    while step < end:
-        data.ctrl[:] = ctrl(model, data, step * dt, dt * every)
-        k = min(every, end - step)
-        before = step // check_every
-        mujoco.mj_step(model, data, k)
-        step += k
-        if step // check_every > before and (diverged(data) or falls.check(data, ctrl)):
-            return False
-    return True
+def _window(search: _Search, parents: list[_Node], rows: list[FloatArray], step: int, workers: int) -> list[_Node]:
+    """The ``cfg.keep`` best samples of the window from physics step ``step`` that stay up (sample j
+    from ``parents[j % len(parents)]`` with offsets ``rows[j]``), best first. The costs are computed in
+    ``workers`` forked processes where there are several; the kept samples are then walked again here
+    (the same path: the physics and the controller are deterministic) for their states."""
+    global _FORK
+    n = len(rows)
+    if workers > 1 and n > 1 and "fork" in multiprocessing.get_all_start_methods():
+        _FORK = (search, parents, rows, step)
+        try:
+            chunks = [list(range(k, n, workers)) for k in range(workers)]
+            with multiprocessing.get_context("fork").Pool(workers) as pool:
+                costs = [c for part in pool.map(_costs_of, chunks) for c in part]
+        finally:
+            _FORK = None
+    else:  # here: the walked samples are kept as they are
+        nodes = [(node, j) for j in range(n) for node in [_sample(search, parents, rows, step, j)[0]] if node]
+        nodes.sort(key=lambda nj: (nj[0].cost, nj[1]))
+        return [node for node, _ in nodes[:search.cfg.keep]]
+    order = sorted((c, j) for c, j in costs if c is not None)[:search.cfg.keep]
+    kept = []
+    for _c, j in order:
+        node, _ = _sample(search, parents, rows, step, j)
+        assert node is not None
+        kept.append(node)
+    return kept
+
+
+def _costs_of(indices: list[int]) -> list[tuple[float | None, int]]:
+    """A worker's share of a window: (cost or None for a fall, sample index) per sample."""
+    assert _FORK is not None
+    search, parents, rows, step = _FORK
+    return [(_sample(search, parents, rows, step, j)[1], j) for j in indices]
+
+
+def _sample(search: _Search, parents: list[_Node], rows: list[FloatArray], step: int,
+            j: int) -> tuple[_Node | None, float | None]:
+    """Sample ``j`` of a window walked: its node and cost, or (None, None) if it fell."""
+    model = search.model
+    parent = parents[j % len(parents)]
+    d = mujoco.MjData(model)
+    mujoco.mj_copyData(d, model, parent.data)
+    c = copy.deepcopy(parent.ctrl, dict(search.shared))
+    live = c.correction
+    assert isinstance(live, LiveCorrection)
+    live.set(rows[j])
+    if not walk_window(model, d, c, step, search.per_window, search.every, search.check_every, search.falls):
+        return None, None
+    t_end = (step + search.per_window) * model.opt.timestep
+    cost = tracking_cost(d, *search.frames, search.frame0 + t_end / search.frame_time, search.hinge_qadr,
+                         search.cfg)
+    return _Node(d, c, parent.starts + [float(live.started)], parent.rows + [rows[j]], cost), cost
 
 
 #: where searched corrections are kept, under the user's cache folder (``XDG_CACHE_HOME`` or ~/.cache)
@@ -209,7 +250,9 @@ def correction_key(clip: ReferenceClip, model_hash: str, cfg: ControllerConfig) 
     for a in (clip.qpos, clip.qvel, clip.contacts):
         h.update(np.ascontiguousarray(a).tobytes())
     h.update(repr(clip.frame_time).encode() + model_hash.encode())
-    h.update(json.dumps(to_dict(cfg), sort_keys=True, default=str).encode())
+    settings = to_dict(cfg)
+    settings["reconstruct"].pop("workers", None)  # the result is the same on any number of processes
+    h.update(json.dumps(settings, sort_keys=True, default=str).encode())
     h.update(json.dumps(versions(), sort_keys=True).encode())
     root = Path(__file__).resolve().parent.parent
     for part in _CODE:
@@ -236,7 +279,7 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
             return corr, f"reconstruct: the correction searched before, read from {path}"
         except (BipedsimError, ValueError, KeyError, TypeError) as exc:
             stale = f" (the cached one was unreadable: {exc})"
-    total = (clip.num_frames - 1 - ctrl.start_frame()) * clip.frame_time
+    total = search_span(ctrl)
     bar = progress_bar(round(total, 1), "reconstruct", "s of clip")
     done = [0.0]
 
@@ -247,7 +290,7 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
 
     t0 = time.perf_counter()
     try:
-        corr = reconstruct(model, ctrl, clip, cfg.reconstruct, fall, progress=tick)
+        corr = reconstruct(model, ctrl, cfg.reconstruct, fall, workers=search_workers(cfg.reconstruct), progress=tick)
     finally:
         ctrl.restore_model()
         if bar is not None:
@@ -265,3 +308,13 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     except OSError as exc:
         what += f"; not cached ({exc.strerror or exc})"
     return corr, what
+
+
+def search_workers(rc: ReconstructConfig) -> int:
+    """The processes a search samples with: ``rc.workers``, or with 0 the cores this process may use."""
+    if rc.workers > 0:
+        return rc.workers
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on every platform
+        return max(1, os.cpu_count() or 1)

@@ -355,6 +355,24 @@ def _outcome(ctrl: Controller, spec: RolloutSpec, schedule: Any, verdict: tuple[
 Hook = Callable[[float, mujoco.MjData, Controller], None]
 
 
+def walk_window(model: mujoco.MjModel, data: mujoco.MjData, ctrl: Controller, step: int, n: int, every: int,
+                check_every: int, falls: FallDetector) -> bool:
+    """``n`` physics steps of :func:`rollout`'s loop from physics step ``step`` (control, then ``every``
+    physics steps; the fall and divergence checks every ``check_every``), without hooks or pushes: a
+    window of the reconstruction search (:mod:`bipedsim.sim.reconstruct`). Whether the body is still up."""
+    dt = model.opt.timestep
+    end = step + n
+    while step < end:
+        data.ctrl[:] = ctrl(model, data, step * dt, dt * every)
+        k = min(every, end - step)
+        before = step // check_every
+        mujoco.mj_step(model, data, k)
+        step += k
+        if step // check_every > before and (diverged(data) or falls.check(data, ctrl)):
+            return False
+    return True
+
+
 def rollout(model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller,
             spec: RolloutSpec, *, initial_qpos: FloatArray | None = None, initial_qvel: FloatArray | None = None,
             qvel_noise: FloatArray | None = None,

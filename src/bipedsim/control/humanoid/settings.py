@@ -253,18 +253,22 @@ class ReconstructConfig:
     samples: int = field(default=100, metadata={"min": 1, "max": 10000})
     keep: int = field(default=10, metadata={"min": 1, "max": 1000})
     coherence: float = field(default=0.7, metadata={"min": 0.0, "max": 1.0})
-    hinge_sigma: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
+    hinge_sigma: float = field(default=0.02, metadata={"min": 0.0, "max": 1.0})
     feedback_sigma: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
     torso_sigma: float = field(default=0.03, metadata={"min": 0.0, "max": 1.0})
     pose_weight: float = field(default=1.0, metadata={"min": 0.0})
     root_weight: float = field(default=1.0, metadata={"min": 0.0})
     position_weight: float = field(default=1.0, metadata={"min": 0.0})
     height_weight: float = field(default=3.0, metadata={"min": 0.0})
-    velocity_weight: float = field(default=0.3, metadata={"min": 0.0})
+    velocity_weight: float = field(default=1.0, metadata={"min": 0.0})
     #: windows searched again (the one before, with up to 8x the samples) when every sample of one fell,
     #: in all; then the correction ends where the search got to
     retries: int = field(default=8, metadata={"min": 0, "max": 1000})
     seed: int = field(default=0, metadata={"min": 0})  #: the search's random draws
+    #: seconds over which the correction fades out after the clip's end (the controller alone walks on)
+    fade_s: float = field(default=1.0, metadata={"min": 0.0, "max": 10.0})
+    #: processes sampling each window (0: one per core this process may use); the result is the same
+    workers: int = field(default=0, metadata={"min": 0, "max": 256})
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,10 @@ if TYPE_CHECKING:
     from bipedsim.control.settings import ControllerConfig
 
 REPO = Path(__file__).resolve().parent.parent
+# runs in the suite track with the feedback controller alone: the per-clip search takes tens of seconds a
+# clip and has tests of its own (tests/sim/test_reconstruct.py), which ask for it explicitly; set here so
+# the suite's subprocesses inherit it
+os.environ.setdefault("BIPEDSIM_RECONSTRUCT", "off")
 #: The real BVH samples beside the repository (``../shared/data/bvh``); ``BIPEDSIM_SHARED_DATA`` names
 #: another data folder (its ``bvh/`` is read), or a missing one to run the suite as a fresh clone does
 SHARED_DATA = Path(os.environ.get("BIPEDSIM_SHARED_DATA", REPO.parent / "shared" / "data"))

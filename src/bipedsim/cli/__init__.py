@@ -95,6 +95,9 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--events", default=None, metavar="YAML",
                    help="the --bvh clip's foot strikes given by hand, replacing the detected ones: 'right: [12, 140]' "
                         "and 'left: [76]' (frames, or times like '1.2s')")
+    p.add_argument("--no-reconstruct", dest="reconstruct", action="store_false", default=None,
+                   help="humanoid: track the clip with the feedback controller alone, without searching (or "
+                        "reading the cached) feed-forward correction first (docs/controller.md, Reconstruction)")
     _scale_up(p, "BVH metres per unit or unit name", "BVH up axis")
     p.add_argument("--profile", choices=("auto", "humanoid", "creature"), default=None,
                    help="body kind: humanoid (SIMBICON balance) or creature (legged balance for any skeleton); "

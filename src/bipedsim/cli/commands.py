@@ -57,7 +57,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     run_to_folder(args.out, config=args.config, bvh=args.bvh, seconds=args.seconds, seed=args.seed,
                   init_noise=args.init_noise, mass=args.mass, scale=args.scale, up=args.up, positions=args.positions,
-                  fps=args.clip_fps, events=args.events, profile=args.profile,
+                  fps=args.clip_fps, events=args.events, profile=args.profile, reconstruct=args.reconstruct,
                   support=args.support, record_hz=DEFAULT_RECORD_HZ if args.record_hz is None else args.record_hz,
                   pushes=args.push or [], plots=args.plots, csv=args.csv, export_bvh=args.export_bvh,
                   video=args.video, gif=args.gif, video_options=video_options(args), progress=sys.stderr.isatty(),

@@ -324,14 +324,14 @@ def found_lines(sc: Scenario) -> list[str]:
     if sc.profile != "humanoid":
         return []
     scaled = [f"controller: {sc.extra['body_scale']}"] if "body_scale" in sc.extra else []
+    searched = [sc.extra["reconstruct"]] if "reconstruct" in sc.extra else []
     if sc.bvh_info is None or sc.source_path == str(BUILTIN_WALK):
-        return scaled
+        return scaled + searched
     notes = [f"note: {n}" for n in [sc.bvh_info.reading_note, *sc.bvh_info.notes] if n]
     notes += [f"body: {n}" for n in (sides_note(sc.built.plan.extra), toes_note(sc.built.plan.extra)) if n]
     if "feasible" in sc.extra:
         notes.append("reference: legs made feasible for the body (" + "; ".join(sc.extra["feasible"]) + ")")
-    if "reconstruct" in sc.extra:
-        notes.append(sc.extra["reconstruct"])
+    notes += searched
     pace = pace_note(clip_speed(sc.clip), sc.bvh_info, step_time(sc.clip))
     return notes + scaled + describe_clip(sc.clip, sc.built.model, sc.built.plan) + ([f"pace: {pace}"] if pace else [])
 
@@ -404,6 +404,7 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
                   scale: float | str | None = None, up: str | None = None, positions: str | None = None,
                   fps: float | None = None,
                   events: PathLike | None = None, profile: str | None = None, support: bool = False,
+                  reconstruct: bool | None = None,
                   record_hz: float = DEFAULT_RECORD_HZ, pushes: Sequence[str | Push] = (),
                   plots: bool = False, csv: PathLike | None = None, export_bvh: PathLike | None = None,
                   video: PathLike | None = None, gif: PathLike | None = None,
@@ -438,7 +439,7 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     pushes = [p if isinstance(p, Push) else Push.parse(p) for p in pushes]
     check_pushes(pushes, seconds)  # the run length too, before anything is built
     sc = runner.load_scenario(config, bvh, scale=scale, up=up, mass=mass, profile=profile, support=support,
-                              positions=positions, events=events, fps=fps)
+                              positions=positions, events=events, fps=fps, reconstruct=reconstruct)
     check_run_length(seconds, sc.built.model.opt.timestep)
     for line in found_lines(sc):
         say(line)

@@ -114,7 +114,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     that is no whole number of physics steps (:func:`~bipedsim.sim.rollout.control_every`) is refused,
     naming the file and the keys. A humanoid tracking its whole clip gets the clip's feed-forward
     correction (:func:`~bipedsim.sim.reconstruct.correction_for`: searched, or read from the cache)
-    when ``reconstruct`` says so (None: as the settings' ``reconstruct.enabled`` say)."""
+    when ``reconstruct`` says so (None: :func:`reconstruct_wanted`)."""
     profile = AUTO if profile is None else profile
     if profile not in PROFILES:
         raise ConfigError(f"unknown body profile {profile!r}; profiles: {', '.join(PROFILES)}", key="profile")
@@ -166,11 +166,31 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     cfg = for_reference(cfg, resolved)  # the "auto" modulation terms act on a re-solved reference
     sc = Scenario(built=built, clip=clip, cfg=cfg, source_path=src, config_path=config_path, motion=motion,
                   bvh_info=info, extra=extra, creature_cfg=replace(cfg.creature, support=support))
-    search = cfg.reconstruct.enabled if reconstruct is None else reconstruct
+    search = reconstruct_wanted(cfg, reconstruct)
     if search and profile == "humanoid" and cfg.source == "clip":
         sc.correction, extra["reconstruct"] = correction_for(built.model, built.hash, sc.controller, clip, cfg,
                                                              sc.fall_criteria())
     return sc
+
+
+#: the environment variable that turns the per-clip search off (``0``, ``off``, ``false``, ``no``) or on
+#: for every run that does not say (a test suite, a batch of quick looks)
+RECONSTRUCT_ENV = "BIPEDSIM_RECONSTRUCT"
+
+
+def reconstruct_wanted(cfg: ControllerConfig, asked: bool | None) -> bool:
+    """Whether a humanoid's clip gets its searched correction: as ``asked`` (``--no-reconstruct``, the
+    API's argument), else as :data:`RECONSTRUCT_ENV` says, else as the settings' ``reconstruct.enabled``."""
+    if asked is not None:
+        return asked
+    env = os.environ.get(RECONSTRUCT_ENV, "").strip().lower()
+    if env in ("0", "off", "false", "no"):
+        return False
+    if env in ("1", "on", "true", "yes"):
+        return True
+    if env:
+        raise ConfigError(f"{RECONSTRUCT_ENV}={env!r}: say on or off (1/0, true/false, yes/no)", key=RECONSTRUCT_ENV)
+    return cfg.reconstruct.enabled
 
 
 def settings_for(sc: Scenario, settings: ControllerConfig) -> ControllerConfig:

@@ -1,0 +1,99 @@
+"""Sampling-based control reconstruction: the search, its correction and its cache."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from bipedsim.control.humanoid.correction import EXTRA, Correction
+from bipedsim.errors import ConfigError
+from bipedsim.sim.reconstruct import correction_for, reconstruct
+from bipedsim.sim.rollout import RolloutSpec
+from bipedsim.sim.runner import load_scenario, reconstruct_wanted, run_scenario
+
+#: a small search: enough to exercise every part, a second or two on one core
+SMALL = {"samples": 3, "keep": 2, "window_s": 0.4}
+
+
+@pytest.fixture(scope="module")
+def small():
+    sc = load_scenario(None, reconstruct=False)
+    return replace(sc, cfg=replace(sc.cfg, reconstruct=replace(sc.cfg.reconstruct, **SMALL)))
+
+
+def _search(sc, workers: int = 1) -> Correction:
+    ctrl = sc.controller()
+    try:
+        corr = reconstruct(sc.built.model, ctrl, sc.cfg.reconstruct, sc.fall_criteria(), workers=workers)
+    finally:
+        ctrl.restore_model()
+    assert corr is not None
+    return corr
+
+
+def test_the_search_is_deterministic_on_any_number_of_processes(small) -> None:
+    a, b = _search(small, 1), _search(small, 2)
+    assert a.starts == b.starts and np.array_equal(a.rows, b.rows) and a.end == b.end
+    assert a.rows.shape[1] == small.controller().tables.kp.shape[0] + EXTRA
+    # the search covers the clip from the controller's start, window by window
+    ctrl = small.controller()
+    span = (small.clip.num_frames - 1 - ctrl.start_frame()) * small.clip.frame_time
+    assert len(a.starts) == int(np.ceil(span / 0.4 - 1e-9))
+    assert a.end > small.clip.num_frames - 1 - 20
+
+
+def test_a_run_with_the_correction_repeats_the_searched_path(small) -> None:
+    corr = _search(small)
+    sc = replace(small, correction=corr)
+    span = (small.clip.num_frames - 1 - sc.controller().start_frame()) * small.clip.frame_time
+    out, ctrl = run_scenario(sc, RolloutSpec(seconds=round(np.ceil(span / 0.4) * 0.4, 6)))
+    assert out.outcome == "no_fall"
+    assert ctrl.frame == pytest.approx(corr.end, abs=1e-9)  # the same reference frame, step for step
+    plain, pctrl = run_scenario(small, RolloutSpec(seconds=out.sim_seconds))
+    assert pctrl.frame != pytest.approx(corr.end, abs=1e-6)  # the correction changed the run
+
+
+def test_the_correction_is_cached_and_read_back(small, tmp_path, monkeypatch) -> None:
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    m, sc = small.built, small
+    first, said = correction_for(m.model, m.hash, sc.controller, sc.clip, sc.cfg, sc.fall_criteria())
+    assert "searched a correction" in said and "cached in" in said
+    files = list((tmp_path / "bipedsim" / "corrections").glob("*.json"))
+    assert len(files) == 1
+    again, said = correction_for(m.model, m.hash, sc.controller, sc.clip, sc.cfg, sc.fall_criteria())
+    assert said.startswith("reconstruct: the correction searched before")
+    assert again.starts == first.starts and np.array_equal(again.rows, first.rows)
+    # another setting is another search; a damaged cache file is searched again, not trusted
+    files[0].write_text('{"correction": {"starts": [0], "rows": [[1e9]], "end": 1, "fade": 0}}')
+    _, said = correction_for(m.model, m.hash, sc.controller, sc.clip, sc.cfg, sc.fall_criteria())
+    assert "the cached one was unreadable" in said
+
+
+def test_correction_lookup_and_fade() -> None:
+    rows = np.array([[0.1] * (1 + EXTRA), [0.2] * (1 + EXTRA)])
+    c = Correction(starts=(10.0, 20.0), rows=rows, end=30.0, fade=10.0)
+    assert c.at(5.0) is None
+    assert c.at(10.0)[0] == 0.1 and c.at(19.9)[0] == 0.1 and c.at(25.0)[0] == 0.2
+    assert c.at(35.0)[0] == pytest.approx(0.1)  # half faded
+    assert c.at(40.0) is None
+    back = Correction.from_dict(c.to_dict(), hinges=1)
+    assert back.starts == c.starts and np.array_equal(back.rows, c.rows)
+    with pytest.raises(ValueError, match="rows of shape"):
+        Correction.from_dict(c.to_dict(), hinges=2)
+    bad = dict(c.to_dict(), rows=[[9.0] * 5, [0.0] * 5])
+    with pytest.raises(ValueError, match="within"):
+        Correction.from_dict(bad, hinges=1)
+
+
+def test_the_search_is_asked_for_by_argument_then_environment_then_settings(monkeypatch) -> None:
+    cfg = load_scenario(None, reconstruct=False).cfg
+    monkeypatch.delenv("BIPEDSIM_RECONSTRUCT", raising=False)
+    assert reconstruct_wanted(cfg, None) is True
+    assert reconstruct_wanted(replace(cfg, reconstruct=replace(cfg.reconstruct, enabled=False)), None) is False
+    monkeypatch.setenv("BIPEDSIM_RECONSTRUCT", "off")
+    assert reconstruct_wanted(cfg, None) is False and reconstruct_wanted(cfg, True) is True
+    monkeypatch.setenv("BIPEDSIM_RECONSTRUCT", "maybe")
+    with pytest.raises(ConfigError, match="BIPEDSIM_RECONSTRUCT"):
+        reconstruct_wanted(cfg, None)

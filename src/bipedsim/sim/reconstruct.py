@@ -22,6 +22,7 @@ import json
 import math
 import multiprocessing
 import os
+import signal
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -189,8 +190,15 @@ def _window(search: _Search, parents: list[_Node], rows: list[FloatArray], step:
         _FORK = (search, parents, rows, step)
         try:
             chunks = [list(range(k, n, workers)) for k in range(workers)]
-            with multiprocessing.get_context("fork").Pool(workers) as pool:
+            pool = multiprocessing.get_context("fork").Pool(workers, initializer=_worker_signals)
+            try:
                 costs = [c for part in pool.map(_costs_of, chunks) for c in part]
+                pool.close()  # the workers end when their work is done
+            except BaseException:
+                pool.terminate()  # interrupted: the workers are stopped (they take the default action)
+                raise
+            finally:
+                pool.join()
         finally:
             _FORK = None
     else:  # here: the walked samples are kept as they are
@@ -204,6 +212,15 @@ def _window(search: _Search, parents: list[_Node], rows: list[FloatArray], step:
         assert node is not None
         kept.append(node)
     return kept
+
+
+def _worker_signals() -> None:
+    """A worker takes the default action on the stop signals (the parent, not the worker, turns them
+    into a clean stop) and leaves Ctrl-C to the parent, which stops the workers."""
+    for name in ("SIGTERM", "SIGHUP"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _costs_of(indices: list[int]) -> list[tuple[float | None, int]]:

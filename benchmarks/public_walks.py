@@ -23,6 +23,7 @@ import argparse
 import shutil
 import subprocess
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import real_walks  # benchmarks/real_walks.py
@@ -105,35 +106,58 @@ WALKS: tuple[tuple[str, str, str, str, str], ...] = tuple(
          "bones, 100 fps, 'Frames:' one short"))])
 
 
-def _list() -> int:
-    for name, repo, commit, path, what in WALKS:
-        print(f"{name:28s} {repo} @ {commit[:12]} : {path}\n{'':28s} {what}")
-    repos = sorted({r for _, r, _, _, _ in WALKS})
+#: one file to copy: (its name under the output folder, repository, commit, path in it, what it is)
+Source = tuple[str, str, str, str, str]
+
+
+def list_sources(sources: Sequence[Source]) -> int:
+    """Print where each file comes from and the clones ``collect`` reads them out of."""
+    width = max([28, *(len(n) for n, *_ in sources)])  # the name column (characters)
+    for name, repo, commit, path, what in sources:
+        print(f"{name:{width}s} {repo} @ {commit[:12]} : {path}\n{'':{width}s} {what}")
+    repos = sorted({r for _, r, _, _, _ in sources})
     print("\nclone each into CLONES/<name>: " + "; ".join(
         f"git clone --depth 1 https://github.com/{r} CLONES/{r.split('/')[1]}" for r in repos))
     return 0
 
 
-def _collect(clones: Path, out: Path) -> int:
+def collect_sources(clones: Path, out: Path, sources: Sequence[Source]) -> int:
+    """Copy each file out of ``clones/<repository name>`` (a clone or a bare git directory) into
+    ``out/<name>``: the file at the commit named, else the clone's working copy."""
     out.mkdir(parents=True, exist_ok=True)
     missing = 0
-    for name, repo, commit, path, _ in WALKS:
+    for name, repo, commit, path, _ in sources:
         clone = clones / repo.split("/")[1]
+        dest = out / name
+        dest.parent.mkdir(parents=True, exist_ok=True)
         # the file at the commit named (some were deleted or changed since), else the clone's copy
         shown = subprocess.run(["git", "-C", str(clone), "show", f"{commit}:{path}"], capture_output=True)
         if shown.returncode == 0:
-            (out / name).write_bytes(shown.stdout)
+            dest.write_bytes(shown.stdout)
         elif (clone / path).is_file():
-            shutil.copyfile(clone / path, out / name)
+            shutil.copyfile(clone / path, dest)
         else:
             missing += 1
             print(f"missing: {clone / path} (at {commit[:12]}: clone without --depth 1 to read it)")
-    print(f"copied {len(WALKS) - missing} of {len(WALKS)} files into {out}")
-    return 0 if missing < len(WALKS) else 1
+    print(f"copied {len(sources) - missing} of {len(sources)} files into {out}")
+    return 0 if missing < len(sources) else 1
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def run_sources(folder: Path, sources: Sequence[Source], rest: list[str], script: str) -> int:
+    """``benchmarks/real_walks.py`` (its options in ``rest``) on the files of ``sources`` found in ``folder``."""
+    found = [folder / n for n, *_ in sources if (folder / n).is_file()]
+    for n, *_ in sources:
+        if not (folder / n).is_file():
+            print(f"missing: {folder / n} (python benchmarks/{script} list)")
+    if not found:
+        print(f"none of the {len(sources)} files is in {folder}")
+        return 1
+    return real_walks.main([*rest, "--files", *map(str, found)])
+
+
+def command_line(sources: Sequence[Source], doc: str, script: str, argv: list[str] | None = None) -> int:
+    """The ``list`` / ``collect CLONES DIR`` / ``run DIR [real_walks.py options]`` commands on ``sources``."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     sub.add_parser("list", help="where each file comes from")
     c = sub.add_parser("collect", help="copy the files out of clones of their repositories")
@@ -143,17 +167,14 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("dir", type=Path)
     args, rest = ap.parse_known_args(argv)
     if args.cmd == "list":
-        return _list()
+        return list_sources(sources)
     if args.cmd == "collect":
-        return _collect(args.clones, args.out)
-    found = [args.dir / n for n, *_ in WALKS if (args.dir / n).is_file()]
-    for n, *_ in WALKS:
-        if not (args.dir / n).is_file():
-            print(f"missing: {args.dir / n} (python benchmarks/public_walks.py list)")
-    if not found:
-        print(f"none of the {len(WALKS)} public walks is in {args.dir}")
-        return 1
-    return real_walks.main([*rest, "--files", *map(str, found)])
+        return collect_sources(args.clones, args.out, sources)
+    return run_sources(args.dir, sources, rest, script)
+
+
+def main(argv: list[str] | None = None) -> int:
+    return command_line(WALKS, __doc__ or "", "public_walks.py", argv)
 
 
 if __name__ == "__main__":

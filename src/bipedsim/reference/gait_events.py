@@ -111,6 +111,15 @@ def side_contacts(low: FloatArray, pos: FloatArray, dt: float, groups: list[list
     return np.stack([point_contacts(low[:, g], pos[:, g], dt).any(axis=1) for g in groups], axis=1)
 
 
+def cyclic_strikes(contacts: BoolArray) -> list[list[int]]:
+    """Per side (column of ``contacts``, (T, S)), the frames where a contact begins when the T frames are
+    one loop of a cycle, frame 0 following frame T - 1: a foot down on frame 0 and up on the last frame
+    strikes at frame 0, which a clip read once never shows (its first frame has no frame before it)."""
+    c = np.asarray(contacts, dtype=bool)
+    begins = c & ~np.roll(c, 1, axis=0)
+    return [np.flatnonzero(begins[:, s]).tolist() for s in range(c.shape[1])]
+
+
 # ---------------------------------------------------------------------- events by hand
 def load_events(path: str | os.PathLike[str], feet: list[str], num_frames: int,
                 frame_time: float) -> dict[str, list[int]]:

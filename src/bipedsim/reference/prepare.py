@@ -164,14 +164,22 @@ def creature_motion(motion: Motion, notes: list[str] | None = None) -> Motion:
 
 
 #: A clip is one loop of a cycle (a game animation's walk cycle) when its last pose is within this multiple
-#: of its median pose change over :data:`LOOP_STRIDE_S` of its first pose (relative to the root: the pose,
-#: not the travel), and it moves at both ends (a clip from a stand to a stand has like ends too)...
+#: of its pose change over :data:`LOOP_STRIDE_S` of its first pose (relative to the root: the pose, not
+#: the travel) -- the change's median over the clip, or the change at the clip's ends where that is larger
+#: (a cycle cut mid-swing moves fastest at its seam) -- and it moves at both ends (a clip from a stand to
+#: a stand has like ends too)...
 LOOP_SEAM_FRACTION = 1.5
 #: ...the stride (s) over which pose changes are compared (a rate of its own: any frame rate alike)...
 LOOP_STRIDE_S = 1.0 / 30.0
 #: ...and such a clip shorter than this (s) is repeated to at least this long, so that its strikes
 #: can loop (two right strikes with a left between) and its travel can be measured.
 LOOP_REPEAT_S = 3.0
+#: A loop's last frame leads into its first (an export that leaves the first pose out at the end: the
+#: cycle is all its frames) rather than repeating it (the cycle is one frame shorter) when the first pose
+#: lies nearer, by at least this factor, to the last one moved on by the ends' own frame-to-frame change
+#: than to the last one itself; where the two are alike (a capture's cut cycle, whose ends differ by
+#: more than a frame's change), the last frame is taken as repeating the first.
+LOOP_OPEN_FACTOR = 2.0
 #: trailing frames that repeat the last moving frame exactly, for at least this long (s), are an export's
 #: padding, not motion: no capture holds every channel to the last digit
 HELD_TAIL_S = 0.25
@@ -203,14 +211,44 @@ def trim_held_tail(motion: Motion, notes: list[str] | None = None) -> Motion:
     return motion[:n - k]
 
 
+def _leads_into_first(rel: FloatArray) -> bool:
+    """Whether a loop's last frame leads into its first rather than repeating it (:data:`LOOP_OPEN_FACTOR`):
+    ``rel`` (T, J, 3) the joints relative to the root."""
+    closed = float(np.linalg.norm(rel[-1] - rel[0], axis=-1).max())
+    moved_on = rel[-1] + 0.5 * ((rel[-1] - rel[-2]) + (rel[1] - rel[0]))  # the frame after the last
+    opened = float(np.linalg.norm(moved_on - rel[0], axis=-1).max())
+    return LOOP_OPEN_FACTOR * opened < closed
+
+
+def _first_appended(motion: Motion) -> Motion:
+    """``motion`` with its first frame appended after its last, moved on horizontally by the loop's
+    travel (the last frame's, plus one frame at the rate of the clip's ends): a loop whose last frame
+    leads into its first, closed."""
+    tj = motion.travel_joint()
+    u = "xyz".index(motion.up)
+    held = motion.root_translation if tj == 0 else motion.translations[:, tj]  # the travel's channel
+    shift = held[-1] - held[0] + 0.5 * ((held[-1] - held[-2]) + (held[1] - held[0]))
+    shift[u] = 0.0
+    root = np.vstack([motion.root_translation, motion.root_translation[:1] + (shift if tj == 0 else 0.0)])
+    trans = None
+    if motion.translations is not None:
+        trans = np.concatenate([motion.translations, motion.translations[:1]])
+        trans[-1, tj] += shift if tj != 0 else 0.0
+        if tj == 0:
+            trans[-1, 0] = root[-1]
+    return motion.copy(root_translation=root, rotations=np.concatenate([motion.rotations, motion.rotations[:1]]),
+                       translations=trans)
+
+
 def repeat_loop(motion: Motion, notes: list[str] | None = None) -> Motion:
     """A short clip that is itself one loop of a cycle, repeated to :data:`LOOP_REPEAT_S` (else the
     clip unchanged): a cut gait cycle (both strikes' frames kept) closes within a few centimetres, about
     one stride's pose change (:data:`LOOP_SEAM_FRACTION`). The last frame is taken as the next
-    loop's first and the pose it misses it by is spread over the loop (loop closure). Each copy is shifted
-    by the loop's horizontal travel (a cycle exported with its root motion walks on; one exported in
-    place stays, and its travel is rebuilt from its feet afterwards); a turn over the loop is not
-    repeated. What was done is appended to ``notes``."""
+    loop's first and the pose it misses it by is spread over the loop (loop closure), unless it leads
+    into the first (:func:`_leads_into_first`: a cycle exported without its closing frame), then the cycle
+    is all its frames. Each copy is shifted by the loop's horizontal travel (a cycle exported with its
+    root motion walks on; one exported in place stays, and its travel is rebuilt from its feet
+    afterwards); a turn over the loop is not repeated. What was done is appended to ``notes``."""
     n = motion.num_frames
     dt = motion.frame_time
     k = max(1, int(round(LOOP_STRIDE_S / dt)))
@@ -221,8 +259,13 @@ def repeat_loop(motion: Motion, notes: list[str] | None = None) -> Motion:
     stride = np.linalg.norm(rel[k:] - rel[:-k], axis=-1).max(axis=1)
     med = float(np.median(stride))
     seam = float(np.linalg.norm(rel[-1] - rel[0], axis=-1).max())
-    if med <= 0.0 or seam > LOOP_SEAM_FRACTION * med or min(stride[0], stride[-1]) < 0.5 * med:
+    if med <= 0.0 or seam > LOOP_SEAM_FRACTION * max(med, min(stride[0], stride[-1])) \
+            or min(stride[0], stride[-1]) < 0.5 * med:
         return motion
+    opened = _leads_into_first(rel)
+    if opened:
+        motion = _first_appended(motion)
+        n += 1
     # loop closure: the last frame is taken as the next loop's first, and the pose it misses it by is
     # spread over the loop (each joint's rotation turned by a growing share of its offset, the
     # translations shifted alike), so the copies join without a jump
@@ -258,8 +301,9 @@ def repeat_loop(motion: Motion, notes: list[str] | None = None) -> Motion:
     rots = rots[idx]
     out = motion.copy(root_translation=root, rotations=canonical_quat(rots), translations=trans)
     if notes is not None:
-        notes.append(f"a loop: the clip ends in the pose it starts with ({n} frames, a cycle of {period}); "
-                     f"repeated {reps} times ({out.duration:.2f} s)")
+        ends = (f"its last frame leads into its first ({n - 1} frames, a cycle of {period})" if opened else
+                f"the clip ends in the pose it starts with ({n} frames, a cycle of {period})")
+        notes.append(f"a loop: {ends}; repeated {reps} times ({out.duration:.2f} s)")
     return out
 
 

@@ -19,7 +19,8 @@ from bipedsim.errors import ModelError
 from bipedsim.model.plan import BodyPlanSet
 from bipedsim.reference.clip import ReferenceClip
 from bipedsim.reference.feasible_measure import sole_heights
-from bipedsim.reference.gait_events import smooth
+from bipedsim.reference.gait_events import cyclic_strikes, smooth
+from bipedsim.reference.prepare import LOOP_OPEN_FACTOR, LOOP_SEAM_FRACTION, LOOP_STRIDE_S
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -60,7 +61,9 @@ class Cycle:
     mismatch alone (rad); ``alternates``: its strikes alternate feet; ``step_balance``: its shortest
     step over its longest; ``steady``: its slowest step's root speed over its fastest;
     ``stance_float``: its stance feet's mean distance from the floor (m, the worse foot; 0 when
-    unknown)."""
+    unknown). ``whole``: the clip is itself one loop of the cycle (:func:`loop_cycle`): ``a`` is its
+    first frame and ``b`` its last, ``foot`` the foot in stance on frame ``a``, whose strike came last
+    before the loop wrapped."""
 
     a: int
     b: int
@@ -71,6 +74,7 @@ class Cycle:
     steady: float = 1.0
     stance_float: float = 0.0
     foot: str = "right"
+    whole: bool = False
 
 
 def _loop_shape(a: int, b: int, right: list[int], left: list[int], root_xy: FloatArray,
@@ -115,12 +119,7 @@ def best_cycle(q: FloatArray, qd: FloatArray, root_xy: FloatArray, right: list[i
         alternates, balance, steady = shape[(a, b)]
         seam = float(np.sqrt(np.mean((q[a] - q[b]) ** 2)))
         seam += CYCLE_VELOCITY_TIME_S * float(np.sqrt(np.mean((qd[a] - qd[b]) ** 2)))
-        floats = 0.0
-        if stance_low is not None:
-            with np.errstate(invalid="ignore"):
-                heights = [float(np.nanmean(np.abs(col))) for col in stance_low[a:b + 1].T
-                           if np.isfinite(col).any()]
-            floats = max(heights, default=0.0)
+        floats = _stance_float(stance_low, a, b)
         cost = (seam + (1.0 - speed[(a, b)] / fastest)
                 + max(0.0, 1.0 - balance / CYCLE_STEP_BALANCE) + max(0.0, 1.0 - steady / CYCLE_STEADY_SPEED)
                 + max(0.0, floats - CYCLE_STANCE_FLOAT_M) / CYCLE_STANCE_SCALE_M)
@@ -128,6 +127,72 @@ def best_cycle(q: FloatArray, qd: FloatArray, root_xy: FloatArray, right: list[i
     best = min(c.cost for c in cycles.values())
     return max((c for c in cycles.values() if c.cost <= best + CYCLE_COST_TOLERANCE),
                key=lambda c: (c.b - c.a, -c.cost))
+
+
+def _stance_float(stance_low: FloatArray | None, a: int, b: int) -> float:
+    """The stance feet's mean distance (m) from the floor over frames a..b, the worse foot (0: not scored)."""
+    if stance_low is None:
+        return 0.0
+    with np.errstate(invalid="ignore"):
+        heights = [float(np.nanmean(np.abs(col))) for col in stance_low[a:b + 1].T if np.isfinite(col).any()]
+    return max(heights, default=0.0)
+
+
+def _rms(x: FloatArray) -> FloatArray:
+    return np.sqrt(np.mean(np.asarray(x) ** 2, axis=-1))
+
+
+def clip_period(q: FloatArray, frame_time: float) -> int | None:
+    """The period (frames) of a clip that is itself one loop of a cycle, None where it is none: hinge
+    angles ``q`` (T, H; rad), frames ``frame_time`` s apart. As
+    :func:`~bipedsim.reference.prepare.repeat_loop` measures a motion's joints: the pose change (RMS over
+    the hinges) from the last frame to the first lies within
+    :data:`~bipedsim.reference.prepare.LOOP_SEAM_FRACTION` of the clip's change over
+    :data:`~bipedsim.reference.prepare.LOOP_STRIDE_S` (its median, or at the clip's ends where that is
+    larger), and the clip moves at both ends. The period is T - 1 where the last frame repeats the
+    first, T where it leads into it (:data:`~bipedsim.reference.prepare.LOOP_OPEN_FACTOR`)."""
+    n = len(q)
+    k = max(1, int(round(LOOP_STRIDE_S / frame_time)))
+    if n < 4 * k:
+        return None
+    stride = _rms(q[k:] - q[:-k])
+    med = float(np.median(stride))
+    ends = float(min(stride[0], stride[-1]))
+    seam = float(_rms(q[-1] - q[0]))
+    if med <= 0.0 or seam > LOOP_SEAM_FRACTION * max(med, ends) or ends < 0.5 * med:
+        return None
+    moved_on = q[-1] + 0.5 * ((q[-1] - q[-2]) + (q[1] - q[0]))  # the frame after the last
+    return n if LOOP_OPEN_FACTOR * float(_rms(moved_on - q[0])) < seam else n - 1
+
+
+def loop_cycle(q: FloatArray, qd: FloatArray, contacts: npt.NDArray[np.bool_], frame_time: float,
+               stance_low: FloatArray | None = None) -> Cycle | None:
+    """The cycle of a clip that is itself one loop of a walk (:func:`clip_period`: a game animation's
+    walk cycle, in place or travelling), None where the clip is no loop or no walk: its frames from the
+    first to the last, its strikes read on the loop wrapped (:func:`~bipedsim.reference.gait_events.cyclic_strikes`:
+    frame 0 follows the loop's last frame), each foot striking at least once. ``q``/``qd`` (T, H) hinge
+    angles (rad) and rates (rad/s); ``contacts`` (T, 2) the right and left feet down; ``stance_low`` as
+    :func:`best_cycle` takes it. Its cost is :func:`best_cycle`'s for the loop (seam, steps alike, stance
+    feet on the floor; the only loop, at the clip's own speed, its steps' travel not scored)."""
+    period = clip_period(q, frame_time)
+    if period is None:
+        return None
+    strikes = dict(zip(SIDES, cyclic_strikes(np.asarray(contacts, dtype=bool)[:period])))
+    if not all(strikes.values()):
+        return None
+    events = sorted((t, s) for s in SIDES for t in strikes[s])
+    alternates = all(events[k][1] != events[(k + 1) % len(events)][1] for k in range(len(events)))
+    times = np.array([t for t, _ in events] + [events[0][0] + period])
+    steps = np.diff(times)
+    balance = float(steps.min() / steps.max()) if steps.max() > 0 else 0.0
+    foot = events[0][1] if events[0][0] == 0 else events[-1][1]  # the stance foot on frame 0
+    a, b = 0, len(q) - 1
+    seam = float(np.sqrt(np.mean((q[a] - q[b]) ** 2)))
+    seam += CYCLE_VELOCITY_TIME_S * float(np.sqrt(np.mean((qd[a] - qd[b]) ** 2)))
+    floats = _stance_float(stance_low, a, b)
+    cost = (seam + max(0.0, 1.0 - balance / CYCLE_STEP_BALANCE)
+            + max(0.0, floats - CYCLE_STANCE_FLOAT_M) / CYCLE_STANCE_SCALE_M)
+    return Cycle(a, b, cost, seam, alternates, balance, 1.0, floats, foot, whole=True)
 
 
 def blend_seam(rows: FloatArray, a: int, b: int, frames: int) -> FloatArray:
@@ -150,7 +215,8 @@ def clip_cycle(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet,
                hinges: Hinges | None = None) -> Cycle | None:
     """The cycle :class:`ClipSource` loops for this clip on this model (None: no loop): :func:`best_cycle`
     on its hinges, root and strikes, and its stance feet's heights above the floor (not scored for a
-    body without box feet)."""
+    body without box feet); for a clip with no such loop that is itself one loop of a walk (a game
+    animation's walk cycle, one strike per foot), the whole clip (:func:`loop_cycle`)."""
     h = hinges or Hinges.of(model, plan)
     rs, ls = clip.events["right"]["strike"], clip.events["left"]["strike"]
     args = (clip.qpos[:, h.qadr], clip.qvel[:, h.dadr], clip.qpos[:, :2])
@@ -162,6 +228,9 @@ def clip_cycle(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet,
         c = best_cycle(*args, list(ls), list(rs), clip.frame_time, stance_low=low)
         if c is not None:
             c = replace(c, foot="left")
+    if c is None:
+        feet = np.column_stack([clip.contacts[:, clip.foot_names.index(s)] for s in SIDES])
+        c = loop_cycle(args[0], args[1], feet, clip.frame_time, stance_low=low)
     return c
 
 
@@ -212,7 +281,9 @@ def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet)
     if c is not None:
         root = clip.qpos[:, :2]
         loop_v = float(np.linalg.norm(root[c.b] - root[c.a])) / ((c.b - c.a) * clip.frame_time)
-        lines.append(f"cycle: frames {c.a}-{c.b}{' (left strike to left strike)' if c.foot == 'left' else ''} "
+        how = (f" (the whole clip, one loop of a walk; {c.foot} foot in stance at its start)" if c.whole
+               else " (left strike to left strike)" if c.foot == "left" else "")
+        lines.append(f"cycle: frames {c.a}-{c.b}{how} "
                      f"({(c.b - c.a) * clip.frame_time:.2f} s, cost {c.cost:.3f}: seam "
                      f"{c.seam:.3f}, steps {c.step_balance:.2f} alike, step speeds {c.steady:.2f} alike, stance "
                      f"feet {c.stance_float * 100:.1f} cm off the floor) at {loop_v:.2f} m/s; the whole clip "

@@ -279,11 +279,18 @@ def correction_key(clip: ReferenceClip, model_hash: str, cfg: ControllerConfig) 
     return h.hexdigest()[:24]
 
 
+#: what a judge of a correction says: whether to keep it, and why (a clause for the run's printout)
+Verdict = tuple[bool, str]
+
+
 def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[], SimbiconController],
-                   clip: ReferenceClip, cfg: ControllerConfig, fall: FallCriteria) -> tuple[Correction | None, str]:
+                   clip: ReferenceClip, cfg: ControllerConfig, fall: FallCriteria,
+                   judge: Callable[[Correction], Verdict] | None = None) -> tuple[Correction | None, str]:
     """The correction for ``clip`` on this body with these settings, and a line saying where it came
     from: read from the cache when this search was run before, else searched (a progress bar on a
-    terminal) and cached."""
+    terminal), judged and cached. ``judge`` says whether a searched correction is kept (a run with it
+    against one without, :func:`bipedsim.sim.runner.judge_correction`); one it rejects is cached as
+    rejected, so the run goes on without one and the next run does not search again."""
     key = correction_key(clip, model_hash, cfg)
     path = cache_folder() / f"{key}.json"
     ctrl = make_ctrl()
@@ -293,6 +300,8 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
         try:
             d = json.loads(read_input_text(path, "json"))
             corr = Correction.from_dict(d["correction"], nh) if d["correction"] is not None else None
+            if not d["kept"]:
+                return None, f"reconstruct: the correction searched before was not kept ({d['why']}; {path})"
             return corr, f"reconstruct: the correction searched before, read from {path}"
         except (BipedsimError, ValueError, KeyError, TypeError) as exc:
             stale = f" (the cached one was unreadable: {exc})"
@@ -318,13 +327,15 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
             f"{wall:.0f} s (windows of {rc.window_s:g} s, {rc.samples} samples each){stale}")
     if done[0] < total - 1e-6:
         what += f"; every sample fell after {done[0]:.1f} s, so the correction ends there"
+    kept, why = (False, "no window could be walked") if corr is None else (True, "") if judge is None else judge(corr)
+    what += f"; {why}" if why else ""
     try:
-        atomic_write_text(path, json.dumps({"key": key, "clip": clip.source, "seconds": done[0],
-                                            "correction": corr.to_dict() if corr is not None else None}))
+        atomic_write_text(path, json.dumps({"key": key, "clip": clip.source, "seconds": done[0], "kept": kept,
+                                            "why": why, "correction": corr.to_dict() if corr is not None else None}))
         what += f"; cached in {path}"
     except OSError as exc:
         what += f"; not cached ({exc.strerror or exc})"
-    return corr, what
+    return (corr if kept else None), what
 
 
 def search_workers(rc: ReconstructConfig) -> int:

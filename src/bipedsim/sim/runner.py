@@ -3,6 +3,7 @@ profile. Used by ``bipedsim run``, sweeps and regression suites."""
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -34,8 +35,10 @@ from bipedsim.reference.feasible import feasible_clip
 from bipedsim.reference.feasible_measure import measure, resolve_because
 from bipedsim.reference.prepare import load_source
 from bipedsim.reference.retarget import retarget
+from bipedsim.sim.fidelity import measure_fidelity
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
 from bipedsim.sim.reconstruct import correction_for
+from bipedsim.sim.recorder import Recorder
 from bipedsim.sim.rollout import FallCriteria, FloatArray, Outcome, RolloutSpec, control_every, rollout
 
 #: body kinds a scenario can be built as (``--profile``); ``auto``: measured from the skeleton
@@ -169,7 +172,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     search = reconstruct_wanted(cfg, reconstruct)
     if search and profile == "humanoid" and cfg.source == "clip":
         sc.correction, extra["reconstruct"] = correction_for(built.model, built.hash, sc.controller, clip, cfg,
-                                                             sc.fall_criteria())
+                                                             sc.fall_criteria(), lambda c: judge_correction(sc, c))
     return sc
 
 
@@ -191,6 +194,31 @@ def reconstruct_wanted(cfg: ControllerConfig, asked: bool | None) -> bool:
     if env:
         raise ConfigError(f"{RECONSTRUCT_ENV}={env!r}: say on or off (1/0, true/false, yes/no)", key=RECONSTRUCT_ENV)
     return cfg.reconstruct.enabled
+
+
+#: seconds a correction is judged over beyond the clip's end (the fade into the loop, a few steps of it)
+JUDGE_BEYOND_S = 5.0
+
+
+def judge_correction(sc: Scenario, corr: Correction) -> tuple[bool, str]:
+    """Whether ``sc`` tracks its clip better with ``corr`` than without: each way, one run over the
+    clip and :data:`JUDGE_BEYOND_S` beyond; the one that stands longer wins, then the one whose root path
+    stays nearer the clip's (:func:`~bipedsim.sim.fidelity.measure_fidelity`). Also a clause saying how
+    they compared."""
+    seconds = sc.clip.duration + JUDGE_BEYOND_S
+    runs = []
+    for c in (corr, None):
+        rec = Recorder(sc.built.model, record_hz=30.0, seconds=seconds)
+        out, ctrl = run_scenario(replace(sc, correction=c), RolloutSpec(seconds=seconds), hooks=[rec])
+        tr = rec.trajectory()
+        fid = measure_fidelity(sc.built.model, tr.time, tr.qpos, sc.clip.qpos, sc.clip.frame_time,
+                               ctrl.start_frame(), run_seconds=out.sim_seconds)
+        runs.append((out.sim_seconds, fid.path_max_m if fid is not None else math.inf))
+    (t_with, d_with), (t_without, d_without) = runs
+    keep = t_with > t_without + 1e-9 or (t_with >= t_without - 1e-9 and d_with <= d_without)
+    told = (f"with it the root path keeps within {d_with:.2f} m of the clip's, without {d_without:.2f} m"
+            if abs(t_with - t_without) < 1e-9 else f"with it the body stands {t_with:.1f} s, without {t_without:.1f} s")
+    return keep, ("kept: " if keep else "not kept: ") + told
 
 
 def settings_for(sc: Scenario, settings: ControllerConfig) -> ControllerConfig:

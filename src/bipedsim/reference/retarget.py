@@ -52,7 +52,7 @@ MIN_SWING_S = 0.15
 def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None = None,
              xml: str | None = None, contact_height: float = 0.05, contact_speed: float = 0.5,
              source: str = "", trim_glitches: bool = True,
-             events: str | os.PathLike[str] | None = None) -> ReferenceClip:
+             events: str | os.PathLike[str] | None = None, events_skip: int = 0) -> ReferenceClip:
     """Retarget a motion (project frame: metres, Z up) onto a model built by bipedsim.
 
     Contacts: a humanoid's heel and toe each touch when near their own ground level and nearly still,
@@ -60,7 +60,8 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
     point is below ``contact_height`` (m) and it moves slower than ``contact_speed`` (m/s). With ``trim_glitches``,
     leading frames that jump away from the rest of the take (the T-pose frame some releases start
     with) are dropped; ``clip.trimmed_frames`` says how many. ``events``: a YAML of foot strikes given
-    by hand (:func:`bipedsim.reference.gait_events.load_events`; frames of the file) that replaces the detected ones.
+    by hand (:func:`bipedsim.reference.gait_events.load_events`; frames of the file, of which the
+    reader dropped the first ``events_skip`` before the motion, a lead-in) that replaces the detected ones.
     """
     plan = plan or plan_from_model(model)
     trimmed = leading_glitch_frames(motion) if trim_glitches else 0
@@ -85,8 +86,9 @@ def retarget(motion: Motion, model: mujoco.MjModel, *, plan: BodyPlanSet | None 
         speed_g = _group_min(foot_speeds(fpos, motion.frame_time), feet, side_feet)
         grouped = debounce(contact_labels(low_g, speed_g, contact_height, contact_speed), motion.frame_time)
     if events is not None:
-        given = load_events(events, list(side_feet), motion.num_frames + trimmed, motion.frame_time)
-        given = {f: [s - trimmed for s in v if s >= trimmed] for f, v in given.items()}
+        skip = trimmed + events_skip
+        given = load_events(events, list(side_feet), motion.num_frames + skip, motion.frame_time)
+        given = {f: [s - skip for s in v if s >= skip] for f, v in given.items()}
         grouped = contacts_from_strikes(given, list(side_feet), motion.num_frames)
     return ReferenceClip(qpos=qpos, qvel=qvel, frame_time=motion.frame_time, contacts=grouped,
                          foot_names=list(side_feet), foot_heights=low_g,

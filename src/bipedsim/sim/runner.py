@@ -155,7 +155,8 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
         if note:
             extra["body_scale"] = note
         cfg = for_body(cfg, leg, kg)
-    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events)
+    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source=src, events=events,
+                    events_skip=getattr(info, "lead_in_frames", 0) if bvh is not None else 0)
     resolved = False
     if cfg.reference.feasible is not False and profile == "humanoid":  # reference/feasible.py
         forced = cfg.reference.feasible is True

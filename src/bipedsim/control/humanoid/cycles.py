@@ -278,6 +278,9 @@ def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet)
              + ", ".join(f"{f} ({len(clip.events[f]['strike'])} strikes at frames {clip.events[f]['strike']})"
                          for f in clip.foot_names)]
     c = clip_cycle(clip, model, plan)
+    if c is None:
+        lines.append("cycle: no gait cycle in this clip (it needs two strikes of one foot with one of the other "
+                     "between): after the clip the body holds its last frame; --events gives strikes by hand")
     if c is not None:
         root = clip.qpos[:, :2]
         loop_v = float(np.linalg.norm(root[c.b] - root[c.a])) / ((c.b - c.a) * clip.frame_time)

@@ -95,7 +95,9 @@ def whole_playlist(clip: ReferenceClip, cycle: Cycle | None, hq: FloatArray, hqd
                         whole=True, clip_end=n - 1)
     ca, cb = cycle.a, cycle.b
     period = cb - ca
-    cut = max(s for s in _strikes(clip, cycle.foot) if s >= ca)  # the clip's last strike of the cycle's foot
+    # the clip's last strike of the cycle's foot (a cycle of the whole clip, seen only wrapped, may have
+    # none: its loop then starts where the cycle does)
+    cut = max((s for s in _strikes(clip, cycle.foot) if s >= ca), default=ca)
     # the copy: the cycle's frames ca..cb turned by the heading change and moved onto the clip's root at cut
     heading = np.unwrap(root_heading(clip.qpos))
     turn = float(heading[cut] - heading[ca])

@@ -349,7 +349,7 @@ class ClipSource(GaitSource):
 
     def nearest_strike(self, f: float, side: str) -> float | None:
         c = self._strikes_near(f, side)
-        return float(c[np.argmin(np.abs(c - f))])
+        return float(c[np.argmin(np.abs(c - f))]) if len(c) else None
 
     def swing_leg(self, f: float, side: str) -> tuple[float, float, float] | None:
         x, z, h = self._interp(self._leg[side], f).tolist()

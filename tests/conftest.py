@@ -105,6 +105,15 @@ class SharedFile:
         return f"SharedFile({self.path.name}: {self.folder}, {'travels' if self.travels else 'in place'})"
 
 
+def looped(cfg: ControllerConfig) -> ControllerConfig:
+    """``cfg`` tracking the clip's best cycle looped from its first strike (``source: cycle``): the
+    setting in which the counterfactual tests of balance terms were measured (a whole clip's start and
+    end shift every later step's phase)."""
+    from dataclasses import replace
+
+    return replace(cfg, source="cycle")
+
+
 def without_modulation(cfg: ControllerConfig) -> ControllerConfig:
     """``cfg`` with the reference modulation a capture gets by default (swing-foot IK, stance-ankle
     feedback) off: the setting in which the counterfactual tests of velocity tuning, the Froude-scheduled

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from conftest import (
     SHARED_BVH,
+    looped,
     need_shared,
     swing_as_measured,
     toes_as_measured,
@@ -130,7 +131,7 @@ def test_fsm_timer_then_contact() -> None:
 
 @pytest.fixture(scope="module")
 def scenario():
-    return load_scenario()
+    return load_scenario(looped(load_controller(None)))
 
 
 @pytest.fixture(scope="module")
@@ -577,8 +578,8 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles
     from bipedsim.sim.runner import settings_for
 
     written = load_controller(None)  # the override scaled to the body with the rest of the settings
-    raw = settings_for(sc, replace(written, balance=replace(written.balance, velocity=VelocityConfig(
-        kv_sagittal=50.0, filter_s=0.0))))
+    raw = settings_for(sc, looped(replace(written, balance=replace(written.balance, velocity=VelocityConfig(
+        kv_sagittal=50.0, filter_s=0.0)))))
     out_raw, _ = run_scenario(replace(sc, cfg=swing_as_measured(torso_as_measured(raw))), RolloutSpec(seconds=6.0),
                               pushes=push)
     out_def, _ = run_scenario(replace(sc, cfg=swing_as_measured(torso_as_measured(sc.cfg))), RolloutSpec(seconds=6.0),
@@ -628,7 +629,7 @@ def test_froude_scheduled_cd_lets_a_fast_capture_stride_out() -> None:
 
     need_shared()
     sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
-    sc = replace(sc, cfg=swing_as_measured(torso_as_measured(without_modulation(sc.cfg))))  # as measured
+    sc = replace(sc, cfg=looped(swing_as_measured(torso_as_measured(without_modulation(sc.cfg)))))  # as measured
     ctrl = sc.controller()
     assert 0.35 < ctrl.tables.cd_sagittal < 0.5
     v_clip = clip_speed(sc.clip)
@@ -660,7 +661,7 @@ def test_net_torque_limit_bounds_actuator_and_damping_together(mode: str, monkey
 
     monkeypatch.setattr(Controller, "__call__", spy)
     cfg = load_controller(None)
-    cfg = dataclasses.replace(cfg, pd=dataclasses.replace(cfg.pd, net_limit=mode))
+    cfg = looped(dataclasses.replace(cfg, pd=dataclasses.replace(cfg.pd, net_limit=mode)))
     sc = load_scenario(cfg, SHARED_BVH / "human" / "bandai2_walk_exhausted_001.bvh")
     run_scenario(sc, RolloutSpec(seconds=1.5, seed=0))
     over = 0

@@ -14,11 +14,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared, torso_as_measured, velocity_as_measured
+from conftest import SHARED_BVH, looped, need_shared, torso_as_measured, velocity_as_measured
 
 from bipedsim.control.humanoid.course import Course, CourseTracker
 from bipedsim.control.humanoid.cycles import clip_speed
 from bipedsim.sim.rollout import RolloutSpec, _outcome
+from bipedsim.control.settings import load_controller
 from bipedsim.sim.runner import load_scenario, run_scenario
 
 
@@ -107,7 +108,7 @@ def test_the_torso_law_holds_a_capture_on_its_course() -> None:
     walk (seed 0, 20 s) makes at least 70 % of its clip's speed *along its course*; with a softer torso
     law (100, 0.35) it crabs off its course."""
     need_shared()
-    sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
+    sc = load_scenario(looped(load_controller(None)), SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
     v_clip = clip_speed(sc.clip)
     out, _ = run_scenario(sc, RolloutSpec(seconds=20.0))
     assert out.outcome == "no_fall" and out.course_speed_mps >= 0.7 * v_clip, (out.fall_time_s, out.course_speed_mps)

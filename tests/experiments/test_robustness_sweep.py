@@ -444,7 +444,10 @@ def test_update_matches_scenarios_by_name(tmp_path: Path) -> None:
 
 def test_update_does_not_enshrine_a_push_that_never_happened(tmp_path: Path, capsys) -> None:
     p = tmp_path / "suite.yaml"
-    p.write_text("name: s\nscenarios:\n  - name: late\n    seconds: 2.25\n"
+    # the built-in walk's cycle looped from its right strike reaches no mid-swing of state 2 between its
+    # 2 s of walking and the run's end: the push never starts
+    (tmp_path / "cycle.yaml").write_text("source: cycle\n")
+    p.write_text("name: s\nscenarios:\n  - name: late\n    seconds: 2.25\n    controller: cycle.yaml\n"
                  "    pushes: [{magnitude: 100, state: 2, fraction: 0.5}]\n")
     before = p.read_text()
     assert run_suite(p, update=True) == 1

@@ -308,7 +308,11 @@ BODY_UNSCALED: frozenset[str] = frozenset({
     "balance.cd_froude", "balance.cd_froude_power", "balance.course.max_turn", "fade.min_scale", "resync.gain",
     "resync.max_frames", "modulation.swing_foot.height_gain", "modulation.stance_ankle.max_angle",
     "reference.blend", "reference.max_extension", "reference.clearance", "reference.pendulum", "body.leg_min",
-    "body.leg_max", "body.mass", "body.torque_scale"})
+    "body.leg_max", "body.mass", "body.torque_scale",
+    # the search's own settings: angles, weights and its windows' times, the same for any body
+    "reconstruct.window_s", "reconstruct.coherence", "reconstruct.hinge_sigma", "reconstruct.feedback_sigma",
+    "reconstruct.torso_sigma", "reconstruct.pose_weight", "reconstruct.root_weight", "reconstruct.position_weight",
+    "reconstruct.height_weight", "reconstruct.velocity_weight", "reconstruct.fade_s"})
 
 
 def _scaled_gain(g: Gain, f_kp: float, f_kd: float) -> Gain:

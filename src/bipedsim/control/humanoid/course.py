@@ -98,15 +98,25 @@ def whole_course(com_xy: FloatArray, heading: FloatArray, root_xy: FloatArray, a
     """The :class:`Course` of a reference played from frame 0 to ``a`` once, then looped over [a, b]
     (arrays as :func:`clip_course`'s, covering frames 0 to ``b``). The loop's points are
     :func:`clip_course`'s; a frame before ``a`` gets the centre of mass and heading averaged over a
-    window of one loop centred on it (shortened symmetrically near frame 0), so the path keeps the
-    clip's turns, starts and stops and loses its sway."""
+    window of one loop centred on it, so the path keeps the clip's turns, starts and stops and loses its
+    sway (the first half loop, which has no whole window, continues the averaged path's first stretch
+    backwards)."""
     loop = clip_course(com_xy, heading, root_xy, a, b)
     half = (b - a) // 2
     pts, hs = [], []
-    for t in range(a):
-        w = min(half, t)
-        pts.append(com_xy[t - w:t + w + 1].mean(axis=0))
-        hs.append(float(heading[t - w:t + w + 1].mean()))
+    for t in range(min(half, a), a):
+        pts.append(com_xy[t - half:t + half + 1].mean(axis=0))
+        hs.append(float(heading[t - half:t + half + 1].mean()))
+    if a > half:  # the first half loop, without a whole window: the averaged path's first stretch (up to
+        # half a loop) carried back at its mean step
+        k = min(half, len(pts) - 1)
+        step_xy = (pts[k] - pts[0]) / k if k > 0 else np.zeros(2)
+        step_h = (hs[k] - hs[0]) / k if k > 0 else 0.0
+        pts = [pts[0] - (half - t) * step_xy for t in range(half)] + pts
+        hs = [hs[0] - (half - t) * step_h for t in range(half)] + hs
+    else:  # a loop that starts within half a loop of the clip's start: its first point there
+        pts = [np.asarray(loop.xy[0])] * a
+        hs = [loop.heading[0]] * a
     xy = tuple((float(x), float(y)) for x, y in pts) + loop.xy
     return Course(xy=xy, heading=tuple(hs) + loop.heading, cycle=loop.cycle, loop_from=a, first_frame=0)
 

@@ -61,7 +61,7 @@ from bipedsim.motion.reroot import add_static_root
 
 UNITS = {"metres": 1.0, "cm": 0.01, "inch": 0.0254}
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "bvh"
-#: the shared walks the default controller tracks (tests/reference/test_gait.py's TRACKED, and CMU 02_01 until session 9)
+#: the shared walks the default controller tracks (tests/reference/test_gait.py's TRACKED, with CMU 02_01)
 TRACKED = ("cmu_02_01_walk__holden31_crlf", "cmu_02_02_walk__19joint_Hip_Abdomen", "cmu_02_02_walk__daz43",
            "games105_walk60__metres_crlf")
 

@@ -18,8 +18,8 @@ from conftest import SHARED_BVH, looped, need_shared, torso_as_measured, velocit
 
 from bipedsim.control.humanoid.course import Course, CourseTracker
 from bipedsim.control.humanoid.cycles import clip_speed
-from bipedsim.sim.rollout import RolloutSpec, _outcome
 from bipedsim.control.settings import load_controller
+from bipedsim.sim.rollout import RolloutSpec, _outcome
 from bipedsim.sim.runner import load_scenario, run_scenario
 
 

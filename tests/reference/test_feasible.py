@@ -245,7 +245,6 @@ def test_a_solve_stalled_on_a_straight_knee_is_restarted_bent_and_reaches() -> N
 def test_no_feasible_leg_reaches_past_its_limit_on_any_shared_walk() -> None:
     """Every shared walk's feasible legs stay within ``max_extension`` (+ the measure's 0.005 tolerance)
     of their length: no frame at full extension, where a stance leg has no knee left to push with."""
-    need_shared()
     limit = FeasibleConfig().max_extension + 0.005
     walks = [p for p in sorted((SHARED_BVH / "human").glob("*.bvh")) if "wave" not in p.name]
     assert len(walks) >= 7

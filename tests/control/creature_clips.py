@@ -1,22 +1,27 @@
 """A generated dog for the creature-gait tests in a clone without ``../shared``.
 
 The dog's stand-in of ``tests/bvh_fixtures.py`` is the shipped horse on the MANN dog's joint names: a
-horse's size, its head held high, its joints' frames the horse's (each joint's rest frame its standing
-pose, so the walk turns each joint a little). The planned-gait tests check what the shared dog's
-layout gives the gait, and the horse's layout does not give it:
+horse's size, its head held high, straight legs, its joints' frames the horse's (each joint's rest
+frame its standing pose, so the walk turns each joint a little). The planned-gait tests check what the
+shared dog gives the gait, and that stand-in does not:
 
-- bone-aligned joint frames (each joint's x axis along its bone, as MANN's skeleton has them): the
-  identity pose is a straight line, so the walk turns every joint far from it and the ball joints'
-  limits (the largest turn the clip shows, plus a margin) leave the legs room to reach their planned
-  feet;
+- bone-aligned joint frames (each joint's x axis along its bone, as MANN's skeleton has them) and a
+  take that starts lying and gets up (as MANN's does): its joints turn far from their rest frames, so
+  the ball joints' limits (the largest turn the clip shows, plus a margin) leave the legs room to
+  reach their planned feet;
 - the root's x axis pointing backward (toward the tail), so a heading read from the root frame and
   one read from the walking direction differ;
-- a dog's size and build: about half the horse's size, its neck carried forward and its head low (a
-  body longer than tall, read as a creature in centimetres as the real file is).
+- a dog's size and build: about half the horse's size and stepping quicker (dynamically similar), its
+  neck carried forward and its head low (a body longer than tall, read as a creature in centimetres
+  as the real file is), its legs bent and close together, its tail weighing against its neck and head
+  so the centre of mass lies between the shoulders and the hips and each neutral foot stands under
+  its leg.
 
-The motion is the shipped horse's four-beat walk (``bipedsim.motion.samples.horse_walk``), slower and
-smaller. :func:`dog_clip` gives the real file where ``../shared`` is there and the generated one
-otherwise; the generated file is written once per process (per xdist worker).
+The motion is the shipped horse's four-beat walk (``bipedsim.motion.samples.horse_walk``).
+:func:`dog_clip` gives the real file where ``../shared`` is there and the generated one otherwise;
+:func:`gliding_dog` and :func:`stretched_dog` are variants with the traits of the shared dog's bred
+child (feet that never stand still; legs that reach far one way and little the other). The generated
+files are written once per process (per xdist worker).
 """
 
 from __future__ import annotations
@@ -37,7 +42,7 @@ from bipedsim.motion.samples import horse_walk
 
 #: the shared MANN dog (lying, getting up, walking)
 DOG_REL = "animal/mann_dog_D1_007_KAN01_001_locomotion.bvh"
-#: the generated dog over the shipped horse: its hips 0.51 m up (the MANN dog's root is at 0.54 m)
+#: the generated dog's size over the shipped horse's: its root about 0.46 m up (MANN's dog: 0.54 m)
 DOG_SCALE = 0.55
 
 
@@ -46,7 +51,8 @@ DOG_SCALE = 0.55
 LEG_INWARD = 0.06
 #: the neck's and head's joints on the horse's chest, the head's End Site (m, on the horse)
 NECK_AT, HEAD_AT, HEAD_END = (0.30, 0.0, 0.10), (0.55, 0.0, 0.16), (0.30, 0.0, -0.04)
-#: the tail's joints on the horse's hips and its End Site (m, on the horse)
+#: the tail's joints on the horse's hips (held still: the horse's tail swings) and its End Site (m, on
+#: the horse): about the neck's and head's weight, as far behind the hips as they are ahead of the chest
 TAIL_AT, TAIL1_AT, TAIL_END = (-0.15, 0.0, 0.02), (-0.35, 0.0, -0.08), (-0.25, 0.0, -0.25)
 
 
@@ -76,8 +82,8 @@ def _dog_layout() -> tuple[list[J], list[E]]:
     return js, ends
 
 
-#: the lying pose on the horse's skeleton: each leg joint's turn about its y axis (rad; negative turns
-#: a bone forward): hind legs folded under the body, fore legs folded back beneath the chest
+#: the lying pose in the horse's joint frames: each leg joint's turn about its y axis (rad; negative
+#: turns a bone forward): hind legs folded under the body, fore legs folded back beneath the chest
 LYING_TURNS = {"UpLeg": -1.3, "Leg": 2.4, "Foot": -1.2, "Shoulder": 0.6, "Arm": 1.0, "ForeArm": -2.2, "Hand": 2.0}
 #: seconds lying, then rising to the walk's first pose
 LIE_S, RISE_S = 0.8, 0.7

@@ -202,7 +202,6 @@ def test_joint_names_that_say_nothing(name: str, tmp_path: Path) -> None:
     ("no left leg: could not find the left thigh, knee, ankle joint(s) by name")."""
     import dataclasses
 
-
     src = shared_or_standin(f"human/{name}.bvh")
     m, _ = read_bvh(src)
     anon = tmp_path / "anon.bvh"

@@ -5,6 +5,7 @@ stance the built body can carry, legs by IK inside their joint ranges, the re-po
 from __future__ import annotations
 
 import dataclasses
+import functools
 from pathlib import Path
 
 import mujoco
@@ -42,6 +43,13 @@ def _gait(path: Path, **kw: object) -> tuple[object, CreatureController]:
     return sc, c
 
 
+@functools.cache
+def _read_gait(path: Path, **kw: object) -> tuple[object, CreatureController]:
+    """:func:`_gait`, built once per process for the tests that only read the controller (its stance,
+    reach and clock; a controller's reach is measured when it is made, the costly part)."""
+    return _gait(path, **kw)
+
+
 def _miss(g: PlannedGait, shift: float) -> float:
     """The worst foot's IK miss (m) with every foot ``shift`` m ahead of its neutral place."""
     return float(reach_error(g.ik, g.stance, g.bal.posture_pull, shift, 0.0).max())
@@ -75,7 +83,7 @@ def test_neutral_stance_is_feasible_on_the_built_body(quadruped: Path) -> None:
     """The re-posed neutral frame: every foot on the floor (IK residual under 1 cm), the centre of mass
     over the centroid of the feet (within 1 cm), each pair of feet at least as wide apart as its hips,
     every leg joint inside its range."""
-    sc, c = _gait(quadruped)
+    sc, c = _read_gait(quadruped)
     g = c.gait
     m = sc.built.model
     d = mujoco.MjData(m)
@@ -133,7 +141,7 @@ def test_gait_measured_from_the_clip() -> None:
     """One leg swings at a time (four legs: three feet always down), the walking speed at most the
     configured share of the clip's, a stride at most stride_fraction x the leg length, and a stance
     foot's sweep (speed x stance time) within the legs' measured reach ahead and behind."""
-    sc, c = _gait(HORSE_WALK)
+    sc, c = _read_gait(HORSE_WALK)
     g, clock, height = c.gait, c.gait.clock, c.legs.height
     assert len(c.legs) == 4
     assert sorted(clock.offsets.tolist()) == [0.0, 0.25, 0.5, 0.75]
@@ -293,7 +301,7 @@ def test_centred_sweep_stays_inside_each_legs_reach() -> None:
     own interval: every foot still reaches +-reach from its new place. Without it the sweep is the
     shortest reach of any leg in either direction (the horse: its left hind leg reaches 0.2 x its root
     height ahead, farther behind)."""
-    plain = _gait(HORSE_WALK)[1].gait
+    plain = _read_gait(HORSE_WALK)[1].gait
     g = _gait(HORSE_WALK, centre_sweep=True)[1].gait
     r = g.reach
     tol = REACH_TOL * g.legs.height
@@ -330,16 +338,16 @@ def test_sweeps_are_centred_where_that_widens_the_reach_enough(lopsided_reach: P
     one way and little the other (the bred child: centred, its sweep doubles) is centred; the horse's
     and the dog's gain less and keep the symmetric sweep (the shortest reach of any leg either way)."""
     for path in (HORSE_WALK, dog_clip()):
-        r = _gait(path)[1].gait.reach
+        r = _read_gait(path)[1].gait.reach
         symmetric = min(r.ahead.min(), r.behind.min())
         assert not r.centred and np.isclose(r.half, symmetric)
         assert (r.ahead + r.behind).min() / 2 < 1.5 * symmetric
-    g = _gait(lopsided_reach)[1].gait
+    g = _read_gait(lopsided_reach)[1].gait
     r = g.reach
     symmetric = min(r.ahead.min(), r.behind.min())
     assert r.centred and np.isclose(r.half, (r.ahead + r.behind).min() / 2)
     assert r.half >= 1.5 * symmetric
-    off = _gait(lopsided_reach, centre_sweep_gain=0.0)[1].gait
+    off = _read_gait(lopsided_reach, centre_sweep_gain=0.0)[1].gait
     assert not off.reach.centred and np.isclose(off.reach.half, symmetric) and off.clock.v_des < g.clock.v_des
 
 
@@ -355,7 +363,7 @@ def test_a_clip_that_lifts_no_leg_walks_the_wave_order(lifts_no_leg: Path) -> No
     ``footfall_fallback: wave`` takes the order the dog's and the horse's clips show, one side's hind leg
     then its fore leg, then the other side's, measured from the hips' places; ``legs``: the legs' own
     order."""
-    _, c = _gait(lifts_no_leg)
+    _, c = _read_gait(lifts_no_leg)
     a, b = c.loop
     clock, hips = c.gait.clock, c.gait.stance.hips
     assert not c.reference.clip.contacts[a:b].any() and not clock.clip_lifts.any()
@@ -366,10 +374,10 @@ def test_a_clip_that_lifts_no_leg_walks_the_wave_order(lifts_no_leg: Path) -> No
         assert hips[pair[0], 0] < hips[pair[1], 0]  # hind, then fore
     assert np.sign(side[first[0]]) != np.sign(side[second[0]])
     assert np.allclose(sorted(clock.offsets), [0.0, 0.25, 0.5, 0.75])
-    assert _gait(lifts_no_leg, footfall_fallback="legs")[1].gait.clock.leg_order == [0, 1, 2, 3]
+    assert _read_gait(lifts_no_leg, footfall_fallback="legs")[1].gait.clock.leg_order == [0, 1, 2, 3]
     for path in (HORSE_WALK, dog_clip()):  # clips that lift their legs keep their own order
-        wave = _gait(path)[1].gait.clock
-        legs = _gait(path, footfall_fallback="legs")[1].gait.clock
+        wave = _read_gait(path)[1].gait.clock
+        legs = _read_gait(path, footfall_fallback="legs")[1].gait.clock
         assert wave.leg_order == legs.leg_order
 
 
@@ -522,7 +530,7 @@ def test_the_support_shift_is_what_an_inverted_pendulum_follows_at_the_gait_cycl
     gait cycle (the periodic sway, integrated here); off, ``com_shift`` of the way; a slow cycle follows
     nearly all of it. At the 0.6 s cycle the horse (its centre of mass 0.71 m up) follows 0.11, the dog
     (0.29 m) 0.23: shifted the whole way, the horse rocked onto the swinging leg's corner."""
-    _, c = _gait(quadruped)
+    _, c = _read_gait(quadruped)
     g, gravity = c.gait, -float(c.model.opt.gravity[2])
     stance, bal, height, period = g.stance, g.bal, g.legs.height, g.clock.period
     h = float(stance.com[2] - stance.feet[:, 2].mean())

@@ -617,30 +617,31 @@ def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
 
 
 def test_froude_scheduled_cd_lets_a_fast_capture_stride_out(tmp_path: Path) -> None:
-    """The sagittal c_d is scheduled by the capture's Froude number: a fast walk (the generated one at
-    0.7 m steps and 130 steps/min, 1.48 m/s: c_d 0.45) gets a lower c_d than the built-in walk (Fr 0.098),
-    which keeps 0.55. With ``../shared``, what it is for: the shared CMU 02_02 walk (1.51 m/s, Fr 0.32 on
-    its 0.84 m legs) with the raw d's gain at the built-in walk's 0.55 limps (a long step, then one
-    landing behind the stance foot) at about half its speed; the default schedule (c_d 0.42 here) walks
-    it 20 s at >= 70 % (measured at seed 0 on the 19-joint file: 0.53 -> 0.76 at 75 N per m/s of
-    velocity tuning; at 90 N per m/s that file walks 0.74 unscheduled, the daz file used here 0.56 ->
-    0.74, seeds 0-2 alike). A generated fast walk shows no such contrast (both fall within 1.2 s as
-    measured), so that part stays with the real take."""
+    """The sagittal c_d is scheduled by the capture's Froude number: a fast capture gets a lower c_d than
+    the built-in walk (Fr 0.098), which keeps 0.55. The shared CMU 02_02 walk (1.51 m/s, Fr 0.32 on its
+    0.84 m legs; without ``../shared`` the generated walk at 0.7 m steps and 130 steps/min, 1.48 m/s:
+    c_d 0.45) and what the schedule is for, with ``../shared``: with the raw d's gain at the built-in
+    walk's 0.55 the CMU walk limps (a long step, then one landing behind the stance foot) at about half
+    its speed; the default schedule (c_d 0.42 here) walks it 20 s at >= 70 % (measured at seed 0 on the
+    19-joint file: 0.53 -> 0.76 at 75 N per m/s of velocity tuning; at 90 N per m/s that file walks 0.74
+    unscheduled, the daz file used here 0.56 -> 0.74, seeds 0-2 alike). The generated fast walk shows no
+    such contrast (it falls within 1.2 s either way), so that part stays with the real take."""
     from dataclasses import replace
 
     from bipedsim.control.humanoid.cycles import clip_speed
     from bipedsim.motion.bvh import write_bvh
     from bipedsim.motion.gaitgen import WalkParams, generate_walk
 
-    fast = tmp_path / "fast_walk.bvh"
-    write_bvh(generate_walk(WalkParams(step_length=0.7, cadence=130.0, cycles=3)), fast, precision=6)
-    assert 0.35 < load_scenario(None, fast).controller().tables.cd_sagittal < 0.5
+    if HAVE_SHARED:
+        fast = SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh"
+    else:
+        fast = tmp_path / "fast_walk.bvh"
+        write_bvh(generate_walk(WalkParams(step_length=0.7, cadence=130.0, cycles=3)), fast, precision=6)
+    sc = load_scenario(None, fast)
+    sc = replace(sc, cfg=swing_as_measured(torso_as_measured(without_modulation(sc.cfg))))  # as measured
+    assert 0.35 < sc.controller().tables.cd_sagittal < 0.5
     assert load_scenario(None).controller().tables.cd_sagittal == 0.55
     if HAVE_SHARED:
-        sc = load_scenario(None, SHARED_BVH / "human" / "cmu_02_02_walk__daz43.bvh")
-        sc = replace(sc, cfg=swing_as_measured(torso_as_measured(without_modulation(sc.cfg))))  # as measured
-        ctrl = sc.controller()
-        assert 0.35 < ctrl.tables.cd_sagittal < 0.5
         v_clip = clip_speed(sc.clip)
         out, _ = run_scenario(sc, RolloutSpec(seconds=20.0))
         assert out.outcome == "no_fall" and out.mean_speed_mps >= 0.7 * v_clip, (out.fall_time_s, out.mean_speed_mps)

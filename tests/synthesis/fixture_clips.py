@@ -37,7 +37,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from bvh_fixtures import PRECISION, STANDINS, _holden31, _splayed_rest, relaid, rest_turned, standin
+from bvh_fixtures import PRECISION, STANDINS, _holden31, _splayed_rest, relaid, rest_turned, six_channels, standin
 from conftest import GRAPH_EXAMPLE, HAVE_SHARED, SHARED_BVH, example_graph_config
 from scipy.spatial.transform import Rotation, Slerp
 
@@ -45,6 +45,7 @@ from bipedsim.motion import load_bvh
 from bipedsim.motion.bvh import bvh_text
 from bipedsim.motion.gaitgen import WalkParams, generate_walk, walk_skeleton
 from bipedsim.motion.motion import Motion, canonical_quat
+from bipedsim.motion.reroot import add_static_root
 
 #: the shared files these stand for (``SHARED_BVH``-relative)
 WALK_REL = "human/cmu_02_01_walk__holden31_crlf.bvh"
@@ -222,3 +223,26 @@ def dog_creature(folder: Path) -> Path:
     path = folder / "dog.yaml"
     path.write_text(text)
     return path
+
+
+#: the shared Bandai-Namco walk (``SHARED_BVH``-relative)
+BANDAI_REL = "human/bandai2_walk_exhausted_001.bvh"
+#: the real take's hips OFFSET (m, Z up): its rest pose only, the position channels replace it
+BANDAI_HIPS_OFFSET = (-4.27, 0.05, 0.91)
+
+
+@functools.cache
+def _bandai_path() -> Path:
+    """The Bandai walk's stand-in laid out as the real take is: under a static ``joint_Root`` at the floor
+    (the translation on the hips), position channels on every joint, the hips' OFFSET away from the
+    origin; written once."""
+    s = six_channels(add_static_root(load_bvh(standin(BANDAI_REL))))
+    sk = s.skeleton
+    offsets = sk.offsets.copy()
+    offsets[sk.index("Hips")] = BANDAI_HIPS_OFFSET
+    return _write(s.copy(skeleton=sk.replace(offsets=offsets)), BANDAI_REL)
+
+
+def bandai_walk() -> Path:
+    """The Bandai walk: the shared take, or its stand-in under a static root (:func:`_bandai_path`)."""
+    return SHARED_BVH / BANDAI_REL if HAVE_SHARED else _bandai_path()

@@ -107,7 +107,7 @@ def test_the_torso_law_holds_a_capture_on_its_course() -> None:
     """The torso law (damping ``balance.torso_kd`` 175, ``stance_yaw_limit`` 0.6): the shared CMU 02_01
     walk (seed 0, 20 s) makes at least 70 % of its clip's speed *along its course*; with a softer torso
     law (100, 0.35) it crabs off its course."""
-    need_shared()
+    need_shared()  # the real take's own contrast: the stand-in holds its course under either torso law
     sc = load_scenario(looped(load_controller(None)), SHARED_BVH / "human" / "cmu_02_01_walk__holden31_crlf.bvh")
     v_clip = clip_speed(sc.clip)
     out, _ = run_scenario(sc, RolloutSpec(seconds=20.0))

@@ -10,6 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 from conftest import SHARED_BVH, need_shared, shared_params
+from creature_clips import dog_clip
 
 from bipedsim.control.creature.balance import ClipBalance
 from bipedsim.control.creature.controller import CreatureController, make_creature_controller
@@ -304,11 +305,12 @@ def test_a_human_run_as_a_creature_keeps_its_unit_and_folds_a_static_root() -> N
     assert m_bh.skeleton.names == m_b.skeleton.names
 
 
-def _small_dog(tmp_path: Path) -> Path:
-    """The shared dog at 1/2.54 of its size (its file read as centimetres: a 0.7 kg, 19 cm tall dog)."""
+def _small_dog(tmp_path: Path, dog: Path = DOG) -> Path:
+    """The dog ``dog`` at 1/2.54 of its size (its file read as centimetres; the shared dog then a 0.7 kg,
+    19 cm tall dog)."""
     from bipedsim.motion.bvh import write_bvh
 
-    m, _ = read_bvh(DOG)
+    m, _ = read_bvh(dog)
     path = tmp_path / "small_dog.bvh"
     write_bvh(m.scaled(1.0 / 2.54), path, precision=6)
     return path
@@ -316,13 +318,13 @@ def _small_dog(tmp_path: Path) -> Path:
 
 def test_joint_damping_and_armature_are_held_to_the_bodys_own_scale(tmp_path: Path) -> None:
     """The profile's absolute joint damping and armature are capped at a share of M s^2 sqrt(g/s) and
-    M s^2 (model.creature_builder.DAMPING_SHARE, ARMATURE_SHARE): the small dog's are capped, the shared dog's
-    (a 0.017 and 0.0011 share) are the profile's own."""
+    M s^2 (model.creature_builder.DAMPING_SHARE, ARMATURE_SHARE): the small dog's are capped, a dog's own
+    (the shared dog's a 0.017 and 0.0011 share; without ``../shared`` the generated dog of
+    ``creature_clips.py``, of a dog's size too) are the profile's own."""
     from bipedsim.model.creature_builder import ARMATURE_SHARE, DAMPING_SHARE
 
-    need_shared()  # the real dog's own size and mass
-
-    for path, capped in ((DOG, False), (_small_dog(tmp_path), True)):
+    dog = dog_clip()
+    for path, capped in ((dog, False), (_small_dog(tmp_path, dog), True)):
         sc = load_scenario(bvh=path)
         model = sc.built.model
         mass, size = float(model.body_subtreemass[1]), sc.built.plan.extra["size_m"]

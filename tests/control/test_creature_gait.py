@@ -5,12 +5,14 @@ stance the built body can carry, legs by IK inside their joint ranges, the re-po
 from __future__ import annotations
 
 import dataclasses
+import functools
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared
+from conftest import HAVE_SHARED, SHARED_BVH, need_shared
+from creature_clips import dog_clip, gliding_dog, stretched_dog
 from scipy.spatial.transform import Rotation
 
 from bipedsim.control.creature.controller import CreatureController, make_creature_controller
@@ -22,12 +24,11 @@ from bipedsim.data import HORSE_WALK
 from bipedsim.sim.rollout import RolloutSpec, rollout
 from bipedsim.sim.runner import load_scenario, run_scenario
 
-DOG = SHARED_BVH / "animal" / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
 FLAMINGO = SHARED_BVH / "animal" / "truebones_flamingo_walk_inplace.bvh"
 
 
 def _clip(path: Path) -> Path:
-    need_shared()  # the real dog's and flamingo's own gaits
+    need_shared()  # the real flamingo's own gait
     if not path.is_file():
         pytest.skip(f"shared BVH file not found: {path}")
     return path
@@ -42,6 +43,13 @@ def _gait(path: Path, **kw: object) -> tuple[object, CreatureController]:
     return sc, c
 
 
+@functools.cache
+def _read_gait(path: Path, **kw: object) -> tuple[object, CreatureController]:
+    """:func:`_gait`, built once per process for the tests that only read the controller (its stance,
+    reach and clock; a controller's reach is measured when it is made, the costly part)."""
+    return _gait(path, **kw)
+
+
 def _miss(g: PlannedGait, shift: float) -> float:
     """The worst foot's IK miss (m) with every foot ``shift`` m ahead of its neutral place."""
     return float(reach_error(g.ik, g.stance, g.bal.posture_pull, shift, 0.0).max())
@@ -49,7 +57,7 @@ def _miss(g: PlannedGait, shift: float) -> float:
 
 def _dog_at_start() -> tuple[object, CreatureController, mujoco.MjData]:
     """The dog's gait controller reset on the clip's start frame, and the data posed there."""
-    sc, c = _gait(_clip(DOG))
+    sc, c = _gait(dog_clip())
     d = mujoco.MjData(sc.built.model)
     f = c.start_frame()
     d.qpos[:] = sc.clip.qpos[f]
@@ -60,9 +68,10 @@ def _dog_at_start() -> tuple[object, CreatureController, mujoco.MjData]:
 
 @pytest.fixture(params=["dog", "horse"])
 def quadruped(request: pytest.FixtureRequest) -> Path:
-    """A four-legged clip: the shipped horse, or the dog (without ``../shared`` its stand-in: the tests
-    taking this fixture check properties of any four-legged body, not the real dog's numbers)."""
-    return DOG if request.param == "dog" else HORSE_WALK
+    """A four-legged clip: the shipped horse, or the dog (without ``../shared`` the generated one of
+    ``creature_clips.py``: the tests taking this fixture check properties of any four-legged body, not
+    the real dog's numbers)."""
+    return dog_clip() if request.param == "dog" else HORSE_WALK
 
 
 def test_the_registered_creature_controller_is_the_planned_gait() -> None:
@@ -74,7 +83,7 @@ def test_neutral_stance_is_feasible_on_the_built_body(quadruped: Path) -> None:
     """The re-posed neutral frame: every foot on the floor (IK residual under 1 cm), the centre of mass
     over the centroid of the feet (within 1 cm), each pair of feet at least as wide apart as its hips,
     every leg joint inside its range."""
-    sc, c = _gait(quadruped)
+    sc, c = _read_gait(quadruped)
     g = c.gait
     m = sc.built.model
     d = mujoco.MjData(m)
@@ -132,7 +141,7 @@ def test_gait_measured_from_the_clip() -> None:
     """One leg swings at a time (four legs: three feet always down), the walking speed at most the
     configured share of the clip's, a stride at most stride_fraction x the leg length, and a stance
     foot's sweep (speed x stance time) within the legs' measured reach ahead and behind."""
-    sc, c = _gait(HORSE_WALK)
+    sc, c = _read_gait(HORSE_WALK)
     g, clock, height = c.gait, c.gait.clock, c.legs.height
     assert len(c.legs) == 4
     assert sorted(clock.offsets.tolist()) == [0.0, 0.25, 0.5, 0.75]
@@ -162,7 +171,7 @@ def test_reach_is_where_the_feet_stop_reaching(quadruped: Path) -> None:
 def test_the_reposed_dog_stands() -> None:
     """The re-posed neutral frame (the clip's own walk frames fall within 1.6 s) stands 5 s: no fall, the
     root within 2 cm of its planned height."""
-    sc, c = _gait(_clip(DOG), speed_fraction=0.0, settle_s=100.0)
+    sc, c = _gait(dog_clip(), speed_fraction=0.0, settle_s=100.0)
     f = c.start_frame()
     out, _ = rollout(sc.built.model, sc.built.plan, c, RolloutSpec(seconds=5.0, start_frame=float(f),
                      fall=sc.fall_criteria()), initial_qpos=sc.clip.qpos[f], initial_qvel=sc.clip.qvel[f])
@@ -174,7 +183,7 @@ def test_the_reposed_dog_stands() -> None:
 def test_the_dog_walks_20_s_at_half_its_clip_speed() -> None:
     """The shared dog, no flags, 20 s without a fall at >= 50 % of the clip's
     mean root speed over its loop."""
-    sc = load_scenario(bvh=_clip(DOG))
+    sc = load_scenario(bvh=dog_clip())
     out, ctrl = run_scenario(sc, RolloutSpec(seconds=20.0))
     assert out.outcome == "no_fall"
     assert out.mean_speed_mps >= 0.5 * ctrl.gait.clock.clip_speed
@@ -201,7 +210,7 @@ def test_every_creature_walks_20_s() -> None:
     from bipedsim.synthesis.breed.files import breed_files
 
     child = Path(tempfile.mkdtemp()) / "child.bvh"
-    breed_files(_clip(DOG), HORSE_WALK, child, mutations=0)
+    breed_files(dog_clip(), HORSE_WALK, child, mutations=0)
     for path in (child, _clip(FLAMINGO)):
         sc = load_scenario(bvh=path)
         ctrl = sc.controller()
@@ -292,7 +301,7 @@ def test_centred_sweep_stays_inside_each_legs_reach() -> None:
     own interval: every foot still reaches +-reach from its new place. Without it the sweep is the
     shortest reach of any leg in either direction (the horse: its left hind leg reaches 0.2 x its root
     height ahead, farther behind)."""
-    plain = _gait(HORSE_WALK)[1].gait
+    plain = _read_gait(HORSE_WALK)[1].gait
     g = _gait(HORSE_WALK, centre_sweep=True)[1].gait
     r = g.reach
     tol = REACH_TOL * g.legs.height
@@ -309,36 +318,52 @@ def bred_child(tmp_path_factory: pytest.TempPathFactory) -> Path:
     breeds it."""
     from bipedsim.synthesis.breed.files import breed_files
 
+    need_shared()  # its reach and its feet come of the real dog's take
     child = tmp_path_factory.mktemp("child") / "dog_x_horse.bvh"
-    breed_files(_clip(DOG), HORSE_WALK, child, mutations=0)
+    breed_files(dog_clip(), HORSE_WALK, child, mutations=0)
     return child
 
 
-def test_sweeps_are_centred_where_that_widens_the_reach_enough(bred_child: Path) -> None:
+@pytest.fixture
+def lopsided_reach(request: pytest.FixtureRequest) -> Path:
+    """A four-legged clip whose legs reach much further one way than the other: the bred child of the
+    shared dog and the horse (its hind legs reach far behind but little ahead), or without ``../shared``
+    the generated dog standing stretched (hind feet behind the hips, fore feet ahead of the shoulders)."""
+    return request.getfixturevalue("bred_child") if HAVE_SHARED else stretched_dog()
+
+
+def test_sweeps_are_centred_where_that_widens_the_reach_enough(lopsided_reach: Path) -> None:
     """``centre_sweep_gain``: the sweeps are centred in each leg's own reach only where that widens the
-    sweep at least 1.5 times, a rule on the reach measured on the built legs. The bred child's hind legs
-    reach far behind but little ahead: centred, its sweep doubles; the horse's and the dog's gain less
-    and keep the symmetric sweep (the shortest reach of any leg either way)."""
-    for path in (HORSE_WALK, _clip(DOG)):
-        r = _gait(path)[1].gait.reach
+    sweep at least 1.5 times, a rule on the reach measured on the built legs. A body whose legs reach far
+    one way and little the other (the bred child: centred, its sweep doubles) is centred; the horse's
+    and the dog's gain less and keep the symmetric sweep (the shortest reach of any leg either way)."""
+    for path in (HORSE_WALK, dog_clip()):
+        r = _read_gait(path)[1].gait.reach
         symmetric = min(r.ahead.min(), r.behind.min())
         assert not r.centred and np.isclose(r.half, symmetric)
         assert (r.ahead + r.behind).min() / 2 < 1.5 * symmetric
-    g = _gait(bred_child)[1].gait
+    g = _read_gait(lopsided_reach)[1].gait
     r = g.reach
     symmetric = min(r.ahead.min(), r.behind.min())
     assert r.centred and np.isclose(r.half, (r.ahead + r.behind).min() / 2)
     assert r.half >= 1.5 * symmetric
-    off = _gait(bred_child, centre_sweep_gain=0.0)[1].gait
+    off = _read_gait(lopsided_reach, centre_sweep_gain=0.0)[1].gait
     assert not off.reach.centred and np.isclose(off.reach.half, symmetric) and off.clock.v_des < g.clock.v_des
 
 
-def test_a_clip_that_lifts_no_leg_walks_the_wave_order(bred_child: Path) -> None:
-    """The bred child's clip labels no foot contact over its loop (its blended feet never stand still): it gives
-    the sequence gait no footfall order: ``footfall_fallback: wave`` takes the order the dog's and the
-    horse's clips show, one side's hind leg then its fore leg, then the other side's, measured from the
-    hips' places; ``legs``: the legs' own order."""
-    _, c = _gait(bred_child)
+@pytest.fixture
+def lifts_no_leg(request: pytest.FixtureRequest) -> Path:
+    """A four-legged clip whose feet never stand still: the bred child of the shared dog and the horse (its
+    blended feet slide), or without ``../shared`` the generated dog gliding ahead of its legs."""
+    return request.getfixturevalue("bred_child") if HAVE_SHARED else gliding_dog()
+
+
+def test_a_clip_that_lifts_no_leg_walks_the_wave_order(lifts_no_leg: Path) -> None:
+    """A clip that labels no foot contact over its loop gives the sequence gait no footfall order:
+    ``footfall_fallback: wave`` takes the order the dog's and the horse's clips show, one side's hind leg
+    then its fore leg, then the other side's, measured from the hips' places; ``legs``: the legs' own
+    order."""
+    _, c = _read_gait(lifts_no_leg)
     a, b = c.loop
     clock, hips = c.gait.clock, c.gait.stance.hips
     assert not c.reference.clip.contacts[a:b].any() and not clock.clip_lifts.any()
@@ -349,10 +374,10 @@ def test_a_clip_that_lifts_no_leg_walks_the_wave_order(bred_child: Path) -> None
         assert hips[pair[0], 0] < hips[pair[1], 0]  # hind, then fore
     assert np.sign(side[first[0]]) != np.sign(side[second[0]])
     assert np.allclose(sorted(clock.offsets), [0.0, 0.25, 0.5, 0.75])
-    assert _gait(bred_child, footfall_fallback="legs")[1].gait.clock.leg_order == [0, 1, 2, 3]
-    for path in (HORSE_WALK, _clip(DOG)):  # clips that lift their legs keep their own order
-        wave = _gait(path)[1].gait.clock
-        legs = _gait(path, footfall_fallback="legs")[1].gait.clock
+    assert _read_gait(lifts_no_leg, footfall_fallback="legs")[1].gait.clock.leg_order == [0, 1, 2, 3]
+    for path in (HORSE_WALK, dog_clip()):  # clips that lift their legs keep their own order
+        wave = _read_gait(path)[1].gait.clock
+        legs = _read_gait(path, footfall_fallback="legs")[1].gait.clock
         assert wave.leg_order == legs.leg_order
 
 
@@ -466,7 +491,8 @@ def test_the_walking_dog_survives_lateral_pushes_of_30_percent_of_its_weight() -
     bound on how many it survives (docs/creatures.md)."""
     from bipedsim.sim.push import Push
 
-    sc = load_scenario(bvh=_clip(DOG))
+    need_shared()  # the real dog's own weight and survival counts
+    sc = load_scenario(bvh=dog_clip())
     survived = {}
     for direction in (90.0, 270.0):
         pushes = [Push(34.2, direction, 0.2, start=5.0 + 0.05 * k) for k in range(12)]
@@ -504,7 +530,7 @@ def test_the_support_shift_is_what_an_inverted_pendulum_follows_at_the_gait_cycl
     gait cycle (the periodic sway, integrated here); off, ``com_shift`` of the way; a slow cycle follows
     nearly all of it. At the 0.6 s cycle the horse (its centre of mass 0.71 m up) follows 0.11, the dog
     (0.29 m) 0.23: shifted the whole way, the horse rocked onto the swinging leg's corner."""
-    _, c = _gait(quadruped)
+    _, c = _read_gait(quadruped)
     g, gravity = c.gait, -float(c.model.opt.gravity[2])
     stance, bal, height, period = g.stance, g.bal, g.legs.height, g.clock.period
     h = float(stance.com[2] - stance.feet[:, 2].mean())

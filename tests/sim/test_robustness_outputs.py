@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import REPO, need_shared
+from conftest import REPO
 
 from bipedsim.cli import main
 from bipedsim.data import builtin_walk_path
@@ -118,9 +118,13 @@ def test_an_output_of_the_wrong_kind_is_refused_naming_the_flag_and_suffix(
 
 
 def test_graph_play_checks_its_outputs(tmp_path: Path, afile: Path, capsys) -> None:
-    need_shared()  # the example graph's clips are the shared CMU files
+    """``graph play`` refuses a folder, a wrong suffix and an unwritable report before it plays. The
+    graph: the built-in walk alone, with the example's upper-body layer (the script names that layer)."""
+    config = tmp_path / "tiny.yaml"
+    config.write_text(f"name: tiny\nfps: 30\nk: 10\nclips:\n  - {{name: walk, file: {WALK}, tags: [WALK]}}\n"
+                      "parts:\n  Upper-Body: {root: Spine1}\n")
     g = tmp_path / "g.npz"
-    assert main(["graph", "build", str(GRAPH_YAML), "-o", str(g)]) == 0
+    assert main(["graph", "build", str(config), "-o", str(g)]) == 0
     capsys.readouterr()
     script = REPO / "examples" / "graphs" / "walk_and_wave.txt"
     assert main(["graph", "play", str(g), str(script), "-o", str(tmp_path)]) == 2

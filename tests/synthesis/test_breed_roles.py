@@ -10,7 +10,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared
+from conftest import HAVE_SHARED, SHARED_BVH
+from fixture_clips import bandai_walk, graph_config, walk_wave
 
 from bipedsim.cli import main
 from bipedsim.data import HORSE_WALK, PTEROSAUR_FLIGHT
@@ -33,6 +34,12 @@ GAMES = HUMAN / "games105_walk60__metres_crlf.bvh"
 WAVE = HUMAN / "cmu_141_16_wave_hello__holden31_crlf.bvh"
 DOG = ANIMAL / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
 BANDAI = HUMAN / "bandai2_walk_exhausted_001.bvh"
+#: A breed resamples parent B to A's frame rate; Motion.resample's last new frame time (n / fps) can land
+#: past the clip's end ((N - 1) * frame_time) by rounding, and the slerp refuses it (ValueError). The
+#: stand-ins' frame counts meet it (185 frames at 60 fps to 120 fps: 368 / 120 > 184 / 60), the real
+#: files' do not: a bug of Motion.resample, which these tests show without ../shared until it is fixed
+RESAMPLE_PAST_END = pytest.mark.xfail(not HAVE_SHARED, raises=ValueError, strict=True,
+                                      reason="Motion.resample's last frame lands past the clip's end by rounding")
 #: a folded walk whose root moves slower than this (m/s) was misread (the shared Bandai walk travels
 #: about 1 m/s; a reader that drops its hips translation leaves it standing)
 WALK_MIN_SPEED = 0.3
@@ -68,8 +75,8 @@ def _limb_roles(m: Motion) -> dict[str, str]:
 def test_roles_from_geometry_alone_agree_with_the_names(path: Path) -> None:
     """Renamed beyond recognition, a skeleton gets the same legs, arms, sides, head and chest from its
     structure and motion as from its names (left = the side left of travel, or of the feet in place)."""
-    if path == WAVE:
-        need_shared()  # the real wave's own sway tells its sides; the stand-in stands still
+    if path == WAVE:  # a wave that moves (the real one steps and sways; the generated one walks)
+        path = walk_wave()[1]
     m = load_bvh(path)
     named = _limb_roles(m)
     s, new = scrambled(m)
@@ -145,10 +152,10 @@ def test_named_sides_that_contradict_the_walk_are_exchanged(path: Path) -> None:
         assert corr.pairs.get(n) == _side_words_exchanged(m).skeleton.names[m.skeleton.names.index(n)], n
 
 
+@RESAMPLE_PAST_END
 def test_breed_says_when_it_exchanged_a_parent_s_sides(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """`bipedsim breed` with a side-swapped parent prints that the names' sides were exchanged and pairs
     the parent's (misnamed) RightUpLeg, the leg on its left, with the other parent's left hip."""
-    need_shared()  # the real files' own sides
     swapped = tmp_path / "swapped.bvh"
     write_bvh(_side_words_exchanged(load_bvh(HOLDEN)), swapped)
     assert main(["breed", str(swapped), str(GAMES), "-o", str(tmp_path / "c.bvh")]) == 0
@@ -230,13 +237,16 @@ def test_dog_and_static_root_human_breed_without_a_map(tmp_path: Path, capsys: p
 
 
 def test_shared_bandai_walk_folds_when_read_right() -> None:
-    need_shared()
-    folded, info = fold_static_root(load_bvh(BANDAI))
+    """The Bandai walk (without ``../shared`` its stand-in laid out as the real take: a static
+    ``joint_Root``, position channels on every joint, ``fixture_clips.py``) folds into a walk that travels
+    and breeds with the dog by role."""
+    bandai = bandai_walk()
+    folded, info = fold_static_root(load_bvh(bandai))
     speed = np.linalg.norm(folded.root_translation[-1, :2] - folded.root_translation[0, :2]) / folded.duration
     if speed < WALK_MIN_SPEED:
-        pytest.skip(f"the BVH reader still misreads {BANDAI.name} (its folded root moves {speed:.2f} m/s)")
+        pytest.skip(f"the BVH reader still misreads {bandai.name} (its folded root moves {speed:.2f} m/s)")
     assert info is not None and info.into == "Hips"
-    child, rep = breed(load_bvh(DOG), load_bvh(BANDAI))
+    child, rep = breed(load_bvh(DOG), load_bvh(bandai))
     assert rep.correspondence["LeftUpLeg"] == "UpperLeg_L" and np.isfinite(child.rotations).all()
 
 
@@ -274,13 +284,12 @@ def _breed_and_simulate(a: Path, b: Path, tmp_path: Path) -> None:
     convert_and_simulate(out)
 
 
-FAST_PAIRS = [(HORSE_WALK, PTEROSAUR_FLIGHT), (DOG, HIP19), (ANIMAL / "truebones_flamingo_walk_inplace.bvh", GAMES)]
+FAST_PAIRS = [(HORSE_WALK, PTEROSAUR_FLIGHT), pytest.param(DOG, HIP19, marks=RESAMPLE_PAST_END),
+              pytest.param(ANIMAL / "truebones_flamingo_walk_inplace.bvh", GAMES, marks=RESAMPLE_PAST_END)]
 
 
 @pytest.mark.parametrize("a,b", FAST_PAIRS, ids=lambda p: p.stem[:16])
 def test_pairs_breed_convert_and_simulate(a: Path, b: Path, tmp_path: Path) -> None:
-    if a.is_relative_to(SHARED_BVH) or b.is_relative_to(SHARED_BVH):
-        need_shared()
     _breed_and_simulate(a, b, tmp_path)
 
 
@@ -300,20 +309,26 @@ def test_bred_child_runs_in_bipedsim_run(tmp_path: Path) -> None:
     assert main(["run", "--bvh", str(out), "--seconds", "1", "--out", str(tmp_path / "run")]) == 0
 
 
+@RESAMPLE_PAST_END
 def test_readme_breed_and_graph_commands_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Every command of the README's breeding and graph block, run as written (from a scratch folder,
-    the shared data and the examples where the README has them)."""
+    the shared data and the examples where the README has them; without ``../shared`` the shared files'
+    stand-ins and the example graph on the generated walk and wave)."""
     import re
 
-    need_shared()
     repo = Path(__file__).resolve().parents[2]
     block = re.search(r"<!-- breed-graph-commands -->\s*```bash\n(.*?)```", (repo / "README.md").read_text(),
                       re.DOTALL)
     assert block
     monkeypatch.chdir(tmp_path)
+    # the example graph: as written with ../shared, else on the generated walk and wave
+    graph = f"{repo / 'examples'}/graphs/walk_wave.yaml"
+    if not HAVE_SHARED:
+        (tmp_path / "graph").mkdir()
+        graph = str(graph_config(tmp_path / "graph"))
     for line in block.group(1).strip().splitlines():
         argv = line.replace("../shared/data/bvh", str(SHARED_BVH)).replace(
-            "examples/", f"{repo / 'examples'}/").split()
+            "examples/", f"{repo / 'examples'}/").replace(f"{repo / 'examples'}/graphs/walk_wave.yaml", graph).split()
         assert argv[0] == "bipedsim" and main(argv[1:]) == 0, line
     assert (tmp_path / "map.yaml").is_file() and (tmp_path / "build.json").is_file()
 

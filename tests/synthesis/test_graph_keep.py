@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHARED_BVH, need_shared
+from fixture_clips import walk_wave
 
 from bipedsim.cli import main
 from bipedsim.errors import BipedsimError
@@ -20,9 +20,6 @@ from bipedsim.synthesis.graph.commands import build_graph_file, play_script
 from bipedsim.synthesis.graph.player import PlayError
 from bipedsim.synthesis.graph.prune import DEFAULT_QUANTILE, Transition, choose_threshold, prune
 
-HUMAN = SHARED_BVH / "human"
-WALK = HUMAN / "cmu_02_01_walk__holden31_crlf.bvh"
-WAVE = HUMAN / "cmu_141_16_wave_hello__holden31_crlf.bvh"
 #: Bandai-style names for the Holden skeleton's joints (the rest keep theirs)
 BANDAI_NAMES = {"LeftUpLeg": "UpperLeg_L", "LeftLeg": "LowerLeg_L", "LeftFoot": "Foot_L", "LeftToeBase": "Toes_L",
                 "RightUpLeg": "UpperLeg_R", "RightLeg": "LowerLeg_R", "RightFoot": "Foot_R",
@@ -103,11 +100,11 @@ def test_threshold_is_raised_until_every_tag_keeps_frames_and_refused_when_impos
 # ---------------------------------------------------------------------- the shared clips, re-rooted
 @pytest.fixture(scope="module")
 def show(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The issue's setting from shared files: a walk and a wave with a static ``joint_Root`` at the
-    floor (the translation on the hips, Bandai-style names); the graph YAML uses the defaults."""
-    need_shared()
+    """The issue's setting from the shared walk and wave (without ``../shared`` the generated walk and
+    wave of one walker, ``fixture_clips.py``): with a static ``joint_Root`` at the floor (the translation
+    on the hips, Bandai-style names); the graph YAML uses the defaults."""
     d = tmp_path_factory.mktemp("show")
-    for src, dst in ((WALK, "walk.bvh"), (WAVE, "wave.bvh")):
+    for src, dst in zip(walk_wave(), ("walk.bvh", "wave.bvh")):
         m = load_bvh(src)
         m = m.copy(skeleton=m.skeleton.replace(names=tuple(BANDAI_NAMES.get(n, n) for n in m.skeleton.names)))
         write_bvh(add_static_root(m).with_up("y").scaled(100.0), d / dst, precision=6)
@@ -147,7 +144,7 @@ def test_show_scripts_play_and_run(show: Path, show_graph: MotionGraph, tmp_path
     assert json.loads(rep.read_text())["layers"][FULL]["tags"]["WALK"]["kept_frames"] > 0
     assert main(["graph", "play", str(g), str(show / "script.txt"), "-o", str(out)]) == 0
     m = load_bvh(out)
-    walk = load_bvh(WALK)
+    walk = load_bvh(walk_wave()[0])
     src_speed = np.linalg.norm(walk.root_translation[-1, :2] - walk.root_translation[0, :2]) / walk.duration
     speed = np.linalg.norm(m.root_translation[-1, :2] - m.root_translation[0, :2]) / m.duration
     assert abs(m.duration - 11.0) < 1.5 and 0.8 * src_speed < speed < 1.2 * src_speed

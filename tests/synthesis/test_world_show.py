@@ -1,5 +1,6 @@
-"""Motion-tile worlds end to end on the example world: the dog (shared clip) walks through the passage and
-jumps its gap, the pterosaur flies straight over the ridge, the child bred for the world flies over it."""
+"""Motion-tile worlds end to end on the example world: the dog (the shared clip, or without ``../shared``
+the dog's stand-in after a stand, ``fixture_clips.py``) walks through the passage and jumps its gap, the
+pterosaur flies straight over the ridge, the child bred for the world flies over it."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import need_shared
+from fixture_clips import dog_creature
 
 from bipedsim.cli import main
 from bipedsim.motion import load_bvh
@@ -26,9 +27,14 @@ def ridge():  # noqa: ANN201
 
 
 @pytest.fixture(scope="module")
-def dog(ridge):  # noqa: ANN001, ANN201
-    need_shared()
-    return cross_world(ridge, load_creature(WORLDS / "dog.yaml"))
+def dog_yaml(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The example world's dog, its clip read from the shared take or the generated one."""
+    return dog_creature(tmp_path_factory.mktemp("dog"))
+
+
+@pytest.fixture(scope="module")
+def dog(ridge, dog_yaml: Path):  # noqa: ANN001, ANN201
+    return cross_world(ridge, load_creature(dog_yaml))
 
 
 def _tiles_under(world, xy: np.ndarray) -> list[str]:  # noqa: ANN001
@@ -47,7 +53,7 @@ def test_dog_walks_through_the_single_passage(ridge, dog) -> None:  # noqa: ANN0
     assert syn.mode[-1] == "idle"  # and rests there (walk + idle)
 
 
-def test_dog_jumps_the_gap(ridge, dog) -> None:  # noqa: ANN001
+def test_dog_jumps_the_gap(ridge, dog, dog_yaml: Path) -> None:  # noqa: ANN001
     syn, rep = dog
     assert len(rep["events"]) == 1
     jump = rep["events"][0]
@@ -62,7 +68,7 @@ def test_dog_jumps_the_gap(ridge, dog) -> None:  # noqa: ANN001
     stand = np.median(root[walking, 2])
     assert over.any()
     assert root[over, 2].min() > stand + 0.5 * jump["apex_m"]  # the root rises over the gap
-    beyond = np.flatnonzero(root[:, 0] > gx + ev.width / 2 + 0.6 * load_creature(WORLDS / "dog.yaml").size)
+    beyond = np.flatnonzero(root[:, 0] > gx + ev.width / 2 + 0.6 * load_creature(dog_yaml).size)
     first = beyond[0]
     assert root[first:first + 30, 2].max() < stand + 0.05  # it comes down beyond the gap
     assert jump["s_land"] > jump["s_takeoff"] + ev.width
@@ -78,11 +84,11 @@ def test_no_ground_penetration_and_feet_on_the_ground(ridge, dog) -> None:  # no
     assert met["foot_skate_m_s"] < 1.5 * met["source_foot_skate_m_s"]
 
 
-def test_dog_bvh_reads_back_with_root_at_tile_centres(ridge, dog, tmp_path: Path) -> None:  # noqa: ANN001
-    need_shared()
+def test_dog_bvh_reads_back_with_root_at_tile_centres(ridge, dog, dog_yaml: Path,  # noqa: ANN001
+                                                       tmp_path: Path) -> None:
     out = tmp_path / "dog.bvh"
     rep_file = tmp_path / "R.json"
-    assert main(["world", str(RIDGE), str(WORLDS / "dog.yaml"), "-o", str(out), "--report", str(rep_file)]) == 0
+    assert main(["world", str(RIDGE), str(dog_yaml), "-o", str(out), "--report", str(rep_file)]) == 0
     m = load_bvh(out)
     assert m.up == "z" and m.unit == 1.0
     root = m.root_translation
@@ -131,8 +137,8 @@ def test_child_bred_for_the_world_flies_over_the_mountain(ridge, tmp_path: Path)
 
 @pytest.mark.slow
 def test_readme_world_commands_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Every command of the README's world block (the video through the headless renderer: about a minute)."""
-    need_shared()
+    """Every command of the README's world block (the video through the headless renderer: about a minute),
+    the dog's clip read from the shared take or the generated one."""
     import re
     import shlex
 
@@ -140,8 +146,11 @@ def test_readme_world_commands_run(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     block = re.search(r"<!-- world-commands -->\s*```bash\n(.*?)```", text, re.DOTALL)
     assert block
     monkeypatch.chdir(tmp_path)
+    (tmp_path / "dog").mkdir()
+    dog = dog_creature(tmp_path / "dog")
     for line in block.group(1).strip().splitlines():
-        args = [a.replace("examples/", f"{REPO}/examples/") for a in shlex.split(line)]
+        args = [str(dog) if a == "examples/worlds/dog.yaml" else a.replace("examples/", f"{REPO}/examples/")
+                for a in shlex.split(line)]
         assert args[0] == "bipedsim"
         assert main(args[1:]) == 0, line
     assert (tmp_path / "dog.mp4").stat().st_size > 10_000

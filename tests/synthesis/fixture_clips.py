@@ -20,7 +20,9 @@ script longer than the tests allow or the player's route short of a motion it co
 
 The example world's dog (``examples/worlds/dog.yaml``, the shared MANN take: lying, getting up,
 walking) gets the dog's stand-in (the shipped horse's walk on the MANN skeleton) after a stand in its
-rest pose: a clip with an idle part and a walking part, as the world cuts them.
+rest pose: a clip with an idle part and a walking part, as the world cuts them. The Bandai-Namco walk's
+stand-in is laid out as the real take is: under a static ``joint_Root`` at the floor, with position
+channels on every joint.
 
 Each function gives the real files where ``../shared`` is there and the generated ones otherwise; the
 generated files are written once per process (per xdist worker) into a folder laid out as
@@ -227,7 +229,8 @@ def dog_creature(folder: Path) -> Path:
 
 #: the shared Bandai-Namco walk (``SHARED_BVH``-relative)
 BANDAI_REL = "human/bandai2_walk_exhausted_001.bvh"
-#: the real take's hips OFFSET (m, Z up): its rest pose only, the position channels replace it
+#: the hips' OFFSET (m, Z up), about 4 m from the origin as the real take's is: its rest pose only, the
+#: position channels replace it
 BANDAI_HIPS_OFFSET = (-4.27, 0.05, 0.91)
 
 

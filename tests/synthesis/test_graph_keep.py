@@ -153,7 +153,7 @@ def test_show_scripts_play_and_run(show: Path, show_graph: MotionGraph, tmp_path
     hands = np.maximum(pos[:, sk.index("Hand_R"), 2], pos[:, sk.index("Hand_L"), 2]) - pos[:, 0, 2]
     fps = 1.0 / m.frame_time
     assert hands[: int(2.5 * fps)].max() < 0.15 and hands[int(4 * fps): int(8 * fps)].max() > 0.3
-    assert main(["run", "--bvh", str(out), "--seconds", "2", "--out", str(tmp_path / "run")]) == 0
+    assert main(["run", "--bvh", str(out), "--seconds", "1", "--out", str(tmp_path / "run")]) == 0
 
 
 @pytest.mark.parametrize("commands", [pytest.param(12, id="12"), pytest.param(100, id="100", marks=pytest.mark.slow)])

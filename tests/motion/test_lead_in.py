@@ -97,3 +97,14 @@ def test_the_jump_is_measured_against_the_clips_own_changes() -> None:
     for cycle in (28, CYCLE_120):
         n, first, fast = lead_in_frames(with_lead_in(walk(cycle)))
         assert n == 1 and first > LEAD_IN_JUMP * fast
+
+
+def test_resampling_ends_on_the_clip_s_last_frame() -> None:
+    """A new frame rate whose last frame time lands a rounding step past the clip's end samples the end
+    (it used to raise in the rotations' interpolation)."""
+    from bipedsim.motion.gaitgen import generate_walk
+
+    m = generate_walk().resample(60.0)[:185]
+    out = m.resample(120.0)
+    assert out.duration <= m.duration + 1e-9
+    assert np.allclose(out.root_translation[-1], m.root_translation[-1], atol=1e-6)

@@ -34,16 +34,9 @@ GAMES = HUMAN / "games105_walk60__metres_crlf.bvh"
 WAVE = HUMAN / "cmu_141_16_wave_hello__holden31_crlf.bvh"
 DOG = ANIMAL / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
 BANDAI = HUMAN / "bandai2_walk_exhausted_001.bvh"
-#: A breed resamples parent B to A's frame rate; Motion.resample's last new frame time (n / fps) can land
-#: past the clip's end ((N - 1) * frame_time) by rounding, and the slerp refuses it (ValueError). The
-#: stand-ins' frame counts meet it (185 frames at 60 fps to 120 fps: 368 / 120 > 184 / 60), the real
-#: files' do not: a bug of Motion.resample, which these tests show without ../shared until it is fixed
-RESAMPLE_PAST_END = pytest.mark.xfail(not HAVE_SHARED, raises=ValueError, strict=True,
-                                      reason="Motion.resample's last frame lands past the clip's end by rounding")
 #: a folded walk whose root moves slower than this (m/s) was misread (the shared Bandai walk travels
 #: about 1 m/s; a reader that drops its hips translation leaves it standing)
 WALK_MIN_SPEED = 0.3
-
 
 def scrambled(m: Motion, prefix: str = "J") -> tuple[Motion, dict[str, str]]:
     """The motion with every joint renamed ``J00``, ``J01``...: names say nothing, so roles must come
@@ -152,7 +145,6 @@ def test_named_sides_that_contradict_the_walk_are_exchanged(path: Path) -> None:
         assert corr.pairs.get(n) == _side_words_exchanged(m).skeleton.names[m.skeleton.names.index(n)], n
 
 
-@RESAMPLE_PAST_END
 def test_breed_says_when_it_exchanged_a_parent_s_sides(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """`bipedsim breed` with a side-swapped parent prints that the names' sides were exchanged and pairs
     the parent's (misnamed) RightUpLeg, the leg on its left, with the other parent's left hip."""
@@ -284,8 +276,8 @@ def _breed_and_simulate(a: Path, b: Path, tmp_path: Path) -> None:
     convert_and_simulate(out)
 
 
-FAST_PAIRS = [(HORSE_WALK, PTEROSAUR_FLIGHT), pytest.param(DOG, HIP19, marks=RESAMPLE_PAST_END),
-              pytest.param(ANIMAL / "truebones_flamingo_walk_inplace.bvh", GAMES, marks=RESAMPLE_PAST_END)]
+FAST_PAIRS = [(HORSE_WALK, PTEROSAUR_FLIGHT), (DOG, HIP19),
+              (ANIMAL / "truebones_flamingo_walk_inplace.bvh", GAMES)]
 
 
 @pytest.mark.parametrize("a,b", FAST_PAIRS, ids=lambda p: p.stem[:16])
@@ -309,7 +301,6 @@ def test_bred_child_runs_in_bipedsim_run(tmp_path: Path) -> None:
     assert main(["run", "--bvh", str(out), "--seconds", "1", "--out", str(tmp_path / "run")]) == 0
 
 
-@RESAMPLE_PAST_END
 def test_readme_breed_and_graph_commands_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Every command of the README's breeding and graph block, run as written (from a scratch folder,
     the shared data and the examples where the README has them; without ``../shared`` the shared files'

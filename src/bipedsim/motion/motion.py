@@ -249,7 +249,8 @@ class Motion:
             raise ModelError(f"fps must be positive, got {fps}")
         t_old = np.arange(self.num_frames) * self.frame_time
         n_new = int(np.floor(self.duration * fps + 1e-9)) + 1
-        t_new = np.arange(n_new) / fps
+        # the last new time may land a rounding step past the clip's end: it is the end
+        t_new = np.minimum(np.arange(n_new) / fps, t_old[-1])
         if self.num_frames == 1:
             idx = np.zeros(n_new, dtype=int)
             return self.copy(frame_time=1.0 / fps, root_translation=self.root_translation[idx],

@@ -589,6 +589,7 @@ def test_velocity_tuning_on_the_low_passed_speed_keeps_a_forward_push(hard_soles
     assert out_def.outcome == "no_fall"
 
 
+@pytest.mark.slow  # two 20 s runs of a real take
 def test_velocity_tuning_brings_a_slow_capture_up_to_its_speed() -> None:
     """The shared CMU 02_01 walk (1.20 m/s) on its feasible reference walks 20 s at about half its speed
     without velocity tuning (the swing-hip feedback c_v (v - v_mean) shortens every step of a slow body

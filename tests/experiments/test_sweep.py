@@ -168,6 +168,7 @@ def test_sweep_goes_on_after_divergence_and_summarises(tmp_path: Path) -> None:
     assert (tmp_path / "push_polar.png").read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.slow  # 32 rollouts of 5 s: the grid's own check (benchmarks/sweep.py prints it too)
 def test_default_walk_recovers_from_every_200n_push(tmp_path: Path) -> None:
     """The issue's check, experiments/push_200n.yaml: 200 N x 0.2 s on the torso at 8 directions x 4
     gait states (mid-state), every one survived on the default walk and controller."""
@@ -180,6 +181,7 @@ def test_default_walk_recovers_from_every_200n_push(tmp_path: Path) -> None:
     assert summary["largest_survived_per_direction_n"] == {str(d): 200.0 for d in range(0, 360, 45)}
 
 
+@pytest.mark.slow  # a random-push sweep; the other sweep tests cover the sweep in the default run
 def test_random_push_experiment(tmp_path: Path) -> None:
     """random: one push per rollout, magnitude / direction / start uniform in the given ranges, drawn
     from the seed (the same pushes for every controller); summary.json bins directions into sectors."""

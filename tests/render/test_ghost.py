@@ -72,6 +72,7 @@ def test_without_a_clip_the_ghost_is_the_reference() -> None:
     assert not g.shows_clip(0.0) and q[7] == pytest.approx(-0.3) and q[:2] == pytest.approx([5.0, 5.0])
 
 
+@pytest.mark.slow  # a render; the ghost poses are checked without GL in the default run
 def test_render_ghost_draws_the_clip(tmp_path: Path) -> None:
     import imageio.v2 as iio
 

@@ -60,6 +60,7 @@ def test_video_mp4_and_gif(run_dir: Path) -> None:
         assert min(body_fraction(f[..., :3]) for f in frames[::10]) > 0.01  # the body is in view
 
 
+@pytest.mark.slow  # two renders of a run; test_push_arrow_is_drawn renders in the default run
 def test_render_again_gives_the_run_frames(tmp_path: Path) -> None:
     import imageio.v2 as iio
 

@@ -303,7 +303,10 @@ def test_a_renderer_that_does_not_stop_is_killed_with_what_it_started(tmp_path: 
     proc.stdout.close()
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT], ids=lambda s: s.name)
+# one signal in the default run (they share one handler); the other two with -m slow
+@pytest.mark.parametrize("sig", [pytest.param(signal.SIGTERM, marks=pytest.mark.slow),
+                                 pytest.param(signal.SIGHUP, marks=pytest.mark.slow), signal.SIGINT],
+                         ids=lambda s: s.name)
 def test_a_signal_during_a_video_leaves_no_temporary_file(sig: signal.Signals, tmp_path: Path) -> None:
     try:
         backend = choose_backend()

@@ -70,6 +70,10 @@ def one_line(capsys: pytest.CaptureFixture[str], command: str) -> str:
     return lines[0]
 
 
+#: the module's fixtures build a graph and run every limited case in one process: one worker runs them all
+pytestmark = pytest.mark.xdist_group("security_synthesis")
+
+
 @pytest.fixture(scope="module")
 def tiny(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A folder with a tiny graph (three clips of the built-in walk, 448 frames at 30 fps) built as

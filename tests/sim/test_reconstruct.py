@@ -14,7 +14,7 @@ from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, reconstruct_wanted, run_scenario
 
 #: a small search: enough to exercise every part, a second or two on one core
-SMALL = {"samples": 3, "keep": 2, "window_s": 0.4}
+SMALL = {"samples": 3, "keep": 2, "window_s": 0.8}
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +40,7 @@ def test_the_search_is_deterministic_on_any_number_of_processes(small) -> None:
     # the search covers the clip from the controller's start, window by window
     ctrl = small.controller()
     span = (small.clip.num_frames - 1 - ctrl.start_frame()) * small.clip.frame_time
-    assert len(a.starts) == int(np.ceil(span / 0.4 - 1e-9))
+    assert len(a.starts) == int(np.ceil(span / 0.8 - 1e-9))
     assert a.end > small.clip.num_frames - 1 - 20
 
 
@@ -48,7 +48,7 @@ def test_a_run_with_the_correction_repeats_the_searched_path(small) -> None:
     corr = _search(small)
     sc = replace(small, correction=corr)
     span = (small.clip.num_frames - 1 - sc.controller().start_frame()) * small.clip.frame_time
-    out, ctrl = run_scenario(sc, RolloutSpec(seconds=round(np.ceil(span / 0.4) * 0.4, 6)))
+    out, ctrl = run_scenario(sc, RolloutSpec(seconds=round(np.ceil(span / 0.8) * 0.8, 6)))
     assert out.outcome == "no_fall"
     assert ctrl.frame == pytest.approx(corr.end, abs=1e-9)  # the same reference frame, step for step
     plain, pctrl = run_scenario(small, RolloutSpec(seconds=out.sim_seconds))

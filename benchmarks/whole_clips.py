@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import multiprocessing
 import os
 import sys
@@ -87,6 +88,7 @@ def main() -> int:
     ap.add_argument("--ways", nargs="*", default=list(WAYS), choices=WAYS)
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--csv", default=None, help="write the rows here too")
+    ap.add_argument("--jsonl", default=None, help="append each row here as it is done (one JSON object a line)")
     args = ap.parse_args()
     files = list(args.clips) + [str(p) for d in args.dir for p in sorted(Path(d).rglob("*.bvh"))]
     if not files:
@@ -99,6 +101,9 @@ def main() -> int:
         for r in pool.imap_unordered(one, jobs):
             rows.append(r)
             print(_line(r), flush=True)
+            if args.jsonl:
+                with open(args.jsonl, "a") as f:
+                    f.write(json.dumps(r) + "\n")
     rows.sort(key=lambda r: (str(r["clip"]), WAYS.index(str(r["way"]))))
     print()
     for w in args.ways:

@@ -7,8 +7,9 @@ Per clip, three ways, each run for max(20 s, the clip's duration) with the defau
 - ``cycle``: the clip's best gait cycle looped from its first strike (``source: cycle``), no search --
   what ``bipedsim run --bvh`` did before whole-clip tracking;
 - ``whole``: the whole clip, then its cycle looped (``source: clip``), feedback alone (``--no-reconstruct``);
-- ``search``: the same with the clip's searched feed-forward correction (the default ``bipedsim run``),
-  and the search's CPU time.
+- ``default``: what ``bipedsim run --bvh`` does: the whole clip with its searched feed-forward
+  correction where that tracks better, the looped cycle where the whole clip falls sooner, and the
+  search's CPU time.
 
 Printed per clip and way: the outcome (or the fall time), and the fidelity over the clip's own duration
 (sim/fidelity.py): the largest distance of the root path from the clip's (m), the share of the clip's
@@ -35,7 +36,7 @@ from bipedsim.sim.recorder import Recorder
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
 
-WAYS = ("cycle", "whole", "search")
+WAYS = ("cycle", "whole", "default")
 #: the shortest run (s): a clip shorter than this is run on past its end (the loop, or standing)
 MIN_RUN_S = 20.0
 
@@ -48,10 +49,10 @@ def one(job: tuple[str, str]) -> dict[str, object]:
     try:
         base = ControllerConfig()
         cfg = replace(base, source="cycle") if way == "cycle" else base
-        if way == "search":
+        if way == "default":
             cfg = replace(cfg, reconstruct=replace(cfg.reconstruct, workers=1))
-        sc = load_scenario(cfg, path, reconstruct=way == "search")
-        row["search_cpu_s"] = round(time.process_time() - c0, 1) if way == "search" else ""
+        sc = load_scenario(cfg, path, reconstruct=way == "default")
+        row["search_cpu_s"] = round(time.process_time() - c0, 1) if way == "default" else ""
         row["search"] = sc.extra.get("reconstruct", "")
         seconds = max(MIN_RUN_S, sc.clip.duration)
         rec = Recorder(sc.built.model, record_hz=30.0, seconds=seconds)
@@ -95,7 +96,7 @@ def main() -> int:
         ap.error("no clips: give BVH files or --dir")
     jobs = [(f, w) for f in files for w in args.ways]
     # the longest clips first, so they do not finish last alone
-    jobs.sort(key=lambda j: -os.path.getsize(j[0]) * (4 if j[1] == "search" else 1))
+    jobs.sort(key=lambda j: -os.path.getsize(j[0]) * (4 if j[1] == "default" else 1))
     rows = []
     with multiprocessing.get_context("fork").Pool(max(1, args.jobs)) as pool:
         for r in pool.imap_unordered(one, jobs):

@@ -324,7 +324,7 @@ def found_lines(sc: Scenario) -> list[str]:
     if sc.profile != "humanoid":
         return []
     scaled = [f"controller: {sc.extra['body_scale']}"] if "body_scale" in sc.extra else []
-    searched = [sc.extra["reconstruct"]] if "reconstruct" in sc.extra else []
+    searched = sc.extra["reconstruct"].split("\n") if "reconstruct" in sc.extra else []
     if sc.bvh_info is None or sc.source_path == str(BUILTIN_WALK):
         return scaled + searched
     notes = [f"note: {n}" for n in [sc.bvh_info.reading_note, *sc.bvh_info.notes] if n]

@@ -24,7 +24,7 @@ from bipedsim.control.settings import (
     load_controller,
 )
 from bipedsim.data import BUILTIN_WALK
-from bipedsim.errors import ConfigError
+from bipedsim.errors import ConfigError, ModelError
 from bipedsim.files import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.builtin import builtin_humanoid_path
@@ -117,7 +117,8 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     that is no whole number of physics steps (:func:`~bipedsim.sim.rollout.control_every`) is refused,
     naming the file and the keys. A humanoid tracking its whole clip gets the clip's feed-forward
     correction (:func:`~bipedsim.sim.reconstruct.correction_for`: searched, or read from the cache)
-    when ``reconstruct`` says so (None: :func:`reconstruct_wanted`)."""
+    when ``reconstruct`` says so (None: :func:`reconstruct_wanted`), and then loops the clip's best cycle
+    instead where the whole clip falls sooner (:func:`whole_or_looped`)."""
     profile = AUTO if profile is None else profile
     if profile not in PROFILES:
         raise ConfigError(f"unknown body profile {profile!r}; profiles: {', '.join(PROFILES)}", key="profile")
@@ -174,6 +175,9 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     if search and profile == "humanoid" and cfg.source == "clip":
         sc.correction, extra["reconstruct"] = correction_for(built.model, built.hash, sc.controller, clip, cfg,
                                                              sc.fall_criteria(), lambda c: judge_correction(sc, c))
+        sc, fallback = whole_or_looped(sc)
+        if fallback:
+            sc.extra["reconstruct"] += "\n" + fallback
     return sc
 
 
@@ -201,21 +205,42 @@ def reconstruct_wanted(cfg: ControllerConfig, asked: bool | None) -> bool:
 JUDGE_BEYOND_S = 5.0
 
 
+def _judged(sc: Scenario) -> tuple[float, float]:
+    """One run of ``sc`` over its clip and :data:`JUDGE_BEYOND_S` beyond: how long it stands (s) and the
+    largest distance of its root path from the clip's (m, :func:`~bipedsim.sim.fidelity.measure_fidelity`)."""
+    seconds = sc.clip.duration + JUDGE_BEYOND_S
+    rec = Recorder(sc.built.model, record_hz=30.0, seconds=seconds)
+    out, ctrl = run_scenario(sc, RolloutSpec(seconds=seconds), hooks=[rec])
+    tr = rec.trajectory()
+    fid = measure_fidelity(sc.built.model, tr.time, tr.qpos, sc.clip.qpos, sc.clip.frame_time,
+                           ctrl.start_frame(), run_seconds=out.sim_seconds)
+    return out.sim_seconds, fid.path_max_m if fid is not None else math.inf
+
+
+def whole_or_looped(sc: Scenario) -> tuple[Scenario, str | None]:
+    """``sc`` tracking its whole clip (with its correction, if any), or, where that falls sooner than
+    the clip's best cycle looped (``source: cycle``) over the clip and :data:`JUDGE_BEYOND_S` beyond, the
+    looped cycle: the scenario to run and a line saying which was chosen (None: the whole clip, standing
+    as long)."""
+    t_whole, _ = _judged(sc)
+    looped = replace(sc, cfg=replace(sc.cfg, source="cycle"), correction=None)
+    try:
+        t_loop, _ = _judged(looped)
+    except ModelError:  # no cycle to loop
+        return sc, None
+    if t_loop <= t_whole + 1e-9:
+        return sc, None
+    return looped, (f"reference: the whole clip falls at {t_whole:.1f} s where its best cycle looped stands "
+                    f"{t_loop:.1f} s (over the clip and {JUDGE_BEYOND_S:g} s beyond): the run loops the cycle "
+                    "(source: cycle); --no-reconstruct tracks the whole clip anyway")
+
+
 def judge_correction(sc: Scenario, corr: Correction) -> tuple[bool, str]:
     """Whether ``sc`` tracks its clip better with ``corr`` than without: each way, one run over the
     clip and :data:`JUDGE_BEYOND_S` beyond; the one that stands longer wins, then the one whose root path
     stays nearer the clip's (:func:`~bipedsim.sim.fidelity.measure_fidelity`). Also a clause saying how
     they compared."""
-    seconds = sc.clip.duration + JUDGE_BEYOND_S
-    runs = []
-    for c in (corr, None):
-        rec = Recorder(sc.built.model, record_hz=30.0, seconds=seconds)
-        out, ctrl = run_scenario(replace(sc, correction=c), RolloutSpec(seconds=seconds), hooks=[rec])
-        tr = rec.trajectory()
-        fid = measure_fidelity(sc.built.model, tr.time, tr.qpos, sc.clip.qpos, sc.clip.frame_time,
-                               ctrl.start_frame(), run_seconds=out.sim_seconds)
-        runs.append((out.sim_seconds, fid.path_max_m if fid is not None else math.inf))
-    (t_with, d_with), (t_without, d_without) = runs
+    (t_with, d_with), (t_without, d_without) = _judged(replace(sc, correction=corr)), _judged(sc)
     keep = t_with > t_without + 1e-9 or (t_with >= t_without - 1e-9 and d_with <= d_without)
     told = (f"with it the root path keeps within {d_with:.2f} m of the clip's, without {d_without:.2f} m"
             if abs(t_with - t_without) < 1e-9 else f"with it the body stands {t_with:.1f} s, without {t_without:.1f} s")

@@ -47,9 +47,6 @@ from bipedsim.reference.clip import ReferenceClip
 FloatArray = npt.NDArray[np.float64]
 #: A rollout starts this fraction of a step after the first right-foot strike of the loop.
 START_AFTER_STRIKE = 0.05
-#: A whole clip whose course moves slower than this at its first frame (m/s), both feet down, starts
-#: standing: the rollout starts there rather than at its first strike.
-STILL_SPEED = 0.2
 
 __all__ = [
     "CLIP_SPEED_SMOOTH_S", "CYCLE_COST_TOLERANCE", "CYCLE_SEAM_WARN", "CYCLE_STANCE_FLOAT_M", "CYCLE_STANCE_SCALE_M",
@@ -367,15 +364,13 @@ class ClipSource(GaitSource):
     def start_frame(self) -> float:
         """Where a rollout starts: a looped cycle just after its first strike (the right foot's, or the
         left's for a left-to-left loop), when that foot already carries weight (starting exactly on the
-        strike frame leaves neither foot loaded); the whole clip at its first frame if it starts standing
-        still, else just after its first strike."""
+        strike frame leaves neither foot loaded); the whole clip just after its first strike."""
         after = max(1.0, round(START_AFTER_STRIKE * self._step / self.frame_time))
         if not self.whole:
             return self.a + after
-        if self.playlist.contacts[0].all() and self.speed_at(0.0) < STILL_SPEED:
-            return 0.0  # the clip starts standing: the body takes over at rest
-        # else at the clip's first strike, as a looped cycle starts on its own: the gait machine takes
-        # over with a foot just planted (a capture may begin anywhere in a step)
+        # at the clip's first strike, as a looped cycle starts on its own: the gait machine takes over
+        # with a foot just planted (a capture may begin anywhere in a step, or standing, which the walking
+        # controller does not hold)
         first = min((float(v[0]) for v in (self.once["left"], self.once["right"]) if len(v)), default=self.a)
         return first + after
 

@@ -186,7 +186,9 @@ def _window(search: _Search, parents: list[_Node], rows: list[FloatArray], step:
     (the same path: the physics and the controller are deterministic) for their states."""
     global _FORK
     n = len(rows)
-    if workers > 1 and n > 1 and "fork" in multiprocessing.get_all_start_methods():
+    # a pool's own worker (a sweep's) may not start processes: it samples here
+    daemon = multiprocessing.current_process().daemon
+    if workers > 1 and n > 1 and not daemon and "fork" in multiprocessing.get_all_start_methods():
         _FORK = (search, parents, rows, step)
         try:
             chunks = [list(range(k, n, workers)) for k in range(workers)]

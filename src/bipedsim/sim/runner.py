@@ -115,7 +115,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     (:func:`~bipedsim.motion.bvh.read_bvh`). A controller file that changes settings the body's controller
     never reads (:func:`~bipedsim.control.settings.check_settings_for_body`) or a humanoid's ``control_dt``
     that is no whole number of physics steps (:func:`~bipedsim.sim.rollout.control_every`) is refused,
-    naming the file and the keys. A humanoid tracking its whole clip gets the clip's feed-forward
+    naming the file and the keys. A humanoid tracking the whole of a ``bvh`` clip gets its feed-forward
     correction (:func:`~bipedsim.sim.reconstruct.correction_for`: searched, or read from the cache)
     when ``reconstruct`` says so (None: :func:`reconstruct_wanted`), and then loops the clip's best cycle
     instead where the whole clip falls sooner (:func:`whole_or_looped`)."""
@@ -172,7 +172,8 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     sc = Scenario(built=built, clip=clip, cfg=cfg, source_path=src, config_path=config_path, motion=motion,
                   bvh_info=info, extra=extra, creature_cfg=replace(cfg.creature, support=support))
     search = reconstruct_wanted(cfg, reconstruct)
-    if search and profile == "humanoid" and cfg.source == "clip":
+    # a capture's (the built-in walk was made for its body and tracks without one)
+    if search and bvh is not None and profile == "humanoid" and cfg.source == "clip":
         sc.correction, extra["reconstruct"] = correction_for(built.model, built.hash, sc.controller, clip, cfg,
                                                              sc.fall_criteria(), lambda c: judge_correction(sc, c))
         sc, fallback = whole_or_looped(sc)

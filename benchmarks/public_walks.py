@@ -1,6 +1,6 @@
 """Public walks the project does not ship: `bipedsim run` judged on captures from sources beside the shared
 sample (other Bandai-Namco styles, GAMES-105's turning walks, Xia's style clips on Holden's CMU skeleton,
-an Emilya figure-eight walk, a deep-motion-editing example; since session 16 ActorCore, LaFAN1,
+an Emilya figure-eight walk, a deep-motion-editing example; ActorCore, LaFAN1,
 Perception Neuron, OptiTrack-style, MotionBuilder, SNU, SFU, Mixamo, Rokoko and HumanIK exports), so that
 what works is not fitted to the files we develop on.
 
@@ -40,7 +40,7 @@ WALKS: tuple[tuple[str, str, str, str, str], ...] = tuple(
         "74ead3ba1ae4696404e6086233779f60de8bf9ef",
         "dataset/Bandai-Namco-Research-Motiondataset-2/data/dataset-2_walk_normal_001.bvh",
         "Bandai-Namco set 2 (the shared exhausted walk's set), normal walk")]
-    # added in session 13 as an out-of-sample check of the real-length toes (docs/controller.md)
+    # an out-of-sample check of the real-length toes
     + [(f"bn2_walk_{s}.bvh", "BandaiNamcoResearchInc/Bandai-Namco-Research-Motiondataset",
         "74ead3ba1ae4696404e6086233779f60de8bf9ef",
         f"dataset/Bandai-Namco-Research-Motiondataset-2/data/dataset-2_walk_{s}.bvh",
@@ -63,7 +63,7 @@ WALKS: tuple[tuple[str, str, str, str, str], ...] = tuple(
     + [("emilya_8walk_meredith.bvh", "omimo/PyMO", "ba24f5f8d8911173f41e2ea1a367fa7955a6da9f",
         "demos/data/AV_8Walk_Meredith_HVHA_Rep1.bvh",
         "Emilya figure-eight walk, 8.9 s at 120 fps, inches: 15 m of path, 0.35 m net")]
-    # added in session 16: thirteen more repositories and their rigs (docs/controller.md, *Walks from
+    # thirteen more repositories and their rigs (docs/controller.md, *Walks from
     # thirteen more repositories*); some files were deleted after the commit named, which collect reads
     # them from
     + [(n, r, c, p, w) for n, r, c, p, w in (

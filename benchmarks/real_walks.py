@@ -1,4 +1,4 @@
-"""Real motion-capture walks tracked by the humanoid controller (issue 19): every human file in
+"""Real motion-capture walks tracked by the humanoid controller: every human file in
 ``../shared/data/bvh/human/`` converted, retargeted and tracked for ``--seconds`` (default 20) with the
 default controller (or ``--config``). Per file: outcome, fall time, achieved mean speed against the
 clip's own average horizontal speed (the baseline: the ratio is the acceptance measure, >= 0.7), the

@@ -1,4 +1,4 @@
-"""The humanoid controller's speed range (issue 19): generated walks (``motion.gaitgen.WalkParams``) over
+"""The humanoid controller's speed range: generated walks (``motion.gaitgen.WalkParams``) over
 speeds, cadences and step widths, each written as a BVH, read, built, retargeted and tracked for
 ``--seconds`` (default 20) with the default controller (or ``--config``), exactly as ``bipedsim run --bvh``
 does. Per walk: outcome, fall time, achieved mean speed against the walk's own speed (the baseline: the

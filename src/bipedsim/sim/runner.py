@@ -204,12 +204,15 @@ def reconstruct_wanted(cfg: ControllerConfig, asked: bool | None) -> bool:
 
 #: seconds a correction is judged over beyond the clip's end (the fade into the loop, a few steps of it)
 JUDGE_BEYOND_S = 5.0
+#: the shortest judging run (s): what a run of a short clip is judged by (a walk holds 20 s)
+JUDGE_MIN_S = 20.0
 
 
 def _judged(sc: Scenario) -> tuple[float, float]:
-    """One run of ``sc`` over its clip and :data:`JUDGE_BEYOND_S` beyond: how long it stands (s) and the
+    """One run of ``sc`` over its clip and :data:`JUDGE_BEYOND_S` beyond (at least :data:`JUDGE_MIN_S`): how
+    long it stands (s) and the
     largest distance of its root path from the clip's (m, :func:`~bipedsim.sim.fidelity.measure_fidelity`)."""
-    seconds = sc.clip.duration + JUDGE_BEYOND_S
+    seconds = max(JUDGE_MIN_S, sc.clip.duration + JUDGE_BEYOND_S)
     rec = Recorder(sc.built.model, record_hz=30.0, seconds=seconds)
     out, ctrl = run_scenario(sc, RolloutSpec(seconds=seconds), hooks=[rec])
     tr = rec.trajectory()
@@ -220,7 +223,7 @@ def _judged(sc: Scenario) -> tuple[float, float]:
 
 def whole_or_looped(sc: Scenario) -> tuple[Scenario, str | None]:
     """``sc`` tracking its whole clip (with its correction, if any), or, where that falls sooner than
-    the clip's best cycle looped (``source: cycle``) over the clip and :data:`JUDGE_BEYOND_S` beyond, the
+    the clip's best cycle looped (``source: cycle``) over a judging run (:func:`_judged`), the
     looped cycle: the scenario to run and a line saying which was chosen (None: the whole clip, standing
     as long)."""
     t_whole, _ = _judged(sc)
@@ -232,8 +235,8 @@ def whole_or_looped(sc: Scenario) -> tuple[Scenario, str | None]:
     if t_loop <= t_whole + 1e-9:
         return sc, None
     return looped, (f"reference: the whole clip falls at {t_whole:.1f} s where its best cycle looped stands "
-                    f"{t_loop:.1f} s (over the clip and {JUDGE_BEYOND_S:g} s beyond): the run loops the cycle "
-                    "(source: cycle); --no-reconstruct tracks the whole clip anyway")
+                    f"{t_loop:.1f} s (over max({JUDGE_MIN_S:g} s, the clip and {JUDGE_BEYOND_S:g} s beyond)): the run "
+                    "loops the cycle (source: cycle); --no-reconstruct tracks the whole clip anyway")
 
 
 def judge_correction(sc: Scenario, corr: Correction) -> tuple[bool, str]:

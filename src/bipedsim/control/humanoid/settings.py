@@ -249,7 +249,7 @@ class ReconstructConfig:
     horizontal velocity."""
 
     enabled: bool = True
-    window_s: float = field(default=0.1, metadata={"min": 0.01, "max": 1.0})
+    window_s: float = field(default=0.3, metadata={"min": 0.01, "max": 1.0})
     samples: int = field(default=100, metadata={"min": 1, "max": 10000})
     keep: int = field(default=10, metadata={"min": 1, "max": 1000})
     coherence: float = field(default=0.7, metadata={"min": 0.0, "max": 1.0})

@@ -302,7 +302,8 @@ def interrupt_after(tune_file: Path, out: Path, count: int, monkeypatch) -> list
     return scored
 
 
-@pytest.mark.parametrize("stop_after", [1, 4])  # inside the first generation; inside the second
+# inside the first generation; inside the second (with -m slow)
+@pytest.mark.parametrize("stop_after", [1, pytest.param(4, marks=pytest.mark.slow)])
 def test_interrupted_tune_resumes_without_scoring_any_candidate_twice(tiny_run, tmp_path: Path, monkeypatch,
                                                                        stop_after: int) -> None:
     p, first, _ = tiny_run
@@ -357,6 +358,7 @@ def test_a_changed_tune_file_does_not_resume_into_the_old_folder(tiny_run, tmp_p
     assert summary["evaluated"] == 6
 
 
+@pytest.mark.slow  # two references' rollouts per candidate
 def test_several_references_are_scored_together(tmp_path: Path) -> None:
     from bipedsim.data import BUILTIN_WALK
     from bipedsim.motion.bvh import load_bvh, write_bvh

@@ -248,6 +248,7 @@ def test_terminated_sweep_stops_cleanly_and_says_how_to_resume(tmp_path: Path) -
     assert sorted(int(r["index"]) for r in rows) == list(range(12))
 
 
+@pytest.mark.slow  # a sweep killed and resumed; the terminated sweep's resume runs in the default run
 def test_killed_sweep_resumes_without_loss_or_repeats(tmp_path: Path) -> None:
     spec = tmp_path / "resume.yaml"
     spec.write_text("name: resume\nseconds: 2.5\nafter: 1.0\ngrid:\n  magnitude: [50, 100, 150]\n"

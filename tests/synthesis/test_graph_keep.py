@@ -37,6 +37,9 @@ parts:
 """
 SCRIPT = "WALK for 3 sec\nWALK with Upper-Body WAVE_HAND for 5 sec\nWALK and CALL for 3 sec\n"
 
+#: the module fixtures build the show graph once: one worker runs the module
+pytestmark = pytest.mark.xdist_group("graph_keep")
+
 
 # ---------------------------------------------------------------------- no dead ends, as a property
 def _random_candidates(rng: np.random.Generator, k: int) -> tuple[list[Transition], list[int]]:

@@ -23,6 +23,7 @@ import math
 import multiprocessing
 import os
 import signal
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -309,6 +310,9 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
             stale = f" (the cached one was unreadable: {exc})"
     total = search_span(ctrl)
     bar = progress_bar(round(total, 1), "reconstruct", "s of clip")
+    if bar is None:  # no terminal for a bar: one line says why the run has not started yet
+        print(f"reconstruct: searching a correction for the clip's {max(total, 0.0):.1f} s (the first run of a clip; "
+              "cached after it; --no-reconstruct skips it)", file=sys.stderr, flush=True)
     done = [0.0]
 
     def tick(t: float, _total: float) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -174,9 +175,11 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     search = reconstruct_wanted(cfg, reconstruct)
     # a capture's (the built-in walk was made for its body and tracks without one)
     if search and bvh is not None and profile == "humanoid" and cfg.source == "clip":
-        sc.correction, extra["reconstruct"] = correction_for(built.model, built.hash, sc.controller, clip, cfg,
-                                                             sc.fall_criteria(), lambda c: judge_correction(sc, c))
-        sc, fallback = whole_or_looped(sc)
+        judged = judge_once()
+        sc.correction, extra["reconstruct"] = correction_for(
+            built.model, built.hash, sc.controller, clip, cfg, sc.fall_criteria(),
+            lambda c: judge_correction(sc, c, judged))
+        sc, fallback = whole_or_looped(sc, judged)
         if fallback:
             sc.extra["reconstruct"] += "\n" + fallback
     return sc
@@ -221,15 +224,32 @@ def _judged(sc: Scenario) -> tuple[float, float]:
     return out.sim_seconds, fid.path_max_m if fid is not None else math.inf
 
 
-def whole_or_looped(sc: Scenario) -> tuple[Scenario, str | None]:
+Judge = Callable[[Scenario], tuple[float, float]]
+
+
+def judge_once() -> Judge:
+    """:func:`_judged`, remembering each (source, correction)'s result: the checks of one scenario share
+    their runs (the whole clip with its kept correction is run once, not once per check)."""
+    seen: dict[tuple[str, int], tuple[float, float]] = {}
+
+    def judged(sc: Scenario) -> tuple[float, float]:
+        key = (sc.cfg.source, id(sc.correction))
+        if key not in seen:
+            seen[key] = _judged(sc)
+        return seen[key]
+
+    return judged
+
+
+def whole_or_looped(sc: Scenario, judged: Judge = _judged) -> tuple[Scenario, str | None]:
     """``sc`` tracking its whole clip (with its correction, if any), or, where that falls sooner than
     the clip's best cycle looped (``source: cycle``) over a judging run (:func:`_judged`), the
     looped cycle: the scenario to run and a line saying which was chosen (None: the whole clip, standing
     as long)."""
-    t_whole, _ = _judged(sc)
+    t_whole, _ = judged(sc)
     looped = replace(sc, cfg=replace(sc.cfg, source="cycle"), correction=None)
     try:
-        t_loop, _ = _judged(looped)
+        t_loop, _ = judged(looped)
     except ModelError:  # no cycle to loop
         return sc, None
     if t_loop <= t_whole + 1e-9:
@@ -239,12 +259,12 @@ def whole_or_looped(sc: Scenario) -> tuple[Scenario, str | None]:
                     "loops the cycle (source: cycle); --no-reconstruct tracks the whole clip anyway")
 
 
-def judge_correction(sc: Scenario, corr: Correction) -> tuple[bool, str]:
+def judge_correction(sc: Scenario, corr: Correction, judged: Judge = _judged) -> tuple[bool, str]:
     """Whether ``sc`` tracks its clip better with ``corr`` than without: each way, one run over the
     clip and :data:`JUDGE_BEYOND_S` beyond; the one that stands longer wins, then the one whose root path
     stays nearer the clip's (:func:`~bipedsim.sim.fidelity.measure_fidelity`). Also a clause saying how
     they compared."""
-    (t_with, d_with), (t_without, d_without) = _judged(replace(sc, correction=corr)), _judged(sc)
+    (t_with, d_with), (t_without, d_without) = judged(replace(sc, correction=corr)), judged(sc)
     keep = t_with > t_without + 1e-9 or (t_with >= t_without - 1e-9 and d_with <= d_without)
     told = (f"with it the root path keeps within {d_with:.2f} m of the clip's, without {d_without:.2f} m"
             if abs(t_with - t_without) < 1e-9 else f"with it the body stands {t_with:.1f} s, without {t_without:.1f} s")

@@ -97,3 +97,32 @@ def test_the_search_is_asked_for_by_argument_then_environment_then_settings(monk
     monkeypatch.setenv("BIPEDSIM_RECONSTRUCT", "maybe")
     with pytest.raises(ConfigError, match="BIPEDSIM_RECONSTRUCT"):
         reconstruct_wanted(cfg, None)
+
+
+def test_a_second_run_of_a_clip_makes_no_judging_runs(tmp_path, monkeypatch) -> None:
+    """The first load of a clip searches, judges the correction and chooses whole clip or looped cycle;
+    the second reads all three from the cache and runs nothing before the user's run."""
+    from bvh_fixtures import standin
+
+    import bipedsim.sim.runner as runner
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    cfg = load_scenario(None, reconstruct=False).cfg
+    cfg = replace(cfg, reconstruct=replace(cfg.reconstruct, samples=3, keep=2, window_s=1.0, workers=1))
+    runs: list[str] = []
+    # the whole clip falls at once, its looped cycle stands: the run loops the cycle
+    monkeypatch.setattr(runner, "_judged", lambda sc: runs.append(sc.cfg.source) or
+                        ((1.0, 0.5) if sc.cfg.source == "clip" else (9.0, 0.5)))
+    bvh = standin("human/games105_walk60__metres_crlf.bvh")
+    first = load_scenario(cfg, bvh, reconstruct=True)
+    assert runs and first.cfg.source == "cycle" and "loops the cycle" in first.extra["reconstruct"]
+    runs.clear()
+    again = load_scenario(cfg, bvh, reconstruct=True)
+    assert runs == [] and again.cfg.source == "cycle" and again.correction is None
+    assert "loops the cycle" in again.extra["reconstruct"]
+    # a correction searched again (its cache file gone) makes the choice again
+    for f in (tmp_path / "bipedsim" / "corrections").glob("*.json"):
+        if not f.name.endswith(".source.json"):
+            f.unlink()
+    load_scenario(cfg, bvh, reconstruct=True)
+    assert "clip" in runs and "cycle" in runs

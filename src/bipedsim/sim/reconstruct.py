@@ -16,6 +16,7 @@ fall checks), and a rollout with the correction from the same start repeats the 
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import hashlib
 import json
@@ -335,6 +336,7 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
         what += f"; every sample fell after {done[0]:.1f} s, so the correction ends there"
     kept, why = (False, "no window could be walked") if corr is None else (True, "") if judge is None else judge(corr)
     what += f"; {why}" if why else ""
+    (cache_folder() / f"{key}.source.json").unlink(missing_ok=True)  # chosen with the correction it replaces
     try:
         atomic_write_text(path, json.dumps({"key": key, "clip": clip.source, "seconds": done[0], "kept": kept,
                                             "why": why, "correction": corr.to_dict() if corr is not None else None}))
@@ -342,6 +344,32 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     except OSError as exc:
         what += f"; not cached ({exc.strerror or exc})"
     return (corr if kept else None), what
+
+
+def cached_choice(key: str) -> tuple[str, str | None] | None:
+    """The reference source chosen before for the scenario of cache ``key`` (:func:`correction_key`):
+    ``("clip" | "cycle", the line that said why)``, or None when none was recorded (or the record is
+    unreadable: the choice is then made again)."""
+    path = cache_folder() / f"{key}.source.json"
+    if not path.is_file():
+        return None
+    try:
+        d = json.loads(read_input_text(path, "json"))
+        source, line = d["source"], d["line"]
+    except (BipedsimError, ValueError, KeyError, TypeError):
+        return None
+    if source not in ("clip", "cycle") or not (line is None or isinstance(line, str)):
+        return None
+    return source, line
+
+
+def remember_choice(key: str, source: str, line: str | None) -> None:
+    """Record which reference source the scenario of cache ``key`` runs (the judging runs that chose it
+    are not repeated by the next run of the same clip and settings); a cache that cannot be written is
+    left alone (the choice is made again next time)."""
+    with contextlib.suppress(OSError):
+        atomic_write_text(cache_folder() / f"{key}.source.json", json.dumps({"key": key, "source": source,
+                                                                            "line": line}))
 
 
 def search_workers(rc: ReconstructConfig) -> int:

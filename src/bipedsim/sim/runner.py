@@ -38,7 +38,7 @@ from bipedsim.reference.prepare import load_source
 from bipedsim.reference.retarget import retarget
 from bipedsim.sim.fidelity import measure_fidelity
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
-from bipedsim.sim.reconstruct import correction_for
+from bipedsim.sim.reconstruct import cached_choice, correction_for, correction_key, remember_choice
 from bipedsim.sim.recorder import Recorder
 from bipedsim.sim.rollout import FallCriteria, FloatArray, Outcome, RolloutSpec, control_every, rollout
 
@@ -179,7 +179,14 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
         sc.correction, extra["reconstruct"] = correction_for(
             built.model, built.hash, sc.controller, clip, cfg, sc.fall_criteria(),
             lambda c: judge_correction(sc, c, judged))
-        sc, fallback = whole_or_looped(sc, judged)
+        key = correction_key(clip, built.hash, cfg)
+        chosen = cached_choice(key)
+        if chosen is None:
+            sc, fallback = whole_or_looped(sc, judged)
+            remember_choice(key, sc.cfg.source, fallback)
+        else:
+            fallback = chosen[1]
+            sc = looped(sc) if chosen[0] == "cycle" else sc
         if fallback:
             sc.extra["reconstruct"] += "\n" + fallback
     return sc
@@ -241,20 +248,26 @@ def judge_once() -> Judge:
     return judged
 
 
+def looped(sc: Scenario) -> Scenario:
+    """``sc`` looping its clip's best cycle (``source: cycle``), without a correction (one is searched
+    for the whole clip)."""
+    return replace(sc, cfg=replace(sc.cfg, source="cycle"), correction=None)
+
+
 def whole_or_looped(sc: Scenario, judged: Judge = _judged) -> tuple[Scenario, str | None]:
     """``sc`` tracking its whole clip (with its correction, if any), or, where that falls sooner than
     the clip's best cycle looped (``source: cycle``) over a judging run (:func:`_judged`), the
     looped cycle: the scenario to run and a line saying which was chosen (None: the whole clip, standing
     as long)."""
     t_whole, _ = judged(sc)
-    looped = replace(sc, cfg=replace(sc.cfg, source="cycle"), correction=None)
+    cycle = looped(sc)
     try:
-        t_loop, _ = judged(looped)
+        t_loop, _ = judged(cycle)
     except ModelError:  # no cycle to loop
         return sc, None
     if t_loop <= t_whole + 1e-9:
         return sc, None
-    return looped, (f"reference: the whole clip falls at {t_whole:.1f} s where its best cycle looped stands "
+    return cycle, (f"reference: the whole clip falls at {t_whole:.1f} s where its best cycle looped stands "
                     f"{t_loop:.1f} s (over max({JUDGE_MIN_S:g} s, the clip and {JUDGE_BEYOND_S:g} s beyond)): the run "
                     "loops the cycle (source: cycle); --no-reconstruct tracks the whole clip anyway")
 

@@ -9,12 +9,12 @@ import pytest
 
 from bipedsim.control.humanoid.correction import EXTRA, Correction
 from bipedsim.errors import ConfigError
-from bipedsim.sim.reconstruct import correction_for, reconstruct
+from bipedsim.sim.reconstruct import correction_for, reconstruct, search_span
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, reconstruct_wanted, run_scenario
 
 #: a small search: enough to exercise every part, a second or two on one core
-SMALL = {"samples": 3, "keep": 2, "window_s": 0.8}
+SMALL = {"samples": 3, "keep": 2, "window_s": 0.8, "loop_cycles": 1}
 
 
 @pytest.fixture(scope="module")
@@ -37,17 +37,30 @@ def test_the_search_is_deterministic_on_any_number_of_processes(small) -> None:
     a, b = _search(small, 1), _search(small, 2)
     assert a.starts == b.starts and np.array_equal(a.rows, b.rows) and a.end == b.end
     assert a.rows.shape[1] == small.controller().tables.kp.shape[0] + EXTRA
-    # the search covers the clip from the controller's start, window by window
+    # the search covers the clip from the controller's start and a period of its loop, window by window
     ctrl = small.controller()
-    span = (small.clip.num_frames - 1 - ctrl.start_frame()) * small.clip.frame_time
+    src = ctrl.source
+    span = search_span(ctrl)
+    assert span == pytest.approx((src.a + src.period - ctrl.start_frame()) * src.frame_time)
     assert len(a.starts) == int(np.ceil(span / 0.8 - 1e-9))
-    assert a.end > small.clip.num_frames - 1 - 20
+    assert a.end >= src.a + src.period - 1e-9
+    assert a.period == src.period  # walked to its end: the last period's rows repeat
+    f = a.end + 0.3 * src.period
+    assert np.array_equal(a.at(f), a.at(f - src.period)) and np.array_equal(a.at(f + 5 * src.period), a.at(f))
+    # without a searched loop the search ends with the clip and the correction fades out
+    ctrl = small.controller()
+    try:
+        short = reconstruct(small.built.model, ctrl, replace(small.cfg.reconstruct, loop_cycles=0),
+                            small.fall_criteria())
+    finally:
+        ctrl.restore_model()
+    assert short.period == 0.0 and short.end < a.end and short.at(short.end + short.fade) is None
 
 
 def test_a_run_with_the_correction_repeats_the_searched_path(small) -> None:
     corr = _search(small)
     sc = replace(small, correction=corr)
-    span = (small.clip.num_frames - 1 - sc.controller().start_frame()) * small.clip.frame_time
+    span = search_span(sc.controller())
     out, ctrl = run_scenario(sc, RolloutSpec(seconds=round(np.ceil(span / 0.8) * 0.8, 6)))
     assert out.outcome == "no_fall"
     assert ctrl.frame == pytest.approx(corr.end, abs=1e-9)  # the same reference frame, step for step
@@ -82,6 +95,12 @@ def test_correction_lookup_and_fade() -> None:
     assert back.starts == c.starts and np.array_equal(back.rows, c.rows)
     with pytest.raises(ValueError, match="rows of shape"):
         Correction.from_dict(c.to_dict(), hinges=2)
+    # a repeated period: frames past the end read the last period's rows, phase for phase
+    p = Correction(starts=(10.0, 20.0), rows=rows, end=30.0, period=15.0)
+    assert p.at(31.0)[0] == 0.1 and p.at(36.0)[0] == 0.2 and p.at(46.0)[0] == 0.1 and p.at(1e4 + 0.5) is not None
+    assert Correction.from_dict(p.to_dict(), hinges=1).period == 15.0
+    with pytest.raises(ValueError, match="period"):
+        Correction.from_dict(dict(p.to_dict(), period=25.0), hinges=1)
     bad = dict(c.to_dict(), rows=[[9.0] * 5, [0.0] * 5])
     with pytest.raises(ValueError, match="within"):
         Correction.from_dict(bad, hinges=1)
@@ -108,7 +127,8 @@ def test_a_second_run_of_a_clip_makes_no_judging_runs(tmp_path, monkeypatch) -> 
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     cfg = load_scenario(None, reconstruct=False).cfg
-    cfg = replace(cfg, reconstruct=replace(cfg.reconstruct, samples=3, keep=2, window_s=1.0, workers=1))
+    cfg = replace(cfg, reconstruct=replace(cfg.reconstruct, samples=3, keep=2, window_s=1.0, workers=1,
+                                                              loop_cycles=1))
     runs: list[str] = []
     # the whole clip falls at once, its looped cycle stands: the run loops the cycle
     monkeypatch.setattr(runner, "_judged", lambda sc: runs.append(sc.cfg.source) or

@@ -110,24 +110,39 @@ def _shared(ctrl: SimbiconController) -> dict[int, object]:
     return {id(x): x for x in keep}
 
 
-def search_span(ctrl: SimbiconController) -> float:
-    """The seconds a search covers from the controller's start: the clip to its end."""
+def search_end(src: ClipSource, loop_cycles: int) -> tuple[float, bool]:
+    """The reference frame a search of ``src`` ends at, and whether that covers whole periods of its
+    loop: the clip's end, or, where the clip has a cycle to loop, ``loop_cycles`` periods of the loop
+    played after it (a cycle's correction then repeats)."""
+    end = float(src.clip.num_frames - 1)
+    looping = any(len(v) for v in src.playlist.loop.values())
+    if not looping or loop_cycles <= 0:
+        return end, False
+    return max(end, src.a + loop_cycles * src.period), True
+
+
+def search_span(ctrl: SimbiconController, loop_cycles: int | None = None) -> float:
+    """The seconds a search covers from the controller's start (:func:`search_end`; ``loop_cycles``
+    None: the settings')."""
     src = ctrl.source
     assert isinstance(src, ClipSource)
-    return (src.clip.num_frames - 1 - ctrl.start_frame()) * src.frame_time
+    cycles = ctrl.cfg.reconstruct.loop_cycles if loop_cycles is None else loop_cycles
+    return (search_end(src, cycles)[0] - ctrl.start_frame()) * src.frame_time
 
 
 def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: ReconstructConfig, fall: FallCriteria, *,
                 workers: int = 1, progress: Callable[[float, float], None] | None = None) -> Correction | None:
     """The correction that keeps ``ctrl``'s body (``model``; the controller fresh, not yet reset) on its
-    whole clip (:func:`search_span`), or None when not even the first window could be walked.
+    whole clip and its loop's first cycles (:func:`search_span`), or None when not even the first window
+    could be walked.
     ``workers`` processes sample each window (the result does not depend on how many);
     ``progress(done_s, total_s)`` is called after each window."""
     src = ctrl.source
     if not isinstance(ctrl, SimbiconController) or not isinstance(src, ClipSource) or not src.whole:
         raise ModelError("reconstruction drives the humanoid's controller tracking a whole clip (source: clip)")
     frame0 = float(ctrl.start_frame())
-    total_s = search_span(ctrl)
+    total_s = search_span(ctrl, cfg.loop_cycles)
+    _, looped = search_end(src, cfg.loop_cycles)
     if total_s <= 0:
         return None
     played = (src.qpos_played, src.playlist.qvel)
@@ -173,8 +188,12 @@ def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Reconstruc
     best = history[-1][0]
     if not best.rows:
         return None
-    return Correction(starts=tuple(best.starts), rows=np.array(best.rows), end=float(best.ctrl.frame),
-                      fade=cfg.fade_s / src.frame_time)
+    end = float(best.ctrl.frame)
+    # the whole span walked, its last loop period included: that period's rows repeat after it
+    period = src.period if looped and len(history) > n_windows and end - src.period >= max(src.a, best.starts[0]) \
+        else 0.0
+    return Correction(starts=tuple(best.starts), rows=np.array(best.rows), end=end,
+                      fade=cfg.fade_s / src.frame_time, period=period)
 
 
 #: the search a forked worker reads (set by the parent before it forks, read-only in the workers)
@@ -309,7 +328,7 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
             return corr, f"reconstruct: the correction searched before, read from {path}"
         except (BipedsimError, ValueError, KeyError, TypeError) as exc:
             stale = f" (the cached one was unreadable: {exc})"
-    total = search_span(ctrl)
+    total = search_span(ctrl, cfg.reconstruct.loop_cycles)
     bar = progress_bar(round(total, 1), "reconstruct", "s of clip")
     if bar is None:  # no terminal for a bar: one line says why the run has not started yet
         print(f"reconstruct: searching a correction for the clip's {max(total, 0.0):.1f} s (the first run of a clip; "
@@ -330,7 +349,8 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
             bar.close()
     wall = time.perf_counter() - t0
     rc = cfg.reconstruct
-    what = (f"reconstruct: searched a correction for {done[0]:.1f} s of the clip's {max(total, 0.0):.1f} s in "
+    over = "the clip" if rc.loop_cycles <= 0 else f"the clip and up to {rc.loop_cycles} cycles of its loop"
+    what = (f"reconstruct: searched a correction for {done[0]:.1f} s of {max(total, 0.0):.1f} s ({over}) in "
             f"{wall:.0f} s (windows of {rc.window_s:g} s, {rc.samples} samples each){stale}")
     if done[0] < total - 1e-6:
         what += f"; every sample fell after {done[0]:.1f} s, so the correction ends there"

@@ -30,13 +30,15 @@ EXTRA = 4
 @dataclass(frozen=True)
 class Correction:
     """Offset rows (K, hinges + :data:`EXTRA`) (rad), row k from reference frame ``starts[k]`` until
-    ``starts[k + 1]``; none before the first. From ``end`` on the last row fades out linearly over
-    ``fade`` frames (the controller alone carries on, as it does a looped cycle)."""
+    ``starts[k + 1]``; none before the first. From ``end`` on: with a ``period`` (frames, the looped
+    cycle's, searched to its end at least once) the rows of the last period repeat, phase for phase;
+    without one the last row fades out linearly over ``fade`` frames (the controller alone carries on)."""
 
     starts: tuple[float, ...]
     rows: FloatArray
     end: float
     fade: float = 0.0
+    period: float = 0.0
 
     def __post_init__(self) -> None:
         self.rows.setflags(write=False)
@@ -47,14 +49,17 @@ class Correction:
 
     def at(self, frame: float) -> FloatArray | None:
         """The offsets at reference ``frame``; None where there are none."""
-        if frame >= self.end:
+        if frame >= self.end and self.period > 0.0:
+            frame -= self.period * (math.floor((frame - self.end) / self.period) + 1.0)
+        elif frame >= self.end:
             left = 1.0 - (frame - self.end) / self.fade if self.fade > 0.0 else 0.0
             return self.rows[-1] * left if left > 0.0 else None
         k = bisect.bisect_right(self.starts, frame) - 1
         return self.rows[k] if k >= 0 else None
 
     def to_dict(self) -> dict[str, object]:
-        return {"starts": list(self.starts), "rows": self.rows.tolist(), "end": self.end, "fade": self.fade}
+        return {"starts": list(self.starts), "rows": self.rows.tolist(), "end": self.end, "fade": self.fade,
+                "period": self.period}
 
     @staticmethod
     def from_dict(d: dict[str, object], hinges: int) -> Correction:
@@ -63,13 +68,18 @@ class Correction:
         rows = np.asarray(d["rows"], dtype=float)
         end = float(d["end"])  # type: ignore[arg-type]
         fade = float(d["fade"])  # type: ignore[arg-type]
+        period = float(d.get("period", 0.0))  # type: ignore[arg-type]
         if rows.ndim != 2 or rows.shape != (len(starts), hinges + EXTRA):
             raise ValueError(f"rows of shape {rows.shape}, expected ({len(starts)}, {hinges + EXTRA})")
         if not (np.all(np.isfinite(rows)) and np.all(np.abs(rows) <= math.pi)):
             raise ValueError("offsets must be finite angles within +-pi rad")
-        if list(starts) != sorted(starts) or not all(math.isfinite(v) for v in (end, fade)) or fade < 0.0:
-            raise ValueError("window starts must be increasing frames, the end finite and the fade >= 0 frames")
-        return Correction(starts=starts, rows=rows, end=end, fade=fade)
+        if (list(starts) != sorted(starts) or not all(math.isfinite(v) for v in (end, fade, period))
+                or fade < 0.0 or period < 0.0):
+            raise ValueError("window starts must be increasing frames, the end finite, the fade and the period "
+                             ">= 0 frames")
+        if period > 0.0 and (not starts or end - period < starts[0]):
+            raise ValueError("a repeated period must lie within the searched frames")
+        return Correction(starts=starts, rows=rows, end=end, fade=fade, period=period)
 
 
 class LiveCorrection:

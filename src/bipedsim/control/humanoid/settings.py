@@ -265,7 +265,11 @@ class ReconstructConfig:
     #: in all; then the correction ends where the search got to
     retries: int = field(default=8, metadata={"min": 0, "max": 1000})
     seed: int = field(default=0, metadata={"min": 0})  #: the search's random draws
-    #: seconds over which the correction fades out after the clip's end (the controller alone walks on)
+    #: loop periods searched after the clip (the clip's best cycle, looped from its end); the run then
+    #: repeats the correction of the last one, phase for phase. 0: the search ends with the clip and the
+    #: correction fades out over ``fade_s``, as it does where the search could not reach the end
+    loop_cycles: int = field(default=2, metadata={"min": 0, "max": 20})
+    #: seconds over which a correction without a searched loop fades out after its end
     fade_s: float = field(default=1.0, metadata={"min": 0.0, "max": 10.0})
     #: processes sampling each window (0: one per core this process may use); the result is the same
     workers: int = field(default=0, metadata={"min": 0, "max": 256})

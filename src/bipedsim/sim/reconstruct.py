@@ -330,8 +330,10 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
             stale = f" (the cached one was unreadable: {exc})"
     total = search_span(ctrl, cfg.reconstruct.loop_cycles)
     bar = progress_bar(round(total, 1), "reconstruct", "s of clip")
+    rc = cfg.reconstruct
+    over = "the clip" if rc.loop_cycles <= 0 else f"the clip and up to {rc.loop_cycles} cycles of its loop"
     if bar is None:  # no terminal for a bar: one line says why the run has not started yet
-        print(f"reconstruct: searching a correction for the clip's {max(total, 0.0):.1f} s (the first run of a clip; "
+        print(f"reconstruct: searching a correction for {max(total, 0.0):.1f} s ({over}; the first run of a clip; "
               "cached after it; --no-reconstruct skips it)", file=sys.stderr, flush=True)
     done = [0.0]
 
@@ -348,8 +350,6 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - t0
-    rc = cfg.reconstruct
-    over = "the clip" if rc.loop_cycles <= 0 else f"the clip and up to {rc.loop_cycles} cycles of its loop"
     what = (f"reconstruct: searched a correction for {done[0]:.1f} s of {max(total, 0.0):.1f} s ({over}) in "
             f"{wall:.0f} s (windows of {rc.window_s:g} s, {rc.samples} samples each){stale}")
     if done[0] < total - 1e-6:

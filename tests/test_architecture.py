@@ -35,6 +35,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("synthesis", ("bipedsim.synthesis",)),
     ("envs", ("bipedsim.envs",)),
     ("render", ("bipedsim.render", "bipedsim.sim.outputs", "bipedsim.synthesis.world.scene")),
+    ("api", ("bipedsim.api",)),
     ("cli", ("bipedsim.cli",)),
 ]
 

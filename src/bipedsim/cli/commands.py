@@ -213,3 +213,23 @@ def cmd_tune(args: argparse.Namespace) -> int:
                                                                backend=args.backend, progress=sys.stderr.isatty()),
                                                           args.out),
                       lambda: interrupted_message(load_tune(args.tune), args.out))
+
+
+# ---------------------------------------------------------------------- view (the live viewer)
+def cmd_view(args: argparse.Namespace) -> int:
+    from bipedsim.config import from_dict
+    from bipedsim.render.viewer import ViewSettings, display_problem, view
+    from bipedsim.sim.push import Push, check_pushes
+    from bipedsim.sim.runner import load_scenario
+
+    problem = display_problem()  # before minutes of loading
+    if problem:
+        print(f"bipedsim view: error: {problem}", file=sys.stderr)
+        return 2
+    given = {"seconds": args.seconds, "push_magnitude": args.push_force}
+    settings = from_dict(ViewSettings, {k: v for k, v in given.items() if v is not None})
+    pushes = [Push.parse(p) for p in args.push or []]
+    check_pushes(pushes, settings.seconds)
+    sc = load_scenario(args.config, args.bvh, profile=args.profile, reconstruct=args.reconstruct)
+    view(sc, pushes, settings, say=print)
+    return 0

@@ -264,18 +264,23 @@ class Rollout:
     :func:`rollout` drives it to the end; :mod:`bipedsim.envs` drives it a step per action. The model's
     state starts at ``initial_qpos``/``initial_qvel`` (the reference's pose at its start when given by
     the caller; ``qvel_noise``, the seed's noise already in it, is added again when the controller's
-    reset re-poses the body and sets its velocities, as a creature's standing start does)."""
+    reset re-poses the body and sets its velocities, as a creature's standing start does). ``data``: the
+    simulation state to run in (reset first); None: a new one."""
 
     def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller, spec: RolloutSpec, *,
                  initial_qpos: FloatArray | None = None, initial_qvel: FloatArray | None = None,
                  qvel_noise: FloatArray | None = None, hooks: list[Hook] | None = None,
                  before_step: list[Hook] | None = None, progress: Callable[[float], None] | None = None,
                  pushes: list[Any] | None = None, nominal_com: tuple[FloatArray, FloatArray] | None = None,
-                 record_com: bool = False) -> None:
+                 record_com: bool = False, data: mujoco.MjData | None = None) -> None:
         self._t0 = time.perf_counter()
         self.model, self.plan, self.ctrl, self.spec = model, plan, ctrl, spec
         self.progress, self.nominal_com, self.record_com = progress, nominal_com, record_com
-        self.data = data = mujoco.MjData(model)
+        if data is None:
+            data = mujoco.MjData(model)
+        else:  # a state the caller keeps (a viewer shows it), reset to the model's defaults
+            mujoco.mj_resetData(model, data)
+        self.data = data
         if initial_qpos is not None:
             data.qpos[:] = initial_qpos
         if initial_qvel is not None:

@@ -166,3 +166,13 @@ def test_an_rgb_array_frame_shows_the_body() -> None:
                        timeout=120, check=False)
     assert p.returncode == 0, p.stderr[-2000:]
     assert float(p.stdout.strip().splitlines()[-1]) > 0.02  # the body covers part of the frame's middle
+
+
+def test_the_docs_residual_policy_example_runs(capsys: pytest.CaptureFixture[str]) -> None:
+    """The ten-line example of docs/python_api.md (a residual policy stepping the environment)."""
+    text = (Path(__file__).resolve().parents[2] / "docs" / "python_api.md").read_text(encoding="utf-8")
+    blocks = [b.split("```", 1)[0] for b in text.split("```python\n")[1:]]
+    example = next(b for b in blocks if "Track-v0" in b)
+    exec(compile(example, "docs/python_api.md", "exec"), {})
+    outcome, distance = capsys.readouterr().out.split()
+    assert outcome in ("no_fall", "fall", "push_not_applied") and float(distance) > 0.5

@@ -33,7 +33,9 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("sim", ("bipedsim.sim",)),
     ("experiments", ("bipedsim.experiments",)),
     ("synthesis", ("bipedsim.synthesis",)),
+    ("envs", ("bipedsim.envs",)),
     ("render", ("bipedsim.render", "bipedsim.sim.outputs", "bipedsim.synthesis.world.scene")),
+    ("api", ("bipedsim.api",)),
     ("cli", ("bipedsim.cli",)),
 ]
 
@@ -51,6 +53,8 @@ LAZY_IMPORTS: dict[str, tuple[frozenset[str], str]] = {
     "bipedsim.experiments.sweep_summary": (frozenset({"matplotlib"}), "the polar plot is optional output"),
     "bipedsim.experiments.tune.results": (frozenset({"matplotlib"}), "the convergence plot is optional output"),
     "bipedsim.synthesis.world.plot": (frozenset({"matplotlib"}), "the paths plot is optional output (--plot)"),
+    "bipedsim.render.viewer": (frozenset({"mujoco"}), "mujoco.viewer (GLFW) loads only when a window opens"),
+    "bipedsim.envs.track": (frozenset({"bipedsim.render.gl"}), "rgb_array frames (GL) load only when rendered"),
     "bipedsim.synthesis.world.run": (frozenset({"bipedsim.synthesis.world.scene", "bipedsim.synthesis.world.plot"}),
                            "the world video (GL rendering) and the paths plot load only when asked for"),
 }

@@ -10,6 +10,7 @@ the package; the world is Z-up.
 
 from __future__ import annotations
 
+import importlib as _importlib
 import os as _os
 
 __version__ = "0.1.0"
@@ -29,4 +30,17 @@ from bipedsim.errors import (  # noqa: E402
     OutputError,
 )
 
-__all__ = ["BVHError", "BipedsimError", "ConfigError", "InputError", "ModelError", "OutputError", "__version__"]
+#: the Python API (:mod:`bipedsim.api`), loaded on first use so ``import bipedsim`` stays light
+_API = ("run", "run_folder", "sweep", "tune", "SweepResult")
+
+
+def __getattr__(name: str) -> object:
+    # reached by name (PEP 562), not imported at the top: the API sits above every layer of the package,
+    # and the modules below read this package's __version__
+    if name in _API:
+        return getattr(_importlib.import_module("bipedsim.api"), name)
+    raise AttributeError(f"module 'bipedsim' has no attribute {name!r}")
+
+
+__all__ = ["BVHError", "BipedsimError", "ConfigError", "InputError", "ModelError", "OutputError", "SweepResult",
+           "__version__", "run", "run_folder", "sweep", "tune"]

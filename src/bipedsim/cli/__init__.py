@@ -30,6 +30,7 @@ from bipedsim.cli.commands import (
     cmd_run,
     cmd_sweep,
     cmd_tune,
+    cmd_view,
     cmd_world,
 )
 from bipedsim.cli.flags import (
@@ -201,10 +202,25 @@ def _add_tune(sub: argparse._SubParsersAction) -> None:
     _parallel_flags(p, "candidates scored in parallel")
 
 
+# ---------------------------------------------------------------------- view (the live viewer)
+def _add_view(sub: argparse._SubParsersAction) -> None:
+    p = _subparser(sub, "view", cmd_view, "run the controller live in MuJoCo's viewer: push with keys 1-8 or the "
+                   "mouse, pause, slow down, restart (needs a display)")
+    p.add_argument("config", nargs="?", default=None, help="controller YAML (default: the built-in defaults)")
+    p.add_argument("--bvh", default=None, help="reference BVH (default: the built-in walk on the built-in humanoid)")
+    p.add_argument("--push", action="append", metavar="MAG:DIR:DUR:START",
+                   help="a scheduled push, as for `bipedsim run`; repeatable")
+    p.add_argument("--push-force", type=float, default=None, help="N of a key push (keys 1-8; default 200)")
+    p.add_argument("--seconds", type=float, default=None, help="simulated seconds before the run stops (default 600)")
+    p.add_argument("--profile", choices=("auto", "humanoid", "creature"), default=None, help="body kind (default auto)")
+    p.add_argument("--no-reconstruct", dest="reconstruct", action="store_false", default=None,
+                   help="humanoid: skip the clip's feed-forward correction search")
+
+
 #: Subcommand registrars, in the order ``--help`` lists them.
 COMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
     _add_info, _add_convert, _add_config, _add_run, _add_render, _add_sweep, _add_regress, _add_tune, _add_breed,
-    _add_graph, _add_world]
+    _add_graph, _add_world, _add_view]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -53,15 +53,15 @@ def cmd_config(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from bipedsim.sim.outputs import run_to_folder
+    from bipedsim.api import run_folder
 
-    run_to_folder(args.out, config=args.config, bvh=args.bvh, seconds=args.seconds, seed=args.seed,
-                  init_noise=args.init_noise, mass=args.mass, scale=args.scale, up=args.up, positions=args.positions,
-                  fps=args.clip_fps, events=args.events, profile=args.profile, reconstruct=args.reconstruct,
-                  support=args.support, record_hz=DEFAULT_RECORD_HZ if args.record_hz is None else args.record_hz,
-                  pushes=args.push or [], plots=args.plots, csv=args.csv, export_bvh=args.export_bvh,
-                  video=args.video, gif=args.gif, video_options=video_options(args), progress=sys.stderr.isatty(),
-                  say=print)
+    run_folder(args.config, args.bvh, out=args.out, seconds=args.seconds, seed=args.seed,
+               init_noise=args.init_noise, mass=args.mass, scale=args.scale, up=args.up, positions=args.positions,
+               fps=args.clip_fps, events=args.events, profile=args.profile, reconstruct=args.reconstruct,
+               support=args.support, record_hz=DEFAULT_RECORD_HZ if args.record_hz is None else args.record_hz,
+               pushes=args.push or [], plots=args.plots, csv=args.csv, export_bvh=args.export_bvh,
+               video=args.video, gif=args.gif, video_options=video_options(args), progress=sys.stderr.isatty(),
+               say=print)
     return 0
 
 
@@ -105,26 +105,15 @@ def cmd_graph_play(args: argparse.Namespace) -> int:
 
 
 # ---------------------------------------------------------------------- sweep and regress
-#: The files ``bipedsim sweep`` writes into its --out folder (checked against its inputs).
-SWEEP_FILES = ("results.csv", "summary.json", "experiment.json", "push_polar.png")
-
-
 def cmd_sweep(args: argparse.Namespace) -> int:
+    from bipedsim.api import sweep
     from bipedsim.experiments.experiment import load_experiment
-    from bipedsim.experiments.sweep import check_backend, format_summary, interrupted_message, run_sweep
-    from bipedsim.files import check_distinct_paths, folder_files, prepare_output_dir
+    from bipedsim.experiments.sweep import format_summary, interrupted_message
 
-    check_backend(args.backend)  # before the output folder is made
-    exp = load_experiment(args.experiment)  # every check before any rollout
-    controllers = sorted({r.controller for r in exp.rows() if r.controller})
-    check_distinct_paths(folder_files("the --out file", args.out, SWEEP_FILES),
-                         [("the experiment file", args.experiment), ("its reference", exp.resolve(exp.spec.reference)),
-                          *(("its controller", c) for c in controllers)])
-    prepare_output_dir(args.out, "--out")
-    return _resumable("sweep", lambda: format_summary(run_sweep(exp, args.out, workers=args.workers,
-                                                                backend=args.backend, progress=sys.stderr.isatty()),
-                                                      args.out),
-                      lambda: interrupted_message(exp, args.out))
+    return _resumable("sweep", lambda: format_summary(sweep(args.experiment, args.out, workers=args.workers,
+                                                            backend=args.backend,
+                                                            progress=sys.stderr.isatty()).summary, args.out),
+                      lambda: interrupted_message(load_experiment(args.experiment), args.out))
 
 
 def _resumable(command: str, run: Callable[[], str], interrupted: Callable[[], str]) -> int:
@@ -216,21 +205,31 @@ def cmd_breed_world(args: argparse.Namespace) -> int:
 
 
 # ---------------------------------------------------------------------- tune
-#: The files ``bipedsim tune`` writes into its --out folder besides its history and state (checked
-#: against its inputs).
-TUNE_FILES = ("best.yaml", "convergence.png", "summary.json")
-
-
 def cmd_tune(args: argparse.Namespace) -> int:
-    from bipedsim.experiments.tune import format_tune_summary, interrupted_message, load_tune, run_tune
-    from bipedsim.experiments.tune.cmaes import HISTORY_FILE, STATE_FILE
-    from bipedsim.files import check_distinct_paths, folder_files
+    from bipedsim.api import tune
+    from bipedsim.experiments.tune import format_tune_summary, interrupted_message, load_tune
 
-    tune = load_tune(args.tune)  # every check before any rollout
-    check_distinct_paths(folder_files("the --out file", args.out, (*TUNE_FILES, HISTORY_FILE, STATE_FILE)),
-                         [("the tune file", args.tune), ("its controller", tune.controller_path),
-                          *(("its reference", r) for r in tune.references)])
-    return _resumable("tune", lambda: format_tune_summary(run_tune(tune, args.out, workers=args.workers,
-                                                                   backend=args.backend,
-                                                                   progress=sys.stderr.isatty()), args.out),
-                      lambda: interrupted_message(tune, args.out))
+    return _resumable("tune", lambda: format_tune_summary(tune(args.tune, args.out, workers=args.workers,
+                                                               backend=args.backend, progress=sys.stderr.isatty()),
+                                                          args.out),
+                      lambda: interrupted_message(load_tune(args.tune), args.out))
+
+
+# ---------------------------------------------------------------------- view (the live viewer)
+def cmd_view(args: argparse.Namespace) -> int:
+    from bipedsim.config import from_dict
+    from bipedsim.render.viewer import ViewSettings, display_problem, view
+    from bipedsim.sim.push import Push, check_pushes
+    from bipedsim.sim.runner import load_scenario
+
+    problem = display_problem()  # before minutes of loading
+    if problem:
+        print(f"bipedsim view: error: {problem}", file=sys.stderr)
+        return 2
+    given = {"seconds": args.seconds, "push_magnitude": args.push_force}
+    settings = from_dict(ViewSettings, {k: v for k, v in given.items() if v is not None})
+    pushes = [Push.parse(p) for p in args.push or []]
+    check_pushes(pushes, settings.seconds)
+    sc = load_scenario(args.config, args.bvh, profile=args.profile, reconstruct=args.reconstruct)
+    view(sc, pushes, settings, say=print)
+    return 0

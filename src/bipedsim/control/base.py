@@ -37,6 +37,12 @@ class Controller(ABC):
     control_dt: float | None = None
     #: the body pushes act on and fall detection watches (a body id: the pelvis, a creature's root)
     root_body: int = 1
+    #: added to the PD targets (rad) on every control step, in :meth:`target_names` order, before the
+    #: targets are held to their limits: a learned policy's residual (:mod:`bipedsim.envs`); None: none
+    #: (today's controller, bit for bit)
+    target_offset: FloatArray | None = None
+    #: whether :attr:`target_offset` replaces the PD targets (absolute targets) instead of adding to them
+    target_absolute: bool = False
 
     # ------------------------------------------------------------------ the control step
     def start_frame(self) -> int:
@@ -78,6 +84,11 @@ class Controller(ABC):
     @abstractmethod
     def foot_forces(self, data: mujoco.MjData) -> list[float]:
         """Each foot's vertical contact force now (N), in :meth:`foot_names` order."""
+
+    def target_names(self) -> tuple[str, ...]:
+        """What each entry of :attr:`target_offset` offsets (a hinge's name; a ball joint's ``name:x``,
+        ``:y``, ``:z`` rotation-vector components); () for a controller that takes no offset."""
+        return ()
 
     def gait_state(self) -> int:
         """The gait machine's state (1-4 for the SIMBICON FSM); 0 for a controller without one."""

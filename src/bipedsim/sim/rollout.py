@@ -12,7 +12,7 @@ import math
 import os
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Any
 
 import mujoco
@@ -23,14 +23,22 @@ from bipedsim.control.base import Controller
 from bipedsim.errors import ConfigError
 from bipedsim.model.creature_builder import trunk_bodies
 from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
+from bipedsim.sim.outcome import (  # noqa: F401 - the outcome's names, where they were always imported from
+    COM_DEVIATION_S,
+    COM_FIT_S,
+    OUTCOMES,
+    PUSH_NOT_APPLIED,
+    RECOVERY_FACTOR,
+    RECOVERY_HOLD_S,
+    RECOVERY_MARGIN_RAD,
+    Outcome,
+    _outcome,
+    not_applied,
+    recovery_metrics,
+)
 from bipedsim.sim.push import PushSchedule
 
 FloatArray = npt.NDArray[np.float64]
-#: A rollout with pushes that walked to its end without one of them (a phase-timed push whose gait
-#: state never came in time, or that the end of the run cut short): not a survived push.
-PUSH_NOT_APPLIED = "push_not_applied"
-OUTCOMES = ("no_fall", "fall", "diverged", PUSH_NOT_APPLIED)
-
 
 #: Longest interval (s) between fall checks: past a second a fall is seen long after it happened.
 MAX_CHECK_EVERY_S = 1.0
@@ -97,41 +105,6 @@ class FallCriteria:
             return FallCriteria(non_foot_contact=False, pelvis_height_fraction=0.0, torso_tilt=math.pi)
         return FallCriteria(non_foot_contact=False, pelvis_height_fraction=0.4, torso_tilt=1.4,
                             tilt_from="reference", trunk_contact=True)
-
-
-@dataclass
-class Outcome:
-    """One rollout's verdict, metrics and provenance."""
-
-    outcome: str
-    sim_seconds: float
-    fall_time_s: float | None
-    fall_reason: str | None
-    foot_strikes: int
-    distance_m: float
-    mean_speed_mps: float
-    reference_speed_mps: float
-    tracking_rmse_rad: float
-    wall_seconds: float
-    steps: int
-    resyncs: int
-    mean_resync_ratio: float | None
-    config: dict[str, Any] = field(default_factory=dict)
-    seed: int = 0
-    #: the COM's progress (m) along the reference's own course over the run, over ``sim_seconds``
-    #: (``mean_speed_mps`` counts displacement in any direction); None without a course (in place)
-    course_speed_mps: float | None = None
-    #: the COM's lateral offset (m, positive left) from the reference's course at the end
-    course_offset_m: float | None = None
-    versions: dict[str, str] = field(default_factory=dict)
-    extra: dict[str, Any] = field(default_factory=dict)
-    #: the run against its clip over the clip's own duration (:meth:`bipedsim.sim.fidelity.Fidelity.to_dict`:
-    #: root path distances m, path and speed ratios, joint-position error cm); None where not measured
-    #: (a run without a recorder, key poses)
-    fidelity: dict[str, Any] | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
 
 
 class FallDetector:
@@ -233,65 +206,6 @@ def diverged(data: mujoco.MjData) -> str | None:
     return None
 
 
-#: After a push, tracking counts as recovered once the error stays below the larger of
-#: RECOVERY_FACTOR x its pre-push median and that median + RECOVERY_MARGIN_RAD, for RECOVERY_HOLD_S.
-RECOVERY_FACTOR = 1.5
-RECOVERY_MARGIN_RAD = 0.03
-RECOVERY_HOLD_S = 0.5
-#: Window (s) before a push over which the centre of mass's course is fitted, and after it over which
-#: the deviation from that course is measured.
-COM_FIT_S, COM_DEVIATION_S = 1.0, 2.0
-
-
-def recovery_metrics(schedule: Any, t: FloatArray, err: FloatArray, com: FloatArray, strikes: list[float],
-                     spec: Any, nominal: tuple[FloatArray, FloatArray] | None = None) -> dict[str, Any]:
-    """Recovery time (s after the push ends), peak centre-of-mass deviation (m) and foot strikes
-    taken until recovered. The deviation is measured from the same rollout without the push
-    (``nominal``: times and COM) when given, else from the COM's straight pre-push course."""
-    out: dict[str, Any] = {"push_start_s": schedule.first_start, "push_end_s": schedule.last_end,
-                           "recovery_time_s": None, "peak_com_deviation_m": None, "steps_to_recover": None}
-    t0, t1 = schedule.first_start, schedule.last_end
-    if t0 is None or len(t) == 0:
-        return out
-    before = (t >= t0 - COM_FIT_S) & (t < t0)
-    if before.sum() >= 2:
-        base = float(np.median(err[before]))
-        thr = max(RECOVERY_FACTOR * base, base + RECOVERY_MARGIN_RAD)
-        a = np.stack([t[before], np.ones(before.sum())], axis=1)
-        coef = np.linalg.lstsq(a, com[before], rcond=None)[0]
-        after = (t >= t0) & (t <= t0 + COM_DEVIATION_S)
-        if after.any() and nominal is not None and len(nominal[0]):
-            nt, nc = nominal
-            pred = np.stack([np.interp(t[after], nt, nc[:, k]) for k in range(2)], axis=1)
-            out["peak_com_deviation_m"] = float(np.max(np.linalg.norm(com[after] - pred, axis=1)))
-        elif after.any():
-            pred = np.stack([t[after], np.ones(after.sum())], axis=1) @ coef
-            out["peak_com_deviation_m"] = float(np.max(np.linalg.norm(com[after] - pred, axis=1)))
-        hold = max(1, int(round(RECOVERY_HOLD_S / max(np.median(np.diff(t)), 1e-6))))
-        idx = np.flatnonzero(t >= t1)
-        below = err < thr
-        for k in idx:
-            if k + hold <= len(t) and below[k:k + hold].all():
-                out["recovery_time_s"] = float(t[k] - t1)
-                out["steps_to_recover"] = int(sum(1 for s in strikes if t0 <= s <= t[k]))
-                break
-    return out
-
-
-def not_applied(schedule: Any, sim_seconds: float, dt: float) -> list[str]:
-    """The pushes of ``schedule`` that did not act in full within ``sim_seconds`` (s), each as
-    "MAG:DIR:DUR:START: why". A push fires on the first physics step (``dt`` s) at or after its start,
-    so one that ends up to a step past the run's end counts as applied."""
-    out = [f"{p.describe()}: never started (its gait state did not come before the run ended at "
-           f"{sim_seconds:g} s)" if p.start is None else f"{p.describe()}: never started (the run ended at "
-           f"{sim_seconds:g} s)" for p in schedule.pending]
-    for a in schedule.fired:
-        if a.end > sim_seconds + dt * 1.5:
-            out.append(f"{a.push.describe()}: started at {a.start:.3f} s, cut short by the end of the run at "
-                       f"{sim_seconds:g} s")
-    return out
-
-
 @dataclass
 class RolloutSpec:
     seconds: float = 10.0
@@ -317,40 +231,6 @@ def _push_schedule(model: mujoco.MjModel, pushes: list[Any] | None, ctrl: Contro
     return schedule
 
 
-def _outcome(ctrl: Controller, spec: RolloutSpec, schedule: Any, verdict: tuple[str, float | None, str | None],
-             step: int, dt: float, dist: float, rmse: float, series: tuple[FloatArray, FloatArray, FloatArray],
-             nominal_com: tuple[FloatArray, FloatArray] | None, record_com: bool,
-             course: tuple[float, float] | None = None) -> Outcome:
-    """The rollout's verdict and metrics once the loop has ended at physics step ``step`` (its index)
-    having moved the root ``dist`` m; ``series``: time, tracking error and COM per control period;
-    ``course``: the COM's (progress, offset) on the reference's course (m), or None."""
-    outcome, fall_t, reason = verdict
-    sim_s = (step + 1) * dt
-    dist = dist if outcome != "diverged" else 0.0
-    course = course if outcome != "diverged" else None
-    metrics = ctrl.metrics()
-    strikes = ctrl.foot_strikes()
-    extra: dict[str, Any] = {k: v for k, v in metrics.items() if k not in ("resyncs", "mean_resync_ratio")}
-    series_t, series_err, series_com = series
-    if schedule is not None:
-        extra.update(recovery_metrics(schedule, series_t, series_err, series_com, [s[0] for s in strikes],
-                                      spec, nominal_com))
-        # only a run that reached its end: a fall or divergence is one, pushed in full or not
-        missed = not_applied(schedule, sim_s, dt) if outcome == "no_fall" else []
-        if missed:
-            extra["pushes_not_applied"] = missed
-            outcome = PUSH_NOT_APPLIED
-    if record_com:
-        extra["com_series"] = (series_t.copy(), series_com.copy())
-    return Outcome(outcome=outcome, sim_seconds=sim_s, fall_time_s=fall_t, fall_reason=reason,
-                   foot_strikes=len(strikes), distance_m=dist, mean_speed_mps=dist / sim_s if sim_s > 0 else 0.0,
-                   reference_speed_mps=ctrl.reference_speed(), tracking_rmse_rad=rmse, wall_seconds=0.0,
-                   steps=step + 1, resyncs=int(metrics.get("resyncs", 0)),
-                   mean_resync_ratio=metrics.get("mean_resync_ratio"), seed=spec.seed, extra=extra,
-                   course_speed_mps=course[0] / sim_s if course is not None and sim_s > 0 else None,
-                   course_offset_m=course[1] if course is not None else None)
-
-
 #: A hook called after every control step: (t, data, controller) -> None. Pushes and recorders use it.
 Hook = Callable[[float, mujoco.MjData, Controller], None]
 
@@ -373,6 +253,165 @@ def walk_window(model: mujoco.MjModel, data: mujoco.MjData, ctrl: Controller, st
     return True
 
 
+class Rollout:
+    """One rollout of any body under ``ctrl``, a control period at a time: the one loop, as a stepper.
+
+    Made, it has created the simulation state (``data``), started the controller at the rollout's start
+    and begun collecting MuJoCo's warnings; :meth:`step` runs one control period (the controller sets
+    the controls, the hooks run, the physics steps, the fall and divergence checks when due) and says
+    whether the rollout goes on; :meth:`finish` gives the :class:`Outcome`; :meth:`close` (or leaving a
+    ``with`` block) puts MuJoCo's warning handler and the controller's model changes back.
+    :func:`rollout` drives it to the end; :mod:`bipedsim.envs` drives it a step per action. The model's
+    state starts at ``initial_qpos``/``initial_qvel`` (the reference's pose at its start when given by
+    the caller; ``qvel_noise``, the seed's noise already in it, is added again when the controller's
+    reset re-poses the body and sets its velocities, as a creature's standing start does). ``data``: the
+    simulation state to run in (reset first); None: a new one."""
+
+    def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller, spec: RolloutSpec, *,
+                 initial_qpos: FloatArray | None = None, initial_qvel: FloatArray | None = None,
+                 qvel_noise: FloatArray | None = None, hooks: list[Hook] | None = None,
+                 before_step: list[Hook] | None = None, progress: Callable[[float], None] | None = None,
+                 pushes: list[Any] | None = None, nominal_com: tuple[FloatArray, FloatArray] | None = None,
+                 record_com: bool = False, data: mujoco.MjData | None = None) -> None:
+        self._t0 = time.perf_counter()
+        self.model, self.plan, self.ctrl, self.spec = model, plan, ctrl, spec
+        self.progress, self.nominal_com, self.record_com = progress, nominal_com, record_com
+        if data is None:
+            data = mujoco.MjData(model)
+        else:  # a state the caller keeps (a viewer shows it), reset to the model's defaults
+            mujoco.mj_resetData(model, data)
+        self.data = data
+        if initial_qpos is not None:
+            data.qpos[:] = initial_qpos
+        if initial_qvel is not None:
+            data.qvel[:] = initial_qvel
+        mujoco.mj_forward(model, data)
+        self.warnings = MujocoWarnings().start()
+        self._closed = False
+        try:
+            self._start(initial_qvel, qvel_noise, hooks, before_step, pushes)
+        except BaseException:
+            self.close()
+            raise
+
+    def _start(self, initial_qvel: FloatArray | None, qvel_noise: FloatArray | None, hooks: list[Hook] | None,
+               before_step: list[Hook] | None, pushes: list[Any] | None) -> None:
+        model, data, ctrl, spec = self.model, self.data, self.ctrl, self.spec
+        ctrl.reset(data, spec.start_frame)
+        if qvel_noise is not None and initial_qvel is not None and not np.array_equal(data.qvel, initial_qvel):
+            data.qvel[:] += qvel_noise  # the reset set the velocities: the seed's noise on those
+            mujoco.mj_forward(model, data)
+        fall = spec.fall or FallCriteria.for_body(self.plan.profile)
+        self.falls = FallDetector(model, self.plan, fall, data, root=ctrl.root_body)
+        self.dt = dt = model.opt.timestep
+        #: physics steps per control period; between fall checks; in the whole rollout
+        self.every = control_every(spec.control_dt if spec.control_dt is not None else ctrl.control_dt, dt)
+        self.check_every = max(1, int(round(fall.check_every / dt)))
+        self.n_steps = int(round(spec.seconds / dt))
+        self.start_xy = data.qpos[0:2].copy()
+        self.err2, self.n_err = 0.0, 0
+        #: "no_fall", "fall" or "diverged"; the time (s) and reason of a fall or divergence
+        self.verdict: tuple[str, float | None, str | None] = ("no_fall", None, None)
+        self.hooks = list(hooks or [])
+        self.before_step = list(before_step or [])
+        self.schedule = _push_schedule(model, pushes, ctrl, self.before_step)
+        # per control period: time (s), RMS tracking error (rad), COM xy (m); preallocated, not lists of
+        # floats and small arrays that cost ~10x the memory on long runs
+        n_ctrl = -(-self.n_steps // self.every) if self.schedule is not None or self.record_com else 0
+        self.series_t, self.series_err = np.empty(n_ctrl), np.empty(n_ctrl)
+        self.series_com = np.empty((n_ctrl, 2))
+        self.n_series = 0
+        #: physics steps taken; fall checks done; the next progress report (s)
+        self.step_index, self.checks, self.next_progress = 0, 0, 1.0
+        self.done = self.n_steps <= 0
+
+    @property
+    def time(self) -> float:
+        """Simulated time now (s)."""
+        return self.step_index * self.dt
+
+    def step(self) -> bool:
+        """One control period: control, then ``every`` physics steps (in one mj_step call when no hook
+        needs to see each step); the fall and divergence checks once per ``check_every`` physics steps
+        and at the end. Whether the rollout goes on (False once it has ended: its length reached, a
+        fall, a divergence)."""
+        if self.done:
+            return False
+        model, data, ctrl, dt, every = self.model, self.data, self.ctrl, self.dt, self.every
+        step, n_steps = self.step_index, self.n_steps
+        t = step * dt
+        u = ctrl(model, data, t, dt * every)
+        data.ctrl[:] = u
+        e = ctrl.tracking_error
+        ee = float(e.dot(e))
+        self.err2 += ee
+        self.n_err += len(e)
+        if len(self.series_t):
+            i = self.n_series
+            self.series_t[i] = t
+            self.series_err[i] = (ee / len(e)) ** 0.5
+            self.series_com[i] = data.subtree_com[1, :2]
+            self.n_series = i + 1
+        for hk in self.hooks:
+            hk(t, data, ctrl)
+        k = min(every, n_steps - step)
+        if self.before_step:
+            for i in range(k):
+                for hk in self.before_step:
+                    hk((step + i) * dt, data, ctrl)
+                mujoco.mj_step(model, data)
+        else:
+            mujoco.mj_step(model, data, k)
+        step += k
+        self.step_index = step
+        if step // self.check_every > self.checks or step >= n_steps:
+            self.checks = step // self.check_every
+            bad = diverged(data)
+            if bad:
+                self.verdict = ("diverged", step * dt, self.warnings.reason(bad))
+                self.done = True
+                return False
+            why = self.falls.check(data, ctrl)
+            if why:
+                self.verdict = ("fall", step * dt, why)
+                self.done = True
+                return False
+            if self.progress is not None and step * dt >= self.next_progress:
+                self.progress(step * dt)
+                self.next_progress += 1.0
+        self.done = step >= n_steps
+        return not self.done
+
+    def finish(self) -> Outcome:
+        """The rollout's :class:`Outcome` as it stands (after the last :meth:`step`: its verdict)."""
+        data, ctrl = self.data, self.ctrl
+        last = max(self.step_index - 1, 0)  # index of the last physics step taken
+        n = self.n_series
+        series = (self.series_t[:n], self.series_err[:n], self.series_com[:n])
+        result = _outcome(ctrl, self.spec, self.schedule, self.verdict, last, self.dt,
+                          float(np.linalg.norm(data.qpos[0:2] - self.start_xy)),
+                          float(np.sqrt(self.err2 / max(self.n_err, 1))), series, self.nominal_com, self.record_com,
+                          ctrl.course_progress(data))
+        result.wall_seconds = time.perf_counter() - self._t0
+        return result
+
+    def close(self) -> None:
+        """MuJoCo's warning handler and the controller's model changes put back (once)."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self.warnings.stop()
+        finally:
+            self.ctrl.restore_model()
+
+    def __enter__(self) -> Rollout:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
 def rollout(model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller,
             spec: RolloutSpec, *, initial_qpos: FloatArray | None = None, initial_qvel: FloatArray | None = None,
             qvel_noise: FloatArray | None = None,
@@ -380,89 +419,11 @@ def rollout(model: mujoco.MjModel, plan: BodyPlanSet, ctrl: Controller,
             progress: Callable[[float], None] | None = None, pushes: list[Any] | None = None,
             nominal_com: tuple[FloatArray, FloatArray] | None = None,
             record_com: bool = False) -> tuple[Outcome, Controller]:
-    """Run one rollout of any body under ``ctrl``. The model's state starts at ``initial_qpos``/
-    ``initial_qvel`` (the reference's pose at its start when given by the caller; ``qvel_noise``, the
-    seed's noise already in it, is added again when the controller's reset re-poses the body and sets
-    its velocities, as a creature's standing start does). Returns the outcome and the controller."""
-    t0 = time.perf_counter()
-    data = mujoco.MjData(model)
-    if initial_qpos is not None:
-        data.qpos[:] = initial_qpos
-    if initial_qvel is not None:
-        data.qvel[:] = initial_qvel
-    mujoco.mj_forward(model, data)
-    mj_warnings = MujocoWarnings().start()
-    try:
-        ctrl.reset(data, spec.start_frame)
-        if qvel_noise is not None and initial_qvel is not None and not np.array_equal(data.qvel, initial_qvel):
-            data.qvel[:] += qvel_noise  # the reset set the velocities: the seed's noise on those
-            mujoco.mj_forward(model, data)
-        fall = spec.fall or FallCriteria.for_body(plan.profile)
-        falls = FallDetector(model, plan, fall, data, root=ctrl.root_body)
-        dt = model.opt.timestep
-        every = control_every(spec.control_dt if spec.control_dt is not None else ctrl.control_dt, dt)
-        check_every = max(1, int(round(fall.check_every / dt)))
-        n_steps = int(round(spec.seconds / dt))
-        start_xy = data.qpos[0:2].copy()
-        err2, n_err = 0.0, 0
-        outcome, fall_t, reason = "no_fall", None, None
-        step = 0
-        hooks = list(hooks or [])
-        before_step = list(before_step or [])
-        schedule = _push_schedule(model, pushes, ctrl, before_step)
-        # per control period: time (s), RMS tracking error (rad), COM xy (m); preallocated, not lists of
-        # floats and small arrays that cost ~10x the memory on long runs
-        n_ctrl = -(-n_steps // every) if schedule is not None or record_com else 0
-        series_t, series_err = np.empty(n_ctrl), np.empty(n_ctrl)
-        series_com = np.empty((n_ctrl, 2))
-        n_series = 0
-        # one pass per control period: control, then `every` physics steps (in one mj_step call
-        # when no hook needs to see each step); fall checks once per `check_every` physics steps
-        step, checks, next_progress = 0, 0, 1.0
-        while step < n_steps:
-            t = step * dt
-            u = ctrl(model, data, t, dt * every)
-            data.ctrl[:] = u
-            e = ctrl.tracking_error
-            ee = float(e.dot(e))
-            err2 += ee
-            n_err += len(e)
-            if n_ctrl:
-                series_t[n_series] = t
-                series_err[n_series] = (ee / len(e)) ** 0.5
-                series_com[n_series] = data.subtree_com[1, :2]
-                n_series += 1
-            for hk in hooks:
-                hk(t, data, ctrl)
-            k = min(every, n_steps - step)
-            if before_step:
-                for i in range(k):
-                    for hk in before_step:
-                        hk((step + i) * dt, data, ctrl)
-                    mujoco.mj_step(model, data)
-            else:
-                mujoco.mj_step(model, data, k)
-            step += k
-            if step // check_every > checks or step >= n_steps:
-                checks = step // check_every
-                bad = diverged(data)
-                if bad:
-                    outcome, fall_t, reason = "diverged", step * dt, mj_warnings.reason(bad)
-                    break
-                why = falls.check(data, ctrl)
-                if why:
-                    outcome, fall_t, reason = "fall", step * dt, why
-                    break
-                if progress is not None and step * dt >= next_progress:
-                    progress(step * dt)
-                    next_progress += 1.0
-        step = max(step - 1, 0)  # index of the last physics step taken
-        series = (series_t[:n_series], series_err[:n_series], series_com[:n_series])
-        result = _outcome(ctrl, spec, schedule, (outcome, fall_t, reason), step, dt,
-                          float(np.linalg.norm(data.qpos[0:2] - start_xy)), float(np.sqrt(err2 / max(n_err, 1))),
-                          series, nominal_com, record_com, ctrl.course_progress(data))
-        result.wall_seconds = time.perf_counter() - t0
-        return result, ctrl
-    finally:
-        mj_warnings.stop()
-        ctrl.restore_model()
+    """Run one rollout of any body under ``ctrl`` to its end (:class:`Rollout`, stepped until it has
+    ended). Returns the outcome and the controller."""
+    with Rollout(model, plan, ctrl, spec, initial_qpos=initial_qpos, initial_qvel=initial_qvel,
+                 qvel_noise=qvel_noise, hooks=hooks, before_step=before_step, progress=progress, pushes=pushes,
+                 nominal_com=nominal_com, record_com=record_com) as run:
+        while run.step():
+            pass
+        return run.finish(), ctrl

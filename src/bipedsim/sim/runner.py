@@ -304,14 +304,7 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
     they load them)."""
     check_pushes(list(pushes or []), spec.seconds)
     ctrl = sc.controller()
-    frame = ctrl.start_frame()
-    spec = replace(spec, start_frame=float(frame) if spec.start_frame is None and ctrl.starts_moving
-                   else spec.start_frame, fall=spec.fall or sc.fall_criteria())
-    qpos0 = sc.clip.qpos[frame].copy()
-    qvel0 = sc.clip.qvel[frame].copy() if ctrl.starts_moving else np.zeros(sc.built.model.nv)
-    noise = seed_noise(spec, qvel0.shape)
-    if noise is not None:
-        qvel0 = qvel0 + noise
+    spec, qpos0, qvel0, noise = start_state(sc, spec, ctrl)
     nominal = None
     if pushes:
         # the same rollout without pushes, for the centre-of-mass deviation (cached per scenario);
@@ -328,13 +321,34 @@ def run_scenario(sc: Scenario, spec: RolloutSpec, *, hooks: list | None = None, 
     out, ctrl = rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=qpos0, initial_qvel=qvel0,
                         qvel_noise=noise, hooks=hooks, before_step=before_step, progress=progress, pushes=pushes,
                         nominal_com=nominal)
+    record_made(out, sc, spec, pushes)
+    return out, ctrl
+
+
+def start_state(sc: Scenario, spec: RolloutSpec, ctrl: Controller
+                ) -> tuple[RolloutSpec, FloatArray, FloatArray, FloatArray | None]:
+    """Where a rollout of ``sc`` under ``ctrl`` starts: ``spec`` with its start frame (the controller's,
+    when it starts moving) and fall criteria (the scenario's) filled in, the initial qpos and qvel (the
+    clip's at that frame, the seed's velocity noise added) and that noise (None without)."""
+    frame = ctrl.start_frame()
+    spec = replace(spec, start_frame=float(frame) if spec.start_frame is None and ctrl.starts_moving
+                   else spec.start_frame, fall=spec.fall or sc.fall_criteria())
+    qpos0 = sc.clip.qpos[frame].copy()
+    qvel0 = sc.clip.qvel[frame].copy() if ctrl.starts_moving else np.zeros(sc.built.model.nv)
+    noise = seed_noise(spec, qvel0.shape)
+    if noise is not None:
+        qvel0 = qvel0 + noise
+    return spec, qpos0, qvel0, noise
+
+
+def record_made(out: Outcome, sc: Scenario, spec: RolloutSpec, pushes: list | None = None) -> None:
+    """Record in ``out`` what made it: the scenario, the run's settings and pushes, the versions."""
     out.config = {"profile": sc.profile, "controller": sc.controller_config(), "controller_file": sc.config_path,
                   "reference": sc.source_path, "model": sc.built.plan.name, "model_hash": sc.built.hash,
                   "seconds": spec.seconds, "fall": to_dict(spec.fall), "init_noise": spec.init_noise,
                   "timestep_s": float(sc.built.model.opt.timestep),
                   "pushes": [to_dict(p) for p in (pushes or [])], "reading": reading_record(sc.bvh_info)}
     out.versions = versions()
-    return out, ctrl
 
 
 def seed_noise(spec: RolloutSpec, shape: tuple[int, ...]) -> FloatArray | None:

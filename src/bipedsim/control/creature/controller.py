@@ -108,6 +108,29 @@ class CreatureController(Controller):
         self.track.frame = value
 
     @property
+    def target_offset(self) -> FloatArray | None:  # type: ignore[override]
+        """The PD targets' offset (rad; three rotation-vector components per ball joint, flat), held by
+        the body (:meth:`CreatureBody.joint_error` applies it); None: none."""
+        off = self.body.target_offset
+        return None if off is None else off.ravel()
+
+    @target_offset.setter
+    def target_offset(self, value: FloatArray | None) -> None:
+        self.body.target_offset = None if value is None else np.asarray(value, dtype=float).reshape(-1, 3)
+
+    @property
+    def target_absolute(self) -> bool:  # type: ignore[override]
+        return self.body.target_absolute
+
+    @target_absolute.setter
+    def target_absolute(self, value: bool) -> None:
+        self.body.target_absolute = bool(value)
+
+    def target_names(self) -> tuple[str, ...]:
+        """Each ball joint's rotation-vector components (``name:x``, ``:y``, ``:z``, joint frame)."""
+        return tuple(f"{n}:{a}" for n in self.body.joint_names for a in "xyz")
+
+    @property
     def tracking_error(self) -> FloatArray:
         """Per ball joint, the last control step's rotation error (rad)."""
         return self.track.tracking_error

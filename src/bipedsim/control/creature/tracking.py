@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray
 from bipedsim.control.creature.settings import CreatureControlConfig
@@ -74,10 +75,21 @@ class CreatureBody:
         self.mass = float(np.sum(model.body_mass))
         self.weight = self.mass * -float(model.opt.gravity[2])
         self.torque = np.zeros(model.nu)
+        #: see :attr:`bipedsim.control.base.Controller.target_offset`; here (balls, 3) rad, None: none
+        self.target_offset: FloatArray | None = None
+        self.target_absolute = False
 
     def joint_error(self, data: mujoco.MjData, target: FloatArray) -> FloatArray:
-        """(balls, 3) rotation vectors (rad, joint frame) from each ball joint's pose to ``target``'s."""
-        return quat_error_rotvecs(data.qpos[self.quat_idx], target[self.quat_idx])
+        """(balls, 3) rotation vectors (rad, joint frame) from each ball joint's pose to ``target``'s,
+        with :attr:`target_offset` (rad, (balls, 3)) added (a policy's residual, to first order a rotation
+        of the target by it); with :attr:`target_absolute`, to the offset's own orientations instead
+        (rotation vectors from the parent frame)."""
+        q = data.qpos[self.quat_idx]
+        if self.target_offset is None:
+            return quat_error_rotvecs(q, target[self.quat_idx])
+        if self.target_absolute:
+            return quat_error_rotvecs(q, Rotation.from_rotvec(self.target_offset).as_quat(scalar_first=True))
+        return quat_error_rotvecs(q, target[self.quat_idx]) + self.target_offset
 
     def damp(self) -> None:
         """The model's joint damping plus each ball joint's kd (the PD's -kd omega, integrated implicitly)."""

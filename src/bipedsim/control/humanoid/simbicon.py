@@ -185,6 +185,10 @@ class SimbiconController(Controller):
     def foot_names(self) -> tuple[str, ...]:
         return FOOT_ORDER
 
+    def target_names(self) -> tuple[str, ...]:
+        """The tracked hinges, in PD target order."""
+        return tuple(self.hinges.names)
+
     def foot_forces(self, data: mujoco.MjData) -> list[float]:
         return [sum(float(data.sensordata[a]) for a in self.tables.touch[s]) for s in FOOT_ORDER]
 
@@ -256,6 +260,11 @@ class SimbiconController(Controller):
         corr = self._corr = self.correction.at(self.frame) if self.correction is not None else None
         if corr is not None:
             q_d += corr[:self.tables.kp.shape[0]]
+        if self.target_offset is not None:  # a policy's residual or absolute targets (Controller.target_offset)
+            if self.target_absolute:
+                q_d[:] = self.target_offset
+            else:
+                q_d += self.target_offset
         np.minimum(np.maximum(q_d, tb.tlo, out=q_d), tb.thi, out=q_d)
         tau = pd_torques(self.drive, q_d, q, qd, qd_d)
         if cfg.pd.gravity_compensation:

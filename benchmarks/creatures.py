@@ -2,14 +2,17 @@
 clip's own, for the creature balance controller and, as the baseline, PD tracking alone.
 
     python benchmarks/creatures.py [--seconds 20] [--seeds 3] [--animals ../shared/data/bvh/animal] [--only WORD ...]
-                                   [--config CONTROLLER.yaml]
+                                   [--config CONTROLLER.yaml] [--clips /work/clips/creatures] [--children]
 
 The controller is the registered creature controller (the planned gait, ``gait: planned``); two
 baselines from the clip's start frame: the clip-timed balance controller (``gait: clip``, the controller
 before the planned gait) and PD tracking alone.
 
-Clips: every ``*.bvh`` in the shared animal folder, the shipped horse walk, and a child bred from the
-shared dog and the horse (``bipedsim breed``'s package function, no mutations). Each row is one
+Clips: every ``*.bvh`` in the shared animal folder, the shipped horse walk, a child bred from the
+shared dog and the horse (``bipedsim breed``'s package function, no mutations), the public creature
+clips of :data:`PUBLIC_CREATURES` found under ``--clips`` (each named by its repository and commit;
+absent ones are listed as skipped), and with ``--children`` the children of every ordered pair of the
+shared and shipped walkers (dog, horse, flamingo) bred with ``bipedsim breed``'s defaults. Each row is one
 rollout from the controller's start frame through the one rollout loop; the body kind is measured from
 the skeleton (no --profile). ``speed %`` is the simulated mean speed (straight-line distance / time)
 against the clip's own mean root speed over its looped part; an in-place clip (clip speed under
@@ -39,6 +42,13 @@ REPO = Path(__file__).resolve().parent.parent
 ANIMALS = REPO.parent / "shared" / "data" / "bvh" / "animal"
 #: a clip whose root moves slower than this (m/s) walks in place
 IN_PLACE_MPS = 0.1
+#: where the public creature clips are collected (never in the repository; /work/clips/MANIFEST.md)
+CLIPS = Path("/work/clips/creatures")
+#: public creature clips: (file under --clips, repository, commit, path in it, kind)
+PUBLIC_CREATURES: tuple[tuple[str, str, str, str, str], ...] = (
+    ("monkey/truebones_monkey_walk_inplace.bvh", "LinghaoChan/Motion2Motion_codes",
+     "751d114785141491895b88719198128add1e2b61", "data/processed/Monkey/__Walk.bvh", "monkey, walk in place"),
+)
 
 
 def clip_speed(sc, ctrl) -> float:
@@ -77,7 +87,7 @@ def row(name: str, path: Path, seconds: float, seeds: int = 1, config: Path | No
         sc = load_scenario(config, bvh=path)
         out, ctrl = run_scenario(sc, RolloutSpec(seconds=seconds))
     except Exception as exc:  # noqa: BLE001 - a benchmark reports and goes on
-        return f"| {name} | refused: {exc} | | | | | | | |"
+        return f"| {name} | refused: {exc} | | | | | | | | |"
     base = baseline(sc, seconds)
     timed = baseline(sc, seconds, CreatureBalanceConfig(gait="clip"))
     t_timed = timed.fall_time_s or timed.sim_seconds
@@ -87,7 +97,8 @@ def row(name: str, path: Path, seconds: float, seeds: int = 1, config: Path | No
     t_base = base.fall_time_s or base.sim_seconds
     fall = f"{out.fall_time_s:.2f} s ({out.fall_reason})" if out.fall_time_s is not None else "-"
     return (f"| {name} | {sc.profile}, {len(getattr(ctrl, 'legs', []))} legs | {out.outcome} | {fall} | "
-            f"{out.mean_speed_mps:.2f} / {v_clip:.2f} m/s ({speed}) | {timed.outcome} at {t_timed:.2f} s | "
+            f"{out.mean_speed_mps:.2f} / {v_clip:.2f} m/s ({speed}) | {out.tracking_rmse_rad:.3f} rad | "
+            f"{timed.outcome} at {t_timed:.2f} s | "
             f"{base.outcome} at {t_base:.2f} s | {t_bal / max(t_base, 1e-9):.2f} | "
             f"{over_seeds(sc, out, v_clip, seconds, seeds)} |")
 
@@ -101,6 +112,9 @@ def main() -> int:
                     help="only the clips whose row name contains one of these words (e.g. child horse)")
     ap.add_argument("--config", type=Path, default=None,
                     help="a controller YAML (its creature: section) instead of the defaults")
+    ap.add_argument("--clips", type=Path, default=CLIPS, help="folder of the public creature clips")
+    ap.add_argument("--children", action="store_true",
+                    help="also the children (breed defaults) of every ordered pair of dog, horse, flamingo")
     args = ap.parse_args()
     clips = [(p.stem, p) for p in sorted(args.animals.glob("*.bvh"))] + [("horse_walk (shipped)", HORSE_WALK)]
     dog = args.animals / "mann_dog_D1_007_KAN01_001_locomotion.bvh"
@@ -109,10 +123,26 @@ def main() -> int:
         child = tmp / "dog_x_horse.bvh"
         breed_files(dog, HORSE_WALK, child, mutations=0)
         clips.append(("child of dog x horse (bred)", child))
+    for rel, repo, commit, src, kind in PUBLIC_CREATURES:
+        f = args.clips / rel
+        if f.is_file():
+            clips.append((f"{kind} ({repo}@{commit[:7]}:{src})", f))
+        else:
+            print(f"skipped (absent): {f} ({repo}@{commit[:7]}:{src})")
+    if args.children:
+        walkers = [("dog", dog), ("horse", HORSE_WALK),
+                   ("flamingo", args.animals / "truebones_flamingo_walk_inplace.bvh")]
+        walkers = [(n, f) for n, f in walkers if Path(f).is_file()]
+        for na, fa in walkers:
+            for nb, fb in walkers:
+                if na != nb:
+                    child = tmp / f"{na}_x_{nb}_defaults.bvh"
+                    breed_files(fa, fb, child)  # bipedsim breed's defaults (5 mutations)
+                    clips.append((f"child of {na} x {nb} (breed defaults)", child))
     print(f"{args.seconds:g} s per rollout, no support, no flags\n")
-    print("| clip | body | outcome | fall | speed sim / clip | clip-timed balance (gait: clip) | baseline (PD only) "
-          f"| survival ratio | seeds at goal (of {args.seeds}) |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| clip | body | outcome | fall | speed sim / clip | tracking RMSE | clip-timed balance (gait: clip) "
+          f"| baseline (PD only) | survival ratio | seeds at goal (of {args.seeds}) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     if args.only:
         clips = [(name, path) for name, path in clips if any(w.lower() in name.lower() for w in args.only)]
     for name, path in clips:

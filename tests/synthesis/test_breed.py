@@ -96,6 +96,34 @@ def test_activity_and_mutation_remove_exactly_n_lowest_and_honour_weights() -> N
         mutate(meta, act, act, count=1, weights={"Nope": 1.0})
 
 
+def test_mutation_never_removes_a_kept_joint_nor_a_joint_above_one() -> None:
+    # Hips -> J1 -> J2 (the kept "foot"), Hips -> J3, Hips -> J4: J1 and J2 are the least active
+    m = chain(["Hips", "J1", "J2", "J3", "J4"], [-1, 0, 1, 0, 0],
+              [[0, 0, 0], [0.1, 0, -0.5], [0, 0, -0.5], [0, 0.1, -0.5], [0, -0.1, -0.5]],
+              amp=[0.0, 0.01, 0.02, 0.4, 0.6])
+    act = joint_activity(m)
+    meta = crossover(m.skeleton, m.skeleton)
+    assert mutate(meta, act, act, count=1).removed == ["J1"]  # without keep: the foot's leg goes
+    res = mutate(meta, act, act, count=4, keep={2})
+    assert "J1" not in res.removed_all and "J2" not in res.removed_all
+    assert sorted(res.removed) == ["J3", "J4"]  # fewer than asked: only these may go
+
+
+def test_bred_child_keeps_every_foot_of_its_parents() -> None:
+    """Default mutations (5) on the shipped horse and pterosaur: the horse's four hooves (measured as
+    feet from its clip) and their legs stay in the child, so its body kind is found without --profile."""
+    from bipedsim.model.creature_kind import detect_body_kind
+    from bipedsim.synthesis.breed.mutation import support_joints
+
+    horse = load_bvh(HORSE_WALK)
+    feet = support_joints(horse.to_project_frame())
+    assert len(feet) == 4
+    child, rep = breed(horse, load_bvh(PTEROSAUR_FLIGHT), mutations=5)
+    assert feet <= set(child.skeleton.names)
+    assert not feet & set(rep.removed_with_subtrees)
+    assert len(detect_body_kind(child).legs) == 4
+
+
 def test_survivor_reproduces_c1_plus_x_d() -> None:
     a = chain(A_NAMES, A_PARENTS, OFF4, frames=30)
     b = chain(B_NAMES, B_PARENTS, OFF5, frames=30, seed=3)
@@ -148,11 +176,13 @@ def test_sample_creatures_regenerate_identically() -> None:
 
 def test_horse_pterosaur_child_keeps_or_loses_wings() -> None:
     h, p = load_bvh(HORSE_WALK), load_bvh(PTEROSAUR_FLIGHT)
-    raised, rep_r = breed(h, p, weights={w: 5.0 for w in WINGS})
-    lowered, rep_l = breed(h, p, weights={w: -5.0 for w in WINGS})
+    # the horse's legs, spine and chest carry its hooves and are never removed: the head and the tail
+    # are what remains to go besides the wings
+    raised, rep_r = breed(h, p, weights={w: 5.0 for w in WINGS}, mutations=2)
+    lowered, rep_l = breed(h, p, weights={"LeftWing1": -5.0, "RightWing1": -5.0}, mutations=2)
     assert set(WINGS) <= set(raised.skeleton.names)
     assert not set(WINGS) & set(lowered.skeleton.names)
-    assert len(rep_r.removed) == len(rep_l.removed) == 5
+    assert len(rep_r.removed) == len(rep_l.removed) == 2
     for child in (raised, lowered):
         assert child.fk()[0][..., 2].min() >= -1e-9
 

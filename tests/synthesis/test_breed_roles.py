@@ -328,7 +328,7 @@ def test_child_bvh_reads_back_as_bred(tmp_path: Path) -> None:
     """B's joints hang under A's in the child (the pterosaur's wings on the horse's chest): the child is
     kept in file (depth-first) order, so its BVH reads back to the same pose, joint by joint."""
     child, _ = breed(load_bvh(HORSE_WALK), load_bvh(PTEROSAUR_FLIGHT), weights={"LeftWing1": 5.0,
-                                                                                 "RightWing1": 5.0})
+                                                                                 "RightWing1": 5.0}, mutations=2)
     assert "LeftWing1" in child.skeleton.names
     write_bvh(child.with_up("y").scaled(100.0), tmp_path / "c.bvh", precision=6)
     back = load_bvh(tmp_path / "c.bvh")

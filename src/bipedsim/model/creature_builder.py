@@ -357,9 +357,16 @@ class Leg:
     feet: tuple[str, ...]
 
 
+#: a body from which two branches each reach a foot along at least this fraction of the longest
+#: root-to-foot chain joins two legs (a chest whose head a mutation removed carries both fore legs);
+#: a bird's toes branch within a few percent of it
+LEG_JOIN_FRACTION = 0.25
+
+
 def creature_legs(plan: BodyPlanSet) -> list[Leg]:
     """The legs of a creature body plan: each foot body's chain walked up while the body's subtree
-    ends only in feet (never up to the root body); feet sharing that leg root are one leg; a chain of
+    ends only in feet and does not join two legs (:data:`LEG_JOIN_FRACTION`), never up to the root
+    body; feet sharing that leg root are one leg; a chain of
     fewer than MIN_LEG_JOINTS bodies (one bone hanging from the trunk) is no leg. In the order of the
     first foot of each leg in ``plan.foot_bodies``."""
     feet = set(plan.foot_bodies)
@@ -374,10 +381,28 @@ def creature_legs(plan: BodyPlanSet) -> list[Leg]:
         kids = children[b.name]
         leaves[b.name] = {b.name} if not kids else set().union(*(leaves[k] for k in kids))
 
+    pos = {b.name: np.asarray(b.pos, dtype=float) for b in plan.bodies}
+
+    def reach(b: str) -> float:  # (m) along the bones from b's parent down to b's farthest foot
+        best = 0.0
+        for f in leaves[b] & feet:
+            d, x = 0.0, f
+            while x != b:
+                d += float(np.linalg.norm(pos[x] - pos[parent[x]]))  # type: ignore[index]
+                x = parent[x]  # type: ignore[assignment]
+            best = max(best, d + float(np.linalg.norm(pos[b] - pos[parent[b]])))  # type: ignore[index]
+        return best
+
+    longest = max((reach(c) for b in plan.bodies for c in children[b.name] if b.parent is None), default=0.0)
+
+    def joins_legs(p: str) -> bool:  # two branches of p each carry a foot from a leg's length away
+        return sum(reach(c) >= LEG_JOIN_FRACTION * longest for c in children[p] if leaves[c] & feet) >= 2
+
     roots: dict[str, list[str]] = {}
     for f in plan.foot_bodies:
         r, joints = f, 1
-        while parent[r] is not None and parent[parent[r]] is not None and leaves[parent[r]] <= feet:
+        while (parent[r] is not None and parent[parent[r]] is not None and leaves[parent[r]] <= feet
+               and not joins_legs(parent[r])):  # type: ignore[arg-type]
             r = parent[r]  # type: ignore[assignment]
             joints += 1
         if parent[r] is None or joints < MIN_LEG_JOINTS:

@@ -29,6 +29,7 @@ import numpy as np
 from bipedsim.errors import ModelError
 from bipedsim.model.source import motion_points
 from bipedsim.motion.bvh import read_bvh
+from bipedsim.motion.helper_bones import drop_helper_bones
 from bipedsim.motion.motion import Motion, check_extent
 from bipedsim.motion.reroot import fold_static_root
 
@@ -258,6 +259,7 @@ def read_source(path: str | os.PathLike[str], *, scale: float | str | None = Non
     would otherwise read as a 1.3 m human in inches (2.54 x too large)."""
     raw, info = read_bvh(path, scale=scale, up=up, positions=positions, fps=fps)
     check_extent(raw, path)  # nothing below is computed from a corrupt or misread motion
+    raw = _without_helpers(raw, info)
     motion = raw.to_project_frame()
     forced = profile not in (None, AUTO)
     profile = resolve_profile(motion, profile, support=support, source=str(path))
@@ -267,6 +269,7 @@ def read_source(path: str | os.PathLike[str], *, scale: float | str | None = Non
     if shaped and info.unit_source == "guessed" and info.upright:
         raw, info = read_bvh(path, up=up, positions=positions, upright=False, fps=fps)
         check_extent(raw, path)  # read at another unit
+        raw = _without_helpers(raw, info)
         motion = raw.to_project_frame()
     # a static root at the floor with the body's translation on its one child (a game-data layout):
     # the floor joint is folded away, not built as a bone
@@ -274,6 +277,15 @@ def read_source(path: str | os.PathLike[str], *, scale: float | str | None = Non
     if folded is not None:
         motion = raw.to_project_frame()
     return raw, info, motion, profile
+
+
+def _without_helpers(raw: Motion, info: BVHInfo) -> Motion:
+    """``raw`` without its rig's control, IK and helper bones (:mod:`bipedsim.motion.helper_bones`,
+    measured from the clip), with a line in ``info.notes`` naming them."""
+    body, found = drop_helper_bones(raw)
+    if found.names:
+        info.notes.append(f"rig helpers left out of the body ({len(found.names)}): {found.describe()}")
+    return body
 
 
 __all__ = ["AUTO", "BodyKind", "detect_body_kind", "read_source", "resolve_profile"]

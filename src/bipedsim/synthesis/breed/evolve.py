@@ -46,7 +46,7 @@ from bipedsim.synthesis.breed.alignment import _folded_b_joints, across_unpaired
 from bipedsim.synthesis.breed.floor import floor_constraint
 from bipedsim.synthesis.breed.limits import X_RANGE, BreedError, max_breed_frames
 from bipedsim.synthesis.breed.meta_skeleton import MetaSkeleton, crossover, load_joint_map
-from bipedsim.synthesis.breed.mutation import joint_activity, mutate
+from bipedsim.synthesis.breed.mutation import joint_activity, mutate, support_joints
 from bipedsim.synthesis.breed.transfer import survivor
 
 __all__ = ["X_RANGE", "BreedError", "BreedReport", "MetaSkeleton", "breed", "crossover", "depth_first",
@@ -91,6 +91,8 @@ class BreedReport:
     only_b: list[str] = field(default_factory=list)
     removed: list[str] = field(default_factory=list)
     removed_with_subtrees: list[str] = field(default_factory=list)
+    #: the parents' feet (joints measured as carrying them in their clips): never removed, nor above them
+    feet_kept: list[str] = field(default_factory=list)
     activity: dict[str, float] = field(default_factory=dict)
     pca_weights: tuple[float, float] = (0.0, 0.0)
     floor_fixes: int = 0
@@ -170,6 +172,7 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
         mapping = {alias_a.get(k, k): alias_b.get(v, v) for k, v in mapping.items()}
         reasons, source = {k: "--map" for k in mapping}, "--map"
     tm["correspondence"] = time.perf_counter() - t0
+    feet_a, feet_b = support_joints(a), support_joints(b)  # what each parent stands on, from its clip
     if not np.isclose(a.frame_time, b.frame_time):
         b = b.resample(a.fps)
     a, b = on_typical_rest(a), on_typical_rest(b)
@@ -183,7 +186,10 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     b = across_unpaired(meta, a.skeleton, b)
     tm["crossover"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    mut = mutate(meta, act_a, act_b, mutations, weights)
+    feet = {i for i in range(meta.skeleton.num_joints)
+            if (meta.from_a[i] is not None and a.skeleton.names[meta.from_a[i]] in feet_a)
+            or (meta.from_b[i] is not None and b.skeleton.names[meta.from_b[i]] in feet_b)}
+    mut = mutate(meta, act_a, act_b, mutations, weights, keep=feet)
     tm["mutation"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     surv = survivor(meta, a, b, x=x)
@@ -203,7 +209,8 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
                       pca_weights=mut.pca_weights, floor_fixes=fixes, timings_s=tm,
                       child_joints=child_sk.num_joints, child_frames=child.num_frames,
                       correspondence=_pairs_used(meta, b.skeleton), correspondence_reasons=_reasons_used(meta, reasons),
-                      map_source=source, folded_roots=folded, role_evidence=evidence, roles=roles)
+                      map_source=source, folded_roots=folded, role_evidence=evidence, roles=roles,
+                      feet_kept=sorted(meta.skeleton.names[i] for i in feet))
     return child, rep
 
 

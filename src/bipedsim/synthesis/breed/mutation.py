@@ -1,7 +1,8 @@
 """2. Mutation: each joint's activity (the standard deviation over time of the angle its bone turns
 between frames), the parents' activities combined by PCA into one score per meta joint (a joint as lively
 as the liveliest part it carries, plus user weights), and the lowest-scored joints removed with their
-subtrees."""
+subtrees. A mutation never removes what the creature stands on: the joints that carry a parent's feet
+(measured from its clip, :func:`support_joints`) and every joint above them are kept."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from bipedsim.model.creature_kind import detect_body_kind
 from bipedsim.motion.motion import Motion
 from bipedsim.synthesis.breed.limits import BreedError
 from bipedsim.synthesis.breed.meta_skeleton import MetaSkeleton
@@ -97,9 +99,25 @@ def activity_scores(meta: MetaSkeleton, act_a: FloatArray, act_b: FloatArray,
     return carried, (wa, wb)
 
 
+def support_joints(motion: Motion) -> set[str]:
+    """Names of the joints that carry ``motion``'s feet: each foot's joint (the joint of a low tip,
+    :func:`~bipedsim.model.creature_kind.detect_body_kind`, measured from the clip, not from names).
+    A mutation keeps them and every joint above them."""
+    sk = motion.skeleton
+    out: set[str] = set()
+    for _, feet in detect_body_kind(motion).legs:
+        for f in feet:
+            out.add(f.split("/")[0])  # "Joint/End Site" -> the joint the End Site hangs from
+    return {n for n in out if n in sk.names}
+
+
 def mutate(meta: MetaSkeleton, act_a: FloatArray, act_b: FloatArray, count: int = 5,
-           weights: dict[str, float] | None = None) -> MutationResult:
-    """Choose the ``count`` lowest-scored joints (root never) and remove them with their subtrees."""
+           weights: dict[str, float] | None = None, keep: set[int] | None = None) -> MutationResult:
+    """Choose the ``count`` lowest-scored joints (root never) and remove them with their subtrees.
+
+    ``keep``: meta joints never removed, nor any joint whose subtree holds one (a creature's feet: a
+    mutation never removes what it stands on); when fewer than ``count`` joints remain removable, the
+    removable ones go."""
     sk = meta.skeleton
     score, w = activity_scores(meta, act_a, act_b, weights)
     if count < 0:
@@ -108,16 +126,18 @@ def mutate(meta: MetaSkeleton, act_a: FloatArray, act_b: FloatArray, count: int 
     if count > removable:
         raise BreedError(f"{count} mutations asked, but only {removable} joints can be removed (the root stays)")
     order = sorted(range(1, sk.num_joints), key=lambda j: (score[j], j))
+    kept = set(keep or ())
+    carries = {j for j in range(sk.num_joints) if kept.intersection(sk.subtree(j))}
     gone: set[int] = set()
     chosen: list[int] = []
     for j in order:
         if len(chosen) == count:
             break
-        if j in gone:
+        if j in gone or j in carries:
             continue
         chosen.append(j)
         gone.update(sk.subtree(j))
-    if len(chosen) < count:
+    if len(chosen) < count and not carries:
         raise BreedError(f"{count} mutations asked, but removing subtrees left only {len(chosen)} joints to choose")
     return MutationResult(removed=[sk.names[j] for j in chosen], removed_all=[sk.names[j] for j in sorted(gone)],
                           scores={sk.names[j]: float(score[j]) for j in range(sk.num_joints)}, pca_weights=w)

@@ -48,6 +48,7 @@ from bipedsim.control.humanoid.tracking import (
 )
 from bipedsim.control.settings import ControllerConfig, for_body
 from bipedsim.errors import ModelError
+from bipedsim.model.ground import Terrain
 from bipedsim.model.plan import BodyPlanSet
 from bipedsim.reference.clip import ReferenceClip
 
@@ -121,6 +122,8 @@ class SimbiconController(Controller):
         #: the feed-forward correction under the controller (:mod:`~bipedsim.control.humanoid.correction`)
         self.correction: Correction | LiveCorrection | None = None
         self._corr: FloatArray | None = None  #: this step's offsets
+        #: the ground's height and normal queries (:class:`~bipedsim.model.ground.Terrain`; None: flat at z = 0)
+        self.terrain: Terrain | None = None
         self.drive.scale_gains(1.0)  # the gain tables; the model itself is left as it was
         self.restore_model()
 

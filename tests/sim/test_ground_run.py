@@ -90,3 +90,17 @@ def test_cli_run_saves_the_ground_in_model_xml(tmp_path) -> None:
     assert "bipedsim.ground" in (out / "model.xml").read_text()
     rec = json.loads((out / "outcome.json").read_text())
     assert rec["config"]["ground"] == ["slope:4", "friction:0.8"]
+
+
+def test_suite_and_experiment_files_name_a_bad_ground_term(tmp_path) -> None:
+    from bipedsim.errors import ConfigError
+    from bipedsim.experiments.experiment import load_experiment, load_suite
+
+    suite = tmp_path / "suite.yaml"
+    suite.write_text("scenarios:\n  - {name: a, ground: ['slope:8', 'step:1:3']}\n")
+    with pytest.raises(ConfigError, match=r"suite.yaml: scenarios\[0\]\.ground\[1\]: 'step:1:3': a step's height"):
+        load_suite(suite)
+    exp = tmp_path / "exp.yaml"
+    exp.write_text("ground: ['hill']\nruns: [{magnitude: 10, start: 1.0}]\n")
+    with pytest.raises(ConfigError, match=r"exp.yaml: ground: unknown ground 'hill'"):
+        load_experiment(exp)

@@ -278,7 +278,7 @@ class Terrain:
         s, lat = self.local(x, y)
         h = self._tan * s + self.level(s)
         if self._waves is not None:
-            h += float(self._waves.height(np.array([s]), np.array([lat]))[0])
+            h += self._waves.at(s, lat)
         return h
 
     def normal(self, x: float, y: float) -> tuple[float, float, float]:
@@ -306,6 +306,11 @@ class _Waves:
     k: FloatArray  #: (N, 2) wave vectors (rad/m) along (along, left)
     phase: FloatArray  #: (N,) rad
     scale: float  #: m per unit of the summed waves
+    _rows: tuple[tuple[float, float, float], ...] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        rows = tuple((float(a), float(b), float(c)) for (a, b), c in zip(self.k, self.phase))
+        object.__setattr__(self, "_rows", rows)
 
     def _ramp(self, s: FloatArray) -> FloatArray:
         return np.clip((np.abs(s) - ROUGH_FLAT_M) / (ROUGH_RAMP_M - ROUGH_FLAT_M), 0.0, 1.0)
@@ -315,6 +320,16 @@ class _Waves:
 
     def height(self, s: FloatArray, lat: FloatArray) -> FloatArray:
         return self.scale * self.raw(s, lat) * self._ramp(s)
+
+    def at(self, s: float, lat: float) -> float:
+        """:meth:`height` at one point (plain floats: the controller asks a few dozen times a step)."""
+        ramp = min(max((abs(s) - ROUGH_FLAT_M) / (ROUGH_RAMP_M - ROUGH_FLAT_M), 0.0), 1.0)
+        if ramp == 0.0:
+            return 0.0
+        total = 0.0
+        for kx, ky, ph in self._rows:
+            total += math.sin(kx * s + ky * lat + ph)
+        return self.scale * total * ramp
 
     def gradient(self, s: float, lat: float) -> tuple[float, float]:
         arg = self.k[:, 0] * s + self.k[:, 1] * lat + self.phase

@@ -48,15 +48,16 @@ def run(controller: PathLike | None = None, bvh: PathLike | None = None, *, seco
         record_hz: float = DEFAULT_RECORD_HZ, plots: bool = False, csv: PathLike | None = None,
         export_bvh: PathLike | None = None, video: PathLike | None = None, gif: PathLike | None = None,
         video_options: VideoOptions | None = None, progress: bool = False,
-        say: Callable[[str], None] | None = None) -> Outcome:
+        say: Callable[[str], None] | None = None, ground: Sequence[str] | None = None) -> Outcome:
     """One rollout, as ``bipedsim run [CONTROLLER] --bvh BVH ...`` runs it; its :class:`Outcome`
     (verdict, distance m, speeds m/s, tracking RMSE rad, recovery figures, fidelity to the clip, what
     made it). ``controller``: a controller YAML (None: the defaults); ``bvh``: a clip (None: the built-in
     walk); ``seconds``: simulated s; ``init_noise``: initial velocity noise (std, rad/s and m/s) drawn
     from ``seed``; ``pushes``: ``MAG:DIR:DUR:START`` strings (N, degrees from the heading, s, s) or
     :class:`~bipedsim.sim.push.Push`; ``reconstruct``: search a humanoid clip's feed-forward
-    correction first (None: the settings', or ``BIPEDSIM_RECONSTRUCT``). ``out``: the run folder to write
-    (``outcome.json``, ``trajectory.npz``, ``model.xml``, and the optional plots, CSV, BVH, videos;
+    correction first (None: the settings', or ``BIPEDSIM_RECONSTRUCT``); ``ground``: ``--ground`` terms
+    (``slope:DEG``, ``step:H:D``, ``rough:A:W[:SEED]``, ``friction:MU``; docs/ground.md). ``out``: the run
+    folder to write (``outcome.json``, ``trajectory.npz``, ``model.xml``, and the optional plots, CSV, BVH, videos;
     None: a temporary folder, removed after). The rest: as
     :func:`~bipedsim.sim.outputs.run_to_folder`, which this calls. Errors: :class:`~bipedsim.errors.BipedsimError`
     naming the option."""
@@ -64,7 +65,7 @@ def run(controller: PathLike | None = None, bvh: PathLike | None = None, *, seco
                       profile=profile, support=support, mass=mass, scale=scale, up=up, positions=positions, fps=fps,
                       events=events, reconstruct=reconstruct, record_hz=record_hz, plots=plots, csv=csv,
                       export_bvh=export_bvh, video=video, gif=gif, video_options=video_options, progress=progress,
-                      say=say).outcome
+                      say=say, ground=ground).outcome
 
 
 def run_folder(controller: PathLike | None = None, bvh: PathLike | None = None, *, out: PathLike | None = None,

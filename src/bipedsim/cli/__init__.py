@@ -111,6 +111,10 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--push", action="append", metavar="MAG:DIR:DUR:START",
                    help="push the torso: N, degrees from heading (0 forward, 90 left), s, start s "
                         "(or sSTATE.FRACTION, e.g. s2.5); repeatable; a push must end within --seconds")
+    p.add_argument("--ground", action="append", metavar="TERM",
+                   help="the ground: slope:DEG (uphill along the walk; negative downhill), step:HEIGHT_M:DISTANCE_M "
+                        "(up, or down when negative, that far ahead), rough:AMPLITUDE_M:WAVELENGTH_M[:SEED] (a "
+                        "height field), friction:MU; repeatable to combine (default flat; docs/ground.md)")
     p.add_argument("--video", default=None, help="render the rollout to this .mp4 (or .gif)")
     p.add_argument("--gif", default=None, help="render the rollout to this .gif")
     p.add_argument("--plots", action="store_true", help="write PNG plots into --out")

@@ -61,7 +61,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                support=args.support, record_hz=DEFAULT_RECORD_HZ if args.record_hz is None else args.record_hz,
                pushes=args.push or [], plots=args.plots, csv=args.csv, export_bvh=args.export_bvh,
                video=args.video, gif=args.gif, video_options=video_options(args), progress=sys.stderr.isatty(),
-               say=print)
+               say=print, ground=args.ground)
     return 0
 
 

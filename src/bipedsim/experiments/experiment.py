@@ -23,6 +23,7 @@ from bipedsim.control.settings import check_settings_for_body, load_controller, 
 from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
 from bipedsim.model.build import build_model
+from bipedsim.model.ground import Ground
 from bipedsim.reference.prepare import load_source
 from bipedsim.sim.limits import MAX_ROLLOUT_S
 from bipedsim.sim.push import DEFAULT_AFTER_S, DEFAULT_PUSH_BODY, Push, check_pushes, random_pushes
@@ -51,6 +52,15 @@ def check_name(name: str, key: str = "name") -> None:
     if bad is not None:
         raise ValueError(f"{key}: holds the unprintable character U+{ord(bad):04X} (at {name.index(bad) + 1} of "
                          f"{len(name)}); a name is printed as it is: give letters, digits, spaces and punctuation")
+
+
+def check_ground(terms: tuple[str, ...], key: str = "ground") -> Ground:
+    """The ground of a file's ``ground:`` terms; a bad term raises ``ValueError("KEY[i]: ...")`` (the
+    loader adds the file)."""
+    try:
+        return Ground.parse(list(terms), key=key)
+    except ConfigError as exc:
+        raise ValueError(f"{exc.key}: {exc.reason}") from None
 
 
 @dataclass(frozen=True)
@@ -180,9 +190,12 @@ class ExperimentSpec:
     random: RandomPushes | None = None
     #: null: the body kind's default criteria (FallCriteria.for_body)
     fall: FallCriteria | None = None
+    #: the ground every rollout walks on (``bipedsim run --ground``'s terms); empty: flat
+    ground: tuple[str, ...] = ()
 
     def validate(self) -> None:
         check_name(self.name)
+        check_ground(self.ground)
         given = [k for k, v in (("grid", self.grid), ("runs", self.runs), ("random", self.random)) if v]
         if not given:
             raise ValueError("grid: give a grid, a list of runs or random pushes -- the experiment has no rollouts")
@@ -368,9 +381,12 @@ class SuiteScenario:
     seconds: float = field(default=8.0, metadata={"gt": 0.0, "max": MAX_ROLLOUT_S})
     seed: int = field(default=0, metadata={"min": 0})  # numpy's generators take no negative seed
     pushes: tuple[PushItem, ...] = ()
+    #: the ground's terms (``bipedsim run --ground``; :class:`~bipedsim.model.ground.Ground`); empty: flat
+    ground: tuple[str, ...] = ()
 
     def validate(self) -> None:
         check_name(self.name)
+        check_ground(self.ground)
         for j, item in enumerate(self.pushes):
             if item.controller is not None:
                 raise ValueError(f"pushes[{j}].controller: a suite's pushes take the scenario's controller; "

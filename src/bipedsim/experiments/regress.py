@@ -18,6 +18,7 @@ from bipedsim.config import parse_yaml
 from bipedsim.errors import BipedsimError
 from bipedsim.experiments.experiment import EXPECTATIONS, Suite, load_suite, resolve_relative
 from bipedsim.files import atomic_write_text, read_input_text
+from bipedsim.model.ground import Ground
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
 
@@ -46,7 +47,7 @@ def run_scenarios(suite: Suite, base: Path) -> list[ScenarioResult]:
     out = []
     for sc_spec in suite.scenarios:
         sc = load_scenario(resolve_relative(base, sc_spec.controller), resolve_relative(base, sc_spec.reference),
-                           profile=sc_spec.profile, support=sc_spec.support)
+                           profile=sc_spec.profile, support=sc_spec.support, ground=Ground.parse(list(sc_spec.ground)))
         spec = RolloutSpec(seconds=sc_spec.seconds, seed=sc_spec.seed, fall=suite.fall)
         o, _ = run_scenario(sc, spec, pushes=sc_spec.push_list())
         note = "; ".join(o.extra.get("pushes_not_applied", []))

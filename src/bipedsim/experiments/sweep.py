@@ -42,6 +42,7 @@ from bipedsim.files import (
     prepare_output_dir,
     progress_bar,
 )
+from bipedsim.model.ground import Ground
 from bipedsim.sim.rollout import FallCriteria, RolloutSpec
 from bipedsim.sim.runner import load_scenario, run_scenario
 
@@ -51,16 +52,20 @@ __all__ = ["RESULT_COLUMNS", "TIMING_COLUMNS", "backend_session", "check_backend
 _CACHE: dict[Any, Any] = {}
 
 
-#: one rollout for a worker: (row, (reference, profile, support), seconds, init_noise, fall criteria)
-Task = tuple[Row, tuple[str | None, str, bool], float, float, dict[str, Any] | None]
+#: one rollout for a worker: (row, (reference, profile, support[, ground terms]), seconds, init_noise, fall
+#: criteria)
+Task = tuple[Row, tuple[Any, ...], float, float, dict[str, Any] | None]
 
 
-def _scenario(body: tuple[str | None, str, bool], controller: str | None) -> Any:
-    """The scenario of a (reference, profile, support) body and a controller, built once per process."""
-    reference, profile, support = body
-    key = (reference, profile, support, controller)
+def _scenario(body: tuple[Any, ...], controller: str | None) -> Any:
+    """The scenario of a (reference, profile, support[, ground terms]) body and a controller, built once per
+    process."""
+    reference, profile, support = body[:3]
+    ground = tuple(body[3]) if len(body) > 3 else ()
+    key = (reference, profile, support, ground, controller)
     if key not in _CACHE:
-        _CACHE[key] = load_scenario(controller, reference, profile=profile, support=support)
+        _CACHE[key] = load_scenario(controller, reference, profile=profile, support=support,
+                                    ground=Ground.parse(list(ground), key="ground"))
     return _CACHE[key]
 
 
@@ -100,7 +105,9 @@ def _append(path: Path, row: dict[str, Any]) -> None:
 def _tasks(exp: Experiment, rows: list[Row]) -> list[Task]:
     s = exp.spec
     fall = None if s.fall is None else asdict(s.fall)
-    body = (exp.resolve(s.reference), s.profile, s.support)
+    body: tuple[Any, ...] = (exp.resolve(s.reference), s.profile, s.support)
+    if s.ground:
+        body += (tuple(s.ground),)
     return [(r, body, s.seconds, s.init_noise, fall) for r in rows]
 
 

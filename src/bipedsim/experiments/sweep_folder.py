@@ -153,9 +153,12 @@ def _setup(exp: Experiment) -> dict[str, Any]:
     """What every rollout of ``exp`` shares but a row's key does not hold: rows made under another
     setup are not rows of this one."""
     s = exp.spec
-    return {"seconds": s.seconds, "reference": exp.resolve(s.reference), "profile": s.profile, "support": s.support,
-            "init_noise": s.init_noise,
-            "fall": None if s.fall is None else asdict(s.fall)}
+    out = {"seconds": s.seconds, "reference": exp.resolve(s.reference), "profile": s.profile, "support": s.support,
+           "init_noise": s.init_noise,
+           "fall": None if s.fall is None else asdict(s.fall)}
+    if s.ground:  # (a flat ground's setup reads as before)
+        out["ground"] = list(s.ground)
+    return out
 
 
 def _read_setup(path: Path) -> dict[str, Any] | None:

@@ -34,6 +34,7 @@ from bipedsim.files import (
     progress_bar,
 )
 from bipedsim.model.build import check_total_mass, load_model
+from bipedsim.model.ground import Ground
 from bipedsim.model.humanoid import sides_note, toes_note
 from bipedsim.reference.describe import pace_note
 from bipedsim.render.gl import RenderError
@@ -409,7 +410,8 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
                   plots: bool = False, csv: PathLike | None = None, export_bvh: PathLike | None = None,
                   video: PathLike | None = None, gif: PathLike | None = None,
                   video_options: VideoOptions | None = None, progress: bool = False,
-                  say: Callable[[str], None] | None = None) -> RunResult:
+                  say: Callable[[str], None] | None = None,
+                  ground: Sequence[str] | Ground | None = None) -> RunResult:
     """Everything ``bipedsim run`` does: track the reference (``bvh``, else the built-in walk; its
     ``scale``, ``up``, ``positions``, ``fps``: see :func:`~bipedsim.motion.bvh.read_bvh`; ``events``: a YAML of
     foot strikes given by hand, :func:`~bipedsim.reference.gait_events.load_events`) with the controller
@@ -427,8 +429,10 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     run would replace without being asked that bipedsim cannot prove it wrote, are refused.
     ``progress``: bars on stderr (pass ``sys.stderr.isatty()``). ``say`` gets each line
     the command prints, as it happens. A video that cannot be rendered raises :class:`RenderError`
-    saying the results are in the folder."""
+    saying the results are in the folder. ``ground``: the ground's terms (``--ground``, see
+    :class:`~bipedsim.model.ground.Ground`) or a parsed one; None: flat."""
     say = say or (lambda line: None)
+    ground = ground if isinstance(ground, Ground) else Ground.parse(ground, key="--ground")
     options = video_options or VideoOptions()
     # outputs that would overwrite each other or an input: refused before anything is read or made
     check_distinct_paths(run_outputs(out, plots=plots, csv=csv, export_bvh=export_bvh, video=video, gif=gif),
@@ -439,7 +443,7 @@ def run_to_folder(out: PathLike, *, config: PathLike | None = None, bvh: PathLik
     pushes = [p if isinstance(p, Push) else Push.parse(p) for p in pushes]
     check_pushes(pushes, seconds)  # the run length too, before anything is built
     sc = runner.load_scenario(config, bvh, scale=scale, up=up, mass=mass, profile=profile, support=support,
-                              positions=positions, events=events, fps=fps, reconstruct=reconstruct)
+                              positions=positions, events=events, fps=fps, reconstruct=reconstruct, ground=ground)
     check_run_length(seconds, sc.built.model.opt.timestep)
     for line in found_lines(sc):
         say(line)

@@ -22,7 +22,8 @@ import numpy.typing as npt
 from bipedsim.control.base import Controller
 from bipedsim.errors import ConfigError
 from bipedsim.model.creature_builder import trunk_bodies
-from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
+from bipedsim.model.ground import ground_geoms, terrain_of
+from bipedsim.model.plan import BodyPlanSet
 from bipedsim.sim.outcome import (  # noqa: F401 - the outcome's names, where they were always imported from
     COM_DEVIATION_S,
     COM_FIT_S,
@@ -111,7 +112,10 @@ class FallDetector:
     def __init__(self, model: mujoco.MjModel, plan: BodyPlanSet, crit: FallCriteria, data: mujoco.MjData,
                  root: int = 1) -> None:
         self.crit = crit
-        self.floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, FLOOR_NAME)
+        #: the ground's geoms (a flat floor's one, or a shaped ground's several)
+        self.floor = ground_geoms(model)
+        #: the ground's height under the pelvis (None: flat at z = 0)
+        self.terrain = terrain_of(model)
         ok_bodies = {model.body(b).id for b in (*plan.foot_bodies, *crit.allowed)}
         #: a contact between the floor and one of these geoms is a fall (a plain set: the per-check loop
         #: over a walking body's few contacts beats numpy's per-call cost)
@@ -124,7 +128,7 @@ class FallDetector:
         self.pelvis = root
         torso = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso")
         self.torso = torso if torso >= 0 else root
-        self.h0 = float(data.xpos[self.pelvis][2])
+        self.h0 = self._height(data)
         self.min_height = crit.pelvis_height_fraction * self.h0
         self.min_up = float(np.cos(crit.torso_tilt))
         self.model = model
@@ -136,10 +140,10 @@ class FallDetector:
         if self._bad_geoms and data.ncon:
             floor, bad = self.floor, self._bad_geoms
             for g1, g2 in data.contact.geom.tolist():
-                if (g1 == floor and g2 in bad) or (g2 == floor and g1 in bad):
-                    other = g2 if g1 == floor else g1
+                if (g1 in floor and g2 in bad) or (g2 in floor and g1 in bad):
+                    other = g2 if g1 in floor else g1
                     return f"{self.model.body(self.model.geom_bodyid[other]).name} touched the ground"
-        if data.xpos[self.pelvis, 2] < self.min_height:
+        if self._height(data) < self.min_height:
             return f"{self.model.body(self.pelvis).name} below {c.pelvis_height_fraction:.2f} of its starting height"
         if c.tilt_from == "reference" and ctrl is not None:
             if self._up_from_reference(data, ctrl) < self.min_up:
@@ -147,6 +151,11 @@ class FallDetector:
         elif data.xmat[self.torso, 8] < self.min_up:  # the torso's up axis, z component
             return f"torso tilted more than {c.torso_tilt:.2f} rad"
         return None
+
+    def _height(self, data: mujoco.MjData) -> float:
+        """The pelvis's height (m) above the ground under it."""
+        x, y, z = data.xpos[self.pelvis].tolist()
+        return z if self.terrain is None else z - self.terrain.height(x, y)
 
     def _up_from_reference(self, data: mujoco.MjData, ctrl: Controller) -> float:
         """cos of the angle between world up and where the body's frame now carries the direction

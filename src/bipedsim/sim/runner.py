@@ -30,6 +30,7 @@ from bipedsim.files import atomic_write_json, versions
 from bipedsim.model.build import BuiltModel, build_model, load_model
 from bipedsim.model.builtin import builtin_humanoid_path
 from bipedsim.model.creature_kind import AUTO, resolve_profile
+from bipedsim.model.ground import Ground, Terrain, start_frame_of, terrain_of, with_ground
 from bipedsim.motion.bvh import read_bvh
 from bipedsim.reference.clip import ReferenceClip
 from bipedsim.reference.feasible import feasible_clip
@@ -63,6 +64,13 @@ class Scenario:
     creature_cfg: CreatureControlConfig = field(default_factory=CreatureControlConfig)
     #: the feed-forward correction a humanoid's controller runs with (:mod:`bipedsim.sim.reconstruct`)
     correction: Correction | None = None
+    #: the ground the body walks on (:mod:`bipedsim.model.ground`; the default: flat)
+    ground: Ground = field(default_factory=Ground)
+
+    @property
+    def terrain(self) -> Terrain | None:
+        """Height and normal queries of :attr:`ground` (None: flat at z = 0), as the controller gets them."""
+        return terrain_of(self.built.model)
 
     @property
     def profile(self) -> str:
@@ -80,6 +88,8 @@ class Scenario:
         ctrl = CONTROLLERS[self.profile](self.built.model, self.built.plan, self.clip, cfg)
         if self.correction is not None and isinstance(ctrl, SimbiconController):
             ctrl.correction = self.correction
+        if isinstance(ctrl, SimbiconController):
+            ctrl.terrain = self.terrain
         return ctrl
 
     def foot_names(self, ctrl: Controller | None = None) -> tuple[str, ...]:
@@ -106,7 +116,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
                   scale: float | str | None = None, up: str | None = None, mass: float | None = None,
                   profile: str | None = AUTO, support: bool = False, positions: str | None = None,
                   events: str | os.PathLike[str] | None = None, fps: float | None = None,
-                  reconstruct: bool | None = None) -> Scenario:
+                  reconstruct: bool | None = None, ground: Ground | None = None) -> Scenario:
     """The built-in humanoid and walk, or a body of ``profile`` built from ``bvh`` and its motion
     retargeted onto it (``auto``: the kind measured from the skeleton, :func:`resolve_profile`). A
     controller YAML (or its settings, a :class:`ControllerConfig`) configures the humanoid's controller and
@@ -119,7 +129,9 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     naming the file and the keys. A humanoid tracking the whole of a ``bvh`` clip gets its feed-forward
     correction (:func:`~bipedsim.sim.reconstruct.correction_for`: searched, or read from the cache)
     when ``reconstruct`` says so (None: :func:`reconstruct_wanted`), and then loops the clip's best cycle
-    instead where the whole clip falls sooner (:func:`whole_or_looped`)."""
+    instead where the whole clip falls sooner (:func:`whole_or_looped`). ``ground`` (default flat)
+    replaces the floor once the scenario is made (:func:`on_ground`; a correction is searched on the
+    flat floor)."""
     profile = AUTO if profile is None else profile
     if profile not in PROFILES:
         raise ConfigError(f"unknown body profile {profile!r}; profiles: {', '.join(PROFILES)}", key="profile")
@@ -189,7 +201,19 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
             sc = looped(sc) if chosen[0] == "cycle" else sc
         if fallback:
             sc.extra["reconstruct"] += "\n" + fallback
-    return sc
+    return on_ground(sc, ground)
+
+
+def on_ground(sc: Scenario, ground: Ground | None) -> Scenario:
+    """``sc`` with its body on ``ground`` (None or flat: ``sc`` itself), the ground laid from the root's
+    start along the reference's walking direction
+    (:func:`~bipedsim.model.ground.start_frame_of`)."""
+    if ground is None or ground.flat:
+        return sc
+    start = sc.controller().start_frame()
+    frame = start_frame_of(sc.clip.qpos, start, sc.clip.frame_time)
+    return replace(sc, built=with_ground(sc.built, ground, frame), ground=ground,
+                   extra={k: v for k, v in sc.extra.items() if k != "nominal_com"})
 
 
 #: the environment variable that turns the per-clip search off (``0``, ``off``, ``false``, ``no``) or on
@@ -347,7 +371,8 @@ def record_made(out: Outcome, sc: Scenario, spec: RolloutSpec, pushes: list | No
                   "reference": sc.source_path, "model": sc.built.plan.name, "model_hash": sc.built.hash,
                   "seconds": spec.seconds, "fall": to_dict(spec.fall), "init_noise": spec.init_noise,
                   "timestep_s": float(sc.built.model.opt.timestep),
-                  "pushes": [to_dict(p) for p in (pushes or [])], "reading": reading_record(sc.bvh_info)}
+                  "pushes": [to_dict(p) for p in (pushes or [])], "reading": reading_record(sc.bvh_info),
+                  "ground": sc.ground.terms()}
     out.versions = versions()
 
 
@@ -394,4 +419,4 @@ def write_outcome(out: Outcome, folder: str | os.PathLike[str]) -> Path:
 
 
 __all__ = ["AUTO", "PROFILES", "SEED_NOISE", "resolve_profile", "Scenario", "load_scenario", "run_scenario",
-           "run_seeds", "seed_noise", "write_outcome"]
+           "run_seeds", "seed_noise", "write_outcome", "on_ground"]

@@ -20,7 +20,8 @@ from bipedsim.control.base import FloatArray
 from bipedsim.control.creature.forces import distribute_wrench, in_cone
 from bipedsim.control.creature.tracking import CreatureBody, ball_joints
 from bipedsim.model.creature_builder import Leg, creature_legs
-from bipedsim.model.plan import FLOOR_NAME, BodyPlanSet
+from bipedsim.model.ground import ground_geoms
+from bipedsim.model.plan import BodyPlanSet
 from bipedsim.reference.clip import ReferenceClip
 
 #: frames sampled (at most) to measure the legs' roots' height above the feet
@@ -95,7 +96,7 @@ class LegSet:
             for g in range(model.ngeom):
                 if model.geom_bodyid[g] in lower:
                     self.geom_leg[g] = i
-        self.floor = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, FLOOR_NAME)
+        self.floor = ground_geoms(model)  #: the ground's geoms
         #: each leg root's parent body (the trunk body it hangs from)
         self.root_parent = [model.body_parentid[model.body(leg.root).id] for leg in self.legs]
         self.jacp = np.zeros((3, model.nv))
@@ -122,7 +123,7 @@ class LegSet:
         floor, gl = self.floor, self.geom_leg
         for c in range(data.ncon):
             g1, g2 = data.contact.geom[c]
-            other = g2 if g1 == floor else g1 if g2 == floor else -1
+            other = g2 if g1 in floor else g1 if g2 in floor else -1
             leg = gl.get(int(other), -1)
             if leg >= 0:
                 pts[leg] += data.contact.pos[c]

@@ -23,12 +23,13 @@ FloatArray = npt.NDArray[np.float64]
 def feet_world(t: HumanoidTables, data: mujoco.MjData, src: GaitSource, frame: float, state: int, stance: str,
                ry: FloatArray, tilt: FloatArray | None, q: FloatArray, qd: FloatArray, q_d: FloatArray,
                qd_d: FloatArray, tau: FloatArray, fade: float, ff: FloatArray | None,
-               offsets: FloatArray | None = None) -> None:
+               offsets: FloatArray | None = None, ground: dict[str, FloatArray] | None = None) -> None:
     """Ankle torques (into ``tau``, targets into ``q_d``) aiming each foot at the reference's orientation
     in the heading frame (``ry``: its rotation); ``tilt``: a heading-frame rotation applied to the stance
     foot's target (stance-ankle feedback; None: none); ``fade`` scales the PD part; ``ff``: the gravity
     feedforward added (None: none); ``offsets``: per hinge, added to the ankles' angles (a correction's;
-    None: none)."""
+    None: none); ``ground``: per foot, a heading-frame rotation tilting its target to the ground under
+    it (:func:`~bipedsim.control.humanoid.ground.feet_tilts`; None: level ground)."""
     kp, kd, tlo, thi = t.kp_l, t.kd_l, t.tlo_l, t.thi_l
     ref_vel, implicit = t.ref_vel, t.implicit
     for side in SIDES:
@@ -37,6 +38,8 @@ def feet_world(t: HumanoidTables, data: mujoco.MjData, src: GaitSource, frame: f
             continue
         if tilt is not None and side == stance:
             r_f = tilt.dot(r_f)
+        if ground is not None:
+            r_f = ground[side].dot(r_f)
         ankle = t.ankle[side]
         local = data.xmat[t.shin_body[side]].reshape(3, 3).T.dot(ry.dot(r_f))
         ang = hinge_angles_small(local, ankle.axes, ankle.basis)

@@ -311,11 +311,39 @@ class StanceAnkleConfig:
 
 
 @dataclass(frozen=True)
+class GroundConfig:
+    """The reference adapted to the ground under the feet (SIMBICON's slopes and steps; acts only on a
+    ground other than the flat floor, :mod:`bipedsim.model.ground`).
+
+    - swing: the swing ankle's target is raised by the ground's rise from under the stance foot to the
+      highest point from the swing toe to ``lookahead`` m past the stance toe (the step to come), plus
+      ``clearance`` sin(pi phase) m while that rise is up; where the ground ahead drops, lowered by
+      the drop over the step's first half; clipped to [-``max_drop``, ``max_raise``] (the knee and
+      thigh by two-link IK);
+    - feet: each foot's world target tilted by ``foot_tilt`` x the ground's pitch and roll under it
+      (heel to toe), so it lands flat on a slope (a rise steeper than ``max_tilt`` rad is a step's
+      edge, not followed);
+    - torso: leaned forward by ``lean`` x the ground's rise (rad per rad) under the stance foot along
+      the heading (back on a descent)."""
+
+    enabled: bool = True
+    lookahead: float = field(default=0.1, metadata={"min": 0.0})  #: m
+    clearance: float = field(default=0.04, metadata={"min": 0.0})  #: m
+    max_raise: float = field(default=0.2, metadata={"min": 0.0})  #: m
+    max_drop: float = field(default=0.12, metadata={"min": 0.0})  #: m
+    foot_tilt: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})  #: share of the ground's tilt
+    max_tilt: float = field(default=0.35, metadata={"min": 0.0})  #: rad
+    lean: float = field(default=0.5, metadata={"min": 0.0})  #: rad of torso lean per rad of slope
+
+
+@dataclass(frozen=True)
 class ModulationConfig:
     """Reference modulation for tracking real captures (Lee, Kim & Lee 2010), each term switchable."""
 
     swing_foot: SwingFootConfig = field(default_factory=SwingFootConfig)
     stance_ankle: StanceAnkleConfig = field(default_factory=StanceAnkleConfig)
+    #: the reference adapted to a shaped ground (slopes, steps, rough ground)
+    ground: GroundConfig = field(default_factory=GroundConfig)
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,7 @@ from bipedsim.control.humanoid.correction import Correction, LiveCorrection, tor
 from bipedsim.control.humanoid.feedback import feedback_angles, heading_frame_com, virtual_force
 from bipedsim.control.humanoid.feet import feet_world
 from bipedsim.control.humanoid.fsm import GaitFSM
+from bipedsim.control.humanoid.ground import feet_tilts, swing_over_ground, torso_lean
 from bipedsim.control.humanoid.hips import split_hip_torques, swing_hip_torques
 from bipedsim.control.humanoid.modulation import stance_tilt, swing_foot_ik
 from bipedsim.control.humanoid.sources import SIDES, ClipSource, GaitSource, Hinges, PoseSource
@@ -48,6 +49,7 @@ from bipedsim.control.humanoid.tracking import (
 )
 from bipedsim.control.settings import ControllerConfig, for_body
 from bipedsim.errors import ModelError
+from bipedsim.model.ground import Terrain
 from bipedsim.model.plan import BodyPlanSet
 from bipedsim.reference.clip import ReferenceClip
 
@@ -121,6 +123,8 @@ class SimbiconController(Controller):
         #: the feed-forward correction under the controller (:mod:`~bipedsim.control.humanoid.correction`)
         self.correction: Correction | LiveCorrection | None = None
         self._corr: FloatArray | None = None  #: this step's offsets
+        #: the ground's height and normal queries (:class:`~bipedsim.model.ground.Terrain`; None: flat at z = 0)
+        self.terrain: Terrain | None = None
         self.drive.scale_gains(1.0)  # the gain tables; the model itself is left as it was
         self.restore_model()
 
@@ -303,6 +307,9 @@ class SimbiconController(Controller):
         pelvis_ref = src.pelvis_target(frame, fsm.state)
         if corr is not None:
             pelvis_ref = torso_offset(float(corr[-2]), float(corr[-1])).dot(pelvis_ref)
+        terrain = self.terrain if self.cfg.modulation.ground.enabled else None
+        if terrain is not None:  # the torso leaned into a slope
+            pelvis_ref = torso_lean(self.cfg.modulation.ground, terrain, tb, data, stance, c, s).dot(pelvis_ref)
         tau_torso = torso_torque(b, tb.roll_kp, self._torso_heading(data, forces), pelvis_ref,
                                  r_p, pm, data.qvel[3:6].tolist(), c, s)
         ax, ay, _ = data.xpos[tb.foot_body[stance]].tolist()
@@ -315,6 +322,9 @@ class SimbiconController(Controller):
         if tb.ik_on:
             fs += swing_foot_ik(self.cfg.modulation.swing_foot, tb, data, src.swing_leg(frame, swing),
                                 src.swing_phase(frame, swing), swing, stance, self.drive.akp, q_d, tau)
+        if terrain is not None:  # the swing foot over the ground ahead
+            fs += swing_over_ground(self.cfg.modulation.ground, terrain, tb, data, src.swing_leg(frame, swing),
+                                    src.swing_phase(frame, swing), swing, stance, c, s, self.drive.akp, q_d, tau)
         if b.swing_hip_world:
             t_b = swing_hip_torques(tb, data, swing, src.thigh_target(frame, fsm.state, swing), r_p, ry, self._r_fb,
                                     fs, fc, q, qd, q_d, qd_d, self.fade, self.cfg.pd.gravity_compensation)
@@ -325,7 +335,8 @@ class SimbiconController(Controller):
             tilt = (stance_tilt(self.cfg.modulation.stance_ankle, com, *src.com_reference(frame, stance))
                     if tb.ankle_feedback_on else None)
             feet_world(tb, data, src, frame, fsm.state, stance, ry, tilt, q, qd, q_d, qd_d, tau, self.fade,
-                       self._ff if self.cfg.pd.gravity_compensation else None, corr)
+                       self._ff if self.cfg.pd.gravity_compensation else None, corr,
+                       None if terrain is None else feet_tilts(self.cfg.modulation.ground, terrain, tb, data, c, s))
         self.state.gamma = split_hip_torques(tb, data, tau, tau_torso, t_b, forces, stance, swing, b.redistribution)
         self.state.tau_torso = tau_torso
         if tb.velocity_on:  # last: the feet's world targets above set the ankle torques outright

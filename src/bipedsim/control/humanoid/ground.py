@@ -1,0 +1,142 @@
+"""The reference adapted to the ground under the feet (``modulation.ground``; SIMBICON's slopes and
+steps as the starting point).
+
+The controller asks one :class:`~bipedsim.model.ground.Terrain` (height at world x, y) for three
+corrections, each in the heading frame (x forward, z up):
+
+- the swing foot over the ground ahead: its ankle target raised (or lowered) by the ground's rise from
+  under the stance foot, by two-link leg IK (:func:`~bipedsim.control.humanoid.modulation.two_link`);
+- the feet tilted to the ground under them, heel to toe and side to side;
+- the torso leaned into a slope.
+
+Lengths m, angles rad, torques N*m.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+
+from bipedsim.control.humanoid.balance import axis_rotation
+from bipedsim.control.humanoid.modulation import two_link
+from bipedsim.control.humanoid.settings import GroundConfig
+from bipedsim.control.humanoid.sources import SIDES
+from bipedsim.control.humanoid.tables import HumanoidTables
+from bipedsim.model.ground import Terrain
+
+FloatArray = npt.NDArray[np.float64]
+
+#: where a foot's sole meets the ground, from its ankle along the heading (m): heel and toe, where
+#: the ground under it is sampled
+FOOT_SPAN_M = (-0.05, 0.15)
+#: half the sole's width (m), where the ground's roll under a foot is sampled
+FOOT_HALF_WIDTH_M = 0.05
+#: points sampled over the swing foot's look-ahead
+LOOKAHEAD_SAMPLES = 8
+#: how fast (per unit of swing phase) a climb over an edge ahead is raised to its full height
+CLIMB_RATE = 3.0
+_Y, _X = np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0])
+
+
+def _height(terrain: Terrain, x: float, y: float, c: float, s: float, ahead: float, left: float = 0.0) -> float:
+    """The ground's height (m) ``ahead`` m along the heading (cos ``c``, sin ``s``) and ``left`` m to its
+    left of (x, y)."""
+    return terrain.height(x + ahead * c - left * s, y + ahead * s + left * c)
+
+
+def ground_under(terrain: Terrain, x: float, y: float, c: float, s: float) -> float:
+    """The ground's height (m) under a foot whose ankle is at (x, y): its sole's mean."""
+    a, b = FOOT_SPAN_M
+    return 0.5 * (_height(terrain, x, y, c, s, a) + _height(terrain, x, y, c, s, b))
+
+
+def swing_raise(cfg: GroundConfig, terrain: Terrain, t: HumanoidTables, data: mujoco.MjData, swing: str,
+                stance: str, phase: float, c: float, s: float) -> float:
+    """How far (m) the swing ankle's target rises above the reference's: the ground's rise from under
+    the stance foot to the highest point from the swing toe to ``lookahead`` m past the farther of the
+    two toes (the step to come), plus the clearance while that rise is up and the climb over an edge the
+    swing foot is below; a drop, over the step's first half; within the limits."""
+    sx, sy, _ = data.xpos[t.foot_body[stance]].tolist()
+    wx, wy, _ = data.xpos[t.foot_body[swing]].tolist()
+    base = ground_under(terrain, sx, sy, c, s)
+    # from the swing toe to lookahead m past it or past the stance toe, whichever is farther
+    toe = FOOT_SPAN_M[1]
+    stance_ahead = (sx - wx) * c + (sy - wy) * s
+    reach = max(0.0, max(0.0, stance_ahead) + cfg.lookahead)
+    ahead = max(_height(terrain, wx, wy, c, s, toe + reach * k / (LOOKAHEAD_SAMPLES - 1))
+                for k in range(LOOKAHEAD_SAMPLES))
+    rise = ahead - base
+    # what the swing foot must climb beyond the rise (a trailing foot below an edge the stance foot is over)
+    climb = max(0.0, ahead - ground_under(terrain, wx, wy, c, s) - max(rise, 0.0))
+    ph = min(max(phase, 0.0), 1.0)
+    if rise <= 0.0 and climb <= 0.0:
+        dz = rise * min(1.0, 2.0 * ph)
+    else:
+        dz = max(rise, 0.0) + cfg.clearance * math.sin(math.pi * ph) + climb * min(1.0, CLIMB_RATE * ph)
+    return min(max(dz, -cfg.max_drop), cfg.max_raise)
+
+
+def swing_over_ground(cfg: GroundConfig, terrain: Terrain, t: HumanoidTables, data: mujoco.MjData,
+                      leg: tuple[float, float, float] | None, phase: float | None, swing: str, stance: str,
+                      c: float, s: float, akp: FloatArray, q_d: FloatArray, tau: FloatArray) -> float:
+    """The swing leg over the ground ahead: the reference's leg ``leg`` (ankle from hip, forward and up,
+    heading frame) reaching :func:`swing_raise` higher. The knee target in ``q_d`` (its torque in ``tau``
+    at stiffness ``akp``) bends by the difference; returns the angle (rad, forward) that turns the swing
+    thigh's world target to keep the ankle over the same point."""
+    if leg is None or phase is None:
+        return 0.0
+    dz = swing_raise(cfg, terrain, t, data, swing, stance, phase, c, s)
+    if dz == 0.0:
+        return 0.0
+    x, z, _ = leg
+    l1, l2 = t.leg_len[swing]
+    k0, b0 = two_link(l1, l2, math.hypot(x, z))
+    k1, b1 = two_link(l1, l2, math.hypot(x, z + dz))
+    i = t.knee[swing]
+    new = min(max(float(q_d[i]) + k1 - k0, t.tlo_l[i]), t.thi_l[i])
+    tau[i] += akp[i] * (new - float(q_d[i]))
+    q_d[i] = new
+    return math.atan2(x, -(z + dz)) - math.atan2(x, -z) + b1 - b0
+
+
+def feet_tilts(cfg: GroundConfig, terrain: Terrain, t: HumanoidTables, data: mujoco.MjData, c: float,
+               s: float) -> dict[str, FloatArray]:
+    """Per foot, the heading-frame rotation that tilts its target to the ground under it: pitched toe up
+    by the ground's rise heel to toe, rolled by its rise right to left (each times ``foot_tilt``; a rise
+    steeper than ``max_tilt``, a step's edge, is not followed)."""
+    a, b = FOOT_SPAN_M
+    lim, k = cfg.max_tilt, cfg.foot_tilt
+    out: dict[str, FloatArray] = {}
+    for side in SIDES:
+        x, y, _ = data.xpos[t.foot_body[side]].tolist()
+        mid = 0.5 * (a + b)
+        pitch = math.atan2(_height(terrain, x, y, c, s, b) - _height(terrain, x, y, c, s, a), b - a)
+        roll = math.atan2(_height(terrain, x, y, c, s, mid, FOOT_HALF_WIDTH_M)
+                          - _height(terrain, x, y, c, s, mid, -FOOT_HALF_WIDTH_M), 2 * FOOT_HALF_WIDTH_M)
+        # steeper than max_tilt under one sole is a step's edge, not ground to stand flat on
+        pitch, roll = (k * v if abs(v) <= lim else 0.0 for v in (pitch, roll))
+        # toe up is a negative turn about y (x forward, z up); the left edge up, a positive one about x
+        out[side] = axis_rotation(_Y, -pitch).dot(axis_rotation(_X, roll))
+    return out
+
+
+def torso_lean(cfg: GroundConfig, terrain: Terrain, t: HumanoidTables, data: mujoco.MjData, stance: str,
+               c: float, s: float) -> FloatArray:
+    """The heading-frame rotation leaning the torso forward by ``lean`` x the ground's rise (rad) along
+    the heading under the stance foot (a step's edge does not count: the rise over the sole, its
+    mean over the foot's length either side)."""
+    x, y, _ = data.xpos[t.foot_body[stance]].tolist()
+    a, b = FOOT_SPAN_M
+    span = 2 * (b - a)
+    rise = math.atan2(_height(terrain, x, y, c, s, b + (b - a) / 2) - _height(terrain, x, y, c, s, a - (b - a) / 2),
+                      span)
+    if abs(rise) > cfg.max_tilt:  # an edge, not a slope
+        rise = 0.0
+    # torso lean forward is a negative rotation about y (x forward, z up)
+    return axis_rotation(_Y, -cfg.lean * rise)
+
+
+__all__ = ["feet_tilts", "ground_under", "swing_over_ground", "swing_raise", "torso_lean"]

@@ -146,3 +146,22 @@ def test_a_second_run_of_a_clip_makes_no_judging_runs(tmp_path, monkeypatch) -> 
             f.unlink()
     load_scenario(cfg, bvh, reconstruct=True)
     assert "clip" in runs and "cycle" in runs
+
+
+def test_the_tracking_cost_measures_height_above_the_ground_under_the_body(small) -> None:
+    """On shaped ground the body's root height counts above the ground under it, as the clip's does above
+    its flat floor: a body lifted with the ground costs what it costs on the flat."""
+    import mujoco
+
+    from bipedsim.sim.reconstruct import tracking_cost
+
+    m = small.built.model
+    q, v = small.clip.qpos, small.clip.qvel
+    d = mujoco.MjData(m)
+    d.qpos[:], d.qvel[:] = q[5], v[5]
+    cfg = small.cfg.reconstruct
+    qadr = small.controller().hinges.qadr
+    flat = tracking_cost(d, q, v, 5.0, qadr, cfg)
+    d.qpos[2] += 0.3
+    assert tracking_cost(d, q, v, 5.0, qadr, cfg, ground_z=0.3) == pytest.approx(flat, abs=1e-12)
+    assert tracking_cost(d, q, v, 5.0, qadr, cfg) == pytest.approx(flat + cfg.height_weight * 0.3, abs=1e-9)

@@ -44,6 +44,7 @@ from bipedsim.errors import BipedsimError, ModelError
 from bipedsim.files import atomic_write_text, read_input_text
 from bipedsim.files.progress import progress_bar
 from bipedsim.files.provenance import versions
+from bipedsim.model.ground import Terrain
 from bipedsim.reference.clip import ReferenceClip
 from bipedsim.sim.rollout import FallCriteria, FallDetector, control_every, walk_window
 
@@ -78,13 +79,15 @@ class _Search:
     check_every: int
     per_window: int
     hinge_qadr: npt.NDArray[np.integer]
+    terrain: Terrain | None = None  #: the ground's heights (None: the flat floor at z = 0)
 
 
 def tracking_cost(data: mujoco.MjData, ref_qpos: FloatArray, ref_qvel: FloatArray, frame: float,
-                  hinge_qadr: npt.NDArray[np.integer], cfg: ReconstructConfig) -> float:
+                  hinge_qadr: npt.NDArray[np.integer], cfg: ReconstructConfig, ground_z: float = 0.0) -> float:
     """How far the body is from the reference frames ``ref_qpos``/``ref_qvel`` at (fractional)
     ``frame``: the hinges' RMS angle error (rad), the root's orientation error (rad), its horizontal
-    and vertical position errors (m, the body started on the reference's root) and its horizontal
+    and vertical position errors (m, the body started on the reference's root; the height above the
+    ground under the root, ``ground_z`` m, against the clip's above its flat floor) and its horizontal
     velocity error (m/s), weighted by ``cfg``."""
     i = min(int(frame), len(ref_qpos) - 2)
     u = min(max(frame - i, 0.0), 1.0)
@@ -96,7 +99,7 @@ def tracking_cost(data: mujoco.MjData, ref_qpos: FloatArray, ref_qvel: FloatArra
     dot = abs(float(np.dot(quat, q[3:7])))
     e_rot = 2.0 * math.acos(min(dot, 1.0))
     e_xy = float(np.hypot(q[0] - ref[0], q[1] - ref[1]))
-    e_z = abs(float(q[2] - ref[2]))
+    e_z = abs(float(q[2] - ground_z - ref[2]))
     e_v = float(np.hypot(data.qvel[0] - vref[0], data.qvel[1] - vref[1]))
     return (cfg.pose_weight * e_pose + cfg.root_weight * e_rot + cfg.position_weight * e_xy
             + cfg.height_weight * e_z + cfg.velocity_weight * e_v)
@@ -104,7 +107,7 @@ def tracking_cost(data: mujoco.MjData, ref_qpos: FloatArray, ref_qvel: FloatArra
 
 def _shared(ctrl: SimbiconController) -> dict[int, object]:
     """What every copy of ``ctrl`` shares: the model and the per-run constants (a deep copy's memo)."""
-    keep: list[object] = [ctrl.model, ctrl.plan, ctrl.source, ctrl.tables, ctrl.cfg, ctrl.hinges]
+    keep: list[object] = [ctrl.model, ctrl.plan, ctrl.source, ctrl.tables, ctrl.cfg, ctrl.hinges, ctrl.terrain]
     tr = ctrl.steering.tracker
     keep += [getattr(tr, k) for k in ("xs", "ys", "hs", "dx", "dy", "ll", "nx", "ny", "arc")]
     return {id(x): x for x in keep}
@@ -162,7 +165,7 @@ def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Reconstruc
     rng = np.random.default_rng(cfg.seed)
     search = _Search(model, played, frame0, src.frame_time, cfg,
                      FallDetector(model, ctrl.plan, fall, data, root=ctrl.root_body), _shared(ctrl), every,
-                     max(1, int(round(fall.check_every / dt))), per_window, ctrl.hinges.qadr)
+                     max(1, int(round(fall.check_every / dt))), per_window, ctrl.hinges.qadr, ctrl.terrain)
     history = [[_Node(data, ctrl, [], [], 0.0)]]  # the states kept at the start of each window
     retries, boost = 0, 1
     while len(history) <= n_windows:
@@ -267,15 +270,16 @@ def _sample(search: _Search, parents: list[_Node], rows: list[FloatArray], step:
     if not walk_window(model, d, c, step, search.per_window, search.every, search.check_every, search.falls):
         return None, None
     t_end = (step + search.per_window) * model.opt.timestep
+    ground_z = 0.0 if search.terrain is None else search.terrain.height(float(d.qpos[0]), float(d.qpos[1]))
     cost = tracking_cost(d, *search.frames, search.frame0 + t_end / search.frame_time, search.hinge_qadr,
-                         search.cfg)
+                         search.cfg, ground_z)
     return _Node(d, c, parent.starts + [float(live.started)], parent.rows + [rows[j]], cost), cost
 
 
 #: where searched corrections are kept, under the user's cache folder (``XDG_CACHE_HOME`` or ~/.cache)
 CACHE_SUBDIR = ("bipedsim", "corrections")
 #: the modules whose code shapes a search's result: a change to any of them makes a new cache key
-_CODE = ("control/humanoid", "sim/reconstruct.py", "sim/rollout.py")
+_CODE = ("control/humanoid", "sim/reconstruct.py", "sim/rollout.py", "model/ground.py")
 
 
 def cache_folder() -> Path:
@@ -331,7 +335,8 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     total = search_span(ctrl, cfg.reconstruct.loop_cycles)
     bar = progress_bar(round(total, 1), "reconstruct", "s of clip")
     rc = cfg.reconstruct
-    over = "the clip" if rc.loop_cycles <= 0 else f"the clip and up to {rc.loop_cycles} cycles of its loop"
+    cycles = f"{rc.loop_cycles} cycle" + ("s" if rc.loop_cycles != 1 else "")
+    over = "the clip" if rc.loop_cycles <= 0 else f"the clip and up to {cycles} of its loop"
     if bar is None:  # no terminal for a bar: one line says why the run has not started yet
         print(f"reconstruct: searching a correction for {max(total, 0.0):.1f} s ({over}; the first run of a clip; "
               "cached after it; --no-reconstruct skips it)", file=sys.stderr, flush=True)

@@ -130,8 +130,8 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     correction (:func:`~bipedsim.sim.reconstruct.correction_for`: searched, or read from the cache)
     when ``reconstruct`` says so (None: :func:`reconstruct_wanted`), and then loops the clip's best cycle
     instead where the whole clip falls sooner (:func:`whole_or_looped`). ``ground`` (default flat)
-    replaces the floor once the scenario is made (:func:`on_ground`; a correction is searched on the
-    flat floor)."""
+    replaces the floor before a correction is searched (:func:`on_ground`): the search walks the same
+    ground, its tracking cost measuring heights above it."""
     profile = AUTO if profile is None else profile
     if profile not in PROFILES:
         raise ConfigError(f"unknown body profile {profile!r}; profiles: {', '.join(PROFILES)}", key="profile")
@@ -184,14 +184,15 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     cfg = for_reference(cfg, resolved)  # the "auto" modulation terms act on a re-solved reference
     sc = Scenario(built=built, clip=clip, cfg=cfg, source_path=src, config_path=config_path, motion=motion,
                   bvh_info=info, extra=extra, creature_cfg=replace(cfg.creature, support=support))
+    sc = on_ground(sc, ground)  # the search walks the ground the run walks (its key: the body with it)
     search = reconstruct_wanted(cfg, reconstruct)
     # a capture's (the built-in walk was made for its body and tracks without one)
     if search and bvh is not None and profile == "humanoid" and cfg.source == "clip":
         judged = judge_once()
-        sc.correction, extra["reconstruct"] = correction_for(
-            built.model, built.hash, sc.controller, clip, cfg, sc.fall_criteria(),
+        sc.correction, sc.extra["reconstruct"] = correction_for(
+            sc.built.model, sc.built.hash, sc.controller, clip, cfg, sc.fall_criteria(),
             lambda c: judge_correction(sc, c, judged))
-        key = correction_key(clip, built.hash, cfg)
+        key = correction_key(clip, sc.built.hash, cfg)
         chosen = cached_choice(key)
         if chosen is None:
             sc, fallback = whole_or_looped(sc, judged)
@@ -201,7 +202,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
             sc = looped(sc) if chosen[0] == "cycle" else sc
         if fallback:
             sc.extra["reconstruct"] += "\n" + fallback
-    return on_ground(sc, ground)
+    return sc
 
 
 def on_ground(sc: Scenario, ground: Ground | None) -> Scenario:

@@ -176,3 +176,19 @@ def test_the_docs_residual_policy_example_runs(capsys: pytest.CaptureFixture[str
     exec(compile(example, "docs/python_api.md", "exec"), {})
     outcome, distance = capsys.readouterr().out.split()
     assert outcome in ("no_fall", "fall", "push_not_applied") and float(distance) > 0.5
+
+
+def test_the_environment_walks_the_ground_it_is_given() -> None:
+    """``ground`` takes the ``--ground`` terms: the body's model carries the ground, the episode runs on it."""
+    from bipedsim.model.ground import terrain_of
+
+    env = TrackEnv(ground="slope:6", seconds=0.5)
+    t = terrain_of(env.model)
+    assert t is not None and t.height(5.0, 0.0) != pytest.approx(0.0, abs=1e-3)
+    env.reset(seed=0)
+    done = False
+    while not done:
+        _, _, term, trunc, _ = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+        done = term or trunc
+    assert not term
+    env.close()

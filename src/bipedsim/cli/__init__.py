@@ -111,10 +111,7 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--push", action="append", metavar="MAG:DIR:DUR:START",
                    help="push the torso: N, degrees from heading (0 forward, 90 left), s, start s "
                         "(or sSTATE.FRACTION, e.g. s2.5); repeatable; a push must end within --seconds")
-    p.add_argument("--ground", action="append", metavar="TERM",
-                   help="the ground: slope:DEG (uphill along the walk; negative downhill), step:HEIGHT_M:DISTANCE_M "
-                        "(up, or down when negative, that far ahead), rough:AMPLITUDE_M:WAVELENGTH_M[:SEED] (a "
-                        "height field), friction:MU; repeatable to combine (default flat; docs/ground.md)")
+    _ground_flag(p)
     p.add_argument("--video", default=None, help="render the rollout to this .mp4 (or .gif)")
     p.add_argument("--gif", default=None, help="render the rollout to this .gif")
     p.add_argument("--plots", action="store_true", help="write PNG plots into --out")
@@ -207,6 +204,13 @@ def _add_tune(sub: argparse._SubParsersAction) -> None:
 
 
 # ---------------------------------------------------------------------- view (the live viewer)
+def _ground_flag(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--ground", action="append", metavar="TERM",
+                   help="the ground: slope:DEG (uphill along the walk; negative downhill), step:HEIGHT_M:DISTANCE_M "
+                        "(up, or down when negative, that far ahead), rough:AMPLITUDE_M:WAVELENGTH_M[:SEED] (a "
+                        "height field), friction:MU; repeatable to combine (default flat; docs/ground.md)")
+
+
 def _add_view(sub: argparse._SubParsersAction) -> None:
     p = _subparser(sub, "view", cmd_view, "run the controller live in MuJoCo's viewer: push with keys 1-8 or the "
                    "mouse, pause, slow down, restart (needs a display)")
@@ -219,6 +223,7 @@ def _add_view(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--profile", choices=("auto", "humanoid", "creature"), default=None, help="body kind (default auto)")
     p.add_argument("--no-reconstruct", dest="reconstruct", action="store_false", default=None,
                    help="humanoid: skip the clip's feed-forward correction search")
+    _ground_flag(p)
 
 
 #: Subcommand registrars, in the order ``--help`` lists them.

@@ -218,6 +218,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
 # ---------------------------------------------------------------------- view (the live viewer)
 def cmd_view(args: argparse.Namespace) -> int:
     from bipedsim.config import from_dict
+    from bipedsim.model.ground import Ground
     from bipedsim.render.viewer import ViewSettings, display_problem, view
     from bipedsim.sim.push import Push, check_pushes
     from bipedsim.sim.runner import load_scenario
@@ -230,6 +231,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     settings = from_dict(ViewSettings, {k: v for k, v in given.items() if v is not None})
     pushes = [Push.parse(p) for p in args.push or []]
     check_pushes(pushes, settings.seconds)
-    sc = load_scenario(args.config, args.bvh, profile=args.profile, reconstruct=args.reconstruct)
+    sc = load_scenario(args.config, args.bvh, profile=args.profile, reconstruct=args.reconstruct,
+                       ground=Ground.parse(args.ground, key="--ground"))
     view(sc, pushes, settings, say=print)
     return 0

@@ -37,6 +37,7 @@ import numpy.typing as npt
 
 from bipedsim.envs.settings import PushRanges, RewardWeights, TrackSettings, track_settings
 from bipedsim.errors import ConfigError
+from bipedsim.model.ground import Ground
 from bipedsim.sim.push import Push, check_pushes
 from bipedsim.sim.rollout import Outcome, Rollout, RolloutSpec
 from bipedsim.sim.runner import Scenario, load_scenario, record_made, start_state
@@ -55,25 +56,27 @@ class TrackEnv(gym.Env):
 
     ``bvh``: a clip any ``bipedsim run --bvh`` takes, humanoid or creature (None: the built-in walk);
     ``controller``: a controller YAML; ``profile``: the body kind (None: measured); ``pushes``: random
-    pushes per episode (:class:`PushRanges` or its dict); ``ground``: None (flat ground; other grounds
-    are not available yet); ``reconstruct``: search a humanoid clip's feed-forward correction first
-    (minutes; off by default here). The other settings: :class:`TrackSettings`."""
+    pushes per episode (:class:`PushRanges` or its dict); ``ground``: ``--ground`` terms (``"slope:8"``,
+    a list of them, or a :class:`~bipedsim.model.ground.Ground`; None: flat); ``reconstruct``: search a
+    humanoid clip's feed-forward correction first (minutes; off by default here). The other settings:
+    :class:`TrackSettings`."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
 
     def __init__(self, bvh: str | os.PathLike[str] | None = None, controller: str | os.PathLike[str] | None = None,
                  *, seconds: float | None = None, pushes: PushRanges | dict[str, Any] | None = None,
-                 ground: Any = None, absolute: bool | None = None, action_limit: float | None = None,
+                 ground: str | list[str] | Ground | None = None, absolute: bool | None = None,
+                 action_limit: float | None = None,
                  init_noise: float | None = None, reward: RewardWeights | dict[str, Any] | None = None,
                  profile: str | None = None, reconstruct: bool = False, render_mode: str | None = None,
                  scenario: Scenario | None = None) -> None:
-        if ground is not None:
-            raise ConfigError("only the flat ground (None) is available to the environment", key="ground")
+        ground = ground if isinstance(ground, Ground) or ground is None else Ground.parse(ground, key="ground")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(f"unknown render mode {render_mode!r}; modes: rgb_array", key="render_mode")
         self.settings: TrackSettings = track_settings(seconds, action_limit=action_limit, absolute=absolute,
                                                       init_noise=init_noise, reward=reward, pushes=pushes)
-        self.scenario = scenario or load_scenario(controller, bvh, profile=profile, reconstruct=reconstruct)
+        self.scenario = scenario or load_scenario(controller, bvh, profile=profile, reconstruct=reconstruct,
+                                                  ground=ground)
         self.render_mode = render_mode
         self.model = self.scenario.built.model
         probe = self.scenario.controller()

@@ -169,11 +169,15 @@ def test_an_rgb_array_frame_shows_the_body() -> None:
 
 
 def test_the_docs_residual_policy_example_runs(capsys: pytest.CaptureFixture[str]) -> None:
-    """The ten-line example of docs/python_api.md (a residual policy stepping the environment)."""
-    text = (Path(__file__).resolve().parents[2] / "docs" / "python_api.md").read_text(encoding="utf-8")
-    blocks = [b.split("```", 1)[0] for b in text.split("```python\n")[1:]]
-    example = next(b for b in blocks if "Track-v0" in b)
-    exec(compile(example, "docs/python_api.md", "exec"), {})
+    """The ten-line example of docs/python_api.md and README.md (a residual policy stepping the
+    environment): the same in both, and it runs."""
+    repo = Path(__file__).resolve().parents[2]
+    examples = []
+    for doc in (repo / "docs" / "python_api.md", repo / "README.md"):
+        blocks = [b.split("```", 1)[0] for b in doc.read_text(encoding="utf-8").split("```python\n")[1:]]
+        examples.append(next(b for b in blocks if "Track-v0" in b))
+    assert examples[0] == examples[1]
+    exec(compile(examples[0], "docs/python_api.md", "exec"), {})
     outcome, distance = capsys.readouterr().out.split()
     assert outcome in ("no_fall", "fall", "push_not_applied") and float(distance) > 0.5
 

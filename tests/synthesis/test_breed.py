@@ -124,6 +124,41 @@ def test_bred_child_keeps_every_foot_of_its_parents() -> None:
     assert len(detect_body_kind(child).legs) == 4
 
 
+def _horse_with_wings() -> tuple[Motion, Motion]:
+    """The shipped horse, and the horse with its fore legs held up 1.6 rad (like a bird's wings: in no
+    leg of its clip, their tips never low)."""
+    h = load_bvh(HORSE_WALK)
+    rot = h.rotations.copy()
+    for name in ("LeftArm", "RightArm"):
+        j = h.skeleton.index(name)
+        rot[:, j] = (Rotation.from_rotvec([0.0, -1.6, 0.0]) * Rotation.from_quat(rot[:, j])).as_quat()
+    return h, h.copy(rotations=rot)
+
+
+def test_a_limb_that_is_a_leg_in_one_parent_only_moves_as_one_parent() -> None:
+    """Blended half way, a fore leg paired with a limb held up hangs above the floor (the dog x flamingo
+    and horse x flamingo children fell on such legs): it takes the motion of the parent nearer x whole,
+    A's up to x = 0.5 (the child's bones are A's), B's above."""
+    from bipedsim.model.creature_kind import detect_body_kind
+    from bipedsim.model.source import motion_points
+
+    horse, winged = _horse_with_wings()
+    assert len(detect_body_kind(winged).legs) == 2
+    hoof = horse.skeleton.index("LeftHand")
+    ref = motion_points(horse).positions[:, hoof, 2]
+    for x, want in ((0.5, "A"), (0.8, "B")):
+        child, rep = breed(horse, winged, x=x, mutations=0)
+        assert set(rep.limbs_from_one_parent) == {f"{s}{j}" for s in ("Left", "Right")
+                                                   for j in ("Arm", "ForeArm", "Hand")}
+        assert set(rep.limbs_from_one_parent.values()) == {want}
+        z = motion_points(child).positions[:, child.skeleton.index("LeftHand"), 2]
+        if want == "A":  # the hooves stay where the horse puts them: four legs
+            np.testing.assert_allclose(z, ref, atol=0.02)
+            assert len(detect_body_kind(child).legs) == 4
+        else:  # held up as in B
+            assert np.median(z) > np.median(ref) + 0.3
+
+
 def test_survivor_reproduces_c1_plus_x_d() -> None:
     a = chain(A_NAMES, A_PARENTS, OFF4, frames=30)
     b = chain(B_NAMES, B_PARENTS, OFF5, frames=30, seed=3)

@@ -46,7 +46,7 @@ from bipedsim.synthesis.breed.alignment import _folded_b_joints, across_unpaired
 from bipedsim.synthesis.breed.floor import floor_constraint
 from bipedsim.synthesis.breed.limits import X_RANGE, BreedError, max_breed_frames
 from bipedsim.synthesis.breed.meta_skeleton import MetaSkeleton, crossover, load_joint_map
-from bipedsim.synthesis.breed.mutation import joint_activity, mutate, support_joints
+from bipedsim.synthesis.breed.mutation import joint_activity, leg_joints, mutate, support_joints
 from bipedsim.synthesis.breed.transfer import survivor
 
 __all__ = ["X_RANGE", "BreedError", "BreedReport", "MetaSkeleton", "breed", "crossover", "depth_first",
@@ -110,6 +110,9 @@ class BreedReport:
     role_evidence: dict[str, dict[str, str]] = field(default_factory=dict)
     #: per parent: joint -> the role found for it ("left leg knee", "chest", "trunk"...), paired or not
     roles: dict[str, dict[str, str]] = field(default_factory=dict)
+    #: joint -> the parent ("A"/"B") whose motion it takes whole: a limb that is a leg in one parent and
+    #: not in the other (a dog's fore leg paired with a flamingo's wing) moves as in the parent nearer x
+    limbs_from_one_parent: dict[str, str] = field(default_factory=dict)
     #: the body kind ``bipedsim run`` builds for the child ("humanoid"/"creature"; "" when not checked)
     body: str = ""
     #: whether ``bipedsim run`` detects that kind by itself (False: give it with --profile)
@@ -173,6 +176,7 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
         reasons, source = {k: "--map" for k in mapping}, "--map"
     tm["correspondence"] = time.perf_counter() - t0
     feet_a, feet_b = support_joints(a), support_joints(b)  # what each parent stands on, from its clip
+    legs_a, legs_b = leg_joints(a), leg_joints(b)
     if not np.isclose(a.frame_time, b.frame_time):
         b = b.resample(a.fps)
     a, b = on_typical_rest(a), on_typical_rest(b)
@@ -192,7 +196,8 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     mut = mutate(meta, act_a, act_b, mutations, weights, keep=feet)
     tm["mutation"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    surv = survivor(meta, a, b, x=x)
+    one_parent = limb_roles(meta, a.skeleton, b.skeleton, legs_a, legs_b, x)
+    surv = survivor(meta, a, b, x=x, x_joints=one_parent)
     tm["survivor"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     child_sk, keep = prune(meta, surv.rotations, a, set(mut.removed_all) | set(_folded_b_joints(meta, b.skeleton)))
@@ -201,6 +206,7 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     child, fixes = floor_constraint(depth_first(child))
     tm["constraint"] = time.perf_counter() - t0
     sk = meta.skeleton
+    limbs = sorted(sk.names[i] for i in one_parent)
     rep = BreedReport(parents=list(names), x=x, mutations=mutations,
                       kept_common=[sk.names[i] for i in meta.common],
                       only_a=[sk.names[i] for i in range(sk.num_joints) if meta.from_b[i] is None],
@@ -210,8 +216,31 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
                       child_joints=child_sk.num_joints, child_frames=child.num_frames,
                       correspondence=_pairs_used(meta, b.skeleton), correspondence_reasons=_reasons_used(meta, reasons),
                       map_source=source, folded_roots=folded, role_evidence=evidence, roles=roles,
-                      feet_kept=sorted(meta.skeleton.names[i] for i in feet))
+                      feet_kept=sorted(meta.skeleton.names[i] for i in feet),
+                      limbs_from_one_parent={n: ("A" if one_parent[sk.index(n)] == 0.0 else "B") for n in limbs})
     return child, rep
+
+
+#: at this x or below a limb whose role differs between the parents moves as parent A's (the child's
+#: bones are A's where they share joints), above it as B's
+ROLE_FROM_A_UP_TO_X = 0.5
+
+
+def limb_roles(meta: MetaSkeleton, a: Skeleton, b: Skeleton, legs_a: set[str], legs_b: set[str],
+               x: float) -> dict[int, float]:
+    """Meta joints paired between the parents that are in a leg of one parent and not of the other
+    (``legs_a``/``legs_b``: the parents' leg joints, :func:`~bipedsim.synthesis.breed.mutation.leg_joints`)
+    -> the x their motion takes: 0 (A's) when ``x`` <= :data:`ROLE_FROM_A_UP_TO_X`, else 1 (B's). Blended,
+    such a limb is neither: a dog's fore leg turned half way to a flamingo's folded wing hangs 0.2-0.3 of
+    the height above the floor, and the child falls on it within 2 s."""
+    side = 0.0 if x <= ROLE_FROM_A_UP_TO_X else 1.0
+    out: dict[int, float] = {}
+    for i in meta.common:
+        in_a = a.names[meta.from_a[i]] in legs_a  # type: ignore[index]
+        in_b = b.names[meta.from_b[i]] in legs_b  # type: ignore[index]
+        if in_a != in_b:
+            out[i] = side
+    return out
 
 
 def _pairs_used(meta: MetaSkeleton, b: Skeleton) -> dict[str, str]:

@@ -111,6 +111,18 @@ def support_joints(motion: Motion) -> set[str]:
     return {n for n in out if n in sk.names}
 
 
+def leg_joints(motion: Motion) -> set[str]:
+    """Names of the joints of ``motion``'s legs: every joint from a leg's root down to its feet (the
+    legs :func:`~bipedsim.model.creature_kind.detect_body_kind` measures from the clip: chains ending in
+    tips that stay low). A limb the clip holds up (a bird's wing, a monkey's arm off the ground) is no leg."""
+    sk = motion.skeleton
+    out: set[str] = set()
+    for root, _ in detect_body_kind(motion).legs:
+        if root in sk.names:
+            out.update(sk.names[j] for j in sk.subtree(sk.index(root)))
+    return out
+
+
 def mutate(meta: MetaSkeleton, act_a: FloatArray, act_b: FloatArray, count: int = 5,
            weights: dict[str, float] | None = None, keep: set[int] | None = None) -> MutationResult:
     """Choose the ``count`` lowest-scored joints (root never) and remove them with their subtrees.

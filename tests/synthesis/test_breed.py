@@ -137,8 +137,9 @@ def _horse_with_wings() -> tuple[Motion, Motion]:
 
 def test_a_limb_that_is_a_leg_in_one_parent_only_moves_as_one_parent() -> None:
     """Blended half way, a fore leg paired with a limb held up hangs above the floor (the dog x flamingo
-    and horse x flamingo children fell on such legs): it takes the motion of the parent nearer x whole,
-    A's up to x = 0.5 (the child's bones are A's), B's above."""
+    child fell on such legs): it takes the motion of the parent nearer x whole, A's up to x = 0.5 (the
+    child's bones are A's), B's above; so does the trunk that carries it in one parent only (the
+    horse's spine and chest)."""
     from bipedsim.model.creature_kind import detect_body_kind
     from bipedsim.model.source import motion_points
 
@@ -148,8 +149,8 @@ def test_a_limb_that_is_a_leg_in_one_parent_only_moves_as_one_parent() -> None:
     ref = motion_points(horse).positions[:, hoof, 2]
     for x, want in ((0.5, "A"), (0.8, "B")):
         child, rep = breed(horse, winged, x=x, mutations=0)
-        assert set(rep.limbs_from_one_parent) == {f"{s}{j}" for s in ("Left", "Right")
-                                                   for j in ("Arm", "ForeArm", "Hand")}
+        assert set(rep.limbs_from_one_parent) == {"Spine", "Chest"} | {f"{s}{j}" for s in ("Left", "Right")
+                                                                   for j in ("Arm", "ForeArm", "Hand")}
         assert set(rep.limbs_from_one_parent.values()) == {want}
         z = motion_points(child).positions[:, child.skeleton.index("LeftHand"), 2]
         if want == "A":  # the hooves stay where the horse puts them: four legs
@@ -157,6 +158,23 @@ def test_a_limb_that_is_a_leg_in_one_parent_only_moves_as_one_parent() -> None:
             assert len(detect_body_kind(child).legs) == 4
         else:  # held up as in B
             assert np.median(z) > np.median(ref) + 0.3
+
+
+def test_the_blend_never_lifts_a_foot_the_parent_stood_on() -> None:
+    """A horse bred with the horse reared up 1.2 rad: its root blended half way lifts the child's fore
+    hooves (0.27 of the height over the horse's 0.09). The root's blend is held toward A's until every
+    foot of A stands within FOOT_LIFT_TOL of its height in A (the dog x human child stood on its hind
+    legs this way, measured a humanoid)."""
+    from bipedsim.synthesis.breed.feasible import FOOT_LIFT_TOL, foot_heights
+
+    horse = load_bvh(HORSE_WALK)
+    rot = horse.rotations.copy()
+    rot[:, 0] = (Rotation.from_rotvec([0.0, -1.2, 0.0]) * Rotation.from_quat(rot[:, 0])).as_quat()
+    child, rep = breed(horse, horse.copy(rotations=rot), mutations=0)
+    assert 0.0 <= rep.feet_held_down["Hips"] < 0.5
+    feet = ["LeftHand", "RightHand", "LeftFoot", "RightFoot"]
+    stood, now = foot_heights(horse, feet), foot_heights(child, feet)
+    assert all(now[f] <= stood[f] + FOOT_LIFT_TOL for f in feet), (now, stood)
 
 
 def test_survivor_reproduces_c1_plus_x_d() -> None:

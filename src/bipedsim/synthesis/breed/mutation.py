@@ -111,16 +111,11 @@ def support_joints(motion: Motion) -> set[str]:
     return {n for n in out if n in sk.names}
 
 
-def leg_joints(motion: Motion) -> set[str]:
-    """Names of the joints of ``motion``'s legs: every joint from a leg's root down to its feet (the
-    legs :func:`~bipedsim.model.creature_kind.detect_body_kind` measures from the clip: chains ending in
-    tips that stay low). A limb the clip holds up (a bird's wing, a monkey's arm off the ground) is no leg."""
-    sk = motion.skeleton
-    out: set[str] = set()
-    for root, _ in detect_body_kind(motion).legs:
-        if root in sk.names:
-            out.update(sk.names[j] for j in sk.subtree(sk.index(root)))
-    return out
+def leg_roots(motion: Motion) -> set[str]:
+    """Names of the roots of ``motion``'s legs (the legs
+    :func:`~bipedsim.model.creature_kind.detect_body_kind` measures from the clip: chains ending in tips
+    that stay low). A limb the clip holds up (a bird's wing, a human's arm) is no leg."""
+    return {root for root, _ in detect_body_kind(motion).legs if root in motion.skeleton.names}
 
 
 def mutate(meta: MetaSkeleton, act_a: FloatArray, act_b: FloatArray, count: int = 5,

@@ -373,3 +373,24 @@ def test_bred_child_is_read_back_at_its_parents_size_and_speed(tmp_path: Path) -
     # the child's root stands at about the dog's height (the blend lifts the horse's neck, not the hips)
     ratio = np.median(child.root_translation[:, 2]) / np.median(dog.root_translation[:, 2])
     assert 0.7 < ratio < 1.3
+
+
+def test_the_readme_dog_x_human_child_is_a_creature_by_breed_and_run(tmp_path: Path,
+                                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """The README's child of the dog and CMU 02_02 (breed defaults): its fore legs and the spine that
+    carries them move as the dog's, its feet stand where the dog's stood, so it stands on four legs;
+    breed's printout and ``run`` without --profile both take it for a creature (it stood on its hind
+    legs, measured a humanoid, with breed advising --profile creature)."""
+    from conftest import need_shared
+
+    from bipedsim.model.creature_kind import detect_body_kind, read_source
+
+    need_shared()
+    out = tmp_path / "child.bvh"
+    assert main(["breed", str(SHARED_BVH / "animal" / "mann_dog_D1_007_KAN01_001_locomotion.bvh"),
+                 str(SHARED_BVH / "human" / "cmu_02_02_walk__19joint_Hip_Abdomen.bvh"), "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert f"a creature: bipedsim run --bvh {out} --scale cm\n" in text + "\n"
+    _, _, motion, profile = read_source(out, scale="cm")
+    assert profile == "creature" and len(detect_body_kind(motion).legs) == 4
+

@@ -109,12 +109,6 @@ def format_breed_summary(rep: BreedReport, output: PathLike, report: PathLike | 
     for parent, ev in rep.role_evidence.items():
         if "sides" in ev:  # the names' sides contradicted by the walk (motion.roles): said, with how to overrule
             lines.append(f"  parent {parent}: {ev['sides']} (a --map names the pairs yourself)")
-    if rep.limbs_from_one_parent:  # a joint carrying a leg in one parent only: that parent's motion whole
-        lines.append("  carrying a leg in one parent only, moved as that parent: "
-                     + ", ".join(f"{j} ({p})" for j, p in rep.limbs_from_one_parent.items()))
-    if rep.feet_held_down:  # the blend held back where it lifted a foot off the floor
-        lines.append("  blend held so the parents' feet stay down: "
-                     + ", ".join(f"{j} x={v:g}" for j, v in rep.feet_held_down.items()))
     how = "by role" if rep.map_source == "roles" else f"from {rep.map_source}"
     pairs = ", ".join(f"{a}={b}" for a, b in rep.correspondence.items())
     lines.append(f"  correspondence {how}, {len(rep.correspondence)} pairs (A=B): {pairs}")

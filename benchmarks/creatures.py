@@ -12,7 +12,8 @@ Clips: every ``*.bvh`` in the shared animal folder, the shipped horse walk, a ch
 shared dog and the horse (``bipedsim breed``'s package function, no mutations), the public creature
 clips of :data:`PUBLIC_CREATURES` found under ``--clips`` (each named by its repository and commit;
 absent ones are listed as skipped), and with ``--children`` the children of every ordered pair of the
-shared and shipped walkers (dog, horse, flamingo) bred with ``bipedsim breed``'s defaults. Each row is one
+shared and shipped walkers (dog, horse, flamingo) bred with ``bipedsim breed``'s defaults, and the README's
+child of the dog and CMU 02_02. Each row is one
 rollout from the controller's start frame through the one rollout loop; the body kind is measured from
 the skeleton (no --profile). ``speed %`` is the simulated mean speed (straight-line distance / time)
 against the clip's own mean root speed over its looped part; an in-place clip (clip speed under
@@ -139,6 +140,11 @@ def main() -> int:
                     child = tmp / f"{na}_x_{nb}_defaults.bvh"
                     breed_files(fa, fb, child)  # bipedsim breed's defaults (5 mutations)
                     clips.append((f"child of {na} x {nb} (breed defaults)", child))
+        human = args.animals.parent / "human" / "cmu_02_02_walk__19joint_Hip_Abdomen.bvh"
+        if dog.is_file() and human.is_file():  # the README's example: a dog bred with a human walk
+            child = tmp / "dog_x_cmu_02_02_defaults.bvh"
+            breed_files(dog, human, child)
+            clips.append(("child of dog x CMU 02_02 (breed defaults, the README's)", child))
     print(f"{args.seconds:g} s per rollout, no support, no flags\n")
     print("| clip | body | outcome | fall | speed sim / clip | tracking RMSE | clip-timed balance (gait: clip) "
           f"| baseline (PD only) | survival ratio | seeds at goal (of {args.seeds}) |")

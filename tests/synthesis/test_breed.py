@@ -124,6 +124,59 @@ def test_bred_child_keeps_every_foot_of_its_parents() -> None:
     assert len(detect_body_kind(child).legs) == 4
 
 
+def _horse_with_wings() -> tuple[Motion, Motion]:
+    """The shipped horse, and the horse with its fore legs held up 1.6 rad (like a bird's wings: in no
+    leg of its clip, their tips never low)."""
+    h = load_bvh(HORSE_WALK)
+    rot = h.rotations.copy()
+    for name in ("LeftArm", "RightArm"):
+        j = h.skeleton.index(name)
+        rot[:, j] = (Rotation.from_rotvec([0.0, -1.6, 0.0]) * Rotation.from_quat(rot[:, j])).as_quat()
+    return h, h.copy(rotations=rot)
+
+
+def test_a_limb_that_is_a_leg_in_one_parent_only_moves_as_one_parent() -> None:
+    """Blended half way, a fore leg paired with a limb held up hangs above the floor (the dog x flamingo
+    child fell on such legs): it takes the motion of the parent nearer x whole, A's up to x = 0.5 (the
+    child's bones are A's), B's above; so does the trunk that carries it in one parent only (the
+    horse's spine and chest)."""
+    from bipedsim.model.creature_kind import detect_body_kind
+    from bipedsim.model.source import motion_points
+
+    horse, winged = _horse_with_wings()
+    assert len(detect_body_kind(winged).legs) == 2
+    hoof = horse.skeleton.index("LeftHand")
+    ref = motion_points(horse).positions[:, hoof, 2]
+    for x, want in ((0.5, "A"), (0.8, "B")):
+        child, rep = breed(horse, winged, x=x, mutations=0)
+        assert set(rep.limbs_from_one_parent) == {"Spine", "Chest"} | {f"{s}{j}" for s in ("Left", "Right")
+                                                                   for j in ("Arm", "ForeArm", "Hand")}
+        assert set(rep.limbs_from_one_parent.values()) == {want}
+        z = motion_points(child).positions[:, child.skeleton.index("LeftHand"), 2]
+        if want == "A":  # the hooves stay where the horse puts them: four legs
+            np.testing.assert_allclose(z, ref, atol=0.02)
+            assert len(detect_body_kind(child).legs) == 4
+        else:  # held up as in B
+            assert np.median(z) > np.median(ref) + 0.3
+
+
+def test_the_blend_never_lifts_a_foot_the_parent_stood_on() -> None:
+    """A horse bred with the horse reared up 1.2 rad: its root blended half way lifts the child's fore
+    hooves (0.27 of the height over the horse's 0.09). The root's blend is held toward A's until every
+    foot of A stands within FOOT_LIFT_TOL of its height in A (the dog x human child stood on its hind
+    legs this way, measured a humanoid)."""
+    from bipedsim.synthesis.breed.feasible import FOOT_LIFT_TOL, foot_heights
+
+    horse = load_bvh(HORSE_WALK)
+    rot = horse.rotations.copy()
+    rot[:, 0] = (Rotation.from_rotvec([0.0, -1.2, 0.0]) * Rotation.from_quat(rot[:, 0])).as_quat()
+    child, rep = breed(horse, horse.copy(rotations=rot), mutations=0)
+    assert 0.0 <= rep.feet_held_down["Hips"] < 0.5
+    feet = ["LeftHand", "RightHand", "LeftFoot", "RightFoot"]
+    stood, now = foot_heights(horse, feet), foot_heights(child, feet)
+    assert all(now[f] <= stood[f] + FOOT_LIFT_TOL for f in feet), (now, stood)
+
+
 def test_survivor_reproduces_c1_plus_x_d() -> None:
     a = chain(A_NAMES, A_PARENTS, OFF4, frames=30)
     b = chain(B_NAMES, B_PARENTS, OFF5, frames=30, seed=3)
@@ -320,3 +373,24 @@ def test_bred_child_is_read_back_at_its_parents_size_and_speed(tmp_path: Path) -
     # the child's root stands at about the dog's height (the blend lifts the horse's neck, not the hips)
     ratio = np.median(child.root_translation[:, 2]) / np.median(dog.root_translation[:, 2])
     assert 0.7 < ratio < 1.3
+
+
+def test_the_readme_dog_x_human_child_is_a_creature_by_breed_and_run(tmp_path: Path,
+                                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """The README's child of the dog and CMU 02_02 (breed defaults): its fore legs and the spine that
+    carries them move as the dog's, its feet stand where the dog's stood, so it stands on four legs;
+    breed's printout and ``run`` without --profile both take it for a creature (it stood on its hind
+    legs, measured a humanoid, with breed advising --profile creature)."""
+    from conftest import need_shared
+
+    from bipedsim.model.creature_kind import detect_body_kind, read_source
+
+    need_shared()
+    out = tmp_path / "child.bvh"
+    assert main(["breed", str(SHARED_BVH / "animal" / "mann_dog_D1_007_KAN01_001_locomotion.bvh"),
+                 str(SHARED_BVH / "human" / "cmu_02_02_walk__19joint_Hip_Abdomen.bvh"), "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert f"a creature: bipedsim run --bvh {out} --scale cm\n" in text + "\n"
+    _, _, motion, profile = read_source(out, scale="cm")
+    assert profile == "creature" and len(detect_body_kind(motion).legs) == 4
+

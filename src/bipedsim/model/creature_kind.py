@@ -252,11 +252,13 @@ def resolve_profile(motion: Motion, profile: str | None = AUTO, *, support: bool
 
 def read_source(path: str | os.PathLike[str], *, scale: float | str | None = None, up: str | None = None,
                   positions: str | None = None, profile: str | None = AUTO,
-                  support: bool = False, fps: float | None = None) -> tuple[Motion, BVHInfo, Motion, str]:
+                  support: bool = False, fps: float | None = None,
+                  fold_root: bool = True) -> tuple[Motion, BVHInfo, Motion, str]:
     """A BVH file read for the body it will build: the raw motion and what reading found, the motion in
     the project frame, and the body kind (:func:`resolve_profile`). A creature's unit, when guessed, is
     guessed from its largest extent, not a standing human's height: a bred dog x horse with its head up
-    would otherwise read as a 1.3 m human in inches (2.54 x too large)."""
+    would otherwise read as a 1.3 m human in inches (2.54 x too large). ``fold_root``: a static root at
+    the floor is folded away (False: left for the caller, as breeding reports it)."""
     raw, info = read_bvh(path, scale=scale, up=up, positions=positions, fps=fps)
     check_extent(raw, path)  # nothing below is computed from a corrupt or misread motion
     raw = _without_helpers(raw, info)
@@ -273,7 +275,7 @@ def read_source(path: str | os.PathLike[str], *, scale: float | str | None = Non
         motion = raw.to_project_frame()
     # a static root at the floor with the body's translation on its one child (a game-data layout):
     # the floor joint is folded away, not built as a bone
-    raw, folded = fold_static_root(raw)
+    raw, folded = fold_static_root(raw) if fold_root else (raw, None)
     if folded is not None:
         motion = raw.to_project_frame()
     return raw, info, motion, profile

@@ -43,11 +43,12 @@ from bipedsim.motion.motion import Motion
 from bipedsim.motion.reroot import fold_static_root
 from bipedsim.motion.skeleton import Skeleton
 from bipedsim.synthesis.breed.alignment import _folded_b_joints, across_unpaired, in_rest_of, on_typical_rest
+from bipedsim.synthesis.breed.feasible import foot_heights, hold_feet_down
 from bipedsim.synthesis.breed.floor import floor_constraint
 from bipedsim.synthesis.breed.limits import X_RANGE, BreedError, max_breed_frames
 from bipedsim.synthesis.breed.meta_skeleton import MetaSkeleton, crossover, load_joint_map
-from bipedsim.synthesis.breed.mutation import joint_activity, mutate, support_joints
-from bipedsim.synthesis.breed.transfer import survivor
+from bipedsim.synthesis.breed.mutation import joint_activity, leg_roots, mutate, support_joints
+from bipedsim.synthesis.breed.transfer import blend, survivor
 
 __all__ = ["X_RANGE", "BreedError", "BreedReport", "MetaSkeleton", "breed", "crossover", "depth_first",
            "floor_constraint", "joint_activity", "load_joint_map", "mutate", "prune", "survivor"]
@@ -110,6 +111,13 @@ class BreedReport:
     role_evidence: dict[str, dict[str, str]] = field(default_factory=dict)
     #: per parent: joint -> the role found for it ("left leg knee", "chest", "trunk"...), paired or not
     roles: dict[str, dict[str, str]] = field(default_factory=dict)
+    #: joint -> the parent ("A"/"B") whose motion it takes whole: a joint that carries a leg in one parent
+    #: and none in the other (a dog's fore leg paired with a flamingo's wing, a dog's chest with a human's)
+    #: moves as in the parent nearer x
+    limbs_from_one_parent: dict[str, str] = field(default_factory=dict)
+    #: joint -> the x it blends at, lowered (toward the side parent) so that no foot the side parent stands
+    #: on is lifted by the blend (:mod:`~bipedsim.synthesis.breed.feasible`)
+    feet_held_down: dict[str, float] = field(default_factory=dict)
     #: the body kind ``bipedsim run`` builds for the child ("humanoid"/"creature"; "" when not checked)
     body: str = ""
     #: whether ``bipedsim run`` detects that kind by itself (False: give it with --profile)
@@ -173,6 +181,9 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
         reasons, source = {k: "--map" for k in mapping}, "--map"
     tm["correspondence"] = time.perf_counter() - t0
     feet_a, feet_b = support_joints(a), support_joints(b)  # what each parent stands on, from its clip
+    stood_a, stood_b = foot_heights(a, feet_a), foot_heights(b, feet_b)
+    carry_a = carrying_joints(a.skeleton, leg_roots(a))
+    carry_b = carrying_joints(b.skeleton, leg_roots(b))
     if not np.isclose(a.frame_time, b.frame_time):
         b = b.resample(a.fps)
     a, b = on_typical_rest(a), on_typical_rest(b)
@@ -192,15 +203,32 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     mut = mutate(meta, act_a, act_b, mutations, weights, keep=feet)
     tm["mutation"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    surv = survivor(meta, a, b, x=x)
+    one_parent = limb_roles(meta, a.skeleton, b.skeleton, carry_a, carry_b, x)
+    surv = survivor(meta, a, b, x=x, x_joints=one_parent)
     tm["survivor"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     child_sk, keep = prune(meta, surv.rotations, a, set(mut.removed_all) | set(_folded_b_joints(meta, b.skeleton)))
-    child = Motion(skeleton=child_sk, frame_time=a.frame_time, root_translation=a.root_translation.copy(),
-                   rotations=surv.rotations[:, keep], unit=1.0, up="z")
-    child, fixes = floor_constraint(depth_first(child))
+
+    def child_of(x_joints: dict[int, float]) -> Motion:
+        rot = blend(meta, a, b, x, surv.correction, surv.matched, x_joints)
+        return Motion(skeleton=child_sk, frame_time=a.frame_time, root_translation=a.root_translation.copy(),
+                      rotations=rot[:, keep], unit=1.0, up="z")
+
+    # the side parent's feet, by their names in the child (B's through the pairing)
+    # the feet the child stands on, by their names in the child, with the height each stood at in its
+    # parent: A's feet on A's bones; above x 0.5 also B's other feet (a foot is measured on its own bones)
+    stands_on = {meta.skeleton.names[i]: stood_a[a.skeleton.names[j]] for i, j in enumerate(meta.from_a)
+                 if j is not None and a.skeleton.names[j] in stood_a}
+    if x > ROLE_FROM_A_UP_TO_X:
+        for i, j in enumerate(meta.from_b):
+            if j is not None and b.skeleton.names[j] in stood_b and meta.skeleton.names[i] not in stands_on:
+                stands_on[meta.skeleton.names[i]] = stood_b[b.skeleton.names[j]]
+    stands_on = {n: h for n, h in stands_on.items() if n in child_sk.names}
+    x_joints = hold_feet_down(meta, x, 0.0 if x <= ROLE_FROM_A_UP_TO_X else 1.0, one_parent, stands_on, child_of)
+    child, fixes = floor_constraint(depth_first(child_of(x_joints)))
     tm["constraint"] = time.perf_counter() - t0
     sk = meta.skeleton
+    limbs = sorted(sk.names[i] for i in one_parent)
     rep = BreedReport(parents=list(names), x=x, mutations=mutations,
                       kept_common=[sk.names[i] for i in meta.common],
                       only_a=[sk.names[i] for i in range(sk.num_joints) if meta.from_b[i] is None],
@@ -210,8 +238,50 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
                       child_joints=child_sk.num_joints, child_frames=child.num_frames,
                       correspondence=_pairs_used(meta, b.skeleton), correspondence_reasons=_reasons_used(meta, reasons),
                       map_source=source, folded_roots=folded, role_evidence=evidence, roles=roles,
-                      feet_kept=sorted(meta.skeleton.names[i] for i in feet))
+                      feet_kept=sorted(meta.skeleton.names[i] for i in feet),
+                      limbs_from_one_parent={n: ("A" if one_parent[sk.index(n)] == 0.0 else "B") for n in limbs},
+                      feet_held_down={sk.names[i]: round(v, 4) for i, v in sorted(x_joints.items())
+                                      if one_parent.get(i) != v})
     return child, rep
+
+
+#: at this x or below a joint whose role differs between the parents moves as parent A's (the child's
+#: bones are A's where they share joints), above it as B's
+ROLE_FROM_A_UP_TO_X = 0.5
+
+
+def carrying_joints(sk: Skeleton, leg_roots: set[str]) -> set[str]:
+    """Names of the joints of ``sk`` that carry a leg (``leg_roots``: the legs' root joints): every
+    joint of a leg, and every joint between the root and a leg's root (a dog's spine and chest carry
+    its fore legs; a human's chest carries only arms)."""
+    out: set[str] = set()
+    for r in leg_roots:
+        if r not in sk.names:
+            continue
+        out.update(sk.names[j] for j in sk.subtree(sk.index(r)))
+        j = int(sk.parents[sk.index(r)])
+        while j >= 0:
+            out.add(sk.names[j])
+            j = int(sk.parents[j])
+    return out
+
+
+def limb_roles(meta: MetaSkeleton, a: Skeleton, b: Skeleton, carry_a: set[str], carry_b: set[str],
+               x: float) -> dict[int, float]:
+    """Meta joints paired between the parents that carry a leg in one parent and none in the other
+    (``carry_a``/``carry_b``: :func:`carrying_joints`, the legs measured from each clip) -> the x their
+    motion takes: 0 (A's) when ``x`` <= :data:`ROLE_FROM_A_UP_TO_X`, else 1 (B's). Blended, such a joint
+    is neither: a dog's fore leg turned half way to a flamingo's folded wing hangs 0.2-0.3 of the
+    height above the floor (the child fell on it within 2 s), and a dog's chest turned half way to a
+    human's upright one lifts its fore legs off the floor."""
+    side = 0.0 if x <= ROLE_FROM_A_UP_TO_X else 1.0
+    out: dict[int, float] = {}
+    for i in meta.common:
+        in_a = a.names[meta.from_a[i]] in carry_a  # type: ignore[index]
+        in_b = b.names[meta.from_b[i]] in carry_b  # type: ignore[index]
+        if in_a != in_b:
+            out[i] = side
+    return out
 
 
 def _pairs_used(meta: MetaSkeleton, b: Skeleton) -> dict[str, str]:

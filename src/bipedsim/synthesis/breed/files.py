@@ -10,7 +10,7 @@ from pathlib import Path
 from bipedsim.errors import ConfigError, ModelError
 from bipedsim.files import atomic_write_json, atomic_write_text, check_output_file
 from bipedsim.model.build import build_model
-from bipedsim.model.creature_kind import detect_body_kind
+from bipedsim.model.creature_kind import detect_body_kind, read_source
 from bipedsim.motion.bvh import load_bvh, write_bvh
 from bipedsim.motion.motion import Motion
 from bipedsim.synthesis.breed.evolve import X_RANGE, BreedReport, breed, load_joint_map
@@ -35,7 +35,7 @@ def breed_files(a: PathLike, b: PathLike, output: PathLike, *, x: float = 0.5, m
     if not X_RANGE[0] <= x <= X_RANGE[1]:  # also NaN
         raise ConfigError(f"must be in [{X_RANGE[0]:g}, {X_RANGE[1]:g}] (0: parent A's motion, 1: B's), got {x}",
                           key="--x")
-    ma, mb = load_bvh(a), load_bvh(b)
+    ma, mb = read_parent(a), read_parent(b)
     check_output_file(output, "-o", (".bvh",))
     if report:
         check_output_file(report, "--report")
@@ -51,6 +51,18 @@ def breed_files(a: PathLike, b: PathLike, output: PathLike, *, x: float = 0.5, m
     if save_map:
         atomic_write_text(save_map, map_text(rep))
     return rep
+
+
+def read_parent(path: PathLike) -> Motion:
+    """A parent BVH file in the project frame (metres, Z up), read as ``bipedsim run`` reads it: its rig's
+    helper bones left out and, for a creature, its unit guessed from its largest extent (the shared
+    flamingo is 0.72 m tall in centimetres; as a standing human's height it read 1.84 m, in inches,
+    and its children came out 2.5 x their size). A file whose body kind cannot be measured (fewer than
+    two legs: a flying creature) is read as it is."""
+    try:
+        return read_source(path, fold_root=False)[2]  # breeding folds a static root itself, and says so
+    except ModelError:
+        return load_bvh(path)
 
 
 def body_kind(child: Motion) -> tuple[str, bool]:

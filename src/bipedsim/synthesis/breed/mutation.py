@@ -111,6 +111,13 @@ def support_joints(motion: Motion) -> set[str]:
     return {n for n in out if n in sk.names}
 
 
+def leg_roots(motion: Motion) -> set[str]:
+    """Names of the roots of ``motion``'s legs (the legs
+    :func:`~bipedsim.model.creature_kind.detect_body_kind` measures from the clip: chains ending in tips
+    that stay low). A limb the clip holds up (a bird's wing, a human's arm) is no leg."""
+    return {root for root, _ in detect_body_kind(motion).legs if root in motion.skeleton.names}
+
+
 def mutate(meta: MetaSkeleton, act_a: FloatArray, act_b: FloatArray, count: int = 5,
            weights: dict[str, float] | None = None, keep: set[int] | None = None) -> MutationResult:
     """Choose the ``count`` lowest-scored joints (root never) and remove them with their subtrees.

@@ -39,9 +39,10 @@ class SurvivorResult:
 
 
 def survivor(meta: MetaSkeleton, a: Motion, b: Motion, x: float = 0.5, sample_every: int = SAMPLE_EVERY,
-             correction: FloatArray | None = None) -> SurvivorResult:
+             correction: FloatArray | None = None, x_joints: dict[int, float] | None = None) -> SurvivorResult:
     """Motion transfer (see module docstring). ``b`` must have ``a``'s frame time. ``correction``:
-    a known d (T, n_common, 3) to use instead of the matched one (tests)."""
+    a known d (T, n_common, 3) to use instead of the matched one (tests). ``x_joints``: meta joint ->
+    its own x in [0, 1] (a limb taken whole from one parent), the others blend at ``x``."""
     if not X_RANGE[0] <= x <= X_RANGE[1]:
         raise BreedError(f"x must be in [{X_RANGE[0]}, {X_RANGE[1]}] (0: parent A's motion, 1: B's matched "
                          f"motion), got {x}")
@@ -87,7 +88,16 @@ def survivor(meta: MetaSkeleton, a: Motion, b: Motion, x: float = 0.5, sample_ev
                         axis=1).reshape(t_a, len(common), 3)
     else:
         corr = np.asarray(correction, dtype=float).reshape(t_a, len(common), 3)
-    n = meta.skeleton.num_joints
+    out = blend(meta, a, b, x, corr, matched, x_joints)
+    return SurvivorResult(rotations=out, matched=matched, correction=corr)
+
+
+def blend(meta: MetaSkeleton, a: Motion, b: Motion, x: float, corr: FloatArray, matched: npt.NDArray[np.int64],
+          x_joints: dict[int, float] | None = None) -> FloatArray:
+    """(T, J_meta, 4) the child's rotations from the survivor step's correction ``corr`` and ``matched``
+    frames: A's rotations turned by x of the correction (``x_joints``: a joint's own x), joints of one
+    parent only taking that parent's."""
+    t_a, n = a.num_frames, meta.skeleton.num_joints
     out = np.zeros((t_a, n, 4))
     out[..., 3] = 1.0
     for i in range(n):
@@ -95,10 +105,10 @@ def survivor(meta: MetaSkeleton, a: Motion, b: Motion, x: float = 0.5, sample_ev
             out[:, i] = a.rotations[:, meta.from_a[i]]
         elif meta.from_a[i] is None:
             out[:, i] = b.rotations[matched, meta.from_b[i]]
-    for k, i in enumerate(common):
+    for k, i in enumerate(meta.common):
         ra = Rotation.from_quat(a.rotations[:, meta.from_a[i]])
-        out[:, i] = (ra * Rotation.from_rotvec(x * corr[:, k])).as_quat()
+        out[:, i] = (ra * Rotation.from_rotvec((x_joints or {}).get(i, x) * corr[:, k])).as_quat()
     for i in _between_paired(meta, a.skeleton):  # A's joints B's chain does not have: toward identity
         ra = Rotation.from_quat(a.rotations[:, i])
         out[:, i] = (ra * Rotation.from_rotvec(-x * ra.as_rotvec())).as_quat()
-    return SurvivorResult(rotations=canonical_quat(out), matched=matched, correction=corr)
+    return canonical_quat(out)

@@ -1,0 +1,254 @@
+"""The tile world in physics (``bipedsim world ... --simulate``): a walking creature's synthesised
+crossing tracked by its body in MuJoCo, on the world's terrain.
+
+- **terrain**: the world's heights (tiles, mountains, walls, water beds, gaps cut) sampled onto one
+  MuJoCo height field (:func:`world_grid`; :mod:`bipedsim.model.ground_grid`), in place of the body's
+  flat floor: the fall rule counts it as floor and the controller's terrain queries read it;
+- **body and controller**: the creature body built from the synthesised motion (the creature profile)
+  and the creature controller tracking it, as ``bipedsim run --bvh OUT.bvh --profile creature`` does
+  (:func:`bipedsim.sim.runner.load_scenario`), started where the world starts it;
+- **steering**: the planned gait walks a straight path; each control period the body is turned toward
+  the point :attr:`SimulateSettings.lookahead_m` ahead of it on the synthesised path (pure pursuit),
+  at most :attr:`SimulateSettings.max_turn_rate` rad/s, so it follows the path's turns and is steered
+  back when it strays;
+- **the end**: the body has reached the path's end (within :attr:`SimulateSettings.goal_radius_m` of
+  its progress), it fell, or the run outlasted :attr:`SimulateSettings.time_factor` x the synthesised
+  motion's duration.
+
+The result (the report's ``simulated`` block, :func:`simulate_crossing`) says how it ended and where the
+physical body left the synthesised path and by how much. Lengths in m, times in s, world frame, Z up.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from bipedsim.control.base import Controller
+from bipedsim.control.settings import load_controller
+from bipedsim.errors import ConfigError
+from bipedsim.model.build import BuiltModel, build_model
+from bipedsim.model.ground_grid import HeightGrid, with_height_grid
+from bipedsim.reference.retarget import retarget
+from bipedsim.sim.recorder import Recorder
+from bipedsim.sim.rollout import Rollout, RolloutSpec
+from bipedsim.sim.runner import Scenario
+from bipedsim.synthesis.world.creature_file import Creature
+from bipedsim.synthesis.world.synth import Curve, Synthesis
+from bipedsim.synthesis.world.tiles import World
+
+FloatArray = npt.NDArray[np.float64]
+
+#: the travel modes a body is simulated in (the creature controller walks; it neither flies nor swims)
+SIMULATED_MODES = ("walk",)
+
+
+@dataclass(frozen=True)
+class SimulateSettings:
+    """How a crossing is simulated (lengths m, times s, rates rad/s)."""
+
+    #: samples of the terrain per tile side (the gap of a jump event is a tenth of a tile or more)
+    samples_per_tile: int = 20
+    #: the steering target lies this far ahead (m) of the body's progress on the path: about a body
+    #: length, so a corner is cut by little and a stray body turns back gently
+    lookahead_m: float = 1.0
+    #: the fastest turn (rad/s) the steering commands: the synthesised path turns a quarter circle over
+    #: about half a tile, which a walking body takes in about 1-2 s
+    max_turn_rate: float = 1.5
+    #: the crossing has ended when the body's progress is within this (m) of the path's end
+    goal_radius_m: float = 0.25
+    #: the run ends at the latest after this many times the synthesised motion's duration (the body
+    #: walks at the speed its legs allow, which may be below the clip's)
+    time_factor: float = 3.0
+    #: the body has left the path where it is farther than this (m) from it
+    off_path_m: float = 0.5
+    #: samples per second of the recorded trajectory (a video's)
+    record_hz: float = 30.0
+    #: how far (m) past the last progress the closest path point is searched for (a path that comes
+    #: back near itself is not jumped along)
+    progress_window_m: float = 3.0
+
+    def validate(self) -> None:
+        """Each value in its range (a :class:`ConfigError` naming the key)."""
+        for key, lo, hi in (("samples_per_tile", 2, 100), ("lookahead_m", 0.05, 20.0),
+                            ("max_turn_rate", 0.01, 20.0), ("goal_radius_m", 0.01, 50.0),
+                            ("time_factor", 0.1, 20.0), ("off_path_m", 0.01, 50.0), ("record_hz", 1.0, 500.0),
+                            ("progress_window_m", 0.1, 100.0)):
+            v = getattr(self, key)
+            if not (isinstance(v, (int, float)) and lo <= v <= hi):
+                raise ConfigError(f"must lie in [{lo:g}, {hi:g}], got {v!r}", key=f"simulate.{key}")
+
+
+def world_grid(world: World, samples_per_tile: int = SimulateSettings.samples_per_tile) -> HeightGrid:
+    """The world's terrain heights (m) sampled ``samples_per_tile`` times per tile side over the whole
+    map, row 0 at its south edge (y = -rows x tile), column 0 at its west edge (x = 0)."""
+    rows, cols = world.shape
+    xs = np.linspace(0.0, cols * world.tile, cols * samples_per_tile + 1)
+    ys = np.linspace(-rows * world.tile, 0.0, rows * samples_per_tile + 1)
+    gx, gy = np.meshgrid(xs, ys)
+    h = world.terrain(np.stack([gx, gy], axis=-1))
+    return HeightGrid(heights=h, x0=0.0, y0=float(-rows * world.tile), dx=float(xs[1] - xs[0]),
+                      dy=float(ys[1] - ys[0]))
+
+
+def world_body(syn: Synthesis, world: World, settings: SimulateSettings) -> Scenario:
+    """The creature body built from the synthesised motion (creature profile) on the world's terrain,
+    its reference retargeted, with the controller's default settings."""
+    motion = syn.motion
+    cfg = load_controller(None)
+    built = build_model(motion, "creature", name="world")
+    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source="bipedsim world")
+    on_terrain: BuiltModel = with_height_grid(built, world_grid(world, settings.samples_per_tile))
+    return Scenario(built=on_terrain, clip=clip, cfg=cfg, source_path="bipedsim world", config_path=None,
+                    motion=motion, creature_cfg=cfg.creature)
+
+
+class Steering:
+    """The rollout hook that follows the synthesised path (see the module text) and measures how far
+    the body strays from it: its progress along the path (m), the largest distance from it (m) and
+    where that and the first departure beyond :attr:`SimulateSettings.off_path_m` happened."""
+
+    def __init__(self, curve: Curve, settings: SimulateSettings, world: World) -> None:
+        self.curve, self.settings, self.world = curve, settings, world
+        self.progress = 0.0
+        self.yaw: float | None = None
+        self.t_last = 0.0
+        self.max_off = 0.0
+        self.max_off_at: dict[str, Any] | None = None
+        self.left_at: dict[str, Any] | None = None
+
+    def _closest(self, xy: FloatArray) -> tuple[float, float]:
+        """The body's progress (m of arc, searched from :attr:`progress` back a little to
+        ``progress_window_m`` ahead) and its distance (m) from the path there."""
+        c, w = self.curve, self.settings.progress_window_m
+        keep = (c.s >= self.progress - w / 4) & (c.s <= self.progress + w)
+        pts, ss = c.xy[keep], c.s[keep]
+        d = np.linalg.norm(pts - xy, axis=1)
+        k = int(np.argmin(d))
+        return float(ss[k]), float(d[k])
+
+    def where(self, t: float, xy: FloatArray, off: float) -> dict[str, Any]:
+        r, c = self.world.tile_of(xy)
+        return {"t_s": round(t, 3), "xy_m": [round(float(v), 3) for v in xy], "tile": [int(r), int(c)],
+                "off_m": round(off, 4), "progress_m": round(self.progress, 3)}
+
+    def __call__(self, t: float, data: Any, ctrl: Controller) -> None:
+        xy = data.qpos[0:2].copy()
+        s, off = self._closest(xy)
+        self.progress = max(self.progress, s)
+        if off > self.max_off:
+            self.max_off, self.max_off_at = off, self.where(t, xy, off)
+        if off > self.settings.off_path_m and self.left_at is None:
+            self.left_at = self.where(t, xy, off)
+        if self.yaw is None:
+            self.yaw = ctrl.heading(data)
+        target, _ = self.curve.at(np.array(self.progress + self.settings.lookahead_m))
+        want = math.atan2(float(target[1] - xy[1]), float(target[0] - xy[0]))
+        turn = math.remainder(want - self.yaw, 2 * math.pi)
+        most = self.settings.max_turn_rate * max(t - self.t_last, 0.0)
+        self.yaw += max(-most, min(most, turn))
+        self.t_last = t
+        steer = getattr(ctrl, "steer", None)
+        if steer is not None:
+            steer(t, self.yaw)
+
+    @property
+    def reached(self) -> bool:
+        return self.progress >= self.curve.length - self.settings.goal_radius_m
+
+
+def can_simulate(modes: list[str]) -> str | None:
+    """None where every tile of a path is walked; else why the crossing is not simulated."""
+    other = sorted(set(modes) - set(SIMULATED_MODES))
+    if other:
+        return (f"the path uses {', '.join(other)}: only walking is simulated (the creature controller walks; "
+                "it neither flies nor swims)")
+    return None
+
+
+def simulate_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[str], *,
+                      settings: SimulateSettings | None = None, folder: str | os.PathLike[str] | None = None,
+                      seed: int = 0) -> dict[str, Any]:
+    """Simulate a walking creature's crossing (see the module text); returns the report's ``simulated``
+    block: ``outcome`` (``reached``, ``fell``, ``diverged``, ``stopped``: out of time, or ``skipped``
+    with ``why`` for a path that is not walked), ``end_to_goal_m`` (the root's final distance to the
+    goal tile's centre), ``max_off_path_m`` and where (``max_off_path_at``: time, position, tile,
+    progress), ``left_path`` (the first time the body was farther than ``off_path_m`` from the path, or
+    None), ``progress_m`` of ``path_length_m``, ``sim_s``, ``fall_reason``, ``speed_m_s`` (mean over the
+    run), the jumps on the path and the settings. ``folder``: write ``model.xml`` and
+    ``trajectory.npz`` there (what :func:`bipedsim.render.video.render_video` reads)."""
+    settings = settings or SimulateSettings()
+    settings.validate()
+    why = can_simulate(modes)
+    if why is not None:
+        return {"outcome": "skipped", "why": why}
+    t0 = time.perf_counter()
+    sc = world_body(syn, world, settings)
+    ctrl = sc.controller()
+    seconds = settings.time_factor * syn.motion.duration
+    spec = RolloutSpec(seconds=seconds, seed=seed, start_frame=0.0, fall=sc.fall_criteria())
+    steering = Steering(syn.curve, settings, world)
+    rec = Recorder(sc.built.model, record_hz=settings.record_hz, seconds=seconds, feet=len(ctrl.foot_names()))
+    t_built = time.perf_counter()
+    with Rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=sc.clip.qpos[0].copy(),
+                 hooks=[steering, rec]) as run:
+        while run.step():
+            if steering.reached:
+                break
+        out = run.finish()
+        final = run.data.qpos[0:3].copy()
+    gr, gc = world.goal
+    if out.outcome != "no_fall":
+        outcome = "fell" if out.outcome == "fall" else out.outcome
+    else:
+        outcome = "reached" if steering.reached else "stopped"
+    sim_s = float(out.sim_seconds)
+    result = {"outcome": outcome, "end_to_goal_m": float(np.linalg.norm(final[0:2] - world.centre(gr, gc))),
+              "max_off_path_m": steering.max_off, "max_off_path_at": steering.max_off_at,
+              "left_path": steering.left_at, "progress_m": steering.progress, "path_length_m": syn.curve.length,
+              "sim_s": sim_s, "final_xy_m": [float(final[0]), float(final[1])],
+              "fall_reason": out.fall_reason, "speed_m_s": steering.progress / sim_s if sim_s > 0 else 0.0,
+              "clip_speed_m_s": syn.curve.length / max(syn.motion.duration, 1e-9),
+              "jumps": [{"tile": list(j.tile), "width_m": j.width, "s_takeoff_m": j.s_takeoff} for j in syn.jumps],
+              "body_mass_kg": float(sum(sc.built.model.body_mass)), "settings": asdict(settings),
+              "timings_s": {"build": t_built - t0, "rollout": time.perf_counter() - t_built}}
+    if folder is not None:
+        _write_run(folder, sc.built, rec)
+    return result
+
+
+def _write_run(folder: str | os.PathLike[str], built: BuiltModel, rec: Recorder) -> None:
+    """``model.xml`` (body and terrain) and ``trajectory.npz`` in ``folder``."""
+    from bipedsim.render.video import MODEL_FILE, TRAJECTORY_FILE
+
+    f = Path(folder)
+    (f / MODEL_FILE).write_text(built.xml)
+    rec.trajectory().save(f / TRAJECTORY_FILE)
+
+
+def render_simulated_video(world: World, creature: Creature, syn: Synthesis, modes: list[str],
+                           out: str | os.PathLike[str], opts: object | None = None, *,
+                           settings: SimulateSettings | None = None, progress: bool = False
+                           ) -> tuple[dict[str, Any], int]:
+    """:func:`simulate_crossing` and a video of it (.mp4/.gif; :mod:`bipedsim.render.video`, follow
+    camera); returns the ``simulated`` block and the frame count (0: not simulated, no video)."""
+    from bipedsim.render.video import VideoOptions, render_video
+
+    with tempfile.TemporaryDirectory(prefix="bipedsim-world-sim-") as tmp:
+        sim = simulate_crossing(world, creature, syn, modes, settings=settings, folder=tmp)
+        if sim["outcome"] == "skipped":
+            return sim, 0
+        o = opts if opts is not None else VideoOptions(distance=4.0, elevation=-20.0, label=False)
+        return sim, render_video(tmp, out, o, progress=progress, out_flag="--video")  # type: ignore[arg-type]
+
+
+__all__ = ["SIMULATED_MODES", "SimulateSettings", "Steering", "can_simulate", "render_simulated_video",
+           "simulate_crossing", "world_body", "world_grid"]

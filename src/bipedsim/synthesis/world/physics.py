@@ -13,7 +13,7 @@ crossing tracked by its body in MuJoCo, on the world's terrain.
   back when it strays;
 - **the end**: the body has reached the path's end (within :attr:`SimulateSettings.goal_radius_m` of
   its progress), it fell, or the run outlasted :attr:`SimulateSettings.time_factor` x the synthesised
-  motion's duration.
+  motion's duration (at least :attr:`SimulateSettings.min_seconds`).
 
 The result (the report's ``simulated`` block, :func:`simulate_crossing`) says how it ended and where the
 physical body left the synthesised path and by how much. Lengths in m, times in s, world frame, Z up.
@@ -68,6 +68,8 @@ class SimulateSettings:
     #: the run ends at the latest after this many times the synthesised motion's duration (the body
     #: walks at the speed its legs allow, which may be below the clip's)
     time_factor: float = 3.0
+    #: ... and at least this long (s): the gait settles and ramps up its speed over its first seconds
+    min_seconds: float = 5.0
     #: the body has left the path where it is farther than this (m) from it
     off_path_m: float = 0.5
     #: samples per second of the recorded trajectory (a video's)
@@ -80,7 +82,8 @@ class SimulateSettings:
         """Each value in its range (a :class:`ConfigError` naming the key)."""
         for key, lo, hi in (("samples_per_tile", 2, 100), ("lookahead_m", 0.05, 20.0),
                             ("max_turn_rate", 0.01, 20.0), ("goal_radius_m", 0.01, 50.0),
-                            ("time_factor", 0.1, 20.0), ("off_path_m", 0.01, 50.0), ("record_hz", 1.0, 500.0),
+                            ("time_factor", 0.1, 20.0), ("min_seconds", 0.0, 600.0), ("off_path_m", 0.01, 50.0),
+                            ("record_hz", 1.0, 500.0),
                             ("progress_window_m", 0.1, 100.0)):
             v = getattr(self, key)
             if not (isinstance(v, (int, float)) and lo <= v <= hi):
@@ -135,6 +138,14 @@ class Steering:
         k = int(np.argmin(d))
         return float(ss[k]), float(d[k])
 
+    def ahead(self, s: float) -> FloatArray:
+        """The path's point at arc length ``s`` (m), past its end continued straight along its last heading
+        (a target short of the body near the end would turn it about)."""
+        c = self.curve
+        xy, yaw = c.at(np.array(min(s, c.length)))
+        beyond = max(s - c.length, 0.0)
+        return xy + beyond * np.array([math.cos(float(yaw)), math.sin(float(yaw))])
+
     def where(self, t: float, xy: FloatArray, off: float) -> dict[str, Any]:
         r, c = self.world.tile_of(xy)
         return {"t_s": round(t, 3), "xy_m": [round(float(v), 3) for v in xy], "tile": [int(r), int(c)],
@@ -150,7 +161,7 @@ class Steering:
             self.left_at = self.where(t, xy, off)
         if self.yaw is None:
             self.yaw = ctrl.heading(data)
-        target, _ = self.curve.at(np.array(self.progress + self.settings.lookahead_m))
+        target = self.ahead(self.progress + self.settings.lookahead_m)
         want = math.atan2(float(target[1] - xy[1]), float(target[0] - xy[0]))
         turn = math.remainder(want - self.yaw, 2 * math.pi)
         most = self.settings.max_turn_rate * max(t - self.t_last, 0.0)
@@ -193,7 +204,7 @@ def simulate_crossing(world: World, creature: Creature, syn: Synthesis, modes: l
     t0 = time.perf_counter()
     sc = world_body(syn, world, settings)
     ctrl = sc.controller()
-    seconds = settings.time_factor * syn.motion.duration
+    seconds = max(settings.min_seconds, settings.time_factor * syn.motion.duration)
     spec = RolloutSpec(seconds=seconds, seed=seed, start_frame=0.0, fall=sc.fall_criteria())
     steering = Steering(syn.curve, settings, world)
     rec = Recorder(sc.built.model, record_hz=settings.record_hz, seconds=seconds, feet=len(ctrl.foot_names()))

@@ -19,7 +19,7 @@ from bipedsim.model.builtin import builtin_humanoid_path
 from bipedsim.model.ground import ground_geoms, terrain_of
 from bipedsim.model.ground_grid import GridTerrain, HeightGrid, with_height_grid
 from bipedsim.synthesis.world import SimulateSettings, cross_world, load_creature, parse_world, world_grid
-from bipedsim.synthesis.world.physics import Steering, can_simulate, simulate_crossing
+from bipedsim.synthesis.world.physics import Steering, can_simulate, fell_where, simulate_crossing
 from bipedsim.synthesis.world.synth import Curve
 from bipedsim.synthesis.world.tiles import GAP_DEPTH_M, MOUNTAIN_HEIGHT_M, WALL_HEIGHT_M
 
@@ -181,3 +181,13 @@ def test_steering_turns_toward_the_path_ahead_at_most_its_rate() -> None:
     st(3.0, _Data(5.0, 2.0), ctrl)  # 1 m east of the second leg
     assert st.max_off == pytest.approx(1.0) and st.left_at["tile"] == [0, 2]
     assert st.progress == pytest.approx(6.0)
+
+
+def test_a_fall_says_how_far_the_root_was_from_a_gap() -> None:
+    w = parse_world({"tile": 2.0, "rows": ["S..G"], "events": [{"kind": "jump", "at": [0, 2], "width": 1.0}]},
+                    "w.yaml")
+    x_gap = float(w.centre(0, 2)[0])  # the gap runs north-south across tile (0, 2), 1 m wide
+    near = fell_where(w, 3.0, np.array([x_gap - 0.8, -1.0, 0.3]))
+    assert near["tile"] == [0, 2] and near["to_gap_m"] == pytest.approx(0.3)
+    assert fell_where(w, 3.0, np.array([x_gap, -1.0, 0.3]))["to_gap_m"] == 0.0
+    assert fell_where(parse_world({"tile": 2.0, "rows": ["SG"]}, "w.yaml"), None, np.zeros(3))["to_gap_m"] is None

@@ -228,12 +228,32 @@ def simulate_crossing(world: World, creature: Creature, syn: Synthesis, modes: l
               "sim_s": sim_s, "final_xy_m": [float(final[0]), float(final[1])],
               "fall_reason": out.fall_reason, "speed_m_s": steering.progress / sim_s if sim_s > 0 else 0.0,
               "clip_speed_m_s": syn.curve.length / max(syn.motion.duration, 1e-9),
-              "jumps": [{"tile": list(j.tile), "width_m": j.width, "s_takeoff_m": j.s_takeoff} for j in syn.jumps],
-              "body_mass_kg": float(sum(sc.built.model.body_mass)), "settings": asdict(settings),
+              "jumps": [{"tile": list(j.tile), "width_m": j.width, "s_takeoff_m": j.s_takeoff, "s_land_m": j.s_land,
+                         "takeoff_speed_m_s": j.speed, "crossed": steering.progress >= j.s_land} for j in syn.jumps],
+              "fell_at": fell_where(world, out.fall_time_s, final) if out.outcome != "no_fall" else None,
+              "body_mass_kg": float(sum(sc.built.model.body_mass)), "body_size_m": float(creature.size),
+              "settings": asdict(settings),
               "timings_s": {"build": t_built - t0, "rollout": time.perf_counter() - t_built}}
     if folder is not None:
         _write_run(folder, sc.built, rec)
     return result
+
+
+def fell_where(world: World, t: float | None, xyz: FloatArray) -> dict[str, Any]:
+    """Where a run ended in a fall: time (s), root position (m), tile and its kind, and the root's
+    distance (m) from the nearest jump's gap (0: over it; None: the world has no gap)."""
+    xy = np.asarray(xyz[0:2], dtype=float)
+    r, c = (int(v) for v in world.tile_of(xy))
+    to_gap = None
+    for ev in world.events:
+        centre = world.centre(*ev.at)
+        along = abs(float(xy[ev.axis] - centre[ev.axis])) - ev.width / 2
+        across = abs(float(xy[1 - ev.axis] - centre[1 - ev.axis])) - world.tile / 2
+        d = float(np.hypot(max(along, 0.0), max(across, 0.0)))
+        to_gap = d if to_gap is None else min(to_gap, d)
+    return {"t_s": None if t is None else round(float(t), 3), "xy_m": [round(float(v), 3) for v in xy],
+            "tile": [r, c], "tile_kind": world.kind(r, c).name,
+            "to_gap_m": None if to_gap is None else round(to_gap, 3)}
 
 
 def _write_run(folder: str | os.PathLike[str], built: BuiltModel, rec: Recorder) -> None:
@@ -261,5 +281,5 @@ def render_simulated_video(world: World, creature: Creature, syn: Synthesis, mod
         return sim, render_video(tmp, out, o, progress=progress, out_flag="--video")  # type: ignore[arg-type]
 
 
-__all__ = ["SIMULATED_MODES", "SimulateSettings", "Steering", "can_simulate", "render_simulated_video",
+__all__ = ["SIMULATED_MODES", "SimulateSettings", "Steering", "can_simulate", "fell_where", "render_simulated_video",
            "simulate_crossing", "world_body", "world_grid"]

@@ -198,6 +198,11 @@ def format_simulated_line(name: str, sim: dict[str, Any]) -> str:
     where = (f"left the path (> {sim['settings']['off_path_m']:g} m) at {left['t_s']:.1f} s on tile "
              f"{tuple(left['tile'])}" if left else "kept to the path")
     why = f" ({sim['fall_reason']})" if sim.get("fall_reason") else ""
+    fell = sim.get("fell_at")
+    if fell:
+        why += f" on tile {tuple(fell['tile'])}"
+        if fell["to_gap_m"] is not None and fell["to_gap_m"] < sim["body_size_m"]:
+            why += f", its root {fell['to_gap_m']:.2f} m from a gap"
     return (f"{name} in physics: {sim['outcome']}{why} after {sim['sim_s']:.1f} s, {sim['progress_m']:.1f} of "
             f"{sim['path_length_m']:.1f} m at {sim['speed_m_s']:.2f} m/s, ends {sim['end_to_goal_m']:.2f} m from the "
             f"goal; {where}, at most {sim['max_off_path_m']:.2f} m off it")

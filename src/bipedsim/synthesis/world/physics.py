@@ -22,11 +22,8 @@ physical body left the synthesised path and by how much. Lengths in m, times in 
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 import time
 from dataclasses import asdict, dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -38,7 +35,7 @@ from bipedsim.errors import ConfigError
 from bipedsim.model.build import BuiltModel, build_model
 from bipedsim.model.ground_grid import HeightGrid, with_height_grid
 from bipedsim.reference.retarget import retarget
-from bipedsim.sim.recorder import Recorder
+from bipedsim.sim.recorder import Recorder, Trajectory
 from bipedsim.sim.rollout import Rollout, RolloutSpec
 from bipedsim.sim.runner import Scenario
 from bipedsim.synthesis.world.creature_file import Creature
@@ -186,21 +183,27 @@ def can_simulate(modes: list[str]) -> str | None:
 
 
 def simulate_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[str], *,
-                      settings: SimulateSettings | None = None, folder: str | os.PathLike[str] | None = None,
-                      seed: int = 0) -> dict[str, Any]:
+                      settings: SimulateSettings | None = None, seed: int = 0) -> dict[str, Any]:
     """Simulate a walking creature's crossing (see the module text); returns the report's ``simulated``
     block: ``outcome`` (``reached``, ``fell``, ``diverged``, ``stopped``: out of time, or ``skipped``
     with ``why`` for a path that is not walked), ``end_to_goal_m`` (the root's final distance to the
     goal tile's centre), ``max_off_path_m`` and where (``max_off_path_at``: time, position, tile,
     progress), ``left_path`` (the first time the body was farther than ``off_path_m`` from the path, or
-    None), ``progress_m`` of ``path_length_m``, ``sim_s``, ``fall_reason``, ``speed_m_s`` (mean over the
-    run), the jumps on the path and the settings. ``folder``: write ``model.xml`` and
-    ``trajectory.npz`` there (what :func:`bipedsim.render.video.render_video` reads)."""
+    None), ``progress_m`` of ``path_length_m``, ``sim_s``, ``fall_reason`` and ``fell_at``,
+    ``speed_m_s`` (mean over the run), the jumps on the path and the settings."""
+    return run_crossing(world, creature, syn, modes, settings=settings, seed=seed)[0]
+
+
+def run_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[str], *,
+                 settings: SimulateSettings | None = None, seed: int = 0
+                 ) -> tuple[dict[str, Any], BuiltModel | None, Trajectory | None]:
+    """:func:`simulate_crossing`, also returning the body on its terrain and the recorded trajectory
+    (what a video draws; None for a crossing not simulated)."""
     settings = settings or SimulateSettings()
     settings.validate()
     why = can_simulate(modes)
     if why is not None:
-        return {"outcome": "skipped", "why": why}
+        return {"outcome": "skipped", "why": why}, None, None
     t0 = time.perf_counter()
     sc = world_body(syn, world, settings)
     ctrl = sc.controller()
@@ -234,9 +237,7 @@ def simulate_crossing(world: World, creature: Creature, syn: Synthesis, modes: l
               "body_mass_kg": float(sum(sc.built.model.body_mass)), "body_size_m": float(creature.size),
               "settings": asdict(settings),
               "timings_s": {"build": t_built - t0, "rollout": time.perf_counter() - t_built}}
-    if folder is not None:
-        _write_run(folder, sc.built, rec)
-    return result
+    return result, sc.built, rec.trajectory()
 
 
 def fell_where(world: World, t: float | None, xyz: FloatArray) -> dict[str, Any]:
@@ -256,30 +257,5 @@ def fell_where(world: World, t: float | None, xyz: FloatArray) -> dict[str, Any]
             "to_gap_m": None if to_gap is None else round(to_gap, 3)}
 
 
-def _write_run(folder: str | os.PathLike[str], built: BuiltModel, rec: Recorder) -> None:
-    """``model.xml`` (body and terrain) and ``trajectory.npz`` in ``folder``."""
-    from bipedsim.render.video import MODEL_FILE, TRAJECTORY_FILE
-
-    f = Path(folder)
-    (f / MODEL_FILE).write_text(built.xml)
-    rec.trajectory().save(f / TRAJECTORY_FILE)
-
-
-def render_simulated_video(world: World, creature: Creature, syn: Synthesis, modes: list[str],
-                           out: str | os.PathLike[str], opts: object | None = None, *,
-                           settings: SimulateSettings | None = None, progress: bool = False
-                           ) -> tuple[dict[str, Any], int]:
-    """:func:`simulate_crossing` and a video of it (.mp4/.gif; :mod:`bipedsim.render.video`, follow
-    camera); returns the ``simulated`` block and the frame count (0: not simulated, no video)."""
-    from bipedsim.render.video import VideoOptions, render_video
-
-    with tempfile.TemporaryDirectory(prefix="bipedsim-world-sim-") as tmp:
-        sim = simulate_crossing(world, creature, syn, modes, settings=settings, folder=tmp)
-        if sim["outcome"] == "skipped":
-            return sim, 0
-        o = opts if opts is not None else VideoOptions(distance=4.0, elevation=-20.0, label=False)
-        return sim, render_video(tmp, out, o, progress=progress, out_flag="--video")  # type: ignore[arg-type]
-
-
-__all__ = ["SIMULATED_MODES", "SimulateSettings", "Steering", "can_simulate", "fell_where", "render_simulated_video",
+__all__ = ["SIMULATED_MODES", "SimulateSettings", "Steering", "can_simulate", "fell_where", "run_crossing",
            "simulate_crossing", "world_body", "world_grid"]

@@ -15,7 +15,7 @@ from bipedsim.motion.bvh import write_bvh
 from bipedsim.reference.clip import STANCE_LEVEL_PERCENTILE
 from bipedsim.synthesis.world.creature_file import NAME_PATTERN, Creature, _foot_points, creature_summary, load_creature
 from bipedsim.synthesis.world.path import find_path, path_modes
-from bipedsim.synthesis.world.physics import SimulateSettings, render_simulated_video, simulate_crossing
+from bipedsim.synthesis.world.physics import SimulateSettings, simulate_crossing
 from bipedsim.synthesis.world.synth import Synthesis, body_points, synthesize
 from bipedsim.synthesis.world.tiles import MIN_TILE_BODY_FRACTION, World, WorldError, load_world
 
@@ -158,6 +158,8 @@ def run_world(world: PathLike, creatures: list[PathLike], output: PathLike, *, r
         n = 0
         if sim_settings is not None:
             if videos:
+                from bipedsim.synthesis.world.scene import render_simulated_video
+
                 rep["simulated"], n = render_simulated_video(w, c, syn, rep["modes"], videos[len(entries) - 1],
                                                              video_options, settings=sim_settings, progress=progress)
             else:

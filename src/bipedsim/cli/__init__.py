@@ -189,6 +189,9 @@ def _add_world(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", default=None, help="PNG (.png) of the map with every creature's path")
     p.add_argument("--blend", choices=("quadratic", "linear", "smoothstep"), default="quadratic",
                    help="transition weights (default quadratic: P(n) = n^2/m^2)")
+    p.add_argument("--simulate", action="store_true",
+                   help="also run each walking creature's crossing in physics on the world's terrain (report: "
+                        "simulated; --video shows the physical body)")
     g = p.add_argument_group("video")
     for flag, kind, default, help_text in VIDEO_FLAGS:
         g.add_argument(flag, type=kind, default=WORLD_VIDEO_DEFAULTS.get(flag, default), help=help_text)

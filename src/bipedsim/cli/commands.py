@@ -184,7 +184,8 @@ def cmd_world(args: argparse.Namespace) -> int:
                         distance=args.cam_distance, elevation=args.cam_elevation, azimuth=args.cam_azimuth,
                         label=False)
     run_world(args.world, args.creatures, args.output, report=args.report, video=args.video, plot=args.plot,
-              weights=args.blend, video_options=opts, progress=sys.stderr.isatty(), say=print)
+              weights=args.blend, video_options=opts, progress=sys.stderr.isatty(), say=print,
+              simulate=args.simulate)
     return 0
 
 

@@ -33,6 +33,7 @@ import numpy.typing as npt
 
 from bipedsim.errors import ConfigError
 from bipedsim.model.build import BuiltModel
+from bipedsim.model.ground_grid import GridTerrain, grid_terrain_of
 from bipedsim.model.ground_terms import (
     AHEAD_M,
     BEHIND_M,
@@ -388,8 +389,12 @@ def ground_of(model: mujoco.MjModel) -> tuple[Ground, GroundFrame] | None:
 _TERRAINS: dict[str, Terrain | None] = {}
 
 
-def terrain_of(model: mujoco.MjModel) -> Terrain | None:
-    """Height queries of the ground a model was built with; None for a flat floor at z = 0."""
+def terrain_of(model: mujoco.MjModel) -> Terrain | GridTerrain | None:
+    """Height queries of the ground a model was built with (its terms', or a height grid's:
+    :mod:`bipedsim.model.ground_grid`); None for a flat floor at z = 0."""
+    grid = grid_terrain_of(model)
+    if grid is not None:
+        return grid
     text = _ground_text(model)
     if text is None:
         return None

@@ -94,6 +94,13 @@ class CreatureController(Controller):
             return self.track.step(data, t)
         return self.gait.step(model, data, t, dt)
 
+    def steer(self, t: float, yaw: float) -> None:
+        """Turn the planned walk toward heading ``yaw`` (rad about world Z; the body's forward axis,
+        :meth:`heading`) from time ``t`` (s): a caller following a course (a world's path) steers with
+        it. Without a planned path (the clip-timed balance, root support) nothing changes."""
+        if isinstance(self.gait, PlannedGait) and not self.cfg.support:
+            self.gait.planner.turn_to(t, yaw)
+
     def restore_model(self) -> None:
         self.body.restore()
 

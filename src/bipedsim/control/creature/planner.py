@@ -157,6 +157,14 @@ class GaitPlanner:
         dist = self.clock.v_des * (tw * tw / (2 * ramp) if tw < ramp else tw - ramp / 2)
         return self.origin + dist * self.dir
 
+    def turn_to(self, t: float, yaw: float) -> None:
+        """Walk on toward heading ``yaw`` (rad about world Z) from time ``t`` (s): the path turns about
+        where it is at ``t``, so the root's planned position does not jump (a steering command)."""
+        before = self.root_path(t)
+        self.yaw = float(yaw)
+        self.dir = np.array([math.cos(self.yaw), math.sin(self.yaw)])
+        self.origin += before - self.root_path(t)
+
     def heading_rot(self) -> FloatArray:
         """The plan's heading frame (3x3): world turned by :attr:`yaw`."""
         return rot_z(self.yaw)

@@ -15,6 +15,7 @@ from bipedsim.motion.bvh import write_bvh
 from bipedsim.reference.clip import STANCE_LEVEL_PERCENTILE
 from bipedsim.synthesis.world.creature_file import NAME_PATTERN, Creature, _foot_points, creature_summary, load_creature
 from bipedsim.synthesis.world.path import find_path, path_modes
+from bipedsim.synthesis.world.physics import SimulateSettings, simulate_crossing
 from bipedsim.synthesis.world.synth import Synthesis, body_points, synthesize
 from bipedsim.synthesis.world.tiles import MIN_TILE_BODY_FRACTION, World, WorldError, load_world
 
@@ -111,10 +112,17 @@ def cross_world(world: World, creature: Creature, weights: str = "quadratic") ->
 
 def run_world(world: PathLike, creatures: list[PathLike], output: PathLike, *, report: PathLike | None = None,
               video: PathLike | None = None, plot: PathLike | None = None, weights: str = "quadratic",
-              video_options: Any = None, progress: bool = False, say: Any = None) -> dict[str, Any]:
+              video_options: Any = None, progress: bool = False, say: Any = None,
+              simulate: bool | SimulateSettings = False) -> dict[str, Any]:
     """Every creature crosses ``world``; writes the BVHs (metres, Y up in the file: ``load_bvh`` reads them
     back into the project frame, Z up, with the root over the tile centres), and optionally the
-    report (JSON), the paths plot (PNG) and a video (the first creature, or each as ``<stem>_<name>``)."""
+    report (JSON), the paths plot (PNG) and a video (the first creature, or each as ``<stem>_<name>``).
+    ``simulate`` (True or its settings): each walking creature's crossing is also run in physics on the
+    world's terrain (:func:`~bipedsim.synthesis.world.physics.simulate_crossing`; the report's
+    ``simulated`` block), and its video shows the physical body."""
+    sim_settings = simulate if isinstance(simulate, SimulateSettings) else SimulateSettings() if simulate else None
+    if sim_settings is not None:
+        sim_settings.validate()
     w = load_world(world)
     cs = [load_creature(c) for c in creatures]
     names = [c.name for c in cs]
@@ -147,11 +155,23 @@ def run_world(world: PathLike, creatures: list[PathLike], output: PathLike, *, r
         tracks[name] = (syn.motion.root_translation, syn.mode)
         if say:
             say(format_creature_line(rep))
+        n = 0
+        if sim_settings is not None:
+            if videos:
+                from bipedsim.synthesis.world.scene import render_simulated_video
+
+                rep["simulated"], n = render_simulated_video(w, c, syn, rep["modes"], videos[len(entries) - 1],
+                                                             video_options, settings=sim_settings, progress=progress)
+            else:
+                rep["simulated"] = simulate_crossing(w, c, syn, rep["modes"], settings=sim_settings)
+            if say:
+                say(format_simulated_line(rep["name"], rep["simulated"]))
         if videos:
             from bipedsim.synthesis.world.scene import render_world_video
 
             v = videos[len(entries) - 1]
-            n = render_world_video(syn.motion, w, v, video_options, progress=progress)
+            if not n:  # not simulated (or skipped): the synthesised motion played back
+                n = render_world_video(syn.motion, w, v, video_options, progress=progress)
             rep["video"] = {"file": str(v), "frames": n}
             if say:
                 say(f"wrote {v}: {n} frames")
@@ -170,6 +190,24 @@ def run_world(world: PathLike, creatures: list[PathLike], output: PathLike, *, r
         if say:
             say(f"wrote {report}")
     return result
+
+
+def format_simulated_line(name: str, sim: dict[str, Any]) -> str:
+    """One line for a simulated crossing: how it ended, how far from the goal and from the path."""
+    if sim["outcome"] == "skipped":
+        return f"{name} in physics: not simulated ({sim['why']})"
+    left = sim["left_path"]
+    where = (f"left the path (> {sim['settings']['off_path_m']:g} m) at {left['t_s']:.1f} s on tile "
+             f"{tuple(left['tile'])}" if left else "kept to the path")
+    why = f" ({sim['fall_reason']})" if sim.get("fall_reason") else ""
+    fell = sim.get("fell_at")
+    if fell:
+        why += f" on tile {tuple(fell['tile'])}"
+        if fell["to_gap_m"] is not None and fell["to_gap_m"] < sim["body_size_m"]:
+            why += f", its root {fell['to_gap_m']:.2f} m from a gap"
+    return (f"{name} in physics: {sim['outcome']}{why} after {sim['sim_s']:.1f} s, {sim['progress_m']:.1f} of "
+            f"{sim['path_length_m']:.1f} m at {sim['speed_m_s']:.2f} m/s, ends {sim['end_to_goal_m']:.2f} m from the "
+            f"goal; {where}, at most {sim['max_off_path_m']:.2f} m off it")
 
 
 def format_creature_line(rep: dict[str, Any]) -> str:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -17,6 +18,9 @@ from bipedsim.motion.motion import Motion
 from bipedsim.reference.retarget import retarget
 from bipedsim.render.video import MODEL_FILE, TRAJECTORY_FILE, VideoOptions, render_video
 from bipedsim.sim.recorder import SAMPLE_DTYPES, Trajectory
+from bipedsim.synthesis.world.creature_file import Creature
+from bipedsim.synthesis.world.physics import SimulateSettings, run_crossing
+from bipedsim.synthesis.world.synth import Synthesis
 from bipedsim.synthesis.world.tiles import World
 
 FloatArray = npt.NDArray[np.float64]
@@ -114,3 +118,20 @@ def render_world_video(motion: Motion, world: World, out: str | os.PathLike[str]
     with tempfile.TemporaryDirectory(prefix="bipedsim-world-") as tmp:
         write_scene(tmp, motion, world)
         return render_video(tmp, out, o, progress=progress, out_flag="--video")  # type: ignore[arg-type]
+
+
+def render_simulated_video(world: World, creature: Creature, syn: Synthesis, modes: list[str],
+                           out: str | os.PathLike[str], opts: object | None = None, *,
+                           settings: SimulateSettings | None = None, progress: bool = False
+                           ) -> tuple[dict[str, Any], int]:
+    """The crossing in physics (:func:`~bipedsim.synthesis.world.physics.run_crossing`) and a video of it
+    (.mp4/.gif: the body on the terrain, follow camera); returns the ``simulated`` block and the frame
+    count (0: not simulated, no video)."""
+    sim, built, traj = run_crossing(world, creature, syn, modes, settings=settings)
+    if built is None or traj is None:
+        return sim, 0
+    o = opts if opts is not None else VideoOptions(distance=4.0, elevation=-20.0, label=False)
+    with tempfile.TemporaryDirectory(prefix="bipedsim-world-sim-") as tmp:
+        (Path(tmp) / MODEL_FILE).write_text(built.xml)
+        traj.save(Path(tmp) / TRAJECTORY_FILE)
+        return sim, render_video(tmp, out, o, progress=progress, out_flag="--video")  # type: ignore[arg-type]

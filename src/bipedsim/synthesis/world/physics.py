@@ -1,0 +1,261 @@
+"""The tile world in physics (``bipedsim world ... --simulate``): a walking creature's synthesised
+crossing tracked by its body in MuJoCo, on the world's terrain.
+
+- **terrain**: the world's heights (tiles, mountains, walls, water beds, gaps cut) sampled onto one
+  MuJoCo height field (:func:`world_grid`; :mod:`bipedsim.model.ground_grid`), in place of the body's
+  flat floor: the fall rule counts it as floor and the controller's terrain queries read it;
+- **body and controller**: the creature body built from the synthesised motion (the creature profile)
+  and the creature controller tracking it, as ``bipedsim run --bvh OUT.bvh --profile creature`` does
+  (:func:`bipedsim.sim.runner.load_scenario`), started where the world starts it;
+- **steering**: the planned gait walks a straight path; each control period the body is turned toward
+  the point :attr:`SimulateSettings.lookahead_m` ahead of it on the synthesised path (pure pursuit),
+  at most :attr:`SimulateSettings.max_turn_rate` rad/s, so it follows the path's turns and is steered
+  back when it strays;
+- **the end**: the body has reached the path's end (within :attr:`SimulateSettings.goal_radius_m` of
+  its progress), it fell, or the run outlasted :attr:`SimulateSettings.time_factor` x the synthesised
+  motion's duration (at least :attr:`SimulateSettings.min_seconds`).
+
+The result (the report's ``simulated`` block, :func:`simulate_crossing`) says how it ended and where the
+physical body left the synthesised path and by how much. Lengths in m, times in s, world frame, Z up.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from bipedsim.control.base import Controller
+from bipedsim.control.settings import load_controller
+from bipedsim.errors import ConfigError
+from bipedsim.model.build import BuiltModel, build_model
+from bipedsim.model.ground_grid import HeightGrid, with_height_grid
+from bipedsim.reference.retarget import retarget
+from bipedsim.sim.recorder import Recorder, Trajectory
+from bipedsim.sim.rollout import Rollout, RolloutSpec
+from bipedsim.sim.runner import Scenario
+from bipedsim.synthesis.world.creature_file import Creature
+from bipedsim.synthesis.world.synth import Curve, Synthesis
+from bipedsim.synthesis.world.tiles import World
+
+FloatArray = npt.NDArray[np.float64]
+
+#: the travel modes a body is simulated in (the creature controller walks; it neither flies nor swims)
+SIMULATED_MODES = ("walk",)
+
+
+@dataclass(frozen=True)
+class SimulateSettings:
+    """How a crossing is simulated (lengths m, times s, rates rad/s)."""
+
+    #: samples of the terrain per tile side (the gap of a jump event is a tenth of a tile or more)
+    samples_per_tile: int = 20
+    #: the steering target lies this far ahead (m) of the body's progress on the path: about a body
+    #: length, so a corner is cut by little and a stray body turns back gently
+    lookahead_m: float = 1.0
+    #: the fastest turn (rad/s) the steering commands: the synthesised path turns a quarter circle over
+    #: about half a tile, which a walking body takes in about 1-2 s
+    max_turn_rate: float = 1.5
+    #: the crossing has ended when the body's progress is within this (m) of the path's end
+    goal_radius_m: float = 0.25
+    #: the run ends at the latest after this many times the synthesised motion's duration (the body
+    #: walks at the speed its legs allow, which may be below the clip's)
+    time_factor: float = 3.0
+    #: ... and at least this long (s): the gait settles and ramps up its speed over its first seconds
+    min_seconds: float = 5.0
+    #: the body has left the path where it is farther than this (m) from it
+    off_path_m: float = 0.5
+    #: samples per second of the recorded trajectory (a video's)
+    record_hz: float = 30.0
+    #: how far (m) past the last progress the closest path point is searched for (a path that comes
+    #: back near itself is not jumped along)
+    progress_window_m: float = 3.0
+
+    def validate(self) -> None:
+        """Each value in its range (a :class:`ConfigError` naming the key)."""
+        for key, lo, hi in (("samples_per_tile", 2, 100), ("lookahead_m", 0.05, 20.0),
+                            ("max_turn_rate", 0.01, 20.0), ("goal_radius_m", 0.01, 50.0),
+                            ("time_factor", 0.1, 20.0), ("min_seconds", 0.0, 600.0), ("off_path_m", 0.01, 50.0),
+                            ("record_hz", 1.0, 500.0),
+                            ("progress_window_m", 0.1, 100.0)):
+            v = getattr(self, key)
+            if not (isinstance(v, (int, float)) and lo <= v <= hi):
+                raise ConfigError(f"must lie in [{lo:g}, {hi:g}], got {v!r}", key=f"simulate.{key}")
+
+
+def world_grid(world: World, samples_per_tile: int = SimulateSettings.samples_per_tile) -> HeightGrid:
+    """The world's terrain heights (m) sampled ``samples_per_tile`` times per tile side over the whole
+    map, row 0 at its south edge (y = -rows x tile), column 0 at its west edge (x = 0)."""
+    rows, cols = world.shape
+    xs = np.linspace(0.0, cols * world.tile, cols * samples_per_tile + 1)
+    ys = np.linspace(-rows * world.tile, 0.0, rows * samples_per_tile + 1)
+    gx, gy = np.meshgrid(xs, ys)
+    h = world.terrain(np.stack([gx, gy], axis=-1))
+    return HeightGrid(heights=h, x0=0.0, y0=float(-rows * world.tile), dx=float(xs[1] - xs[0]),
+                      dy=float(ys[1] - ys[0]))
+
+
+def world_body(syn: Synthesis, world: World, settings: SimulateSettings) -> Scenario:
+    """The creature body built from the synthesised motion (creature profile) on the world's terrain,
+    its reference retargeted, with the controller's default settings."""
+    motion = syn.motion
+    cfg = load_controller(None)
+    built = build_model(motion, "creature", name="world")
+    clip = retarget(motion, built.model, plan=built.plan, xml=built.xml, source="bipedsim world")
+    on_terrain: BuiltModel = with_height_grid(built, world_grid(world, settings.samples_per_tile))
+    return Scenario(built=on_terrain, clip=clip, cfg=cfg, source_path="bipedsim world", config_path=None,
+                    motion=motion, creature_cfg=cfg.creature)
+
+
+class Steering:
+    """The rollout hook that follows the synthesised path (see the module text) and measures how far
+    the body strays from it: its progress along the path (m), the largest distance from it (m) and
+    where that and the first departure beyond :attr:`SimulateSettings.off_path_m` happened."""
+
+    def __init__(self, curve: Curve, settings: SimulateSettings, world: World) -> None:
+        self.curve, self.settings, self.world = curve, settings, world
+        self.progress = 0.0
+        self.yaw: float | None = None
+        self.t_last = 0.0
+        self.max_off = 0.0
+        self.max_off_at: dict[str, Any] | None = None
+        self.left_at: dict[str, Any] | None = None
+
+    def _closest(self, xy: FloatArray) -> tuple[float, float]:
+        """The body's progress (m of arc, searched from :attr:`progress` back a little to
+        ``progress_window_m`` ahead) and its distance (m) from the path there."""
+        c, w = self.curve, self.settings.progress_window_m
+        keep = (c.s >= self.progress - w / 4) & (c.s <= self.progress + w)
+        pts, ss = c.xy[keep], c.s[keep]
+        d = np.linalg.norm(pts - xy, axis=1)
+        k = int(np.argmin(d))
+        return float(ss[k]), float(d[k])
+
+    def ahead(self, s: float) -> FloatArray:
+        """The path's point at arc length ``s`` (m), past its end continued straight along its last heading
+        (a target short of the body near the end would turn it about)."""
+        c = self.curve
+        xy, yaw = c.at(np.array(min(s, c.length)))
+        beyond = max(s - c.length, 0.0)
+        return xy + beyond * np.array([math.cos(float(yaw)), math.sin(float(yaw))])
+
+    def where(self, t: float, xy: FloatArray, off: float) -> dict[str, Any]:
+        r, c = self.world.tile_of(xy)
+        return {"t_s": round(t, 3), "xy_m": [round(float(v), 3) for v in xy], "tile": [int(r), int(c)],
+                "off_m": round(off, 4), "progress_m": round(self.progress, 3)}
+
+    def __call__(self, t: float, data: Any, ctrl: Controller) -> None:
+        xy = data.qpos[0:2].copy()
+        s, off = self._closest(xy)
+        self.progress = max(self.progress, s)
+        if off > self.max_off:
+            self.max_off, self.max_off_at = off, self.where(t, xy, off)
+        if off > self.settings.off_path_m and self.left_at is None:
+            self.left_at = self.where(t, xy, off)
+        if self.yaw is None:
+            self.yaw = ctrl.heading(data)
+        target = self.ahead(self.progress + self.settings.lookahead_m)
+        want = math.atan2(float(target[1] - xy[1]), float(target[0] - xy[0]))
+        turn = math.remainder(want - self.yaw, 2 * math.pi)
+        most = self.settings.max_turn_rate * max(t - self.t_last, 0.0)
+        self.yaw += max(-most, min(most, turn))
+        self.t_last = t
+        steer = getattr(ctrl, "steer", None)
+        if steer is not None:
+            steer(t, self.yaw)
+
+    @property
+    def reached(self) -> bool:
+        return self.progress >= self.curve.length - self.settings.goal_radius_m
+
+
+def can_simulate(modes: list[str]) -> str | None:
+    """None where every tile of a path is walked; else why the crossing is not simulated."""
+    other = sorted(set(modes) - set(SIMULATED_MODES))
+    if other:
+        return (f"the path uses {', '.join(other)}: only walking is simulated (the creature controller walks; "
+                "it neither flies nor swims)")
+    return None
+
+
+def simulate_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[str], *,
+                      settings: SimulateSettings | None = None, seed: int = 0) -> dict[str, Any]:
+    """Simulate a walking creature's crossing (see the module text); returns the report's ``simulated``
+    block: ``outcome`` (``reached``, ``fell``, ``diverged``, ``stopped``: out of time, or ``skipped``
+    with ``why`` for a path that is not walked), ``end_to_goal_m`` (the root's final distance to the
+    goal tile's centre), ``max_off_path_m`` and where (``max_off_path_at``: time, position, tile,
+    progress), ``left_path`` (the first time the body was farther than ``off_path_m`` from the path, or
+    None), ``progress_m`` of ``path_length_m``, ``sim_s``, ``fall_reason`` and ``fell_at``,
+    ``speed_m_s`` (mean over the run), the jumps on the path and the settings."""
+    return run_crossing(world, creature, syn, modes, settings=settings, seed=seed)[0]
+
+
+def run_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[str], *,
+                 settings: SimulateSettings | None = None, seed: int = 0
+                 ) -> tuple[dict[str, Any], BuiltModel | None, Trajectory | None]:
+    """:func:`simulate_crossing`, also returning the body on its terrain and the recorded trajectory
+    (what a video draws; None for a crossing not simulated)."""
+    settings = settings or SimulateSettings()
+    settings.validate()
+    why = can_simulate(modes)
+    if why is not None:
+        return {"outcome": "skipped", "why": why}, None, None
+    t0 = time.perf_counter()
+    sc = world_body(syn, world, settings)
+    ctrl = sc.controller()
+    seconds = max(settings.min_seconds, settings.time_factor * syn.motion.duration)
+    spec = RolloutSpec(seconds=seconds, seed=seed, start_frame=0.0, fall=sc.fall_criteria())
+    steering = Steering(syn.curve, settings, world)
+    rec = Recorder(sc.built.model, record_hz=settings.record_hz, seconds=seconds, feet=len(ctrl.foot_names()))
+    t_built = time.perf_counter()
+    with Rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=sc.clip.qpos[0].copy(),
+                 hooks=[steering, rec]) as run:
+        while run.step():
+            if steering.reached:
+                break
+        out = run.finish()
+        final = run.data.qpos[0:3].copy()
+    gr, gc = world.goal
+    if out.outcome != "no_fall":
+        outcome = "fell" if out.outcome == "fall" else out.outcome
+    else:
+        outcome = "reached" if steering.reached else "stopped"
+    sim_s = float(out.sim_seconds)
+    result = {"outcome": outcome, "end_to_goal_m": float(np.linalg.norm(final[0:2] - world.centre(gr, gc))),
+              "max_off_path_m": steering.max_off, "max_off_path_at": steering.max_off_at,
+              "left_path": steering.left_at, "progress_m": steering.progress, "path_length_m": syn.curve.length,
+              "sim_s": sim_s, "final_xy_m": [float(final[0]), float(final[1])],
+              "fall_reason": out.fall_reason, "speed_m_s": steering.progress / sim_s if sim_s > 0 else 0.0,
+              "clip_speed_m_s": syn.curve.length / max(syn.motion.duration, 1e-9),
+              "jumps": [{"tile": list(j.tile), "width_m": j.width, "s_takeoff_m": j.s_takeoff, "s_land_m": j.s_land,
+                         "takeoff_speed_m_s": j.speed, "crossed": steering.progress >= j.s_land} for j in syn.jumps],
+              "fell_at": fell_where(world, out.fall_time_s, final) if out.outcome != "no_fall" else None,
+              "body_mass_kg": float(sum(sc.built.model.body_mass)), "body_size_m": float(creature.size),
+              "settings": asdict(settings),
+              "timings_s": {"build": t_built - t0, "rollout": time.perf_counter() - t_built}}
+    return result, sc.built, rec.trajectory()
+
+
+def fell_where(world: World, t: float | None, xyz: FloatArray) -> dict[str, Any]:
+    """Where a run ended in a fall: time (s), root position (m), tile and its kind, and the root's
+    distance (m) from the nearest jump's gap (0: over it; None: the world has no gap)."""
+    xy = np.asarray(xyz[0:2], dtype=float)
+    r, c = (int(v) for v in world.tile_of(xy))
+    to_gap = None
+    for ev in world.events:
+        centre = world.centre(*ev.at)
+        along = abs(float(xy[ev.axis] - centre[ev.axis])) - ev.width / 2
+        across = abs(float(xy[1 - ev.axis] - centre[1 - ev.axis])) - world.tile / 2
+        d = float(np.hypot(max(along, 0.0), max(across, 0.0)))
+        to_gap = d if to_gap is None else min(to_gap, d)
+    return {"t_s": None if t is None else round(float(t), 3), "xy_m": [round(float(v), 3) for v in xy],
+            "tile": [r, c], "tile_kind": world.kind(r, c).name,
+            "to_gap_m": None if to_gap is None else round(to_gap, 3)}
+
+
+__all__ = ["SIMULATED_MODES", "SimulateSettings", "Steering", "can_simulate", "fell_where", "run_crossing",
+           "simulate_crossing", "world_body", "world_grid"]

@@ -165,3 +165,24 @@ def test_the_tracking_cost_measures_height_above_the_ground_under_the_body(small
     d.qpos[2] += 0.3
     assert tracking_cost(d, q, v, 5.0, qadr, cfg, ground_z=0.3) == pytest.approx(flat, abs=1e-12)
     assert tracking_cost(d, q, v, 5.0, qadr, cfg) == pytest.approx(flat + cfg.height_weight * 0.3, abs=1e-9)
+
+
+def test_the_judge_keeps_the_better_of_repeating_the_loop_and_fading_out(small) -> None:
+    """A correction that repeats its last loop period is also judged fading out after it; the one that
+    stands longer is kept (and compared with no correction at all)."""
+    from bipedsim.sim.runner import judge_correction
+
+    rows = np.zeros((2, small.controller().tables.kp.shape[0] + EXTRA))
+    corr = Correction(starts=(10.0, 20.0), rows=rows, end=30.0, fade=10.0, period=15.0)
+
+    def judged(stand: dict):
+        return lambda sc: stand["none" if sc.correction is None else "repeat" if sc.correction.period else "fade"]
+
+    keep, why, chosen = judge_correction(small, corr, judged({"repeat": (6.0, 0.2), "fade": (20.0, 0.3),
+                                                               "none": (20.0, 0.9)}))
+    assert keep and chosen.period == 0.0 and "repeats" not in why
+    keep, why, chosen = judge_correction(small, corr, judged({"repeat": (20.0, 0.2), "fade": (8.0, 0.3),
+                                                               "none": (3.0, 0.9)}))
+    assert keep and chosen is corr and "repeats its last period" in why
+    keep, _, _ = judge_correction(small, corr, judged({"repeat": (5.0, 0.2), "fade": (8.0, 0.3), "none": (9.0, 1.0)}))
+    assert not keep

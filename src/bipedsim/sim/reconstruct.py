@@ -306,8 +306,9 @@ def correction_key(clip: ReferenceClip, model_hash: str, cfg: ControllerConfig) 
     return h.hexdigest()[:24]
 
 
-#: what a judge of a correction says: whether to keep it, and why (a clause for the run's printout)
-Verdict = tuple[bool, str]
+#: what a judge of a correction says: whether to keep it, why (a clause for the run's printout), and the
+#: correction to keep (the searched one, or a variant of it the judge found better)
+Verdict = tuple[bool, str, Correction]
 
 
 def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[], SimbiconController],
@@ -316,7 +317,8 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     """The correction for ``clip`` on this body with these settings, and a line saying where it came
     from: read from the cache when this search was run before, else searched (a progress bar on a
     terminal), judged and cached. ``judge`` says whether a searched correction is kept (a run with it
-    against one without, :func:`bipedsim.sim.runner.judge_correction`); one it rejects is cached as
+    against one without, :func:`bipedsim.sim.runner.judge_correction`) and which of its variants; one it
+    rejects is cached as
     rejected, so the run goes on without one and the next run does not search again."""
     key = correction_key(clip, model_hash, cfg)
     path = cache_folder() / f"{key}.json"
@@ -359,7 +361,9 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
             f"{wall:.0f} s (windows of {rc.window_s:g} s, {rc.samples} samples each){stale}")
     if done[0] < total - 1e-6:
         what += f"; every sample fell after {done[0]:.1f} s, so the correction ends there"
-    kept, why = (False, "no window could be walked") if corr is None else (True, "") if judge is None else judge(corr)
+    kept, why = (False, "no window could be walked") if corr is None else (True, "")
+    if corr is not None and judge is not None:
+        kept, why, corr = judge(corr)
     what += f"; {why}" if why else ""
     (cache_folder() / f"{key}.source.json").unlink(missing_ok=True)  # chosen with the correction it replaces
     try:

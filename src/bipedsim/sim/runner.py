@@ -262,10 +262,11 @@ Judge = Callable[[Scenario], tuple[float, float]]
 def judge_once() -> Judge:
     """:func:`_judged`, remembering each (source, correction)'s result: the checks of one scenario share
     their runs (the whole clip with its kept correction is run once, not once per check)."""
-    seen: dict[tuple[str, int], tuple[float, float]] = {}
+    seen: dict[tuple[str, object], tuple[float, float]] = {}
 
     def judged(sc: Scenario) -> tuple[float, float]:
-        key = (sc.cfg.source, id(sc.correction))
+        c = sc.correction  # by content: a variant made for one check is another correction
+        key = (sc.cfg.source, None if c is None else (c.starts, c.rows.tobytes(), c.end, c.fade, c.period))
         if key not in seen:
             seen[key] = _judged(sc)
         return seen[key]
@@ -297,16 +298,31 @@ def whole_or_looped(sc: Scenario, judged: Judge = _judged) -> tuple[Scenario, st
                     "loops the cycle (source: cycle); --no-reconstruct tracks the whole clip anyway")
 
 
-def judge_correction(sc: Scenario, corr: Correction, judged: Judge = _judged) -> tuple[bool, str]:
-    """Whether ``sc`` tracks its clip better with ``corr`` than without: each way, one run over the
-    clip and :data:`JUDGE_BEYOND_S` beyond; the one that stands longer wins, then the one whose root path
-    stays nearer the clip's (:func:`~bipedsim.sim.fidelity.measure_fidelity`). Also a clause saying how
-    they compared."""
-    (t_with, d_with), (t_without, d_without) = judged(replace(sc, correction=corr)), judged(sc)
-    keep = t_with > t_without + 1e-9 or (t_with >= t_without - 1e-9 and d_with <= d_without)
+def _better(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    """Whether judging result ``a`` (stood s, path distance m) beats ``b``: it stands longer, or as long
+    with its root path nearer the clip's."""
+    return a[0] > b[0] + 1e-9 or (a[0] >= b[0] - 1e-9 and a[1] <= b[1])
+
+
+def judge_correction(sc: Scenario, corr: Correction, judged: Judge = _judged) -> tuple[bool, str, Correction]:
+    """Whether ``sc`` tracks its clip better with ``corr`` than without, and the correction to keep: each
+    way, one run over the clip and :data:`JUDGE_BEYOND_S` beyond; the one that stands longer wins, then
+    the one whose root path stays nearer the clip's (:func:`~bipedsim.sim.fidelity.measure_fidelity`). A
+    correction that repeats its last loop period is also run fading out after it instead (feedback alone
+    walks the loop on), and the better of the two is the one judged. Also a clause saying how they
+    compared."""
+    with_ = judged(replace(sc, correction=corr))
+    if corr.period > 0.0:
+        faded = replace(corr, period=0.0)
+        r_faded = judged(replace(sc, correction=faded))
+        if _better(r_faded, with_) and not _better(with_, r_faded):
+            corr, with_ = faded, r_faded
+    (t_with, d_with), (t_without, d_without) = with_, judged(sc)
+    keep = _better(with_, (t_without, d_without))
     told = (f"with it the root path keeps within {d_with:.2f} m of the clip's, without {d_without:.2f} m"
             if abs(t_with - t_without) < 1e-9 else f"with it the body stands {t_with:.1f} s, without {t_without:.1f} s")
-    return keep, ("kept: " if keep else "not kept: ") + told
+    after = "; after the searched loop it repeats its last period" if corr.period > 0.0 else ""
+    return keep, ("kept: " if keep else "not kept: ") + told + (after if keep else ""), corr
 
 
 def settings_for(sc: Scenario, settings: ControllerConfig) -> ControllerConfig:

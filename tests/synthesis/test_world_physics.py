@@ -191,3 +191,47 @@ def test_a_fall_says_how_far_the_root_was_from_a_gap() -> None:
     assert near["tile"] == [0, 2] and near["to_gap_m"] == pytest.approx(0.3)
     assert fell_where(w, 3.0, np.array([x_gap, -1.0, 0.3]))["to_gap_m"] == 0.0
     assert fell_where(parse_world({"tile": 2.0, "rows": ["SG"]}, "w.yaml"), None, np.zeros(3))["to_gap_m"] is None
+
+
+class _Leaper(_Ctrl):
+    """A controller stand-in that leaps: a lead time of 0.5 s, records the leaps asked for."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.asked: list[tuple[float, np.ndarray]] = []
+
+    def can_leap(self) -> bool:
+        return True
+
+    @property
+    def leaping(self) -> bool:
+        return bool(self.asked)
+
+    def leap_lead_s(self, velocity: np.ndarray) -> float:
+        return 0.5
+
+    def leap(self, t: float, velocity: np.ndarray) -> None:
+        self.asked.append((t, velocity))
+
+
+def test_the_leap_is_asked_for_its_lead_time_before_the_take_off() -> None:
+    from types import SimpleNamespace
+
+    from bipedsim.synthesis.world.physics import Leaps
+
+    pts = np.stack([np.linspace(0.0, 10.0, 101), np.zeros(101)], axis=1)
+    curve = Curve(xy=pts, s=pts[:, 0].copy(), yaw=np.zeros(101), tile_s=np.array([0.0]))
+    w = parse_world({"tile": 2.0, "rows": ["S...G"]}, "w.yaml")
+    steering = Steering(curve, SimulateSettings(), w)
+    jump = SimpleNamespace(s_takeoff=5.0, s_land=7.0, vx=3.0, vz=2.0)
+    leaps, ctrl = Leaps([jump], curve, steering), _Leaper()
+    data = SimpleNamespace(qpos=np.array([4.0, 0.0, 0.5]), qvel=np.array([1.0, 0.0, 0.0]))
+    steering.progress = 4.4  # 0.6 m short of the take-off at 1 m/s: 0.6 s > the 0.5 s lead
+    leaps(1.0, data, ctrl)
+    assert ctrl.asked == []
+    steering.progress = 4.55
+    leaps(1.2, data, ctrl)
+    assert len(ctrl.asked) == 1 and ctrl.asked[0][0] == 1.2
+    assert ctrl.asked[0][1] == pytest.approx([3.0, 0.0, 2.0])  # along the path's heading, rising as planned
+    leaps(1.3, data, ctrl)
+    assert len(ctrl.asked) == 1 and leaps.asked == [1.2]

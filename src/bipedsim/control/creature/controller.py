@@ -23,6 +23,7 @@ from bipedsim.control.base import Controller, FloatArray, register
 from bipedsim.control.creature.balance import ClipBalance
 from bipedsim.control.creature.biped import BipedRules
 from bipedsim.control.creature.gait import PlannedGait
+from bipedsim.control.creature.leap import Leap, LeapSettings, lead_time, push_time
 from bipedsim.control.creature.legs import LegSet
 from bipedsim.control.creature.many_legs import ManyLegs
 from bipedsim.control.creature.planner import LegRules
@@ -59,6 +60,12 @@ class CreatureController(Controller):
         self.legs: LegSet | None = None
         self.reference: LoopedReference | None = None
         self.gait: PlannedGait | ClipBalance | None = None
+        #: how the body leaps (:meth:`leap`), the leaps made (their records: :meth:`Leap.record`), the
+        #: leap under way and a leap asked for (time s, take-off velocity m/s), started at the next step
+        self.leap_settings = LeapSettings()
+        self.leaps: list[Leap] = []
+        self._leaping: Leap | None = None
+        self._leap_asked: tuple[float, FloatArray] | None = None
         if balance is None:
             self.track = Tracking(self.body, clip, self.cfg)
             #: the clip frames [a, b) a rollout plays (the part a gait loops)
@@ -83,6 +90,7 @@ class CreatureController(Controller):
 
     def reset(self, data: mujoco.MjData, frame: float | None = None, t: float = 0.0) -> None:
         self.track.reset(self.loop[0] if frame is None else frame, t)
+        self.leaps, self._leaping, self._leap_asked = [], None, None
         if self.gait is None or self.cfg.support:
             return
         # the caller posed the clip's start; the gait starts from the re-levelled one
@@ -92,7 +100,41 @@ class CreatureController(Controller):
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, dt: float) -> FloatArray:
         if self.gait is None or self.cfg.support:
             return self.track.step(data, t)
-        return self.gait.step(model, data, t, dt)
+        tau = self._leap_step(model, data, t)
+        return tau if tau is not None else self.gait.step(model, data, t, dt)
+
+    # ------------------------------------------------------------------ the leap
+    def can_leap(self) -> bool:
+        """Whether :meth:`leap` does anything: the planned gait walks (not the clip-timed balance, not
+        root support)."""
+        return isinstance(self.gait, PlannedGait) and not self.cfg.support
+
+    def leap(self, t: float, velocity: FloatArray) -> None:
+        """Leap from time ``t`` (s) toward the take-off ``velocity`` (m/s, world; rising): crouch, push,
+        fly, land, then walk on from where the body landed (:class:`~bipedsim.control.creature.leap.Leap`).
+        The take-off comes :meth:`leap_lead_s` after ``t``. Without a planned gait nothing changes."""
+        if self.can_leap() and self._leaping is None:
+            v = np.asarray(velocity, dtype=float).reshape(3)
+            push_time(1.0, v)  # a velocity that does not rise is refused here
+            self._leap_asked = (float(t), v)
+
+    def leap_lead_s(self, velocity: FloatArray) -> float:
+        """The time (s) from :meth:`leap`'s ``t`` to the take-off of a leap toward ``velocity``: its
+        crouch and push."""
+        return lead_time(self.gait, np.asarray(velocity, dtype=float).reshape(3), self.leap_settings)
+
+    def _leap_step(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> FloatArray | None:
+        """The leap's torques while one is under way (one asked for starts at its time), else None."""
+        if self._leap_asked is not None and t >= self._leap_asked[0] - 1e-9:
+            self._leaping = Leap(self.gait, data, t, self._leap_asked[1], self.leap_settings)
+            self.leaps.append(self._leaping)
+            self._leap_asked = None
+        if self._leaping is None:
+            return None
+        tau = self._leaping.step(model, data, t)
+        if tau is None:
+            self._leaping = None
+        return tau
 
     def steer(self, t: float, yaw: float) -> None:
         """Turn the planned walk toward heading ``yaw`` (rad about world Z; the body's forward axis,
@@ -100,6 +142,11 @@ class CreatureController(Controller):
         it. Without a planned path (the clip-timed balance, root support) nothing changes."""
         if isinstance(self.gait, PlannedGait) and not self.cfg.support:
             self.gait.planner.turn_to(t, yaw)
+
+    @property
+    def leaping(self) -> bool:
+        """Whether a leap is under way (asked for, or not yet landed and walking)."""
+        return self._leaping is not None or self._leap_asked is not None
 
     def restore_model(self) -> None:
         self.body.restore()

@@ -74,6 +74,9 @@ class SimulateSettings:
     #: how far (m) past the last progress the closest path point is searched for (a path that comes
     #: back near itself is not jumped along)
     progress_window_m: float = 3.0
+    #: the body leaps at each jump event of its path (``CreatureController.leap``, the plan's take-off
+    #: velocity along the path's heading), timed so its take-off comes at the plan's take-off point
+    leap: bool = True
 
     def validate(self) -> None:
         """Each value in its range (a :class:`ConfigError` naming the key)."""
@@ -109,6 +112,39 @@ def world_body(syn: Synthesis, world: World, settings: SimulateSettings) -> Scen
     on_terrain: BuiltModel = with_height_grid(built, world_grid(world, settings.samples_per_tile))
     return Scenario(built=on_terrain, clip=clip, cfg=cfg, source_path="bipedsim world", config_path=None,
                     motion=motion, creature_cfg=cfg.creature)
+
+
+class Leaps:
+    """The rollout hook that starts the body's leap over each jump of the synthesised path: when the
+    body's progress (:class:`Steering`'s) plus its speed times the leap's lead time (crouch and push,
+    ``ctrl.leap_lead_s``) reaches the jump's take-off point, the controller is asked to leap toward the
+    plan's take-off velocity (its forward part along the path's heading at the take-off, its vertical
+    part as planned). A controller without ``leap`` is left walking."""
+
+    def __init__(self, jumps: list[Any], curve: Curve, steering: Steering) -> None:
+        self.jumps, self.curve, self.steering = jumps, curve, steering
+        #: per jump: the time (s) its leap was asked for (None: not yet)
+        self.asked: list[float | None] = [None] * len(jumps)
+
+    def velocity(self, k: int) -> FloatArray:
+        """Jump ``k``'s take-off velocity (m/s, world)."""
+        j = self.jumps[k]
+        _, yaw = self.curve.at(np.array(j.s_takeoff))
+        return np.array([j.vx * math.cos(float(yaw)), j.vx * math.sin(float(yaw)), j.vz])
+
+    def __call__(self, t: float, data: Any, ctrl: Controller) -> None:
+        leap = getattr(ctrl, "leap", None)
+        if leap is None or not getattr(ctrl, "can_leap", lambda: False)() or ctrl.leaping:
+            return
+        speed = float(np.linalg.norm(data.qvel[0:2]))
+        for k, j in enumerate(self.jumps):
+            if self.asked[k] is not None or self.steering.progress > j.s_land:
+                continue
+            v = self.velocity(k)
+            if self.steering.progress + speed * ctrl.leap_lead_s(v) >= j.s_takeoff:
+                leap(t, v)
+                self.asked[k] = t
+            return
 
 
 class Steering:
@@ -210,10 +246,11 @@ def run_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[s
     seconds = max(settings.min_seconds, settings.time_factor * syn.motion.duration)
     spec = RolloutSpec(seconds=seconds, seed=seed, start_frame=0.0, fall=sc.fall_criteria())
     steering = Steering(syn.curve, settings, world)
+    leaps = Leaps(syn.jumps if settings.leap else [], syn.curve, steering)
     rec = Recorder(sc.built.model, record_hz=settings.record_hz, seconds=seconds, feet=len(ctrl.foot_names()))
     t_built = time.perf_counter()
     with Rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=sc.clip.qpos[0].copy(),
-                 hooks=[steering, rec]) as run:
+                 hooks=[steering, leaps, rec]) as run:
         while run.step():
             if steering.reached:
                 break
@@ -231,13 +268,27 @@ def run_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[s
               "sim_s": sim_s, "final_xy_m": [float(final[0]), float(final[1])],
               "fall_reason": out.fall_reason, "speed_m_s": steering.progress / sim_s if sim_s > 0 else 0.0,
               "clip_speed_m_s": syn.curve.length / max(syn.motion.duration, 1e-9),
-              "jumps": [{"tile": list(j.tile), "width_m": j.width, "s_takeoff_m": j.s_takeoff, "s_land_m": j.s_land,
-                         "takeoff_speed_m_s": j.speed, "crossed": steering.progress >= j.s_land} for j in syn.jumps],
+              "jumps": jump_records(syn.jumps, steering, leaps, getattr(ctrl, "leaps", [])),
               "fell_at": fell_where(world, out.fall_time_s, final) if out.outcome != "no_fall" else None,
               "body_mass_kg": float(sum(sc.built.model.body_mass)), "body_size_m": float(creature.size),
               "settings": asdict(settings),
               "timings_s": {"build": t_built - t0, "rollout": time.perf_counter() - t_built}}
     return result, sc.built, rec.trajectory()
+
+
+def jump_records(jumps: list[Any], steering: Steering, leaps: Leaps, made: list[Any]) -> list[dict[str, Any]]:
+    """Per jump of the path: where (tile, gap width m, take-off and landing arc lengths m), the planned
+    take-off speed (m/s), whether the body got past its landing point (``crossed``), and the leap the
+    body made (``leap``: :meth:`~bipedsim.control.creature.leap.Leap.record`, its planned and reached
+    take-off velocity, flight and peak push; None: no leap was asked for)."""
+    out = []
+    records = iter(made)
+    for k, j in enumerate(jumps):
+        leap = next(records, None) if leaps.asked[k] is not None else None
+        out.append({"tile": list(j.tile), "width_m": j.width, "s_takeoff_m": j.s_takeoff, "s_land_m": j.s_land,
+                    "takeoff_speed_m_s": j.speed, "crossed": steering.progress >= j.s_land,
+                    "leap_asked_at_s": leaps.asked[k], "leap": None if leap is None else leap.record()})
+    return out
 
 
 def fell_where(world: World, t: float | None, xyz: FloatArray) -> dict[str, Any]:
@@ -257,5 +308,5 @@ def fell_where(world: World, t: float | None, xyz: FloatArray) -> dict[str, Any]
             "to_gap_m": None if to_gap is None else round(to_gap, 3)}
 
 
-__all__ = ["SIMULATED_MODES", "SimulateSettings", "Steering", "can_simulate", "fell_where", "run_crossing",
-           "simulate_crossing", "world_body", "world_grid"]
+__all__ = ["SIMULATED_MODES", "Leaps", "SimulateSettings", "Steering", "can_simulate", "fell_where", "jump_records",
+           "run_crossing", "simulate_crossing", "world_body", "world_grid"]

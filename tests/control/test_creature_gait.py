@@ -15,6 +15,7 @@ from conftest import HAVE_SHARED, SHARED_BVH, need_shared
 from creature_clips import dog_clip, gliding_dog, stretched_dog
 from scipy.spatial.transform import Rotation
 
+from bipedsim.control.creature.clock import GaitClock
 from bipedsim.control.creature.controller import CreatureController, make_creature_controller
 from bipedsim.control.creature.gait import PlannedGait
 from bipedsim.control.creature.many_legs import shift_share
@@ -301,7 +302,7 @@ def test_centred_sweep_stays_inside_each_legs_reach() -> None:
     own interval: every foot still reaches +-reach from its new place. Without it the sweep is the
     shortest reach of any leg in either direction (the horse: its left hind leg reaches 0.2 x its root
     height ahead, farther behind)."""
-    plain = _read_gait(HORSE_WALK)[1].gait
+    plain = _read_gait(HORSE_WALK, centre_sweep_gain=0.0)[1].gait
     g = _gait(HORSE_WALK, centre_sweep=True)[1].gait
     r = g.reach
     tol = REACH_TOL * g.legs.height
@@ -333,16 +334,21 @@ def lopsided_reach(request: pytest.FixtureRequest) -> Path:
 
 
 def test_sweeps_are_centred_where_that_widens_the_reach_enough(lopsided_reach: Path) -> None:
-    """``centre_sweep_gain``: the sweeps are centred in each leg's own reach only where that widens the
-    sweep at least 1.5 times, a rule on the reach measured on the built legs. A body whose legs reach far
-    one way and little the other (the bred child: centred, its sweep doubles) is centred; the horse's
-    and the dog's gain less and keep the symmetric sweep (the shortest reach of any leg either way)."""
+    """``centre_sweep_gain``: the sweeps are centred in each leg's own reach where that widens the sweep
+    at least that many times, a rule on the reach measured on the built legs. By default (1) always:
+    the horse's and the dog's legs reach ahead and behind unequally (a hind leg less ahead), their
+    centred sweep is wider than the symmetric one (the shortest reach of any leg either way) and their
+    walk faster; at 1.5 only a body whose legs reach far one way and little the other (the bred child:
+    its sweep doubles) is centred."""
     for path in (HORSE_WALK, dog_clip()):
-        r = _read_gait(path)[1].gait.reach
+        g = _read_gait(path)[1].gait
+        r = g.reach
         symmetric = min(r.ahead.min(), r.behind.min())
-        assert not r.centred and np.isclose(r.half, symmetric)
-        assert (r.ahead + r.behind).min() / 2 < 1.5 * symmetric
-    g = _read_gait(lopsided_reach)[1].gait
+        assert r.centred and r.half > symmetric
+        strict = _read_gait(path, centre_sweep_gain=1.5)[1].gait
+        assert not strict.reach.centred and np.isclose(strict.reach.half, symmetric)
+        assert strict.clock.v_des < g.clock.v_des
+    g = _read_gait(lopsided_reach, centre_sweep_gain=1.5)[1].gait
     r = g.reach
     symmetric = min(r.ahead.min(), r.behind.min())
     assert r.centred and np.isclose(r.half, (r.ahead + r.behind).min() / 2)
@@ -540,3 +546,24 @@ def test_the_support_shift_is_what_an_inverted_pendulum_follows_at_the_gait_cycl
     static = dataclasses.replace(bal, com_shift_dynamic=False)
     assert shift_share(static, period, stance, height, gravity) == bal.com_shift
     assert shift_share(bal, 20.0, stance, height, gravity) > 0.99 * bal.com_shift
+
+
+def test_the_stride_is_held_at_the_shortest_cycle_too() -> None:
+    """``hold_to_reach``: a cycle at its shortest (the reach allowing a fast walk) still walks at most
+    ``stride_fraction`` x the leg height per cycle; a short reach lowers the speed to what the stance's
+    sweep covers at the shortest cycle; a long cycle within both is left as it was."""
+    bal = CreatureBalanceConfig()
+    clock = object.__new__(GaitClock)
+    clock.bal, clock.min_swing, clock.swing_frac = bal, 0.12, 0.225
+    shortest = clock.min_swing / clock.swing_frac
+    for reach, v_want in ((1.0, 0.9), (0.05, 0.9), (1.0, 0.3)):
+        clock.period, clock.v_des = shortest, v_want
+        clock.hold_to_reach(reach, 0.4)
+        assert clock.period >= shortest - 1e-12
+        assert clock.v_des * clock.period <= 0.4 + 1e-12
+        assert clock.v_des * (1.0 - clock.swing_frac) * clock.period <= 2.0 * reach + 1e-12
+        if v_want * shortest <= 0.4 and v_want * (1.0 - clock.swing_frac) * shortest <= 2.0 * reach:
+            assert clock.v_des == v_want
+    clock.period, clock.v_des = shortest, 0.9
+    clock.hold_to_reach(1.0, 0.4)
+    assert np.isclose(clock.v_des, 0.4 / shortest)

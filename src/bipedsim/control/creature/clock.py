@@ -131,9 +131,12 @@ class GaitClock:
         self.period = min(self.period, max(2.0 * reach, 1e-6) / (stance * self.v_des))
         shortest = self.min_swing / self.swing_frac
         if self.period < shortest:
-            # the shortest cycle: the speed held to the reach and to the longest stride
+            # the shortest cycle: the speed held to the reach
             self.period = shortest
-            self.v_des = min(self.v_des, 2.0 * reach / (stance * shortest), longest_stride / shortest)
+            self.v_des = min(self.v_des, 2.0 * reach / (stance * shortest))
+        # and to the longest stride at the cycle it walks (a cycle the clip's swing sets already fits it;
+        # the shortest cycle may not)
+        self.v_des = min(self.v_des, longest_stride / self.period)
 
     # ------------------------------------------------------------------ in time
     def cycle_phase(self, t: float, i: int) -> float:

@@ -64,9 +64,10 @@ class CreatureBalanceConfig:
     footfall_fallback: str = field(default="wave", metadata={"choices": ("wave", "legs")})
     #: largest swing of one leg as a share of the cycle
     max_swing_fraction: float = field(default=0.45, metadata={"gt": 0.0, "max": 0.9})
-    #: longest stride as a fraction of the standing root height (a longer stride overreaches the legs;
-    #: the reach is measured in steps up to it)
-    stride_fraction: float = field(default=0.75, metadata={"gt": 0.0})
+    #: longest stride (the distance a foot moves in one cycle) as a fraction of the standing root
+    #: height, held at every cycle (a longer stride overreaches the legs, and at the shortest cycle its
+    #: swing is too fast to land where planned); the reach is measured in steps up to it
+    stride_fraction: float = field(default=0.9, metadata={"gt": 0.0})
     #: shortest swing (s)
     min_swing_s: float = field(default=0.12, metadata={"gt": 0.0})
     #: the shortest swing scaled with the leg: at least this x sqrt(L/g) s (L: the standing root height;
@@ -103,10 +104,10 @@ class CreatureBalanceConfig:
     #: the sweep is +-(the shortest reach of any leg in either direction)
     centre_sweep: bool = False
     #: the sweeps are centred as by ``centre_sweep`` where that widens the stance's sweep (its reach) at
-    #: least this many times, measured on the built body's legs: legs whose reach ahead and behind is
-    #: lopsided (a hind leg that reaches far behind but little ahead), not legs whose centring gains
-    #: little (a faster walk on legs that barely reach further); 0: only ``centre_sweep``
-    centre_sweep_gain: float = field(default=1.5, metadata={"min": 0.0})
+    #: least this many times, measured on the built body's legs (1: always, as centring never narrows
+    #: it -- every leg's reach ahead and behind differs, a fore leg's from a hind leg's, and the
+    #: symmetric sweep is held to the shortest of them all); 0: only ``centre_sweep``
+    centre_sweep_gain: float = field(default=1.0, metadata={"min": 0.0})
     #: with the sweeps centred (by either setting), the horizontal virtual force held as by ``zmp_limit``:
     #: the centred feet's centroid stands off the centre of mass
     centre_sweep_zmp: bool = True

@@ -14,9 +14,11 @@ import itertools
 import json
 import math
 import os
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from bipedsim import config
 from bipedsim.control.settings import check_settings_for_body, load_controller, unread_settings
@@ -66,12 +68,14 @@ class Grid:
     vertical: tuple[float, ...] = (0.0,)
     #: controller YAML files (relative to the experiment file); empty: the default controller
     controller: tuple[str, ...] = ()
+    #: bodies pushed (``torso``, ``pelvis``, ``left_upper_arm``, ...); empty: the experiment's ``body``
+    body: tuple[str, ...] = ()
 
     def validate(self) -> None:
         for key in ("magnitude", "direction", "duration", "vertical"):
             if not getattr(self, key):
                 raise ValueError(f"{key}: empty list -- the grid would have no rollouts")
-        for key in ("magnitude", "direction", "duration", "vertical", "phase", "start", "controller"):
+        for key in ("magnitude", "direction", "duration", "vertical", "phase", "start", "controller", "body"):
             values = getattr(self, key)
             twice = next((v for i, v in enumerate(values) if v in values[:i]), None)
             if twice is not None:
@@ -97,8 +101,8 @@ class Grid:
 
     def size(self) -> int:
         """Rollouts per repeat (the product of the list lengths)."""
-        return math.prod(len(v) or 1 for v in (self.controller, self.magnitude, self.direction, self.duration,
-                                               self.phase or self.start, self.vertical))
+        return math.prod(len(v) or 1 for v in (self.controller, self.body, self.magnitude, self.direction,
+                                               self.duration, self.phase or self.start, self.vertical))
 
 
 @dataclass(frozen=True)
@@ -131,6 +135,54 @@ class RandomPushes:
         # rounded to what a results.csv row shows: 0.1 N, 0.1 degree, 1 ms
         return [Push(magnitude=round(p.magnitude, 1), direction=round(p.direction, 1) % 360.0,
                      duration=p.duration, start=round(float(p.start), 3), body=body) for p in raw]
+
+
+@dataclass(frozen=True)
+class Replicas:
+    """Each grid cell run ``count`` times, as a threshold protocol: replica 0 as a single trial runs it,
+    replicas 1.. from a perturbed state (Gaussian noise on the initial velocities) with the push moved by a
+    small phase offset. A cell's magnitude counts as survived when at least ``survive`` of its replicas
+    survive it; its threshold is the largest magnitude survived so, with every lower magnitude too."""
+
+    count: int = field(default=5, metadata={"min": 1})
+    #: replicas that must survive a magnitude for the cell to count it survived
+    survive: int = field(default=4, metadata={"min": 1})
+    #: standard deviation (rad/s, m/s) of the noise on replicas 1..'s initial velocities: a few mrad/s
+    #: already change which step a push meets
+    noise: float = field(default=0.02, metadata={"min": 0.0})
+    #: largest phase offset (fraction of the gait state's nominal duration, +-) of a phase-timed push
+    phase_offset: float = field(default=0.1, metadata={"min": 0.0, "max": 1.0})
+    #: largest offset (s, +-) of a push given a start time
+    start_offset: float = field(default=0.1, metadata={"min": 0.0})
+
+    def validate(self) -> None:
+        if self.survive > self.count:
+            raise ValueError(f"survive: {self.survive} of {self.count} replicas cannot survive; at most count")
+
+    def offset(self, seed: int, replica: int, cell: str, span: float) -> float:
+        """The offset (+- ``span``) of ``replica`` at ``cell`` (the cell's identity without its magnitude:
+        a cell's magnitudes share one, so its ladder of magnitudes meets one gait), drawn from ``seed``;
+        0 for replica 0."""
+        if replica == 0 or span <= 0:
+            return 0.0
+        cell_int = int(hashlib.sha1(cell.encode()).hexdigest()[:8], 16)
+        return float(np.random.default_rng([seed, replica, cell_int]).uniform(-span, span))
+
+    def shifted(self, push: Push, seed: int, replica: int, cell: str) -> tuple[Push, float]:
+        """``push`` moved by its replica's offset (kept within its state, or at or after 0 s) and the
+        offset applied (fraction of the state, or s)."""
+        if push.state is not None:
+            off = self.offset(seed, replica, cell, self.phase_offset)
+            frac = min(max(push.fraction + off, 0.0), 1.0)
+            return replace(push, fraction=frac), frac - push.fraction
+        assert push.start is not None
+        off = self.offset(seed, replica, cell, self.start_offset)
+        start = max(push.start + off, 0.0)
+        return replace(push, start=start), start - push.start
+
+    def init_noise(self, replica: int) -> float:
+        """The initial velocity noise (rad/s, m/s) of ``replica``: none for replica 0."""
+        return 0.0 if replica == 0 else self.noise
 
 
 @dataclass(frozen=True)
@@ -176,6 +228,8 @@ class ExperimentSpec:
     seed: int = field(default=0, metadata={"min": 0})  # numpy's generators take no negative seed
     init_noise: float = field(default=0.0, metadata={"min": 0.0})
     grid: Grid | None = None
+    #: a grid's cells run as replicas (a threshold protocol); null: one trial per cell (and ``repeats``)
+    replicas: Replicas | None = None
     runs: tuple[PushItem, ...] = ()
     random: RandomPushes | None = None
     #: null: the body kind's default criteria (FallCriteria.for_body)
@@ -188,6 +242,19 @@ class ExperimentSpec:
             raise ValueError("grid: give a grid, a list of runs or random pushes -- the experiment has no rollouts")
         if len(given) > 1:
             raise ValueError(f"{given[1]}: give one of grid, runs and random, not {' and '.join(given)}")
+        if self.replicas is not None:
+            if self.grid is None:
+                raise ValueError("replicas: only with a grid (replicas run each grid cell several times)")
+            if self.repeats > 1:
+                raise ValueError("replicas: give replicas or repeats, not both (replicas are repeats of a cell "
+                                 "from perturbed states)")
+            if self.init_noise > 0:
+                raise ValueError("replicas: replicas.noise sets the replicas' initial noise; leave init_noise out")
+            g, r = self.grid, self.replicas
+            if g.start and max(g.start) + r.start_offset + max(g.duration) > self.seconds:
+                raise ValueError(f"replicas.start_offset: a push may start at {max(g.start):g} s + "
+                                 f"{r.start_offset:g} s and last {max(g.duration):g} s, past the end of the run "
+                                 f"({self.seconds:g} s, seconds); a push must end within the run")
         self._check_count()
         self._check_runs()
         if self.random is not None:
@@ -207,7 +274,7 @@ class ExperimentSpec:
             what = f"count {self.random.count} x {n_ctl} controller(s)"
         else:
             per, key, what = len(self.runs), "runs", f"{len(self.runs)} runs"
-        total = per * self.repeats
+        total = per * (self.replicas.count if self.replicas is not None else self.repeats)
         if total > MAX_ROLLOUTS:
             key = "repeats" if self.repeats > MAX_ROLLOUTS else key
             raise ValueError(f"{key}: the experiment asks for {total} rollouts ({what} x {self.repeats} repeat(s)); "
@@ -229,16 +296,26 @@ class Row:
     key: str  #: stable identity (parameters + repeat), for resuming
     controller: str | None
     push: Push
-    repeat: int
+    repeat: int  #: the repeat, or the replica of a replicated grid
     seed: int
+    #: the replica's phase offset: of the state's nominal duration (phase-timed push) or s (timed);
+    #: ``push`` holds it, the row's fraction and start columns the cell's own
+    offset: float = 0.0
+    #: initial velocity noise (rad/s, m/s) of this row; None: the experiment's ``init_noise``
+    init_noise: float | None = None
 
     def params(self) -> dict[str, Any]:
         p = self.push
         return {"index": self.index, "key": self.key, "controller": self.controller or "default",
                 "magnitude": p.magnitude, "direction": p.direction, "duration": p.duration,
-                "state": "" if p.state is None else p.state, "fraction": "" if p.state is None else p.fraction,
-                "start": "" if p.start is None else p.start, "vertical": p.vertical, "body": p.body,
-                "repeat": self.repeat, "seed": self.seed}
+                "state": "" if p.state is None else p.state,
+                "fraction": "" if p.state is None else self._cell(p.fraction),
+                "start": "" if p.start is None else self._cell(p.start), "vertical": p.vertical, "body": p.body,
+                "repeat": self.repeat, "seed": self.seed, "phase_offset": round(self.offset, 9)}
+
+    def _cell(self, value: float) -> float:
+        """A fraction or start time of this row's push as its cell has it (without the replica's offset)."""
+        return round(value - self.offset, 9) if self.offset else value
 
 
 @dataclass
@@ -256,9 +333,10 @@ class Experiment:
             g = s.grid
             timings: list[dict[str, Any]] = ([{"state": st, "fraction": fr} for st, fr in g.phase]
                                              or [{"start": t} for t in g.start])
-            for ctl, mag, dirn, dur, tim, vert in itertools.product(g.controller or (None,), g.magnitude, g.direction,
-                                                                     g.duration, timings, g.vertical):
-                items.append((ctl, Push(magnitude=mag, direction=dirn, duration=dur, vertical=vert, body=s.body,
+            for ctl, body, mag, dirn, dur, tim, vert in itertools.product(
+                    g.controller or (None,), g.body or (s.body,), g.magnitude, g.direction, g.duration, timings,
+                    g.vertical):
+                items.append((ctl, Push(magnitude=mag, direction=dirn, duration=dur, vertical=vert, body=body,
                                         after=s.after, **tim)))
         elif s.random is not None:
             for push in s.random.pushes(s.seed, s.body):
@@ -267,6 +345,8 @@ class Experiment:
         else:
             for r in s.runs:
                 items.append((r.controller, r.push(body=s.body, after=s.after)))
+        if s.replicas is not None:
+            return self._replica_rows(items, s.replicas)
         rows: list[Row] = []
         keys: set[str] = set()
         for rep in range(s.repeats):
@@ -285,6 +365,23 @@ class Experiment:
         return rows
 
 
+    def _replica_rows(self, items: list[tuple[str | None, Push]], rep: Replicas) -> list[Row]:
+        """The rows of a replicated grid: every cell ``rep.count`` times, replica-major. A replica's
+        seed (``seed`` + replica) draws its initial noise, the same for every cell, so one unpushed
+        rollout per replica serves them all; its phase offset is drawn per cell."""
+        s = self.spec
+        rows: list[Row] = []
+        for replica in range(rep.count):
+            for ctl, push in items:
+                cell = json.dumps([ctl, {k: v for k, v in asdict(push).items() if k != "magnitude"}], sort_keys=True)
+                moved, off = rep.shifted(push, s.seed, replica, cell)
+                ident = json.dumps([ctl, asdict(moved), replica, "replica"], sort_keys=True)
+                key = hashlib.sha1(ident.encode()).hexdigest()[:12]
+                rows.append(Row(index=len(rows), key=key, controller=self.resolve(ctl), push=moved, repeat=replica,
+                                seed=s.seed + replica, offset=off, init_noise=rep.init_noise(replica)))
+        return rows
+
+
 def load_experiment(path: str | os.PathLike[str]) -> Experiment:
     """Load and validate an experiment file: keys, values, referenced files, body names, pushes."""
     p = Path(path)
@@ -300,8 +397,9 @@ def check_experiment(exp: Experiment, path: str | os.PathLike[str], prefix: str 
     rows = exp.rows()
     if not rows:
         raise ConfigError("the experiment expands to no rollouts", path=p, key=f"{prefix}grid")
-    per_repeat = len(rows) // spec.repeats
-    for r in rows[:per_repeat]:  # repeats hold the same pushes
+    # repeats hold the same pushes; replicas move them
+    per_repeat = len(rows) if spec.replicas is not None else len(rows) // spec.repeats
+    for r in rows[:per_repeat]:
         key = "grid" if spec.grid else ("random" if spec.random else f"runs[{r.index}]")
         check_pushes([r.push], spec.seconds, path=p, key=f"{prefix}{key}", seconds_key=f"{prefix}seconds")
     ref = exp.resolve(spec.reference)
@@ -318,6 +416,10 @@ def check_experiment(exp: Experiment, path: str | os.PathLike[str], prefix: str 
     if spec.body not in bodies and spec.body != DEFAULT_PUSH_BODY:
         raise ConfigError(f"unknown body {spec.body!r}; bodies are {', '.join(sorted(bodies))}", path=p,
                           key=f"{prefix}body")
+    for b in spec.grid.body if spec.grid is not None else ():
+        if b not in bodies and b != DEFAULT_PUSH_BODY:
+            raise ConfigError(f"unknown body {b!r}; bodies are {', '.join(sorted(bodies))}", path=p,
+                              key=f"{prefix}grid.body")
     return exp
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from bipedsim.errors import ConfigError
 from bipedsim.experiments.experiment import load_experiment
-from bipedsim.experiments.sweep import run_row
+from bipedsim.experiments.sweep import run_row, run_sweep
 from bipedsim.experiments.sweep_summary import format_summary, summarise, threshold, threshold_table
 
 REPLICATED = """name: rep
@@ -172,3 +172,18 @@ def test_project_grid_files_load() -> None:
     dims = load_experiment(repo / "push_dimensions.yaml")
     assert {r.push.body for r in dims.rows()} >= {"torso", "pelvis"}
     assert len({r.push.duration for r in dims.rows()}) >= 3
+
+
+def test_a_replicated_sweep_writes_its_thresholds(tmp_path: Path) -> None:
+    """The sweep of a replicated grid: results in replica-major order, the rule in summary.json, the
+    table in thresholds.md, the polar plot."""
+    spec = tmp_path / "rep.yaml"
+    spec.write_text("name: rep\nseconds: 2.5\nafter: 1.0\nreplicas: {count: 2, survive: 2}\n"
+                    "grid: {magnitude: [50, 2000], direction: [90], phase: [[2, 0.5]]}\n")
+    summary = run_sweep(load_experiment(spec), tmp_path / "out", workers=1, progress=False)
+    assert summary["rule"] == {"survive": 2, "replicas": 2}
+    (cell,) = summary["by_direction_and_phase"]
+    assert cell["survived_of"]["2000"] == "0/2" and cell["threshold_n"] in (50.0, None)
+    table = (tmp_path / "out" / "thresholds.md").read_text()
+    assert "| 90 |" in table and "at least 2 of 2 replicas" in table
+    assert (tmp_path / "out" / "push_polar.png").read_bytes()[:4] == b"\x89PNG"

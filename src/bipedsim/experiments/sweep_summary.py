@@ -225,7 +225,7 @@ def _threshold_plot(rows: list[dict[str, str]], path: Path, survive: int) -> Non
     fig = plt.figure(figsize=(6, 6))
     ax = fig.add_subplot(projection="polar")
     for ok, colour, marker, label in ((True, "tab:green", "o", f"survived by >= {survive} replicas"),
-                                      (False, "tab:red", "x", "not")):
+                                      (False, "tab:red", "x", f"survived by < {survive} replicas")):
         th, r = [], []
         for g in groups:
             for m, frac in g["survived_of"].items():

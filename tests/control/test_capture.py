@@ -110,3 +110,4 @@ def test_a_far_capture_point_hurries_the_gait_clock(scenario, tempo_gain: float,
             assert c.state.tempo == 1.0
     finally:
         c.restore_model()
+

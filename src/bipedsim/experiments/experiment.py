@@ -368,12 +368,14 @@ class Experiment:
     def _replica_rows(self, items: list[tuple[str | None, Push]], rep: Replicas) -> list[Row]:
         """The rows of a replicated grid: every cell ``rep.count`` times, replica-major. A replica's
         seed (``seed`` + replica) draws its initial noise, the same for every cell, so one unpushed
-        rollout per replica serves them all; its phase offset is drawn per cell."""
+        rollout per replica serves them all; its phase offset is drawn per cell (the same for every
+        controller of the grid)."""
         s = self.spec
         rows: list[Row] = []
         for replica in range(rep.count):
             for ctl, push in items:
-                cell = json.dumps([ctl, {k: v for k, v in asdict(push).items() if k != "magnitude"}], sort_keys=True)
+                # the controllers of a grid meet the same perturbations: a paired comparison
+                cell = json.dumps({k: v for k, v in asdict(push).items() if k != "magnitude"}, sort_keys=True)
                 moved, off = rep.shifted(push, s.seed, replica, cell)
                 ident = json.dumps([ctl, asdict(moved), replica, "replica"], sort_keys=True)
                 key = hashlib.sha1(ident.encode()).hexdigest()[:12]

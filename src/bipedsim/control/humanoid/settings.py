@@ -146,8 +146,9 @@ class CaptureConfig:
     #: off by default: it lifts the built-in walk's push thresholds (docs/pushes.md) but trips the
     #: generated 1.35-1.5 m/s walks in their first steps
     enabled: bool = False
-    #: m, the deviation a walk's own step-to-step spread makes
-    deadband: float = field(default=0.05, metadata={"min": 0.0})
+    #: m, above the deviation the walk's own steps make (within a step it swings by about +-0.07 m), so
+    #: only a push hurries the step
+    deadband: float = field(default=0.1, metadata={"min": 0.0})
     tempo_gain: float = field(default=4.0, metadata={"min": 0.0})  #: gait clock rate per m of deviation
     max_rate: float = field(default=1.5, metadata={"min": 1.0})  #: x real time, the hurried clock at most
     #: s, time constant of the deviation's running mean: longer than a push's response (about a step)

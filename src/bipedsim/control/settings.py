@@ -294,6 +294,8 @@ BODY_SCALED: dict[str, str] = {
     "balance.velocity.max_force": "force", "balance.velocity.filter_s": "time",
     "balance.course.deadband": "length", "balance.course.rate_filter": "time",
     "balance.course.steer_gain": "per_length", "balance.course.steer_damping": "per_speed",
+    "balance.capture.deadband": "length", "balance.capture.tempo_gain": "per_length",
+    "balance.capture.bias_s": "time",
     "fade.fade_in": "time", "resync.spread": "time",
     "modulation.swing_foot.lift": "length", "modulation.swing_foot.max_raise": "length",
     "modulation.swing_foot.max_drop": "length", "modulation.swing_foot.deadband": "length",
@@ -307,6 +309,7 @@ BODY_SCALED: dict[str, str] = {
 #: physics timestep (neither is scaled)
 BODY_UNSCALED: frozenset[str] = frozenset({
     "control_dt", "fsm.tempo.min", "fsm.tempo.max", "balance.max_feedback", "balance.stance_yaw_limit",
+    "balance.capture.max_rate",
     "balance.cd_froude", "balance.cd_froude_power", "balance.course.max_turn", "fade.min_scale", "resync.gain",
     "resync.max_frames", "modulation.swing_foot.height_gain", "modulation.stance_ankle.max_angle",
     "modulation.ground.foot_tilt", "modulation.ground.max_tilt", "modulation.ground.lean",

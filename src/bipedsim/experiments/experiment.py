@@ -22,8 +22,9 @@ from bipedsim import config
 from bipedsim.control.settings import check_settings_for_body, load_controller, unread_settings
 from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
+from bipedsim.experiments.replicas import Replicas
 from bipedsim.model.build import build_model
-from bipedsim.model.ground import Ground
+from bipedsim.model.ground import check_ground
 from bipedsim.reference.prepare import load_source
 from bipedsim.sim.limits import MAX_ROLLOUT_S
 from bipedsim.sim.push import DEFAULT_AFTER_S, DEFAULT_PUSH_BODY, Push, check_pushes, random_pushes
@@ -54,15 +55,6 @@ def check_name(name: str, key: str = "name") -> None:
                          f"{len(name)}); a name is printed as it is: give letters, digits, spaces and punctuation")
 
 
-def check_ground(terms: tuple[str, ...], key: str = "ground") -> Ground:
-    """The ground of a file's ``ground:`` terms; a bad term raises ``ValueError("KEY[i]: ...")`` (the
-    loader adds the file)."""
-    try:
-        return Ground.parse(list(terms), key=key)
-    except ConfigError as exc:
-        raise ValueError(f"{exc.key}: {exc.reason}") from None
-
-
 @dataclass(frozen=True)
 class Grid:
     """The cross product of these lists is the set of rollouts (times ``repeats``)."""
@@ -76,12 +68,14 @@ class Grid:
     vertical: tuple[float, ...] = (0.0,)
     #: controller YAML files (relative to the experiment file); empty: the default controller
     controller: tuple[str, ...] = ()
+    #: bodies pushed (``torso``, ``pelvis``, ``left_upper_arm``, ...); empty: the experiment's ``body``
+    body: tuple[str, ...] = ()
 
     def validate(self) -> None:
         for key in ("magnitude", "direction", "duration", "vertical"):
             if not getattr(self, key):
                 raise ValueError(f"{key}: empty list -- the grid would have no rollouts")
-        for key in ("magnitude", "direction", "duration", "vertical", "phase", "start", "controller"):
+        for key in ("magnitude", "direction", "duration", "vertical", "phase", "start", "controller", "body"):
             values = getattr(self, key)
             twice = next((v for i, v in enumerate(values) if v in values[:i]), None)
             if twice is not None:
@@ -107,8 +101,8 @@ class Grid:
 
     def size(self) -> int:
         """Rollouts per repeat (the product of the list lengths)."""
-        return math.prod(len(v) or 1 for v in (self.controller, self.magnitude, self.direction, self.duration,
-                                               self.phase or self.start, self.vertical))
+        return math.prod(len(v) or 1 for v in (self.controller, self.body, self.magnitude, self.direction,
+                                               self.duration, self.phase or self.start, self.vertical))
 
 
 @dataclass(frozen=True)
@@ -186,6 +180,8 @@ class ExperimentSpec:
     seed: int = field(default=0, metadata={"min": 0})  # numpy's generators take no negative seed
     init_noise: float = field(default=0.0, metadata={"min": 0.0})
     grid: Grid | None = None
+    #: a grid's cells run as replicas (a threshold protocol); null: one trial per cell (and ``repeats``)
+    replicas: Replicas | None = None
     runs: tuple[PushItem, ...] = ()
     random: RandomPushes | None = None
     #: null: the body kind's default criteria (FallCriteria.for_body)
@@ -201,6 +197,19 @@ class ExperimentSpec:
             raise ValueError("grid: give a grid, a list of runs or random pushes -- the experiment has no rollouts")
         if len(given) > 1:
             raise ValueError(f"{given[1]}: give one of grid, runs and random, not {' and '.join(given)}")
+        if self.replicas is not None:
+            if self.grid is None:
+                raise ValueError("replicas: only with a grid (replicas run each grid cell several times)")
+            if self.repeats > 1:
+                raise ValueError("replicas: give replicas or repeats, not both (replicas are repeats of a cell "
+                                 "from perturbed states)")
+            if self.init_noise > 0:
+                raise ValueError("replicas: replicas.noise sets the replicas' initial noise; leave init_noise out")
+            g, r = self.grid, self.replicas
+            if g.start and max(g.start) + r.start_offset + max(g.duration) > self.seconds:
+                raise ValueError(f"replicas.start_offset: a push may start at {max(g.start):g} s + "
+                                 f"{r.start_offset:g} s and last {max(g.duration):g} s, past the end of the run "
+                                 f"({self.seconds:g} s, seconds); a push must end within the run")
         self._check_count()
         self._check_runs()
         if self.random is not None:
@@ -220,7 +229,7 @@ class ExperimentSpec:
             what = f"count {self.random.count} x {n_ctl} controller(s)"
         else:
             per, key, what = len(self.runs), "runs", f"{len(self.runs)} runs"
-        total = per * self.repeats
+        total = per * (self.replicas.count if self.replicas is not None else self.repeats)
         if total > MAX_ROLLOUTS:
             key = "repeats" if self.repeats > MAX_ROLLOUTS else key
             raise ValueError(f"{key}: the experiment asks for {total} rollouts ({what} x {self.repeats} repeat(s)); "
@@ -242,16 +251,26 @@ class Row:
     key: str  #: stable identity (parameters + repeat), for resuming
     controller: str | None
     push: Push
-    repeat: int
+    repeat: int  #: the repeat, or the replica of a replicated grid
     seed: int
+    #: the replica's phase offset: of the state's nominal duration (phase-timed push) or s (timed);
+    #: ``push`` holds it, the row's fraction and start columns the cell's own
+    offset: float = 0.0
+    #: initial velocity noise (rad/s, m/s) of this row; None: the experiment's ``init_noise``
+    init_noise: float | None = None
 
     def params(self) -> dict[str, Any]:
         p = self.push
         return {"index": self.index, "key": self.key, "controller": self.controller or "default",
                 "magnitude": p.magnitude, "direction": p.direction, "duration": p.duration,
-                "state": "" if p.state is None else p.state, "fraction": "" if p.state is None else p.fraction,
-                "start": "" if p.start is None else p.start, "vertical": p.vertical, "body": p.body,
-                "repeat": self.repeat, "seed": self.seed}
+                "state": "" if p.state is None else p.state,
+                "fraction": "" if p.state is None else self._cell(p.fraction),
+                "start": "" if p.start is None else self._cell(p.start), "vertical": p.vertical, "body": p.body,
+                "repeat": self.repeat, "seed": self.seed, "phase_offset": round(self.offset, 9)}
+
+    def _cell(self, value: float) -> float:
+        """A fraction or start time of this row's push as its cell has it (without the replica's offset)."""
+        return round(value - self.offset, 9) if self.offset else value
 
 
 @dataclass
@@ -269,9 +288,10 @@ class Experiment:
             g = s.grid
             timings: list[dict[str, Any]] = ([{"state": st, "fraction": fr} for st, fr in g.phase]
                                              or [{"start": t} for t in g.start])
-            for ctl, mag, dirn, dur, tim, vert in itertools.product(g.controller or (None,), g.magnitude, g.direction,
-                                                                     g.duration, timings, g.vertical):
-                items.append((ctl, Push(magnitude=mag, direction=dirn, duration=dur, vertical=vert, body=s.body,
+            for ctl, body, mag, dirn, dur, tim, vert in itertools.product(
+                    g.controller or (None,), g.body or (s.body,), g.magnitude, g.direction, g.duration, timings,
+                    g.vertical):
+                items.append((ctl, Push(magnitude=mag, direction=dirn, duration=dur, vertical=vert, body=body,
                                         after=s.after, **tim)))
         elif s.random is not None:
             for push in s.random.pushes(s.seed, s.body):
@@ -280,6 +300,8 @@ class Experiment:
         else:
             for r in s.runs:
                 items.append((r.controller, r.push(body=s.body, after=s.after)))
+        if s.replicas is not None:
+            return self._replica_rows(items, s.replicas)
         rows: list[Row] = []
         keys: set[str] = set()
         for rep in range(s.repeats):
@@ -298,6 +320,25 @@ class Experiment:
         return rows
 
 
+    def _replica_rows(self, items: list[tuple[str | None, Push]], rep: Replicas) -> list[Row]:
+        """The rows of a replicated grid: every cell ``rep.count`` times, replica-major. A replica's
+        seed (``seed`` + replica) draws its initial noise, the same for every cell, so one unpushed
+        rollout per replica serves them all; its phase offset is drawn per cell (the same for every
+        controller of the grid)."""
+        s = self.spec
+        rows: list[Row] = []
+        for replica in range(rep.count):
+            for ctl, push in items:
+                # the controllers of a grid meet the same perturbations: a paired comparison
+                cell = json.dumps({k: v for k, v in asdict(push).items() if k != "magnitude"}, sort_keys=True)
+                moved, off = rep.shifted(push, s.seed, replica, cell)
+                ident = json.dumps([ctl, asdict(moved), replica, "replica"], sort_keys=True)
+                key = hashlib.sha1(ident.encode()).hexdigest()[:12]
+                rows.append(Row(index=len(rows), key=key, controller=self.resolve(ctl), push=moved, repeat=replica,
+                                seed=s.seed + replica, offset=off, init_noise=rep.init_noise(replica)))
+        return rows
+
+
 def load_experiment(path: str | os.PathLike[str]) -> Experiment:
     """Load and validate an experiment file: keys, values, referenced files, body names, pushes."""
     p = Path(path)
@@ -313,8 +354,9 @@ def check_experiment(exp: Experiment, path: str | os.PathLike[str], prefix: str 
     rows = exp.rows()
     if not rows:
         raise ConfigError("the experiment expands to no rollouts", path=p, key=f"{prefix}grid")
-    per_repeat = len(rows) // spec.repeats
-    for r in rows[:per_repeat]:  # repeats hold the same pushes
+    # repeats hold the same pushes; replicas move them
+    per_repeat = len(rows) if spec.replicas is not None else len(rows) // spec.repeats
+    for r in rows[:per_repeat]:
         key = "grid" if spec.grid else ("random" if spec.random else f"runs[{r.index}]")
         check_pushes([r.push], spec.seconds, path=p, key=f"{prefix}{key}", seconds_key=f"{prefix}seconds")
     ref = exp.resolve(spec.reference)
@@ -331,6 +373,10 @@ def check_experiment(exp: Experiment, path: str | os.PathLike[str], prefix: str 
     if spec.body not in bodies and spec.body != DEFAULT_PUSH_BODY:
         raise ConfigError(f"unknown body {spec.body!r}; bodies are {', '.join(sorted(bodies))}", path=p,
                           key=f"{prefix}body")
+    for b in spec.grid.body if spec.grid is not None else ():
+        if b not in bodies and b != DEFAULT_PUSH_BODY:
+            raise ConfigError(f"unknown body {b!r}; bodies are {', '.join(sorted(bodies))}", path=p,
+                              key=f"{prefix}grid.body")
     return exp
 
 

@@ -35,7 +35,7 @@ from bipedsim.experiments.sweep_folder import (
     load_results,
     read_results,
 )
-from bipedsim.experiments.sweep_summary import format_summary, polar_plot, summarise
+from bipedsim.experiments.sweep_summary import format_summary, polar_plot, summarise, threshold_table
 from bipedsim.files import (
     atomic_write_text,
     os_reason,
@@ -108,7 +108,7 @@ def _tasks(exp: Experiment, rows: list[Row]) -> list[Task]:
     body: tuple[Any, ...] = (exp.resolve(s.reference), s.profile, s.support)
     if s.ground:
         body += (tuple(s.ground),)
-    return [(r, body, s.seconds, s.init_noise, fall) for r in rows]
+    return [(r, body, s.seconds, s.init_noise if r.init_noise is None else r.init_noise, fall) for r in rows]
 
 
 def _say(message: str) -> None:
@@ -161,11 +161,16 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
     final, _ = load_results(results, rows)
     final.sort(key=lambda r: int(r["index"]))
     _rewrite(results, final)
-    summary = summarise(final, sector=exp.spec.random.sector if exp.spec.random else None)
+    rep = exp.spec.replicas
+    summary = summarise(final, sector=exp.spec.random.sector if exp.spec.random else None,
+                        survive=None if rep is None else rep.survive, replicas=None if rep is None else rep.count)
     summary.update({"experiment": exp.spec.name, "rollouts": len(final)})
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=2) + "\n")
+    if rep is not None:
+        atomic_write_text(out / "thresholds.md", threshold_table(summary))
     try:
-        polar_plot(final, out / "push_polar.png", fan=exp.spec.random is None)
+        polar_plot(final, out / "push_polar.png", fan=exp.spec.random is None,
+                   survive=None if rep is None else rep.survive)
     except OSError as exc:
         raise OutputError(f"cannot write {out / 'push_polar.png'}: {os_reason(exc)}") from None
     return summary

@@ -23,21 +23,22 @@ from bipedsim.files import (
 from bipedsim.sim.rollout import OUTCOMES
 
 RESULT_COLUMNS = ["index", "key", "controller", "magnitude", "direction", "duration", "state", "fraction", "start",
-                  "vertical", "body", "repeat", "seed", "outcome", "fall_time_s", "fall_reason", "foot_strikes",
-                  "distance_m", "mean_speed_mps", "tracking_rmse_rad", "recovery_time_s", "peak_com_deviation_m",
-                  "steps_to_recover", "sim_seconds", "wall_seconds"]
+                  "vertical", "body", "repeat", "seed", "phase_offset", "outcome", "fall_time_s", "fall_reason",
+                  "foot_strikes", "distance_m", "mean_speed_mps", "tracking_rmse_rad", "recovery_time_s",
+                  "peak_com_deviation_m", "steps_to_recover", "sim_seconds", "wall_seconds"]
 TIMING_COLUMNS = ("wall_seconds",)
 
 
 #: Columns that always hold a finite number, and those that may be empty (a push at a start time has
 #: no state; a survived rollout no fall time).
-NUMERIC_COLUMNS = ("index", "magnitude", "direction", "duration", "vertical", "repeat", "seed", "foot_strikes",
+NUMERIC_COLUMNS = ("index", "magnitude", "direction", "duration", "vertical", "repeat", "seed", "phase_offset",
+                   "foot_strikes",
                    "distance_m", "mean_speed_mps", "tracking_rmse_rad", "sim_seconds", "wall_seconds")
 OPTIONAL_NUMERIC_COLUMNS = ("state", "fraction", "start", "fall_time_s", "recovery_time_s", "peak_com_deviation_m",
                             "steps_to_recover")
 #: Columns that must equal the experiment's row of the same key (else the row is from an edited experiment).
 PARAM_COLUMNS = ("index", "magnitude", "direction", "duration", "state", "fraction", "start", "vertical", "body",
-                 "repeat", "seed")
+                 "repeat", "seed", "phase_offset")
 #: Malformed rows named in the one-line report (the rest are counted).
 _REPORT_ROWS = 3
 
@@ -154,7 +155,7 @@ def _setup(exp: Experiment) -> dict[str, Any]:
     setup are not rows of this one."""
     s = exp.spec
     out = {"seconds": s.seconds, "reference": exp.resolve(s.reference), "profile": s.profile, "support": s.support,
-           "init_noise": s.init_noise,
+           "init_noise": s.init_noise, "replicas": None if s.replicas is None else asdict(s.replicas),
            "fall": None if s.fall is None else asdict(s.fall)}
     if s.ground:  # (a flat ground's setup reads as before)
         out["ground"] = list(s.ground)

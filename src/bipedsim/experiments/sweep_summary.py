@@ -26,11 +26,18 @@ def format_summary(summary: dict[str, Any], out_dir: str | os.PathLike[str]) -> 
     sector = summary.get("direction_sector_deg")
     width = f" +-{sector / 2:g}" if sector else ""
     what = "push" if sector else "phase"
+    rule = summary.get("rule")
+    by = f" by {rule['survive']} of {rule['replicas']} replicas" if rule else ""
     for d, v in summary["largest_survived_per_direction_n"].items():
         c = counts.get(d, {"survived": 0, "rollouts": 0})
-        every = f"every {what} survived up to {v:g} N" if v is not None else f"no magnitude survived in every {what}"
+        every = (f"every {what} survived up to {v:g} N{by}" if v is not None
+                 else f"no magnitude survived{by} in every {what}")
         lines.append(f"  direction {d:>5}{width} deg: {c['survived']}/{c['rollouts']} survived; {every}")
-    lines.append(f"wrote {out_dir}/results.csv, summary.json, push_polar.png")
+    for label, per_dir in summary.get("largest_survived_per_setting_n", {}).items():
+        shown = ", ".join(f"{d} deg {'-' if v is None else f'{v:g} N'}" for d, v in per_dir.items())
+        lines.append(f"  {label}: {shown}")
+    extra = ", thresholds.md" if rule else ""
+    lines.append(f"wrote {out_dir}/results.csv, summary.json, push_polar.png{extra}")
     return "\n".join(lines)
 
 
@@ -38,13 +45,45 @@ def _phase_label(r: dict[str, str]) -> str:
     return f"state {r['state']} at {float(r['fraction']):.2f}" if r["state"] else f"t={float(r['start']):.2f}s"
 
 
-def summarise(rows: list[dict[str, str]], sector: float | None = None) -> dict[str, Any]:
-    """Per controller, direction and phase: the largest magnitude survived, and the largest below
-    which every push was survived (the recovery threshold on this grid). With ``sector`` (random
-    pushes), directions are binned into sectors that wide, centred on multiples of it, and every
+#: One group of a sweep's rows: (controller, body, duration s, vertical N, direction deg, phase label).
+GroupKey = tuple[str, str, float, float, float, str]
+
+
+def _setting(ctl: str, body: str, duration: float, vertical: float, several_controllers: bool) -> str:
+    """A label for what a group's pushes share besides direction and phase: the body, the duration (s),
+    the vertical force (N, when any) and the controller (when the sweep has several)."""
+    label = f"{body} {duration:g} s"
+    if vertical:
+        label += f" vertical {vertical:g} N"
+    if several_controllers:
+        label += f" {Path(ctl).stem if ctl != 'default' else ctl}"
+    return label
+
+
+def threshold(ladder: dict[float, list[bool]], survive: int | None) -> float | None:
+    """The largest magnitude (N) of ``ladder`` (magnitude -> the outcomes of its rows, True survived)
+    survived at it and at every lower magnitude: at least ``survive`` rows survived each (None: every
+    row); None when the lowest magnitude already fails."""
+    best = None
+    for m in sorted(ladder):
+        oks = ladder[m]
+        need = len(oks) if survive is None else survive
+        if sum(oks) < need:
+            break
+        best = m
+    return best
+
+
+def summarise(rows: list[dict[str, str]], sector: float | None = None, survive: int | None = None,
+              replicas: int | None = None) -> dict[str, Any]:
+    """Per controller, body, duration, direction and phase: the largest magnitude survived, and the
+    threshold: the largest magnitude survived at it and at every lower magnitude, by at least
+    ``survive`` of the rows at each (a replicated grid's replicas; None: by every row). With ``sector``
+    (random pushes), directions are binned into sectors that wide, centred on multiples of it, and every
     start time counts as one phase, "random start". Rollouts whose push did not happen
-    (``push_not_applied``) count only in ``outcomes``: they neither survived nor failed a push."""
-    groups: dict[tuple[str, float, str], list[tuple[float, bool]]] = {}
+    (``push_not_applied``) count only in ``outcomes``: they neither survived nor failed a push.
+    ``replicas``: how many each cell has, recorded with the rule."""
+    groups: dict[GroupKey, dict[float, list[bool]]] = {}
 
     def direction(r: dict[str, str]) -> float:
         d = float(r["direction"])
@@ -52,30 +91,36 @@ def summarise(rows: list[dict[str, str]], sector: float | None = None) -> dict[s
 
     pushed = [r for r in rows if r["outcome"] != PUSH_NOT_APPLIED]  # no push: nothing survived
     for r in pushed:
-        k = (r["controller"], direction(r), _phase_label(r) if sector is None else "random start")
-        groups.setdefault(k, []).append((float(r["magnitude"]), r["outcome"] == "no_fall"))
+        k = (r["controller"], r["body"], float(r["duration"]), float(r["vertical"]), direction(r),
+             _phase_label(r) if sector is None else "random start")
+        groups.setdefault(k, {}).setdefault(float(r["magnitude"]), []).append(r["outcome"] == "no_fall")
+    several = len({k[0] for k in groups}) > 1
     out: dict[str, Any] = {"by_direction_and_phase": [], "outcomes": {}}
-    for (ctl, d, ph), vals in sorted(groups.items()):
-        vals.sort()
-        survived = [m for m, ok in vals if ok]
-        threshold = 0.0
-        for m, ok in vals:
-            if not ok:
-                break
-            threshold = m
-        out["by_direction_and_phase"].append({"controller": ctl, "direction_deg": d, "phase": ph,
-                                              "largest_survived_n": max(survived) if survived else None,
-                                              "survived_all_up_to_n": threshold if vals[0][1] else None,
-                                              "rollouts": len(vals)})
+    per_setting: dict[str, dict[str, float | None]] = {}
+    for (ctl, body, dur, vert, d, ph), ladder in sorted(groups.items()):
+        survived = [m for m, oks in ladder.items() if any(oks)]
+        thr = threshold(ladder, survive)
+        entry: dict[str, Any] = {"controller": ctl, "direction_deg": d, "phase": ph, "body": body, "duration_s": dur,
+                                 "vertical_n": vert, "largest_survived_n": max(survived) if survived else None,
+                                 "survived_all_up_to_n": threshold(ladder, None), "threshold_n": thr,
+                                 "rollouts": sum(len(v) for v in ladder.values())}
+        if survive is not None:
+            entry["survived_of"] = {f"{m:g}": f"{sum(oks)}/{len(oks)}" for m, oks in sorted(ladder.items())}
+        out["by_direction_and_phase"].append(entry)
+        per_dir = per_setting.setdefault(_setting(ctl, body, dur, vert, several), {})
+        key = f"{d:g}"
+        cur = per_dir.get(key, float("inf"))
+        per_dir[key] = None if thr is None or cur is None else min(cur, thr)
     for r in rows:
         out["outcomes"][r["outcome"]] = out["outcomes"].get(r["outcome"], 0) + 1
-    per_dir: dict[str, float | None] = {}
-    for g in out["by_direction_and_phase"]:
-        key = f"{g['direction_deg']:g}"
-        v = g["survived_all_up_to_n"]
-        cur = per_dir.get(key, float("inf"))
-        per_dir[key] = None if v is None or cur is None else min(cur, v)
-    out["largest_survived_per_direction_n"] = per_dir
+    merged: dict[str, float | None] = {}
+    for per_dir in per_setting.values():
+        for key, v in per_dir.items():
+            cur = merged.get(key, float("inf"))
+            merged[key] = None if v is None or cur is None else min(cur, v)
+    out["largest_survived_per_direction_n"] = merged
+    if len(per_setting) > 1:
+        out["largest_survived_per_setting_n"] = per_setting
     counts: dict[str, dict[str, int]] = {}
     for r in pushed:
         c = counts.setdefault(f"{direction(r):g}", {"survived": 0, "rollouts": 0})
@@ -84,10 +129,47 @@ def summarise(rows: list[dict[str, str]], sector: float | None = None) -> dict[s
     out["survived_per_direction"] = counts
     if sector is not None:
         out["direction_sector_deg"] = sector
+    if survive is not None:
+        out["rule"] = {"survive": survive, "replicas": replicas}
     return out
 
 
-def polar_plot(rows: list[dict[str, str]], path: Path, fan: bool = True) -> None:
+def threshold_table(summary: dict[str, Any]) -> str:
+    """The thresholds of a grid's summary as Markdown tables, one per setting (body, duration, ...):
+    a row per direction (degrees, 0 forward, 90 left), a column per phase; N, ``-`` where the lowest
+    magnitude already failed."""
+    by_setting: dict[str, dict[float, dict[str, float | None]]] = {}
+    phases: dict[str, list[str]] = {}
+    several = len({g["controller"] for g in summary["by_direction_and_phase"]}) > 1
+    for g in summary["by_direction_and_phase"]:
+        label = _setting(g["controller"], g["body"], g["duration_s"], g["vertical_n"], several)
+        by_setting.setdefault(label, {}).setdefault(g["direction_deg"], {})[g["phase"]] = g["threshold_n"]
+        if g["phase"] not in phases.setdefault(label, []):
+            phases[label].append(g["phase"])
+    rule = summary.get("rule")
+    how = (f"at least {rule['survive']} of {rule['replicas']} replicas" if rule else "every rollout")
+    lines: list[str] = []
+    for label, dirs in by_setting.items():
+        cols = sorted(phases[label])
+        lines += [f"{label}: largest push (N) survived by {how} at it and at every lower magnitude", "",
+                  "| direction (deg) | " + " | ".join(cols) + " | all |",
+                  "|---:|" + "---:|" * (len(cols) + 1)]
+        for d in sorted(dirs):
+            vals = [dirs[d].get(c) for c in cols]
+            low = None if any(v is None for v in vals) else min(v for v in vals if v is not None)
+            cells = ["-" if v is None else f"{v:g}" for v in vals + [low]]
+            lines.append(f"| {d:g} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def polar_plot(rows: list[dict[str, str]], path: Path, fan: bool = True, survive: int | None = None) -> None:
+    """The push outcomes in polar form (forward up, force radial, N) into ``path`` (PNG): each rollout a
+    point, or with ``survive`` (a replicated grid) each cell's magnitude a point, survived when at least
+    ``survive`` replicas survived it, and each phase's threshold per direction as a closed line."""
+    if survive is not None:
+        _threshold_plot(rows, path, survive)
+        return
     import matplotlib
 
     matplotlib.use("Agg")
@@ -117,6 +199,57 @@ def polar_plot(rows: list[dict[str, str]], path: Path, fan: bool = True) -> None
                  va="bottom", fontsize=7)
     if ax.get_legend_handles_labels()[0]:  # none when no push happened (every row push_not_applied)
         ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.1), fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def _threshold_plot(rows: list[dict[str, str]], path: Path, survive: int) -> None:
+    """:func:`polar_plot` of a replicated grid (one setting per line style when there are several)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    summary = summarise(rows, survive=survive)
+    groups = summary["by_direction_and_phase"]
+    phases = sorted({g["phase"] for g in groups})
+    several = len({g["controller"] for g in groups}) > 1
+    settings = sorted({_setting(g["controller"], g["body"], g["duration_s"], g["vertical_n"], several) for g in groups})
+    dirs = sorted({g["direction_deg"] for g in groups})
+    gap = min((b - a for a, b in zip(dirs, dirs[1:] + [dirs[0] + 360.0])), default=360.0) if dirs else 360.0
+    step = min(6.0, 0.5 * gap / len(phases)) if 1 < len(phases) <= 8 else 0.0
+    offset = {p: (i - (len(phases) - 1) / 2) * step for i, p in enumerate(phases)}
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    styles = ("-", "--", ":", "-.")
+    fig = plt.figure(figsize=(6, 6))
+    ax = fig.add_subplot(projection="polar")
+    for ok, colour, marker, label in ((True, "tab:green", "o", f"survived by >= {survive} replicas"),
+                                      (False, "tab:red", "x", f"survived by < {survive} replicas")):
+        th, r = [], []
+        for g in groups:
+            for m, frac in g["survived_of"].items():
+                if (int(frac.split("/")[0]) >= survive) == ok:
+                    th.append(np.radians(g["direction_deg"] + offset[g["phase"]]))
+                    r.append(float(m))
+        if th:
+            ax.scatter(th, r, c=colour, marker=marker, s=12, alpha=0.6, label=label)
+    for si, setting in enumerate(settings):
+        for pi, ph in enumerate(phases):
+            sel = {g["direction_deg"]: g["threshold_n"] for g in groups if g["phase"] == ph and _setting(
+                g["controller"], g["body"], g["duration_s"], g["vertical_n"], several) == setting}
+            ds = sorted(sel)
+            if not ds:
+                continue
+            th = np.radians([d + offset[ph] for d in ds] + [ds[0] + offset[ph]])
+            rr = [sel[d] or 0.0 for d in ds] + [sel[ds[0]] or 0.0]
+            name = ph if len(settings) == 1 else f"{setting}, {ph}"
+            ax.plot(th, rr, color=colours[pi % len(colours)], ls=styles[si % len(styles)], lw=1.2,
+                    label=f"threshold, {name}")
+    ax.set_theta_zero_location("N")  # forward up
+    ax.set_title("push thresholds: direction (0 = forward, 90 = left) x force (N)")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="lower left", bbox_to_anchor=(-0.15, -0.15), fontsize=7)
     fig.tight_layout()
     save_figure(fig, path)
     plt.close(fig)

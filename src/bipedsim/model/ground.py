@@ -385,6 +385,15 @@ def ground_of(model: mujoco.MjModel) -> tuple[Ground, GroundFrame] | None:
     return Ground.parse(d["terms"], key=GROUND_TEXT), GroundFrame(**d["frame"])
 
 
+
+def check_ground(terms: Sequence[str], key: str = "ground") -> Ground:
+    """The ground of a file's ``ground:`` terms (an experiment's, a suite scenario's); a bad term raises
+    ``ValueError("KEY[i]: ...")`` (the file's loader adds the file)."""
+    try:
+        return Ground.parse(list(terms), key=key)
+    except ConfigError as exc:
+        raise ValueError(f"{exc.key}: {exc.reason}") from None
+
 #: terrains already made, by their model text (a sweep's rollouts share one)
 _TERRAINS: dict[str, Terrain | None] = {}
 

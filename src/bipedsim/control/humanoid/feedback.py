@@ -9,12 +9,14 @@ walk's speed with a virtual force the loaded legs produce.
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.humanoid.balance import feedback_angle
-from bipedsim.control.humanoid.settings import BalanceConfig, VelocityConfig
+from bipedsim.control.humanoid.balance import beyond, feedback_angle
+from bipedsim.control.humanoid.settings import BalanceConfig, CaptureConfig, VelocityConfig
 from bipedsim.control.humanoid.sources import SIDES, GaitSource
 from bipedsim.control.humanoid.tables import HumanoidTables
 
@@ -51,6 +53,30 @@ def feedback_angles(b: BalanceConfig, t: HumanoidTables, src: GaitSource, frame:
     fs = feedback_angle(0.0, t.cd_sagittal, b.sagittal.cv, d0, v0, b.max_feedback)
     fc = feedback_angle(0.0, b.coronal.cd, b.coronal.cv, d1, v1, b.max_feedback)
     return fs, fc
+
+
+def capture_deviation(com: ComState, ref: tuple[FloatArray, FloatArray], w: float) -> tuple[float, float]:
+    """The capture point's deviation from the reference's (m, sagittal and coronal, heading frame):
+    ``(d - d_ref) + (v - v_ref) / w`` per plane, ``com`` the COM's state (:func:`heading_frame_com`),
+    ``ref`` the reference's own (d_ref, v_ref), ``w`` the linear inverted pendulum's sqrt(g / L) (1/s)."""
+    d_ref, v_ref = ref
+    return (com[0] - float(d_ref[0]) + (com[2] - float(v_ref[0])) / w,
+            com[1] - float(d_ref[1]) + (com[3] - float(v_ref[1])) / w)
+
+
+def capture_excess(cc: CaptureConfig, deviation: tuple[float, float],
+                   bias: tuple[float, float]) -> tuple[float, float]:
+    """A capture point ``deviation`` (m, :func:`capture_deviation`) less its running mean ``bias`` (m),
+    beyond ``cc.deadband`` (0 inside it), per plane."""
+    return (beyond(deviation[0] - bias[0], cc.deadband), beyond(deviation[1] - bias[1], cc.deadband))
+
+
+def capture_rate(cc: CaptureConfig, excess: tuple[float, float]) -> float:
+    """The gait clock's rate (x real time) the capture point's ``excess`` (m, :func:`capture_excess`)
+    asks for: ``1 + tempo_gain |excess|``, at most ``max_rate``; 1 when capture stepping is off."""
+    if not cc.enabled or cc.tempo_gain <= 0.0:
+        return 1.0
+    return min(1.0 + cc.tempo_gain * math.hypot(*excess), cc.max_rate)
 
 
 def virtual_force(vc: VelocityConfig, t: HumanoidTables, data: mujoco.MjData, tau: FloatArray,

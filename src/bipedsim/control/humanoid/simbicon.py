@@ -36,7 +36,7 @@ from bipedsim.control.humanoid.ground import feet_tilts, swing_over_ground, tors
 from bipedsim.control.humanoid.hips import split_hip_torques, swing_hip_torques
 from bipedsim.control.humanoid.modulation import stance_tilt, swing_foot_ik
 from bipedsim.control.humanoid.sources import SIDES, ClipSource, GaitSource, Hinges, PoseSource
-from bipedsim.control.humanoid.stepping import Playback, ResyncEvent, advance, resync, tempo_rate
+from bipedsim.control.humanoid.stepping import Playback, ResyncEvent, advance, hurry, resync, tempo_rate
 from bipedsim.control.humanoid.tables import HumanoidTables, build_tables
 from bipedsim.control.humanoid.torso import CourseSteering, torso_heading, torso_torque
 from bipedsim.control.humanoid.tracking import (
@@ -248,6 +248,9 @@ class SimbiconController(Controller):
         # the gait clock: real time, faster while the body outruns the reference (fsm.tempo)
         speed = self.source.speed_at(self.frame)
         rate = tempo_rate(cfg.fsm.tempo, self._v_sag, speed) if cfg.fsm.tempo.gain > 0.0 else 1.0
+        if t > 0.0:  # the COM is measured from the first step on
+            rate = hurry(self.playback, cfg, self.source, self.frame, fsm.stance, self._com_hf, self.tables.omega, dt,
+                         rate)
         dt_ref = dt * rate
         self.playback.clock += dt_ref
         # a strike is the swing foot's sole landing; its toe brushing the floor at lift-off is not

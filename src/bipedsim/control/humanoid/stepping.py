@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bipedsim.control.humanoid.feedback import ComState, capture_deviation, capture_excess, capture_rate
 from bipedsim.control.humanoid.fsm import GaitFSM
 from bipedsim.control.humanoid.settings import ResyncConfig, TempoConfig
 from bipedsim.control.humanoid.sources import GaitSource
@@ -42,10 +43,15 @@ class Playback:
     wait_time: float = 0.0  #: s the reference has been held at a strike frame
     pending_shift: float = 0.0  #: frames of resynchronisation still to apply
     resyncs: list[ResyncEvent] = field(default_factory=list)
+    #: capture-point step timing: the deviation's running mean (m, sagittal, coronal; None until measured)
+    capture_bias: tuple[float, float] | None = None
+    #: the capture point's excess (m, sagittal, coronal) the last control step measured
+    capture_excess: tuple[float, float] = (0.0, 0.0)
 
     def reset(self, frame: float, t: float) -> None:
         """A rollout starting at reference ``frame`` at time ``t``."""
         self.resyncs.clear()
+        self.capture_bias, self.capture_excess = None, (0.0, 0.0)
         self.pending_shift = 0.0
         self.last_strike_time, self.last_strike_frame = t, frame
         self.clock = self.last_strike_clock = t
@@ -57,6 +63,24 @@ def tempo_rate(tc: TempoConfig, v_sagittal: float, speed: float) -> float:
     e = v_sagittal - speed
     e = e - tc.deadband if e > tc.deadband else (e + tc.deadband if e < -tc.deadband else 0.0)
     return min(max(1.0 + tc.gain * e, tc.min), tc.max)
+
+
+def hurry(pb: Playback, cfg: ControllerConfig, src: GaitSource, frame: float, stance: str, com: ComState,
+          omega: float, dt: float, rate: float) -> float:
+    """Capture-point step timing (``balance.capture``) for one control step of ``dt`` s: the capture point's
+    excess (:func:`~bipedsim.control.humanoid.feedback.capture_excess`) of the COM state ``com`` against
+    ``stance``'s ankle at reference ``frame``, kept in ``pb`` with the deviation's running mean, and the
+    gait clock's rate (x real time): ``rate`` (the step tempo's), raised to what the excess asks for while
+    it is not 0, so a pushed body's swing ends early and its next step comes sooner. ``rate`` when off."""
+    cc = cfg.balance.capture
+    if not cc.enabled or omega <= 0.0:
+        return rate
+    dev = capture_deviation(com, src.com_reference(frame, stance), omega)
+    bias = pb.capture_bias or dev
+    a = min(1.0, dt / cc.bias_s)
+    pb.capture_bias = (bias[0] + a * (dev[0] - bias[0]), bias[1] + a * (dev[1] - bias[1]))
+    pb.capture_excess = capture_excess(cc, dev, bias)
+    return max(rate, capture_rate(cc, pb.capture_excess)) if pb.capture_excess != (0.0, 0.0) else rate
 
 
 def resync(pb: Playback, src: GaitSource, rc: ResyncConfig, frame: float, foot: str, t: float) -> float:

@@ -14,6 +14,7 @@ Units: gains kp N*m/rad, kd N*m*s/rad; torques N*m; angles rad; lengths m; force
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -96,6 +97,7 @@ class HumanoidTables:
     n_touch_right: int  #: how many of ``touch_idx`` are the right foot's
     pelvis: int  #: the pelvis's body id
     weight: float  #: the body's weight (N)
+    omega: float  #: the linear inverted pendulum's sqrt(g / L) (1/s), L the body's leg length (hip to ankle)
     # ---- switches and gains of the step
     implicit: bool  #: kd is MuJoCo joint damping (``pd.implicit_damping``)
     ref_vel: bool  #: damping against the reference's velocity (``pd.mode: pd_ref_velocity``)
@@ -147,6 +149,7 @@ def build_tables(model: mujoco.MjModel, plan: BodyPlanSet, source: GaitSource, c
         touch=touch, touch_idx=np.array(touch["right"] + touch["left"], dtype=np.int64),
         n_touch_right=len(touch["right"]), pelvis=model.body("pelvis").id,
         weight=float(np.sum(model.body_mass) * -model.opt.gravity[2]),
+        omega=math.sqrt(-float(model.opt.gravity[2]) / leg) if leg > 0 else 0.0,
         implicit=cfg.pd.implicit_damping, ref_vel=cfg.pd.mode == "pd_ref_velocity",
         net_limit=cfg.pd.net_limit != "off" and cfg.pd.implicit_damping,
         net_joints=_net_joints(cfg.pd.net_limit, hip, knee), speed=speed,

@@ -72,7 +72,8 @@ def evaluate_reference(sc: Scenario, setup: Setup) -> dict[str, float]:
     terms = walk_terms(walk, meter, cadence, setup.seconds, setup.objective)
     pushed = []
     for row in setup.rows:
-        spec = RolloutSpec(seconds=setup.seconds, seed=row.seed, init_noise=setup.init_noise, fall=fall)
+        noise = setup.init_noise if row.init_noise is None else row.init_noise  # a replica's own
+        spec = RolloutSpec(seconds=setup.seconds, seed=row.seed, init_noise=noise, fall=fall)
         out, _ = run_scenario(sc, spec, pushes=[row.push])
         start = out.extra.get("push_start_s")
         pushed.append((out, float(start if start is not None else row.push.start or 0.0)))

@@ -9,7 +9,7 @@ import pytest
 
 from bipedsim.control.humanoid.correction import EXTRA, Correction
 from bipedsim.errors import ConfigError
-from bipedsim.sim.reconstruct import correction_for, reconstruct, search_span
+from bipedsim.sim.reconstruct import correction_for, reconstruct, search_corrections, search_span
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.runner import load_scenario, reconstruct_wanted, run_scenario
 
@@ -36,7 +36,16 @@ def _search(sc, workers: int = 1) -> Correction:
 def test_the_search_is_deterministic_on_any_number_of_processes(small) -> None:
     short = _search(small)  # no loop searched: the search ends with the clip and its correction fades out
     small = replace(small, cfg=replace(small.cfg, reconstruct=replace(small.cfg.reconstruct, loop_cycles=1)))
-    a, b = _search(small, 1), _search(small, 2)
+    ctrl = small.controller()
+    try:
+        a, at_clip = search_corrections(small.built.model, ctrl, small.cfg.reconstruct, small.fall_criteria())
+    finally:
+        ctrl.restore_model()
+    b = _search(small, 2)
+    # with a loop searched, the search's best when its windows first covered the clip is given too: window
+    # for window what a search of the clip alone finds
+    assert at_clip is not None and at_clip.period == 0.0
+    assert at_clip.starts == short.starts and np.array_equal(at_clip.rows, short.rows) and at_clip.end == short.end
     assert a.starts == b.starts and np.array_equal(a.rows, b.rows) and a.end == b.end
     assert a.rows.shape[1] == small.controller().tables.kp.shape[0] + EXTRA
     # the search covers the clip from the controller's start and a period of its loop, window by window
@@ -181,3 +190,10 @@ def test_the_judge_keeps_the_better_of_repeating_the_loop_and_fading_out(small) 
     assert keep and chosen is corr and "repeats its last period" in why
     keep, _, _ = judge_correction(small, corr, judged({"repeat": (5.0, 0.2), "fade": (8.0, 0.3), "none": (9.0, 1.0)}))
     assert not keep
+    # the search's best at the clip's end is one more candidate (it fades out after the clip)
+    at_clip = Correction(starts=(10.0,), rows=rows[:1] + 0.01, end=12.0, fade=10.0)
+    stand = {"repeat": (6.0, 0.2), "fade": (7.0, 0.3), "none": (20.0, 0.9)}
+    by_end = lambda sc: (20.0, 0.4) if sc.correction is not None and sc.correction.end == 12.0 else judged(stand)(sc)  # noqa: E731
+    keep, why, chosen = judge_correction(small, [corr, at_clip], by_end)
+    assert keep and chosen is at_clip and "the clip's end" in why
+

@@ -140,6 +140,15 @@ def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Reconstruc
     could be walked.
     ``workers`` processes sample each window (the result does not depend on how many);
     ``progress(done_s, total_s)`` is called after each window."""
+    return search_corrections(model, ctrl, cfg, fall, workers=workers, progress=progress)[0]
+
+
+def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: ReconstructConfig,
+                       fall: FallCriteria, *, workers: int = 1, progress: Callable[[float, float], None] | None = None
+                       ) -> tuple[Correction | None, Correction | None]:
+    """:func:`reconstruct`'s correction, and the best one at the clip's end: the search's best path when
+    its windows first covered the clip (what a search of the clip alone finds, window for window), which
+    fades out after the clip; None where there is none, or where it is the first."""
     src = ctrl.source
     if not isinstance(ctrl, SimbiconController) or not isinstance(src, ClipSource) or not src.whole:
         raise ModelError("reconstruction drives the humanoid's controller tracking a whole clip (source: clip)")
@@ -147,7 +156,7 @@ def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Reconstruc
     total_s = search_span(ctrl, cfg.loop_cycles)
     _, looped = search_end(src, cfg.loop_cycles)
     if total_s <= 0:
-        return None
+        return None, None
     played = (src.qpos_played, src.playlist.qvel)
     data = mujoco.MjData(model)
     data.qpos[:] = played[0][int(frame0)]
@@ -167,6 +176,9 @@ def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Reconstruc
                      FallDetector(model, ctrl.plan, fall, data, root=ctrl.root_body), _shared(ctrl), every,
                      max(1, int(round(fall.check_every / dt))), per_window, ctrl.hinges.qadr, ctrl.terrain)
     history = [[_Node(data, ctrl, [], [], 0.0)]]  # the states kept at the start of each window
+    # the windows covering the clip alone: the search's best there, the first time it gets there
+    clip_windows = int(math.ceil(search_span(ctrl, 0) / (per_window * dt) - 1e-9)) if looped else n_windows
+    at_clip: _Node | None = None
     retries, boost = 0, 1
     while len(history) <= n_windows:
         step = (len(history) - 1) * per_window
@@ -177,6 +189,8 @@ def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Reconstruc
         found = _window(search, parents, rows, step, workers)
         if found:
             history.append(found)
+            if at_clip is None and len(history) == clip_windows + 1:
+                at_clip = found[0]
             boost = 1
             if progress is not None:
                 progress(min((step + per_window) * dt, total_s), total_s)
@@ -190,13 +204,18 @@ def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Reconstruc
             history.pop()
     best = history[-1][0]
     if not best.rows:
-        return None
+        return None, None
     end = float(best.ctrl.frame)
+    fade = cfg.fade_s / src.frame_time
     # the whole span walked, its last loop period included: that period's rows repeat after it
     period = src.period if looped and len(history) > n_windows and end - src.period >= max(src.a, best.starts[0]) \
         else 0.0
-    return Correction(starts=tuple(best.starts), rows=np.array(best.rows), end=end,
-                      fade=cfg.fade_s / src.frame_time, period=period)
+    full = Correction(starts=tuple(best.starts), rows=np.array(best.rows), end=end, fade=fade, period=period)
+    clip = None
+    if at_clip is not None and at_clip is not best:
+        clip = Correction(starts=tuple(at_clip.starts), rows=np.array(at_clip.rows), end=float(at_clip.ctrl.frame),
+                          fade=fade)
+    return full, clip
 
 
 #: the search a forked worker reads (set by the parent before it forks, read-only in the workers)
@@ -306,19 +325,19 @@ def correction_key(clip: ReferenceClip, model_hash: str, cfg: ControllerConfig) 
     return h.hexdigest()[:24]
 
 
-#: what a judge of a correction says: whether to keep it, why (a clause for the run's printout), and the
-#: correction to keep (the searched one, or a variant of it the judge found better)
+#: what a judge of a search's corrections says: whether to keep one, why (a clause for the run's
+#: printout), and the one to keep (of those searched, or a variant of one the judge found better)
 Verdict = tuple[bool, str, Correction]
 
 
 def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[], SimbiconController],
                    clip: ReferenceClip, cfg: ControllerConfig, fall: FallCriteria,
-                   judge: Callable[[Correction], Verdict] | None = None) -> tuple[Correction | None, str]:
+                   judge: Callable[[list[Correction]], Verdict] | None = None) -> tuple[Correction | None, str]:
     """The correction for ``clip`` on this body with these settings, and a line saying where it came
     from: read from the cache when this search was run before, else searched (a progress bar on a
     terminal), judged and cached. ``judge`` says whether a searched correction is kept (a run with it
-    against one without, :func:`bipedsim.sim.runner.judge_correction`) and which of its variants; one it
-    rejects is cached as
+    against one without, :func:`bipedsim.sim.runner.judge_correction`) and which: the search's, or its best
+    at the clip's end (:func:`search_corrections`), or a variant; one it rejects is cached as
     rejected, so the run goes on without one and the next run does not search again."""
     key = correction_key(clip, model_hash, cfg)
     path = cache_folder() / f"{key}.json"
@@ -351,7 +370,8 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
 
     t0 = time.perf_counter()
     try:
-        corr = reconstruct(model, ctrl, cfg.reconstruct, fall, workers=search_workers(cfg.reconstruct), progress=tick)
+        corr, at_clip = search_corrections(model, ctrl, cfg.reconstruct, fall, workers=search_workers(cfg.reconstruct),
+                                           progress=tick)
     finally:
         ctrl.restore_model()
         if bar is not None:
@@ -363,7 +383,7 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
         what += f"; every sample fell after {done[0]:.1f} s, so the correction ends there"
     kept, why = (False, "no window could be walked") if corr is None else (True, "")
     if corr is not None and judge is not None:
-        kept, why, corr = judge(corr)
+        kept, why, corr = judge([corr] if at_clip is None else [corr, at_clip])
     what += f"; {why}" if why else ""
     (cache_folder() / f"{key}.source.json").unlink(missing_ok=True)  # chosen with the correction it replaces
     try:

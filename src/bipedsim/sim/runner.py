@@ -304,24 +304,29 @@ def _better(a: tuple[float, float], b: tuple[float, float]) -> bool:
     return a[0] > b[0] + 1e-9 or (a[0] >= b[0] - 1e-9 and a[1] <= b[1])
 
 
-def judge_correction(sc: Scenario, corr: Correction, judged: Judge = _judged) -> tuple[bool, str, Correction]:
-    """Whether ``sc`` tracks its clip better with ``corr`` than without, and the correction to keep: each
-    way, one run over the clip and :data:`JUDGE_BEYOND_S` beyond; the one that stands longer wins, then
-    the one whose root path stays nearer the clip's (:func:`~bipedsim.sim.fidelity.measure_fidelity`). A
-    correction that repeats its last loop period is also run fading out after it instead (feedback alone
-    walks the loop on), and the better of the two is the one judged. Also a clause saying how they
-    compared."""
-    with_ = judged(replace(sc, correction=corr))
-    if corr.period > 0.0:
-        faded = replace(corr, period=0.0)
-        r_faded = judged(replace(sc, correction=faded))
-        if _better(r_faded, with_) and not _better(with_, r_faded):
-            corr, with_ = faded, r_faded
+def judge_correction(sc: Scenario, corrs: Correction | list[Correction], judged: Judge = _judged
+                     ) -> tuple[bool, str, Correction]:
+    """Whether ``sc`` tracks its clip better with the best of ``corrs`` than without, and the correction
+    to keep: each way, one run over the clip and :data:`JUDGE_BEYOND_S` beyond; the one that stands
+    longer wins, then the one whose root path stays nearer the clip's
+    (:func:`~bipedsim.sim.fidelity.measure_fidelity`). A correction that repeats its last loop period is
+    also run fading out after it instead (feedback alone walks the loop on). Also a clause saying how
+    they compared."""
+    cands = [corrs] if isinstance(corrs, Correction) else list(corrs)
+    cands += [replace(c, period=0.0) for c in cands if c.period > 0.0]
+    corr, with_ = cands[0], judged(replace(sc, correction=cands[0]))
+    for c in cands[1:]:
+        r = judged(replace(sc, correction=c))
+        if _better(r, with_) and not _better(with_, r):
+            corr, with_ = c, r
     (t_with, d_with), (t_without, d_without) = with_, judged(sc)
     keep = _better(with_, (t_without, d_without))
     told = (f"with it the root path keeps within {d_with:.2f} m of the clip's, without {d_without:.2f} m"
             if abs(t_with - t_without) < 1e-9 else f"with it the body stands {t_with:.1f} s, without {t_without:.1f} s")
-    after = "; after the searched loop it repeats its last period" if corr.period > 0.0 else ""
+    clip_end = sc.clip.num_frames - 1
+    after = ("; after the searched loop it repeats its last period" if corr.period > 0.0
+             else "; the search's best at the clip's end, fading out after it" if corr.end <= clip_end + 1e-9
+             else "; it fades out after the searched loop")
     return keep, ("kept: " if keep else "not kept: ") + told + (after if keep else ""), corr
 
 

@@ -221,7 +221,7 @@ class EdgeStep:
     foreseen: tuple[float, float] | None = None
     #: m, the footfalls' running mean lead over the foreseen ones along the heading
     bias: float = 0.0
-    #: whether an edge lies between the swing toe and the footfall's toe (and its margin)
+    #: whether an edge up lies between the swing toe and the footfall's toe (and its margin)
     crossing: bool = False
 
     def reset(self) -> None:
@@ -249,8 +249,10 @@ class EdgeStep:
                                 cfg.edge_height)
             self.shift = step_shift(cfg, land, edges) if gap > 0.0 else 0.0
             self.foreseen = (wx + (land + self.shift) * c, wy + (land + self.shift) * s)
+            h = EDGE_SAMPLE_M
             self.crossing = self.shift >= 0.0 and any(
-                toe < e < land + self.shift + toe + cfg.edge_margin for e in edges)
+                toe < e < land + self.shift + toe + cfg.edge_margin
+                and _height(terrain, wx, wy, c, s, e + h) > _height(terrain, wx, wy, c, s, e - h) for e in edges)
         return cfg.shift_gain * self.shift
 
     @property
@@ -260,7 +262,7 @@ class EdgeStep:
 
     @property
     def over(self) -> tuple[float, float] | None:
-        """The footfall (world x, y of its ankle, m) when this swing's step crosses an edge; else None."""
+        """The footfall (world x, y of its ankle, m) when this swing's step crosses an edge up; else None."""
         return self.foreseen if self.crossing else None
 
 

@@ -345,7 +345,7 @@ class SimbiconController(Controller):
             feet_world(tb, data, src, frame, fsm.state, stance, ry, tilt, q, qd, q_d, qd_d, tau, self.fade,
                        self._ff if self.cfg.pd.gravity_compensation else None, corr,
                        None if terrain is None else feet_tilts(self.cfg.modulation.ground, terrain, tb, data, c, s,
-                                                              swing, self.edge_step.foreseen))
+                                                              swing, self.edge_step.over))
         self.state.gamma = split_hip_torques(tb, data, tau, tau_torso, t_b, forces, stance, swing, b.redistribution)
         self.state.tau_torso = tau_torso
         if tb.velocity_on:  # last: the feet's world targets above set the ankle torques outright

@@ -12,7 +12,6 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
-import math
 import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -22,6 +21,7 @@ from bipedsim import config
 from bipedsim.control.settings import check_settings_for_body, load_controller, unread_settings
 from bipedsim.data import BUILTIN_WALK
 from bipedsim.errors import ConfigError
+from bipedsim.experiments.grid import Grid, ground_label
 from bipedsim.experiments.replicas import Replicas
 from bipedsim.model.build import build_model
 from bipedsim.model.ground import check_ground
@@ -53,56 +53,6 @@ def check_name(name: str, key: str = "name") -> None:
     if bad is not None:
         raise ValueError(f"{key}: holds the unprintable character U+{ord(bad):04X} (at {name.index(bad) + 1} of "
                          f"{len(name)}); a name is printed as it is: give letters, digits, spaces and punctuation")
-
-
-@dataclass(frozen=True)
-class Grid:
-    """The cross product of these lists is the set of rollouts (times ``repeats``)."""
-
-    magnitude: tuple[float, ...] = (200.0,)
-    direction: tuple[float, ...] = (0.0,)
-    duration: tuple[float, ...] = (0.2,)
-    #: gait phases [state, fraction]; or ``start`` times (s); one of the two
-    phase: tuple[tuple[int, float], ...] = ()
-    start: tuple[float, ...] = ()
-    vertical: tuple[float, ...] = (0.0,)
-    #: controller YAML files (relative to the experiment file); empty: the default controller
-    controller: tuple[str, ...] = ()
-    #: bodies pushed (``torso``, ``pelvis``, ``left_upper_arm``, ...); empty: the experiment's ``body``
-    body: tuple[str, ...] = ()
-
-    def validate(self) -> None:
-        for key in ("magnitude", "direction", "duration", "vertical"):
-            if not getattr(self, key):
-                raise ValueError(f"{key}: empty list -- the grid would have no rollouts")
-        for key in ("magnitude", "direction", "duration", "vertical", "phase", "start", "controller", "body"):
-            values = getattr(self, key)
-            twice = next((v for i, v in enumerate(values) if v in values[:i]), None)
-            if twice is not None:
-                # two equal rollouts would share one row key: a resumed sweep would run only one
-                raise ValueError(f"{key}: {list(twice) if isinstance(twice, tuple) else twice} is listed twice; "
-                                 "use repeats to run a rollout more than once")
-        if not self.phase and not self.start:
-            raise ValueError("phase: give gait phases ([state, fraction]) or start times (start)")
-        if self.phase and self.start:
-            raise ValueError("phase: give either phases or start times, not both")
-        for m in self.magnitude:
-            if m < 0:
-                raise ValueError(f"magnitude: must be >= 0 N, got {m}")
-        for d in self.duration:
-            if not d > 0:
-                raise ValueError(f"duration: must be > 0 s, got {d}")
-        for s in self.start:
-            if s < 0:
-                raise ValueError(f"start: must be >= 0 s, got {s}")
-        for st, fr in self.phase:
-            if st not in (1, 2, 3, 4) or not 0.0 <= fr <= 1.0:
-                raise ValueError(f"phase: [state 1-4, fraction 0-1], got [{st}, {fr}]")
-
-    def size(self) -> int:
-        """Rollouts per repeat (the product of the list lengths)."""
-        return math.prod(len(v) or 1 for v in (self.controller, self.body, self.magnitude, self.direction,
-                                               self.duration, self.phase or self.start, self.vertical))
 
 
 @dataclass(frozen=True)
@@ -192,6 +142,8 @@ class ExperimentSpec:
     def validate(self) -> None:
         check_name(self.name)
         check_ground(self.ground)
+        if self.ground and self.grid is not None and self.grid.ground:
+            raise ValueError("ground: give the ground once, as ground or as the grid's dimension grid.ground")
         given = [k for k, v in (("grid", self.grid), ("runs", self.runs), ("random", self.random)) if v]
         if not given:
             raise ValueError("grid: give a grid, a list of runs or random pushes -- the experiment has no rollouts")
@@ -258,6 +210,8 @@ class Row:
     offset: float = 0.0
     #: initial velocity noise (rad/s, m/s) of this row; None: the experiment's ``init_noise``
     init_noise: float | None = None
+    #: the ground's terms this row walks on (empty: flat)
+    ground: tuple[str, ...] = ()
 
     def params(self) -> dict[str, Any]:
         p = self.push
@@ -266,7 +220,8 @@ class Row:
                 "state": "" if p.state is None else p.state,
                 "fraction": "" if p.state is None else self._cell(p.fraction),
                 "start": "" if p.start is None else self._cell(p.start), "vertical": p.vertical, "body": p.body,
-                "repeat": self.repeat, "seed": self.seed, "phase_offset": round(self.offset, 9)}
+                "ground": ground_label(self.ground), "repeat": self.repeat, "seed": self.seed,
+                "phase_offset": round(self.offset, 9)}
 
     def _cell(self, value: float) -> float:
         """A fraction or start time of this row's push as its cell has it (without the replica's offset)."""
@@ -283,30 +238,33 @@ class Experiment:
 
     def rows(self) -> list[Row]:
         s = self.spec
-        items: list[tuple[str | None, Push]] = []
+        # (controller, push, the grid's ground: None where the grid has no ground dimension)
+        items: list[tuple[str | None, Push, tuple[str, ...] | None]] = []
         if s.grid is not None:
             g = s.grid
             timings: list[dict[str, Any]] = ([{"state": st, "fraction": fr} for st, fr in g.phase]
                                              or [{"start": t} for t in g.start])
-            for ctl, body, mag, dirn, dur, tim, vert in itertools.product(
-                    g.controller or (None,), g.body or (s.body,), g.magnitude, g.direction, g.duration, timings,
-                    g.vertical):
+            for ctl, gnd, body, mag, dirn, dur, tim, vert in itertools.product(
+                    g.controller or (None,), g.ground or (None,), g.body or (s.body,), g.magnitude, g.direction,
+                    g.duration, timings, g.vertical):
                 items.append((ctl, Push(magnitude=mag, direction=dirn, duration=dur, vertical=vert, body=body,
-                                        after=s.after, **tim)))
+                                        after=s.after, **tim), gnd))
         elif s.random is not None:
             for push in s.random.pushes(s.seed, s.body):
                 for ctl in s.random.controller or (None,):
-                    items.append((ctl, push))
+                    items.append((ctl, push, None))
         else:
             for r in s.runs:
-                items.append((r.controller, r.push(body=s.body, after=s.after)))
+                items.append((r.controller, r.push(body=s.body, after=s.after), None))
         if s.replicas is not None:
             return self._replica_rows(items, s.replicas)
         rows: list[Row] = []
         keys: set[str] = set()
         for rep in range(s.repeats):
-            for ctl, push in items:
-                ident = json.dumps([ctl, asdict(push), rep], sort_keys=True)
+            for ctl, push, gnd in items:
+                # a grid's ground is part of the row's identity (an experiment-wide one is not, as before)
+                ident = json.dumps([ctl, asdict(push), rep] + ([list(gnd)] if gnd is not None else []),
+                                   sort_keys=True)
                 key = hashlib.sha1(ident.encode()).hexdigest()[:12]
                 # random pushes, rounded to what a row shows, can repeat: each row needs its own key
                 twin = 1
@@ -316,26 +274,29 @@ class Experiment:
                 keys.add(key)
                 idx = len(rows)
                 rows.append(Row(index=idx, key=key, controller=self.resolve(ctl), push=push, repeat=rep,
-                                seed=s.seed + idx))
+                                seed=s.seed + idx, ground=s.ground if gnd is None else gnd))
         return rows
 
 
-    def _replica_rows(self, items: list[tuple[str | None, Push]], rep: Replicas) -> list[Row]:
+    def _replica_rows(self, items: list[tuple[str | None, Push, tuple[str, ...] | None]],
+                      rep: Replicas) -> list[Row]:
         """The rows of a replicated grid: every cell ``rep.count`` times, replica-major. A replica's
         seed (``seed`` + replica) draws its initial noise, the same for every cell, so one unpushed
         rollout per replica serves them all; its phase offset is drawn per cell (the same for every
-        controller of the grid)."""
+        controller and ground of the grid)."""
         s = self.spec
         rows: list[Row] = []
         for replica in range(rep.count):
-            for ctl, push in items:
-                # the controllers of a grid meet the same perturbations: a paired comparison
+            for ctl, push, gnd in items:
+                # the controllers and grounds of a grid meet the same perturbations: a paired comparison
                 cell = json.dumps({k: v for k, v in asdict(push).items() if k != "magnitude"}, sort_keys=True)
                 moved, off = rep.shifted(push, s.seed, replica, cell)
-                ident = json.dumps([ctl, asdict(moved), replica, "replica"], sort_keys=True)
+                ident = json.dumps([ctl, asdict(moved), replica, "replica"]
+                                   + ([list(gnd)] if gnd is not None else []), sort_keys=True)
                 key = hashlib.sha1(ident.encode()).hexdigest()[:12]
                 rows.append(Row(index=len(rows), key=key, controller=self.resolve(ctl), push=moved, repeat=replica,
-                                seed=s.seed + replica, offset=off, init_noise=rep.init_noise(replica)))
+                                seed=s.seed + replica, offset=off, init_noise=rep.init_noise(replica),
+                                ground=s.ground if gnd is None else gnd))
         return rows
 
 

@@ -106,9 +106,8 @@ def _tasks(exp: Experiment, rows: list[Row]) -> list[Task]:
     s = exp.spec
     fall = None if s.fall is None else asdict(s.fall)
     body: tuple[Any, ...] = (exp.resolve(s.reference), s.profile, s.support)
-    if s.ground:
-        body += (tuple(s.ground),)
-    return [(r, body, s.seconds, s.init_noise if r.init_noise is None else r.init_noise, fall) for r in rows]
+    return [(r, body + ((tuple(r.ground),) if r.ground else ()), s.seconds,
+             s.init_noise if r.init_noise is None else r.init_noise, fall) for r in rows]
 
 
 def _say(message: str) -> None:

@@ -23,8 +23,8 @@ from bipedsim.files import (
 from bipedsim.sim.rollout import OUTCOMES
 
 RESULT_COLUMNS = ["index", "key", "controller", "magnitude", "direction", "duration", "state", "fraction", "start",
-                  "vertical", "body", "repeat", "seed", "phase_offset", "outcome", "fall_time_s", "fall_reason",
-                  "foot_strikes", "distance_m", "mean_speed_mps", "tracking_rmse_rad", "recovery_time_s",
+                  "vertical", "body", "ground", "repeat", "seed", "phase_offset", "outcome", "fall_time_s",
+                  "fall_reason", "foot_strikes", "distance_m", "mean_speed_mps", "tracking_rmse_rad", "recovery_time_s",
                   "peak_com_deviation_m", "steps_to_recover", "sim_seconds", "wall_seconds"]
 TIMING_COLUMNS = ("wall_seconds",)
 
@@ -38,7 +38,7 @@ OPTIONAL_NUMERIC_COLUMNS = ("state", "fraction", "start", "fall_time_s", "recove
                             "steps_to_recover")
 #: Columns that must equal the experiment's row of the same key (else the row is from an edited experiment).
 PARAM_COLUMNS = ("index", "magnitude", "direction", "duration", "state", "fraction", "start", "vertical", "body",
-                 "repeat", "seed", "phase_offset")
+                 "ground", "repeat", "seed", "phase_offset")
 #: Malformed rows named in the one-line report (the rest are counted).
 _REPORT_ROWS = 3
 

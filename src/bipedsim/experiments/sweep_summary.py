@@ -45,19 +45,34 @@ def _phase_label(r: dict[str, str]) -> str:
     return f"state {r['state']} at {float(r['fraction']):.2f}" if r["state"] else f"t={float(r['start']):.2f}s"
 
 
-#: One group of a sweep's rows: (controller, body, duration s, vertical N, direction deg, phase label).
-GroupKey = tuple[str, str, float, float, float, str]
+#: One group of a sweep's rows: (controller, body, ground, duration s, vertical N, direction deg, phase label).
+GroupKey = tuple[str, str, str, float, float, float, str]
 
 
-def _setting(ctl: str, body: str, duration: float, vertical: float, several_controllers: bool) -> str:
+def _setting(ctl: str, body: str, duration: float, vertical: float, several_controllers: bool,
+             ground: str | None = None) -> str:
     """A label for what a group's pushes share besides direction and phase: the body, the duration (s),
-    the vertical force (N, when any) and the controller (when the sweep has several)."""
+    the vertical force (N, when any), the controller (when the sweep has several) and the ground (when
+    the sweep has several: ``ground``, else None)."""
     label = f"{body} {duration:g} s"
     if vertical:
         label += f" vertical {vertical:g} N"
     if several_controllers:
         label += f" {Path(ctl).stem if ctl != 'default' else ctl}"
+    if ground is not None:
+        label += f" on {ground}"
     return label
+
+
+def _grounds(groups: list[dict[str, Any]]) -> bool:
+    """Whether a summary's groups walk on more than one ground."""
+    return len({g.get("ground", "flat") for g in groups}) > 1
+
+
+def _group_setting(g: dict[str, Any], several: bool, grounds: bool) -> str:
+    """:func:`_setting` of one summary group."""
+    return _setting(g["controller"], g["body"], g["duration_s"], g["vertical_n"], several,
+                    g.get("ground", "flat") if grounds else None)
 
 
 def threshold(ladder: dict[float, list[bool]], survive: int | None) -> float | None:
@@ -91,23 +106,25 @@ def summarise(rows: list[dict[str, str]], sector: float | None = None, survive: 
 
     pushed = [r for r in rows if r["outcome"] != PUSH_NOT_APPLIED]  # no push: nothing survived
     for r in pushed:
-        k = (r["controller"], r["body"], float(r["duration"]), float(r["vertical"]), direction(r),
-             _phase_label(r) if sector is None else "random start")
+        k = (r["controller"], r["body"], r.get("ground") or "flat", float(r["duration"]), float(r["vertical"]),
+             direction(r), _phase_label(r) if sector is None else "random start")
         groups.setdefault(k, {}).setdefault(float(r["magnitude"]), []).append(r["outcome"] == "no_fall")
     several = len({k[0] for k in groups}) > 1
+    grounds = len({k[2] for k in groups}) > 1
     out: dict[str, Any] = {"by_direction_and_phase": [], "outcomes": {}}
     per_setting: dict[str, dict[str, float | None]] = {}
-    for (ctl, body, dur, vert, d, ph), ladder in sorted(groups.items()):
+    for (ctl, body, gnd, dur, vert, d, ph), ladder in sorted(groups.items()):
         survived = [m for m, oks in ladder.items() if any(oks)]
         thr = threshold(ladder, survive)
-        entry: dict[str, Any] = {"controller": ctl, "direction_deg": d, "phase": ph, "body": body, "duration_s": dur,
-                                 "vertical_n": vert, "largest_survived_n": max(survived) if survived else None,
+        entry: dict[str, Any] = {"controller": ctl, "direction_deg": d, "phase": ph, "body": body, "ground": gnd,
+                                 "duration_s": dur, "vertical_n": vert,
+                                 "largest_survived_n": max(survived) if survived else None,
                                  "survived_all_up_to_n": threshold(ladder, None), "threshold_n": thr,
                                  "rollouts": sum(len(v) for v in ladder.values())}
         if survive is not None:
             entry["survived_of"] = {f"{m:g}": f"{sum(oks)}/{len(oks)}" for m, oks in sorted(ladder.items())}
         out["by_direction_and_phase"].append(entry)
-        per_dir = per_setting.setdefault(_setting(ctl, body, dur, vert, several), {})
+        per_dir = per_setting.setdefault(_setting(ctl, body, dur, vert, several, gnd if grounds else None), {})
         key = f"{d:g}"
         cur = per_dir.get(key, float("inf"))
         per_dir[key] = None if thr is None or cur is None else min(cur, thr)
@@ -141,8 +158,9 @@ def threshold_table(summary: dict[str, Any]) -> str:
     by_setting: dict[str, dict[float, dict[str, float | None]]] = {}
     phases: dict[str, list[str]] = {}
     several = len({g["controller"] for g in summary["by_direction_and_phase"]}) > 1
+    grounds = _grounds(summary["by_direction_and_phase"])
     for g in summary["by_direction_and_phase"]:
-        label = _setting(g["controller"], g["body"], g["duration_s"], g["vertical_n"], several)
+        label = _group_setting(g, several, grounds)
         by_setting.setdefault(label, {}).setdefault(g["direction_deg"], {})[g["phase"]] = g["threshold_n"]
         if g["phase"] not in phases.setdefault(label, []):
             phases[label].append(g["phase"])
@@ -215,7 +233,8 @@ def _threshold_plot(rows: list[dict[str, str]], path: Path, survive: int) -> Non
     groups = summary["by_direction_and_phase"]
     phases = sorted({g["phase"] for g in groups})
     several = len({g["controller"] for g in groups}) > 1
-    settings = sorted({_setting(g["controller"], g["body"], g["duration_s"], g["vertical_n"], several) for g in groups})
+    grounds = _grounds(groups)
+    settings = sorted({_group_setting(g, several, grounds) for g in groups})
     dirs = sorted({g["direction_deg"] for g in groups})
     gap = min((b - a for a, b in zip(dirs, dirs[1:] + [dirs[0] + 360.0])), default=360.0) if dirs else 360.0
     step = min(6.0, 0.5 * gap / len(phases)) if 1 < len(phases) <= 8 else 0.0
@@ -236,8 +255,8 @@ def _threshold_plot(rows: list[dict[str, str]], path: Path, survive: int) -> Non
             ax.scatter(th, r, c=colour, marker=marker, s=12, alpha=0.6, label=label)
     for si, setting in enumerate(settings):
         for pi, ph in enumerate(phases):
-            sel = {g["direction_deg"]: g["threshold_n"] for g in groups if g["phase"] == ph and _setting(
-                g["controller"], g["body"], g["duration_s"], g["vertical_n"], several) == setting}
+            sel = {g["direction_deg"]: g["threshold_n"] for g in groups
+                   if g["phase"] == ph and _group_setting(g, several, grounds) == setting}
             ds = sorted(sel)
             if not ds:
                 continue

@@ -39,6 +39,10 @@ from bipedsim.model.ground_terms import (
     BEHIND_M,
     HALF_WIDTH_M,
     MIN_STEP_DISTANCE_M,
+    PLANE_AHEAD_M,
+    PLANE_BEHIND_M,
+    PLANE_HALF_WIDTH_M,
+    ROUGH_MAX_SAMPLES,
     SYNTAX,
     Rough,
     Step,
@@ -102,11 +106,24 @@ class Ground:
         """One word for tables: the terms joined by ``+``, or ``flat``."""
         return "+".join(self.terms()) or "flat"
 
+    def extent(self) -> tuple[float, float]:
+        """How far (m) the ground's boxes or height fields reach behind and ahead of the start along the
+        walking direction: a plane-based ground's boxes :data:`PLANE_BEHIND_M` and
+        :data:`PLANE_AHEAD_M`; rough ground's height fields :data:`BEHIND_M` and as far ahead as
+        :data:`ROUGH_MAX_SAMPLES` samples reach at their spacing (at least :data:`AHEAD_M`)."""
+        if self.rough is None:
+            return PLANE_BEHIND_M, PLANE_AHEAD_M
+        dx = _rough_spacing(self.rough)
+        rows = int(math.ceil(2 * HALF_WIDTH_M / dx)) + 1
+        cols = ROUGH_MAX_SAMPLES // rows - 1 - len(self.steps)  # a column more per level
+        return BEHIND_M, min(PLANE_AHEAD_M, max(AHEAD_M, math.floor(cols * dx - BEHIND_M)))
+
     def levels(self) -> list[tuple[float, float, float]]:
         """The ground's levels as (from, to, height): distances along the walking direction (m, the
-        first from :data:`BEHIND_M` behind the start, the last to :data:`AHEAD_M` ahead) and the level's
-        height (m) above the start's before slope and roughness."""
-        cuts = [-BEHIND_M] + [s.distance_m for s in self.steps] + [AHEAD_M]
+        first from :meth:`extent`'s behind the start, the last to its ahead) and the level's height (m)
+        above the start's before slope and roughness."""
+        behind, ahead = self.extent()
+        cuts = [-behind] + [s.distance_m for s in self.steps] + [ahead]
         heights = np.concatenate([[0.0], np.cumsum([s.height_m for s in self.steps])]).tolist()
         return [(cuts[i], cuts[i + 1], heights[i]) for i in range(len(heights))]
 
@@ -267,9 +284,14 @@ def _waves(r: Rough) -> _Waves:
     return _Waves(k=k, phase=phase, scale=r.amplitude_m / peak)
 
 
+def _rough_spacing(r: Rough) -> float:
+    """The spacing (m) of rough ground's height samples."""
+    return min(ROUGH_SPACING_M, r.wavelength_m / ROUGH_SAMPLES_PER_WAVELENGTH)
+
+
 def _rough_grid(r: Rough, a: float, b: float) -> tuple[FloatArray, FloatArray]:
     """Sample positions (m, along and left) of rough ground from ``a`` to ``b`` along."""
-    dx = min(ROUGH_SPACING_M, r.wavelength_m / ROUGH_SAMPLES_PER_WAVELENGTH)
+    dx = _rough_spacing(r)
     ncol = max(2, int(math.ceil((b - a) / dx)) + 1)
     nrow = max(2, int(math.ceil(2 * HALF_WIDTH_M / dx)) + 1)
     return np.linspace(a, b, ncol), np.linspace(-HALF_WIDTH_M, HALF_WIDTH_M, nrow)
@@ -324,7 +346,8 @@ def _plane_parts(t: Terrain) -> list[_Part]:
         half_t = (lv - base + BASE_DEPTH_M) / 2 * math.cos(theta)
         top = np.array([f.x + mid * t._c, f.y + mid * t._s, lv + t._tan * mid])
         centre = top - half_t * normal
-        parts.append(("box", centre.tolist(), quat, [(b - a) / 2 / math.cos(theta), HALF_WIDTH_M, half_t], ""))
+        parts.append(("box", centre.tolist(), quat, [(b - a) / 2 / math.cos(theta), PLANE_HALF_WIDTH_M, half_t],
+                      ""))
     return parts
 
 

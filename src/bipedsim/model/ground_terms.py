@@ -19,10 +19,15 @@ MAX_ROUGH_M = 0.2
 ROUGH_WAVELENGTH_M = (0.2, 20.0)
 #: the friction coefficients a ground may have (0: ice that no contact can stand on)
 FRICTION_RANGE = (0.05, 5.0)
-#: the ground's extent (m) behind and ahead of the start along the walking direction, and to each
-#: side: a 20 s walk at 1.5 m/s stays on it (a plane-based ground is unbounded; boxes and height
-#: fields end here)
+#: rough ground's height fields (m): behind the start, ahead of it at the least (also where steps may
+#: lie, and the stretch whose waves' peak is scaled to the amplitude) and to each side
 BEHIND_M, AHEAD_M, HALF_WIDTH_M = 5.0, 50.0, 5.0
+#: a plane-based ground's boxes (a step's higher levels) reach this far (m) ahead, behind and to each
+#: side: an hour's run, the longest a run may be, at 2.8 m/s stays on them (a box's size costs nothing)
+PLANE_AHEAD_M, PLANE_BEHIND_M, PLANE_HALF_WIDTH_M = 10_000.0, 100.0, 100.0
+#: the most samples rough ground's height fields hold, together (~4 bytes each in the model, ~8 in
+#: model.xml): past :data:`AHEAD_M` they reach as far ahead as these allow at their spacing
+ROUGH_MAX_SAMPLES = 200_000
 #: a step is at least this far (m) ahead of the start: the body starts on one level
 MIN_STEP_DISTANCE_M = 0.5
 

@@ -349,7 +349,13 @@ class GroundConfig:
       (heel to toe), so it lands flat on a slope (a rise steeper than ``max_tilt`` rad is a step's
       edge, not followed);
     - torso: leaned forward by ``lean`` x the ground's rise (rad per rad) under the stance foot along
-      the heading (back on a descent)."""
+      the heading (back on a descent);
+    - steps near an edge: at each swing's start the footfall is foreseen (the stance ankle plus the
+      feet's gap along the heading); where a rise or drop of at least ``edge_height`` m lies under
+      that foot or within ``edge_margin`` m of its heel or toe, the step is lengthened or shortened
+      (the nearer, at most ``max_shift`` m) to land clear of it, turning the swing hip's target by
+      ``shift_gain`` rad per m; while an edge up lies between the swing toe and the footfall's, the
+      swing foot's toe is raised ``toe_lift`` rad."""
 
     enabled: bool = True
     lookahead: float = field(default=0.1, metadata={"min": 0.0})  #: m
@@ -359,6 +365,11 @@ class GroundConfig:
     foot_tilt: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})  #: share of the ground's tilt
     max_tilt: float = field(default=0.35, metadata={"min": 0.0})  #: rad
     lean: float = field(default=0.5, metadata={"min": 0.0})  #: rad of torso lean per rad of slope
+    edge_height: float = field(default=0.02, metadata={"min": 0.0})  #: m
+    edge_margin: float = field(default=0.1, metadata={"min": 0.0})  #: m
+    max_shift: float = field(default=0.15, metadata={"min": 0.0})  #: m (0: steps are not adjusted)
+    shift_gain: float = field(default=0.5, metadata={"min": 0.0})  #: rad of swing hip per m of step
+    toe_lift: float = field(default=0.3, metadata={"min": 0.0})  #: rad, the swing toe raised below an edge up
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,7 @@ from bipedsim.control.humanoid.correction import Correction, LiveCorrection, tor
 from bipedsim.control.humanoid.feedback import feedback_angles, heading_frame_com, virtual_force
 from bipedsim.control.humanoid.feet import feet_world
 from bipedsim.control.humanoid.fsm import GaitFSM
-from bipedsim.control.humanoid.ground import feet_tilts, swing_over_ground, torso_lean
+from bipedsim.control.humanoid.ground import EdgeStep, feet_tilts, swing_over_ground, torso_lean
 from bipedsim.control.humanoid.hips import split_hip_torques, swing_hip_torques
 from bipedsim.control.humanoid.modulation import stance_tilt, swing_foot_ik
 from bipedsim.control.humanoid.sources import SIDES, ClipSource, GaitSource, Hinges, PoseSource
@@ -125,6 +125,8 @@ class SimbiconController(Controller):
         self._corr: FloatArray | None = None  #: this step's offsets
         #: the ground's height and normal queries (:class:`~bipedsim.model.ground.Terrain`; None: flat at z = 0)
         self.terrain: Terrain | None = None
+        #: the step length's change near an edge of :attr:`terrain`, planned per swing
+        self.edge_step = EdgeStep()
         self.drive.scale_gains(1.0)  # the gain tables; the model itself is left as it was
         self.restore_model()
 
@@ -146,6 +148,7 @@ class SimbiconController(Controller):
         self.steering.reset(self.source, self.frame, data, self.pelvis)
         self.state.heading_target = self.steering.heading_target
         self.playback.reset(self.frame, t)
+        self.edge_step.reset()
         self._v_sag = self._vf_v = self.tables.speed
         self.fade = 1.0
         self.drive.configure()
@@ -325,9 +328,11 @@ class SimbiconController(Controller):
         if tb.ik_on:
             fs += swing_foot_ik(self.cfg.modulation.swing_foot, tb, data, src.swing_leg(frame, swing),
                                 src.swing_phase(frame, swing), swing, stance, self.drive.akp, q_d, tau)
-        if terrain is not None:  # the swing foot over the ground ahead
-            fs += swing_over_ground(self.cfg.modulation.ground, terrain, tb, data, src.swing_leg(frame, swing),
-                                    src.swing_phase(frame, swing), swing, stance, c, s, self.drive.akp, q_d, tau)
+        if terrain is not None:  # the step clear of an edge, the swing foot over the ground ahead
+            gc, es = self.cfg.modulation.ground, self.edge_step
+            fs += es.angle(gc, terrain, tb, data, swing, stance, c, s)
+            fs += swing_over_ground(gc, terrain, tb, data, src.swing_leg(frame, swing), src.swing_phase(frame, swing),
+                                    swing, stance, c, s, self.drive.akp, q_d, tau, es.short, es.over)
         if b.swing_hip_world:
             t_b = swing_hip_torques(tb, data, swing, src.thigh_target(frame, fsm.state, swing), r_p, ry, self._r_fb,
                                     fs, fc, q, qd, q_d, qd_d, self.fade, self.cfg.pd.gravity_compensation)
@@ -339,7 +344,8 @@ class SimbiconController(Controller):
                     if tb.ankle_feedback_on else None)
             feet_world(tb, data, src, frame, fsm.state, stance, ry, tilt, q, qd, q_d, qd_d, tau, self.fade,
                        self._ff if self.cfg.pd.gravity_compensation else None, corr,
-                       None if terrain is None else feet_tilts(self.cfg.modulation.ground, terrain, tb, data, c, s))
+                       None if terrain is None else feet_tilts(self.cfg.modulation.ground, terrain, tb, data, c, s,
+                                                              swing, self.edge_step.over))
         self.state.gamma = split_hip_torques(tb, data, tau, tau_torso, t_b, forces, stance, swing, b.redistribution)
         self.state.tau_torso = tau_torso
         if tb.velocity_on:  # last: the feet's world targets above set the ankle torques outright

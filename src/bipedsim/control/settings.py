@@ -302,6 +302,8 @@ BODY_SCALED: dict[str, str] = {
     "modulation.stance_ankle.kv": "per_speed", "modulation.stance_ankle.kd": "per_length",
     "modulation.ground.lookahead": "length", "modulation.ground.clearance": "length",
     "modulation.ground.max_raise": "length", "modulation.ground.max_drop": "length",
+    "modulation.ground.edge_margin": "length", "modulation.ground.max_shift": "length",
+    "modulation.ground.shift_gain": "per_length",
     "reference.smooth_s": "time", "pose_gait.state_a_time": "time"}
 
 #: the humanoid settings with no unit to scale: angles (rad), ratios, weights, counts of clip frames,
@@ -313,6 +315,8 @@ BODY_UNSCALED: frozenset[str] = frozenset({
     "balance.cd_froude", "balance.cd_froude_power", "balance.course.max_turn", "fade.min_scale", "resync.gain",
     "resync.max_frames", "modulation.swing_foot.height_gain", "modulation.stance_ankle.max_angle",
     "modulation.ground.foot_tilt", "modulation.ground.max_tilt", "modulation.ground.lean",
+    # the ground's own geometry (what counts as an edge) and an angle
+    "modulation.ground.edge_height", "modulation.ground.toe_lift",
     "reference.blend", "reference.max_extension", "reference.clearance", "reference.pendulum", "body.leg_min",
     "body.leg_max", "body.mass", "body.torque_scale",
     # the search's own settings: angles, weights and its windows' times, the same for any body

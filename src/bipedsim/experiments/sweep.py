@@ -143,6 +143,10 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
     n_workers, note = worker_count(workers, len(todo))
     if note:
         say(note)
+    tasks = _tasks(exp, todo)
+    if n_workers > 1:  # each body made here first: a clip's correction is searched once, not once per worker
+        for body, ctl in dict.fromkeys((t[1], t[0].controller) for t in tasks):
+            _scenario(body, ctl)
     bar = None
     if progress and todo:
         # io's bar: sized even where the terminal reports 0 columns (tqdm alone drew nothing there)
@@ -150,7 +154,7 @@ def run_sweep(exp: Experiment, out_dir: str | os.PathLike[str], workers: int = 1
         bar.update(len(rows) - len(todo))
     try:
         # run_row looked up at call time (tests replace it)
-        for res in BACKENDS[backend](_tasks(exp, todo), n_workers, run_row):
+        for res in BACKENDS[backend](tasks, n_workers, run_row):
             _append(results, res)
             if bar is not None:
                 bar.update(1)

@@ -507,6 +507,33 @@ def test_the_walking_dog_survives_lateral_pushes_of_30_percent_of_its_weight() -
     assert survived[90.0] >= 6 and survived[270.0] >= 6, survived
 
 
+#: the built shared dog's weight (N): 11.63 kg x g, what the replica grid's magnitudes are shares of
+DOG_WEIGHT_N = 114.1
+
+
+def test_the_dog_push_replica_grid_is_30_percent_from_8_directions_by_the_replica_rule() -> None:
+    """``experiments/creature_dog_push_replicas.yaml`` is the acceptance grid: 8 directions 45 deg apart,
+    0.2 s pushes at 20, 30 and 40 % of the dog's weight, each cell 5 replicas judged 4 of 5, the replicas'
+    start offsets within +-0.13 s; where the shared dog is present, its built weight is the one the
+    magnitudes are shares of."""
+    from bipedsim import config
+    from bipedsim.experiments.experiment import Experiment, ExperimentSpec
+
+    path = Path(__file__).resolve().parents[2] / "experiments" / "creature_dog_push_replicas.yaml"
+    spec = config.load(ExperimentSpec, path)
+    rows = Experiment(spec=spec, path=path.resolve()).rows()
+    assert sorted({r.push.direction for r in rows}) == [45.0 * k for k in range(8)]
+    assert {r.push.duration for r in rows} == {0.2}
+    assert sorted({round(r.push.magnitude / DOG_WEIGHT_N, 2) for r in rows}) == [0.2, 0.3, 0.4]
+    assert spec.replicas is not None and (spec.replicas.count, spec.replicas.survive) == (5, 4)
+    assert len(rows) == 8 * 3 * len(spec.grid.start) * 5
+    assert max(abs(r.offset) for r in rows) <= 0.13 and any(r.offset != 0.0 for r in rows)
+    if HAVE_SHARED:
+        sc = load_scenario(bvh=dog_clip())
+        weight = float(sc.built.model.body_subtreemass[0]) * -float(sc.built.model.opt.gravity[2])
+        assert weight == pytest.approx(DOG_WEIGHT_N, rel=0.01)
+
+
 def _lip_sway(h: float, period: float, s: float = 1.0, steps: int = 4000) -> float:
     """The amplitude of the periodic sway of a linear inverted pendulum x'' = g / h (x - p) whose centre of
     pressure sways as p = s sin(2 pi t / period): shot for the initial velocity that returns it to x = 0

@@ -196,3 +196,20 @@ def test_the_environment_walks_the_ground_it_is_given() -> None:
         done = term or trunc
     assert not term
     env.close()
+
+
+def test_interleaved_episodes_leave_mujoco_s_warning_handler_as_it_was() -> None:
+    """Several open episodes (a vector of environments) step in turn; MuJoCo's one process-wide warning
+    handler is a rollout's only during its step, so none is left installed."""
+    import mujoco
+
+    a, b = TrackEnv(seconds=0.2), TrackEnv(seconds=0.2)
+    a.reset(seed=0)
+    b.reset(seed=1)
+    zero = np.zeros(a.action_space.shape, dtype=np.float32)
+    a.step(zero)
+    b.step(zero)
+    a.close()
+    b.step(zero)
+    b.close()
+    assert mujoco.get_mju_user_warning() is None

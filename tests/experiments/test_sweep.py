@@ -296,6 +296,7 @@ def test_bad_experiment_files_fail_before_running(tmp_path: Path, text: str, key
     assert not (tmp_path / "o" / "results.csv").exists()
 
 
+@pytest.mark.slow  # 13 scenarios, the grounds' 10 s each (the suite mechanism: test_regress_mismatch_and_update)
 def test_project_regression_suite() -> None:
     assert main(["regress", str(EXP / "regression.yaml")]) == 0
 

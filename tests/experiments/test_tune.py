@@ -277,6 +277,7 @@ def test_a_finished_tune_run_again_says_there_is_nothing_to_do_and_writes_nothin
     assert json.loads((tmp_path / "t" / "summary.json").read_text())["budget"] == 5
 
 
+@pytest.mark.slow  # a second tune: the seed's effect (the same seed's sameness runs by default)
 def test_another_seed_samples_other_candidates(tiny_run, tmp_path: Path) -> None:
     p, first, _ = tiny_run
     other = write_tune(tmp_path, with_(TINY, seed=4, evaluations=3))
@@ -372,6 +373,7 @@ def test_several_references_are_scored_together(tmp_path: Path) -> None:
     assert "walk60.bvh" in (tmp_path / "o" / "best.yaml").read_text().splitlines()[1]
 
 
+@pytest.mark.slow  # a whole creature tune (the creature controller's settings are checked by load_tune's tests)
 def test_a_creature_tune_tunes_its_controller_settings(tmp_path: Path) -> None:
     data = {"name": "horse", "reference": str(HORSE), "profile": "creature", "support": True,
             "parameters": {"support_kp": [5.0, 40.0], "support_kd": [0.5, 4.0]}, "evaluations": 2, "popsize": 2,

@@ -177,7 +177,8 @@ class MujocoWarnings:
     started, instead of going to MuJoCo's default handler, which prints them and appends them to a
     MUJOCO_LOG.TXT in the working directory. The rollout reports them in its outcome (``diverged``,
     with the text); the warning counters in ``data.warning`` are unaffected. Process-wide while active
-    (MuJoCo has one handler); ``stop`` puts the previous handler back."""
+    (MuJoCo has one handler), so a rollout holds it only during a step (several rollouts may be open at
+    once: a vector of environments); ``stop`` puts the previous handler back."""
 
     def __init__(self) -> None:
         self.messages: list[str] = []
@@ -265,11 +266,11 @@ def walk_window(model: mujoco.MjModel, data: mujoco.MjData, ctrl: Controller, st
 class Rollout:
     """One rollout of any body under ``ctrl``, a control period at a time: the one loop, as a stepper.
 
-    Made, it has created the simulation state (``data``), started the controller at the rollout's start
-    and begun collecting MuJoCo's warnings; :meth:`step` runs one control period (the controller sets
-    the controls, the hooks run, the physics steps, the fall and divergence checks when due) and says
+    Made, it has created the simulation state (``data``) and started the controller at the rollout's
+    start; :meth:`step` runs one control period (the controller sets the controls, the hooks run, the
+    physics steps, the fall and divergence checks when due; MuJoCo's warnings collected meanwhile) and says
     whether the rollout goes on; :meth:`finish` gives the :class:`Outcome`; :meth:`close` (or leaving a
-    ``with`` block) puts MuJoCo's warning handler and the controller's model changes back.
+    ``with`` block) puts the controller's model changes back.
     :func:`rollout` drives it to the end; :mod:`bipedsim.envs` drives it a step per action. The model's
     state starts at ``initial_qpos``/``initial_qvel`` (the reference's pose at its start when given by
     the caller; ``qvel_noise``, the seed's noise already in it, is added again when the controller's
@@ -295,7 +296,7 @@ class Rollout:
         if initial_qvel is not None:
             data.qvel[:] = initial_qvel
         mujoco.mj_forward(model, data)
-        self.warnings = MujocoWarnings().start()
+        self.warnings = MujocoWarnings()  # MuJoCo's handler is ours only within a step (rollouts interleave)
         self._closed = False
         try:
             self._start(initial_qvel, qvel_noise, hooks, before_step, pushes)
@@ -346,6 +347,13 @@ class Rollout:
         fall, a divergence)."""
         if self.done:
             return False
+        self.warnings.start()
+        try:
+            return self._step()
+        finally:
+            self.warnings.stop()
+
+    def _step(self) -> bool:
         model, data, ctrl, dt, every = self.model, self.data, self.ctrl, self.dt, self.every
         step, n_steps = self.step_index, self.n_steps
         t = step * dt
@@ -405,14 +413,11 @@ class Rollout:
         return result
 
     def close(self) -> None:
-        """MuJoCo's warning handler and the controller's model changes put back (once)."""
+        """The controller's model changes put back (once)."""
         if self._closed:
             return
         self._closed = True
-        try:
-            self.warnings.stop()
-        finally:
-            self.ctrl.restore_model()
+        self.ctrl.restore_model()
 
     def __enter__(self) -> Rollout:
         return self

@@ -44,8 +44,8 @@ FUZZ_LIMIT_MB = "1"
 DEADLINE = timedelta(seconds=10)
 
 #: Examples per reader in the default run: the BVH reader (cheap, and the most varied input) gets more.
-EXAMPLES = {"bvh": 40, "info": 15}
-DEFAULT_EXAMPLES = 10
+EXAMPLES = {"bvh": 30, "info": 12}
+DEFAULT_EXAMPLES = 8
 #: How many times more examples the ``slow`` run tries, randomized.
 SLOW_FACTOR = 40
 _SETTINGS = {"deadline": DEADLINE, "database": None,

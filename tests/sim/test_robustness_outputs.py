@@ -213,6 +213,7 @@ def test_render_errors_name_the_file_and_the_cause(tmp_path: Path, capsys) -> No
     assert not (run / "v.mp4").exists() and not list(run.glob(".v.*"))
 
 
+@pytest.mark.slow  # two CLI processes; the render side: test_render.test_no_gl_fails_clearly_and_keeps_results
 def test_no_gl_after_a_run_says_where_the_results_are(tmp_path: Path) -> None:
     env = dict(os.environ, MUJOCO_GL="bogus")
     p = subprocess.run([sys.executable, "-m", "bipedsim.cli", "run", "--seconds", "0.3", "--out", str(tmp_path),
@@ -224,6 +225,7 @@ def test_no_gl_after_a_run_says_where_the_results_are(tmp_path: Path) -> None:
     assert p.returncode == 2 and "no working OpenGL backend" in p.stderr and "results were written" not in p.stderr
 
 
+@pytest.mark.slow  # a run and a render (output folders made for any command: test_outputs' own checks)
 def test_render_creates_missing_folders(tmp_path: Path) -> None:
     gl_or_skip()
     assert main(["run", "--seconds", "0.3", "--out", str(tmp_path)]) == 0

@@ -33,7 +33,7 @@ import numpy.typing as npt
 
 from bipedsim.errors import ConfigError
 from bipedsim.model.build import BuiltModel
-from bipedsim.model.ground_grid import GridTerrain, grid_terrain_of
+from bipedsim.model.ground_grid import GridTerrain, grid_terrain_of, model_text
 from bipedsim.model.ground_terms import (
     AHEAD_M,
     BEHIND_M,
@@ -392,11 +392,7 @@ def ground_geoms(model: mujoco.MjModel) -> frozenset[int]:
 
 
 def _ground_text(model: mujoco.MjModel) -> str | None:
-    tid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, GROUND_TEXT)
-    if tid < 0:
-        return None
-    adr, size = model.text_adr[tid], model.text_size[tid]
-    return bytes(model.text_data[adr:adr + size - 1]).decode("utf-8")
+    return model_text(model, GROUND_TEXT)
 
 
 def ground_of(model: mujoco.MjModel) -> tuple[Ground, GroundFrame] | None:

@@ -156,12 +156,17 @@ def with_height_grid(built: BuiltModel, grid: HeightGrid) -> BuiltModel:
     return BuiltModel(xml=spec.to_xml(), model=model, plan=built.plan)
 
 
-def _grid_text(model: mujoco.MjModel) -> str | None:
-    tid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, GRID_TEXT)
+def model_text(model: mujoco.MjModel, name: str) -> str | None:
+    """The model's custom text ``name`` (how a ground is kept in ``model.xml``), or None."""
+    tid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXT, name)
     if tid < 0:
         return None
     adr, size = model.text_adr[tid], model.text_size[tid]
     return bytes(model.text_data[adr:adr + size - 1]).decode("utf-8")
+
+
+def _grid_text(model: mujoco.MjModel) -> str | None:
+    return model_text(model, GRID_TEXT)
 
 
 def height_grid_of(model: mujoco.MjModel) -> HeightGrid | None:

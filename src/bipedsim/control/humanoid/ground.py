@@ -22,7 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.control.humanoid.balance import axis_rotation
-from bipedsim.control.humanoid.modulation import two_link
+from bipedsim.control.humanoid.modulation import raise_swing_ankle
 from bipedsim.control.humanoid.settings import GroundConfig
 from bipedsim.control.humanoid.sources import SIDES
 from bipedsim.control.humanoid.tables import HumanoidTables
@@ -107,14 +107,7 @@ def swing_over_ground(cfg: GroundConfig, terrain: Terrain, t: HumanoidTables, da
     if dz == 0.0:
         return 0.0
     x, z, _ = leg
-    l1, l2 = t.leg_len[swing]
-    k0, b0 = two_link(l1, l2, math.hypot(x, z))
-    k1, b1 = two_link(l1, l2, math.hypot(x, z + dz))
-    i = t.knee[swing]
-    new = min(max(float(q_d[i]) + k1 - k0, t.tlo_l[i]), t.thi_l[i])
-    tau[i] += akp[i] * (new - float(q_d[i]))
-    q_d[i] = new
-    return math.atan2(x, -(z + dz)) - math.atan2(x, -z) + b1 - b0
+    return raise_swing_ankle(t, q_d, tau, akp, swing, x, z, dz)
 
 
 def edge_up_ahead(cfg: GroundConfig, terrain: Terrain, x: float, y: float, c: float, s: float,

@@ -53,6 +53,14 @@ def swing_foot_ik(sf: SwingFootConfig, t: HumanoidTables, data: mujoco.MjData, l
     else:
         lift = sf.lift
     dz = min(max(sf.height_gain * err + lift * math.sin(math.pi * ph), -sf.max_drop), sf.max_raise)
+    return raise_swing_ankle(t, q_d, tau, akp, swing, x, z, dz)
+
+
+def raise_swing_ankle(t: HumanoidTables, q_d: FloatArray, tau: FloatArray, akp: FloatArray, swing: str, x: float,
+                      z: float, dz: float) -> float:
+    """The swing leg's hip-to-ankle vector (``x`` forward, ``z`` up, m, heading frame) raised by ``dz`` m
+    by two-link IK: the knee's target in ``q_d`` bent to match (within its range; its PD torque in ``tau``
+    moved with it, gains ``akp``) and the change of the thigh's angle returned (rad)."""
     l1, l2 = t.leg_len[swing]
     k0, b0 = two_link(l1, l2, math.hypot(x, z))
     k1, b1 = two_link(l1, l2, math.hypot(x, z + dz))

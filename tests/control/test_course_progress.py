@@ -103,6 +103,7 @@ def test_builtin_walk_progresses_along_its_course() -> None:
     assert abs(out.course_offset_m) < 1.5  # its line held within 1.5 m (test_robustness_course.py)
 
 
+@pytest.mark.slow  # a capture tracked 20 s on its course
 def test_the_torso_law_holds_a_capture_on_its_course() -> None:
     """The torso law (damping ``balance.torso_kd`` 175, ``stance_yaw_limit`` 0.6): the shared CMU 02_01
     walk (seed 0, 20 s) makes at least 70 % of its clip's speed *along its course*; with a softer torso

@@ -169,6 +169,7 @@ def test_reach_is_where_the_feet_stop_reaching(quadruped: Path) -> None:
         assert reach < 0.5 * 0.8 * height * (1.0 - g.clock.swing_frac)
 
 
+@pytest.mark.slow  # a dog reposed and stood; the dog walks by default (test_creature)
 def test_the_reposed_dog_stands() -> None:
     """The re-posed neutral frame (the clip's own walk frames fall within 1.6 s) stands 5 s: no fall, the
     root within 2 cm of its planned height."""

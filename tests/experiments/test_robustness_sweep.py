@@ -219,6 +219,7 @@ def test_progress_bar_on_stderr_and_capped_workers_said(tmp_path: Path, small, c
     assert len(rows_of(out / "results.csv")) == 2
 
 
+@pytest.mark.slow  # a sweep in a pseudo-terminal
 def test_progress_bar_shows_on_a_terminal_that_reports_no_width(tmp_path: Path, small) -> None:
     """A pseudo-terminal that reports 0 columns (some consoles do): tqdm alone printed an empty line
     for the whole sweep; the bar must still show."""

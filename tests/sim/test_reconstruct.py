@@ -131,8 +131,8 @@ def test_a_second_run_of_a_clip_makes_no_judging_runs(tmp_path, monkeypatch) -> 
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     cfg = load_scenario(None, reconstruct=False).cfg
-    cfg = replace(cfg, reconstruct=replace(cfg.reconstruct, samples=3, keep=2, window_s=1.0, workers=1,
-                                                              loop_cycles=1))
+    cfg = replace(cfg, reconstruct=replace(cfg.reconstruct, samples=2, keep=1, window_s=1.0, workers=1,
+                                                              loop_cycles=0))
     runs: list[str] = []
     # the whole clip falls at once, its looped cycle stands: the run loops the cycle
     monkeypatch.setattr(runner, "_judged", lambda sc: runs.append(sc.cfg.source) or

@@ -243,6 +243,7 @@ def test_default_walk_holds_the_reference_line_for_60s(walk) -> None:
     assert outcome == "no_fall" and abs(final) < MAX_LINE_OFFSET_M
 
 
+@pytest.mark.slow  # the counterfactual of the course law (the law itself holds by default)
 def test_old_configuration_drifts_off_the_line(walk) -> None:
     """The configuration before the course work -- sagittal c_d 0.65, no course law, no velocity tuning --
     limps and crabs: 27.2 m off the line in 60 s (the check above can fail)."""
@@ -273,6 +274,7 @@ def _shifted_course_rms(walk, over: dict, shift: float = 2.0, seconds: float = 3
     return float(np.sqrt(np.mean(np.square(offsets))))
 
 
+@pytest.mark.slow  # a 20 s walk beside its course; the course law's unit checks run by default
 def test_steering_brings_the_body_back_to_a_course_beside_it(walk) -> None:
     """A course 2 m to one side: the law walks the body over to it and holds it near it (measured RMS
     offset over 15-30 s: 0.73 m); with its gains 0 the body stays off it (1.85 m). The contrast with the

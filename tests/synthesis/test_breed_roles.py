@@ -199,6 +199,7 @@ def _bandai_like(tmp_path: Path) -> Path:
     return path
 
 
+@pytest.mark.slow  # two breeds and their checks; the README's breed runs by default
 def test_dog_and_static_root_human_breed_without_a_map(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The issue's case: a dog (root Hips) and a human whose root is a static joint_Root at the floor.
     No map: the root is folded, the joints paired by role, the report and the printout say so, the

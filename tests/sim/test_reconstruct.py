@@ -197,3 +197,21 @@ def test_the_judge_keeps_the_better_of_repeating_the_loop_and_fading_out(small) 
     keep, why, chosen = judge_correction(small, [corr, at_clip], by_end)
     assert keep and chosen is at_clip and "the clip's end" in why
 
+
+
+def test_search_past_the_clip_is_bounded():
+    """The loop searched after the clip: whole periods that fit in ``loop_max_s``, else that many seconds
+    and no period to repeat."""
+    from types import SimpleNamespace
+
+    from bipedsim.sim.reconstruct import search_end
+
+    def src(period: float) -> SimpleNamespace:  # 30 fps, the clip's last frame 299, the loop from frame 290
+        return SimpleNamespace(clip=SimpleNamespace(num_frames=300), playlist=SimpleNamespace(loop={"r": [290.0]}),
+                               a=290.0, period=period, frame_time=1 / 30)
+
+    assert search_end(src(30.0), 2, None) == (350.0, True)
+    assert search_end(src(30.0), 2, 5.0) == (350.0, True)  # two 1 s periods fit in 5 s
+    assert search_end(src(100.0), 2, 5.0) == (390.0, True)  # one 3.3 s period fits, two do not
+    assert search_end(src(240.0), 2, 5.0) == (449.0, False)  # an 8 s loop: 5 s past the clip, no repeat
+    assert search_end(src(240.0), 0, 5.0) == (299.0, False)

@@ -113,24 +113,33 @@ def _shared(ctrl: SimbiconController) -> dict[int, object]:
     return {id(x): x for x in keep}
 
 
-def search_end(src: ClipSource, loop_cycles: int) -> tuple[float, bool]:
+def search_end(src: ClipSource, loop_cycles: int, loop_max_s: float | None = None) -> tuple[float, bool]:
     """The reference frame a search of ``src`` ends at, and whether that covers whole periods of its
     loop: the clip's end, or, where the clip has a cycle to loop, ``loop_cycles`` periods of the loop
-    played after it (a cycle's correction then repeats)."""
+    played after it (a cycle's correction then repeats). ``loop_max_s`` (s) bounds the search past the
+    clip's end: as many whole periods as fit in it, or, where not one does (a loop of many strides), the
+    search ends that long after the clip and its correction fades out (None: no bound)."""
     end = float(src.clip.num_frames - 1)
     looping = any(len(v) for v in src.playlist.loop.values())
     if not looping or loop_cycles <= 0:
         return end, False
-    return max(end, src.a + loop_cycles * src.period), True
+    cycles = loop_cycles
+    if loop_max_s is not None:
+        limit = end + loop_max_s / src.frame_time
+        cycles = min(cycles, int(math.floor((limit - src.a) / src.period + 1e-9)))
+        if cycles <= 0:
+            return max(end, limit), False
+    return max(end, src.a + cycles * src.period), True
 
 
 def search_span(ctrl: SimbiconController, loop_cycles: int | None = None) -> float:
     """The seconds a search covers from the controller's start (:func:`search_end`; ``loop_cycles``
-    None: the settings')."""
+    None: the settings'; 0: the clip alone)."""
     src = ctrl.source
     assert isinstance(src, ClipSource)
-    cycles = ctrl.cfg.reconstruct.loop_cycles if loop_cycles is None else loop_cycles
-    return (search_end(src, cycles)[0] - ctrl.start_frame()) * src.frame_time
+    rc = ctrl.cfg.reconstruct
+    cycles = rc.loop_cycles if loop_cycles is None else loop_cycles
+    return (search_end(src, cycles, rc.loop_max_s)[0] - ctrl.start_frame()) * src.frame_time
 
 
 def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: ReconstructConfig, fall: FallCriteria, *,
@@ -154,7 +163,7 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
         raise ModelError("reconstruction drives the humanoid's controller tracking a whole clip (source: clip)")
     frame0 = float(ctrl.start_frame())
     total_s = search_span(ctrl, cfg.loop_cycles)
-    _, looped = search_end(src, cfg.loop_cycles)
+    _, looped = search_end(src, cfg.loop_cycles, cfg.loop_max_s)
     if total_s <= 0:
         return None, None
     played = (src.qpos_played, src.playlist.qvel)
@@ -177,7 +186,8 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
                      max(1, int(round(fall.check_every / dt))), per_window, ctrl.hinges.qadr, ctrl.terrain)
     history = [[_Node(data, ctrl, [], [], 0.0)]]  # the states kept at the start of each window
     # the windows covering the clip alone: the search's best there, the first time it gets there
-    clip_windows = int(math.ceil(search_span(ctrl, 0) / (per_window * dt) - 1e-9)) if looped else n_windows
+    clip_s = search_span(ctrl, 0)
+    clip_windows = int(math.ceil(clip_s / (per_window * dt) - 1e-9)) if total_s > clip_s else n_windows
     at_clip: _Node | None = None
     retries, boost = 0, 1
     while len(history) <= n_windows:

@@ -294,6 +294,10 @@ class ReconstructConfig:
     #: repeats the correction of the last one, phase for phase. 0: the search ends with the clip and the
     #: correction fades out over ``fade_s``, as it does where the search could not reach the end
     loop_cycles: int = field(default=2, metadata={"min": 0, "max": 20})
+    #: s of the loop searched at most after the clip's end (null: no bound): the search's cost grows with
+    #: its span, and a loop of many strides would double a 10 s clip's. Whole periods that fit are searched
+    #: and repeated; where not one fits, the search ends this long after the clip and its correction fades
+    loop_max_s: float | None = field(default=5.0, metadata={"gt": 0.0})
     #: seconds over which a correction without a searched loop fades out after its end
     fade_s: float = field(default=1.0, metadata={"min": 0.0, "max": 10.0})
     #: processes sampling each window (0: one per core this process may use); the result is the same

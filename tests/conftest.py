@@ -178,12 +178,13 @@ def torso_as_measured(cfg: ControllerConfig) -> ControllerConfig:
     """``cfg`` with a softer torso law -- damping 100 (scaled to the body as the rest: the ratio to the
     default's 175) and the stance foot's yaw limit 0.35 rad -- the setting in which the counterfactual
     tests of the step tempo, the velocity tuning, the Froude-scheduled c_d, the stance foot's yaw limit and
-    the torso twist show their contrast. With the default torso law (175, 0.6) the body is steadier and
-    both sides of these contrasts survive or keep their speed."""
+    the torso twist show their contrast, and the course law's heading without the crab's compensation
+    (``crab_filter_s: 0``), as they were measured. With the default torso law (175, 0.6) the body is
+    steadier and both sides of these contrasts survive or keep their speed."""
     from dataclasses import replace
 
     from bipedsim.control.settings import ControllerConfig
 
     default = ControllerConfig().balance.torso_kd
     return replace(cfg, balance=replace(cfg.balance, torso_kd=cfg.balance.torso_kd * 100.0 / default,
-                                        stance_yaw_limit=0.35))
+                                        stance_yaw_limit=0.35, course=replace(cfg.balance.course, crab_filter_s=0.0)))

@@ -86,7 +86,7 @@ def test_steering_in_the_controller_follows_the_law(walk) -> None:
         x0, y0 = data.subtree_com[ctrl.pelvis, :2].tolist()
         for e in (0.3, 1.0, -1.2, 4.0):
             ctrl.steering.rate_f = 0.0
-            ctrl.steering.steer(x0 + 0.5, y0 + e, 0.9, 0.0, ctrl.model.opt.timestep)
+            ctrl.steering.steer(x0 + 0.5, y0 + e, 0.9, 0.0, 0.0, ctrl.model.opt.timestep)
             assert ctrl.steering.offset == pytest.approx(e, abs=0.02)  # the course passes the start COM
             want = course_turn(beyond(ctrl.steering.offset, cc.deadband), 0.0, cc.steer_gain, cc.steer_damping,
                                cc.max_turn)
@@ -361,3 +361,30 @@ def test_a_file_naming_one_course_key_keeps_the_other_defaults(tmp_path: Path) -
     cc = load_controller(p).balance.course
     assert cc.steer_gain == 0.3 and replace(cc, steer_gain=ControllerConfig().balance.course.steer_gain) == \
         ControllerConfig().balance.course
+
+
+def test_the_course_law_turns_the_heading_against_a_measured_crab() -> None:
+    """A body whose travel runs 0.5 rad left of its pelvis heading (a crab the reference, walking straight
+    along +x with its pelvis that way, does not have) gets a heading target turned right by about that
+    much, after a few filter times; the travel then runs along the course. Without the compensation
+    (``crab_filter_s: 0``) the target stays the course's heading."""
+    from types import SimpleNamespace
+
+    from bipedsim.control.humanoid.settings import CourseConfig
+    from bipedsim.control.humanoid.torso import CourseSteering
+
+    n = 50
+    course = Course(xy=tuple((0.02 * i, 0.0) for i in range(n + 1)), heading=(0.0,) * (n + 1), cycle=(0.0, 1.0, 0.0))
+    for cc, want in ((CourseConfig(), -0.5), (CourseConfig(crab_filter_s=0.0), 0.0)):
+        steer = CourseSteering(course, cc)
+        source = SimpleNamespace(course_start=lambda frame: ((0.0, 0.0, 0.0), 0))
+        data = SimpleNamespace(xmat=np.eye(3).reshape(1, 9), qpos=np.zeros(7), subtree_com=np.zeros((1, 3)),
+                               subtree_linvel=np.zeros((1, 3)))
+        steer.reset(source, 0.0, data, 0)
+        dt, x = 0.004, 0.0
+        for _ in range(int(10.0 / dt)):  # the pelvis on the heading target, the travel 0.5 rad left of it
+            h = steer.heading_target
+            vx, vy = math.cos(h + 0.5), math.sin(h + 0.5)
+            x += vx * dt
+            steer.steer(x, 0.0, vx, vy, h, dt)  # held on the course's line: the crab alone turns it
+        assert steer.heading_target == pytest.approx(want, abs=0.03)

@@ -294,6 +294,7 @@ BODY_SCALED: dict[str, str] = {
     "balance.velocity.max_force": "force", "balance.velocity.filter_s": "time",
     "balance.course.deadband": "length", "balance.course.rate_filter": "time",
     "balance.course.steer_gain": "per_length", "balance.course.steer_damping": "per_speed",
+    "balance.course.crab_filter_s": "time",
     "balance.capture.deadband": "length", "balance.capture.tempo_gain": "per_length",
     "balance.capture.bias_s": "time",
     "fade.fade_in": "time", "resync.spread": "time",
@@ -312,7 +313,8 @@ BODY_SCALED: dict[str, str] = {
 BODY_UNSCALED: frozenset[str] = frozenset({
     "control_dt", "fsm.tempo.min", "fsm.tempo.max", "balance.max_feedback", "balance.stance_yaw_limit",
     "balance.capture.max_rate",
-    "balance.cd_froude", "balance.cd_froude_power", "balance.course.max_turn", "fade.min_scale", "resync.gain",
+    "balance.cd_froude", "balance.cd_froude_power", "balance.course.max_turn",
+    "balance.course.max_crab", "fade.min_scale", "resync.gain",
     "resync.max_frames", "modulation.swing_foot.height_gain", "modulation.stance_ankle.max_angle",
     "modulation.ground.foot_tilt", "modulation.ground.max_tilt", "modulation.ground.lean",
     # the ground's own geometry (what counts as an edge) and an angle
@@ -322,7 +324,7 @@ BODY_UNSCALED: frozenset[str] = frozenset({
     # the search's own settings: angles, weights and its windows' times, the same for any body
     "reconstruct.window_s", "reconstruct.coherence", "reconstruct.hinge_sigma", "reconstruct.feedback_sigma",
     "reconstruct.torso_sigma", "reconstruct.pose_weight", "reconstruct.root_weight", "reconstruct.position_weight",
-    "reconstruct.height_weight", "reconstruct.velocity_weight", "reconstruct.fade_s"})
+    "reconstruct.height_weight", "reconstruct.velocity_weight", "reconstruct.fade_s", "reconstruct.loop_max_s"})
 
 
 def _scaled_gain(g: Gain, f_kp: float, f_kd: float) -> Gain:

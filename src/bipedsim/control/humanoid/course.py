@@ -286,3 +286,11 @@ class CourseTracker:
         u = 0.0 if u < 0.0 else 1.0 if u > 1.0 else u
         nx, ny = self.nx[i], self.ny[i]
         return ex * nx + ey * ny, ux * nx + uy * ny, self.hs[i] + u * (self.hs[i + 1] - self.hs[i]) - q.angle
+
+    def crab(self) -> float:
+        """The reference's own crab on the current segment (rad, positive left): the course's direction
+        there less its averaged pelvis heading (0 on a segment of zero length or a walk in place)."""
+        i = self.seg
+        if not self.moving or self.ll[i] <= 0.0:
+            return 0.0
+        return math.remainder(math.atan2(self.dy[i], self.dx[i]) - 0.5 * (self.hs[i] + self.hs[i + 1]), 2.0 * math.pi)

@@ -170,6 +170,13 @@ class CourseConfig:
 
         heading_target = heading_ref + clamp(-steer_gain e_b - steer_damping e_dot, +-max_turn)
 
+    A walk can crab: its travel runs at an angle to its pelvis heading that the reference's does not
+    have (an asymmetric gait on another body), and turning the heading alone then only turns the crab.
+    The crab is measured, the direction of the COM velocity less the pelvis heading, both low-passed over
+    ``crab_filter_s`` s, less the reference's own (the course's direction less its heading), and the
+    heading target is turned against it (at most ``max_crab`` rad; the estimate low-passed over the same
+    time), so the travel, not the pelvis, follows the course. ``crab_filter_s: 0`` turns this off.
+
     ``enabled: false``: the heading target stays the pelvis heading at the start (a veering clip is
     walked straight)."""
 
@@ -179,6 +186,10 @@ class CourseConfig:
     steer_gain: float = field(default=0.15, metadata={"min": 0.0})  #: rad of turn per m of offset
     steer_damping: float = field(default=0.6, metadata={"min": 0.0})  #: rad of turn per m/s
     max_turn: float = field(default=0.25, metadata={"min": 0.0, "max": 1.5})  #: rad
+    #: s, time constant of the crab's measurement and of its compensation: a stride or two, so the sway
+    #: within a stride averages out and a turn of the heading is followed before it reads as crab
+    crab_filter_s: float = field(default=2.0, metadata={"min": 0.0})
+    max_crab: float = field(default=0.8, metadata={"min": 0.0, "max": 1.5})  #: rad, the compensation at most
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,10 @@ FloatArray = npt.NDArray[np.float64]
 Vec3 = tuple[float, float, float]
 
 
+#: m/s: a COM slower than this (low-passed) has no direction of travel to measure a crab by
+MIN_CRAB_SPEED = 0.1
+
+
 class CourseSteering:
     """Course control (``balance.course``): the torso law's heading target from the reference's course.
 
@@ -41,6 +45,9 @@ class CourseSteering:
         self.rate_f = 0.0  #: the offset's rate, low-passed (m/s)
         self.offset = 0.0  #: the COM's lateral offset from the course at the last step (m, positive left)
         self.heading_target = 0.0  #: rad, world
+        self.crab = 0.0  #: rad, the compensated crab (the body's less the reference's, low-passed)
+        self._v = (0.0, 0.0)  #: the COM velocity low-passed (m/s, world)
+        self._h = (1.0, 0.0)  #: the pelvis heading's cosine and sine low-passed
         self.r_heading = np.eye(3)  #: the heading target's yaw rotation (refilled in place)
 
     def reset(self, source: GaitSource, frame: float, data: mujoco.MjData, pelvis: int) -> None:
@@ -52,12 +59,18 @@ class CourseSteering:
         cx, cy, _ = data.subtree_com[pelvis].tolist()
         self.start = self.tracker.locate(cx, cy)
         self.rate_f = 0.0
+        self.crab = 0.0
+        self._v = (float(data.subtree_linvel[pelvis][0]), float(data.subtree_linvel[pelvis][1]))
+        self._h = (math.cos(self.heading_target), math.sin(self.heading_target))
 
-    def steer(self, cx: float, cy: float, vx: float, vy: float, dt: float) -> None:
-        """The COM at (cx, cy) m moving at (vx, vy) m/s (world) after a control step of ``dt`` s: the
-        heading target becomes the course's heading turned back toward it."""
+    def steer(self, cx: float, cy: float, vx: float, vy: float, heading: float, dt: float) -> None:
+        """The COM at (cx, cy) m moving at (vx, vy) m/s (world), the pelvis heading ``heading`` rad,
+        after a control step of ``dt`` s: the heading target becomes the course's heading turned back
+        toward it and against the walk's crab."""
         cc = self.cc
         offset, rate, h_ref = self.tracker.update(cx, cy, vx, vy)
+        if cc.crab_filter_s > 0.0 and self.tracker.moving:
+            self._measure_crab(vx, vy, heading, min(1.0, dt / cc.crab_filter_s))
         self.offset = offset
         # the rate is low-passed: the walk's own sway swings it by about 0.1 m/s within every cycle
         a = dt / cc.rate_filter
@@ -65,10 +78,25 @@ class CourseSteering:
         # inside the band the law is silent (damping included): the balance law keeps the walk's sway
         offset = beyond(offset, cc.deadband)
         rate = self.rate_f if offset != 0.0 else 0.0
-        h_t = h_ref + course_turn(offset, rate, cc.steer_gain, cc.steer_damping, cc.max_turn)
+        h_t = h_ref + course_turn(offset, rate, cc.steer_gain, cc.steer_damping, cc.max_turn) - self.crab
         self.heading_target = h_t
         rh, ch, sh = self.r_heading, math.cos(h_t), math.sin(h_t)
         rh[0, 0], rh[0, 1], rh[1, 0], rh[1, 1] = ch, -sh, sh, ch
+
+    def _measure_crab(self, vx: float, vy: float, heading: float, a: float) -> None:
+        """Low-pass the COM velocity (vx, vy) m/s and the pelvis ``heading`` (rad) by the share ``a``, and
+        move :attr:`crab` that share toward the angle between them less the reference's own crab."""
+        v0, v1 = self._v
+        v0, v1 = v0 + a * (vx - v0), v1 + a * (vy - v1)
+        c, s = self._h
+        c, s = c + a * (math.cos(heading) - c), s + a * (math.sin(heading) - s)
+        self._v, self._h = (v0, v1), (c, s)
+        if v0 * v0 + v1 * v1 < MIN_CRAB_SPEED * MIN_CRAB_SPEED:  # too slow to have a direction
+            return
+        body = math.remainder(math.atan2(v1, v0) - math.atan2(s, c), 2.0 * math.pi)
+        m = self.cc.max_crab
+        err = max(-m, min(m, math.remainder(body - self.tracker.crab(), 2.0 * math.pi)))
+        self.crab += a * (err - self.crab)
 
     def progress(self, cx: float, cy: float) -> tuple[float, float] | None:
         """The COM at (cx, cy)'s progress (m) along the course since :meth:`reset` and its lateral offset

@@ -12,14 +12,20 @@ Rules:
 - ball-joint limits: the largest rotation the motion shows at that joint plus ``range_margin``, at
   least ``range_min``, at most pi;
 - motors on every ball axis; torque limit ``torque_scale`` x (subtree mass) x (subtree reach) x g;
-- a touch sensor on every end effector (a body with no child body); end effectors in the lowest part
-  of the rest pose count as feet.
+- a touch sensor on every end effector (a body with no child body); end effectors low over the motion
+  are the first guess at the feet;
+- on more than two legs, each leg's foot is the segment the clip stands on (:func:`_carrying_feet`):
+  the highest segment of the leg whose capsules reach the floor on enough of the clip's frames, the
+  segments below it (toes or fingers held off the floor by the sole's or palm's own capsule) **folded**
+  into it (their capsules kept on the foot body, no joint of their own). A leaf that carries stays the
+  foot; bodies on two legs keep their leaves (their soles, added under the segment the toes spread
+  from, are what meets the floor: model/creature_sole.py).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -27,7 +33,7 @@ from scipy.spatial.transform import Rotation
 
 from bipedsim.errors import ModelError
 from bipedsim.model.creature_kind import MIN_LEG_JOINTS
-from bipedsim.model.creature_sole import add_soles, lighten_legs
+from bipedsim.model.creature_sole import SOLE_MAX_LEGS, add_soles, lighten_legs
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
 from bipedsim.model.profile import CreatureProfile
 from bipedsim.model.source import SourcePoints, motion_points, rest_points
@@ -50,6 +56,15 @@ MIN_CAPSULE_M = 1e-3
 #: past its own scale on every joint and stiffen; bodies of ordinary size stay well under the caps.
 DAMPING_SHARE = 0.1
 ARMATURE_SHARE = 0.01
+
+#: a segment is at the floor on a frame when the lowest of its bones' ends is within this fraction of the
+#: body's size (m/m) of the whole body's lowest point on that frame: a foot's own thickness (a sole's
+#: joints sit a centimetre or two above its skin), under the height a swinging foot is lifted
+CONTACT_TOLERANCE_FRACTION = 0.03
+#: along a leg, a segment carries when it is at the floor on at least this share of the frames its leg's
+#: most carrying segment is (0-1): a sole and the toes flat beside it both do; a shin or forearm that
+#: rests on the floor only while the animal lies down (a tenth of a take that gets up) does not
+CARRY_RATIO = 0.5
 
 
 def _sized_sim(profile: CreatureProfile, mass: float, size: float) -> CreatureProfile:
@@ -80,9 +95,11 @@ def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float
     moving = motion_points(motion)
     ranges = _ball_ranges(tree, moving, profile)
     feet = _feet(tree, moving)
-    bodies = [_body(tree, j, ranges.get(j), j in feet, profile, size) for j in tree.kept]
-    legs = creature_legs(BodyPlanSet(name=name, profile="creature", bodies=bodies, heading_yaw=0.0, source_names=[],
-                                     sim={}))
+    bodies, legs = _bodies_and_legs(tree, ranges, feet, profile, size, name)
+    carrying = _carrying_feet(tree, moving, size, legs)
+    if carrying:
+        tree, feet = _fold(tree, rest, moving, feet, carrying)
+        bodies, legs = _bodies_and_legs(tree, ranges, feet, profile, size, name)
     lighten_legs(bodies, legs)  # two legs: at most a human's share of the mass (model/creature_sole.py)
     mass_of = {j: sum(g.mass for g in b.geoms) for j, b in zip(tree.kept, bodies)}
     target = total_mass if total_mass is not None else profile.total_mass
@@ -99,7 +116,17 @@ def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float
                        source_names=list(sk.names), sim=asdict(profile.sim),
                        extra={"markers": markers, "merged": [sk.names[j] for j in range(sk.num_joints)
                                                              if tree.body_of[j] != j],
-                              "size_m": size, "rest_lift": lift, "soles": soles})
+                              "size_m": size, "rest_lift": lift, "soles": soles,
+                              **({"folded_feet": [tree.names[j] for j in sorted(tree.folded)]} if tree.folded else {})})
+
+
+def _bodies_and_legs(tree: _Tree, ranges: dict[int, float], feet: set[int], profile: CreatureProfile,
+                     size: float, name: str) -> tuple[list[BodyPlan], list[Leg]]:
+    """The bodies of ``tree`` (``feet``: the kept joints that are feet) and the legs they make."""
+    bodies = [_body(tree, j, ranges.get(j), j in feet, profile, size) for j in tree.kept]
+    legs = creature_legs(BodyPlanSet(name=name, profile="creature", bodies=bodies, heading_yaw=0.0, source_names=[],
+                                     sim={}))
+    return bodies, legs
 
 
 def _extent(rest: SourcePoints) -> float:
@@ -132,10 +159,26 @@ class _Tree:
     children: dict[int, list[int]]
     ends: dict[int, list[FloatArray]]
     names: dict[int, str]
+    #: a foot's bones (rest start and end points, m) when segments below it were folded into it
+    folded: dict[int, list[tuple[FloatArray, FloatArray]]] = field(default_factory=dict)
+    #: a folded foot's touch point (rest, m): the point of it nearest the floor over the clip
+    tips: dict[int, FloatArray] = field(default_factory=dict)
 
     def parent_body(self, j: int) -> int:
         """The kept joint whose body is the parent of kept joint ``j`` (not the root)."""
         return int(self.body_of[self.skeleton.parents[j]])
+
+    def bones(self, j: int) -> list[tuple[FloatArray, FloatArray]]:
+        """Body ``j``'s bones as (start, end) rest points (m): from its joint to each child body and End
+        Site, and for a foot with folded segments, theirs as well."""
+        own = [(self.pos[j], t) for t in [self.pos[c] for c in self.children[j]] + self.ends[j]]
+        return own + self.folded.get(j, [])
+
+    def bone_points(self, j: int) -> list[tuple[int, int]]:
+        """Body ``j``'s bones as (start, end) indices into the skeleton's points (joints, then End Sites)."""
+        sk = self.skeleton
+        ends = [sk.num_joints + e for e, p in enumerate(sk.end_site_parents) if self.body_of[p] == j]
+        return [(j, t) for t in list(self.children[j]) + ends]
 
 
 def _own_bones(rest: SourcePoints) -> FloatArray:
@@ -214,26 +257,117 @@ def _feet(tree: _Tree, moving: SourcePoints) -> set[int]:
     return {j for j in leaves if np.median(rel[:, tip_index(j)]) <= FOOT_HEIGHT_FRACTION * body_h} or set(leaves)
 
 
+def _segment_bottoms(tree: _Tree, moving: SourcePoints) -> dict[int, FloatArray]:
+    """Per kept joint: the lowest of its bones' far ends (m, world z; one per frame): the child joints
+    and End Sites its body reaches, where the segment meets the floor when it stands on it (its own
+    joint is its parent's bone's end); the joint itself for a body with no bone."""
+    zs = moving.positions[:, :, 2]
+    return {j: zs[:, [t for _, t in tree.bone_points(j)] or [j]].min(axis=1) for j in tree.kept}
+
+
+def _carrying_feet(tree: _Tree, moving: SourcePoints, size: float, legs: list[Leg]) -> dict[int, int]:
+    """Each foot whose leg stands on a segment above it -> that segment (kept joints; {} when every leaf
+    carries, or on at most SOLE_MAX_LEGS legs).
+
+    A segment is at the floor on a frame when the lowest end of its bones is within
+    CONTACT_TOLERANCE_FRACTION x ``size`` (m) of the whole body's lowest point; along each foot's chain from
+    its leg's root (at least MIN_LEG_JOINTS bodies kept in the leg), a segment carries when it is at the
+    floor on at least CARRY_RATIO of the frames the chain's most often grounded segment is, and the foot is
+    the highest segment that carries: what hangs below it and touches too (toes or fingers lying flat
+    beside a sole or palm) is part of the same foot, what hangs below and never touches (a dewclaw) is no
+    foot at all. A chain never at the floor keeps its leaf."""
+    if len(legs) <= SOLE_MAX_LEGS:
+        return {}
+    bottoms = _segment_bottoms(tree, moving)
+    floor = np.min(np.stack(list(bottoms.values())), axis=0)
+    tol = CONTACT_TOLERANCE_FRACTION * size
+    share = {j: float(np.mean(b - floor <= tol)) for j, b in bottoms.items()}
+    by_name = {tree.names[j]: j for j in tree.kept}
+    out: dict[int, int] = {}
+    for leg in legs:
+        root = by_name[leg.root]
+        for f in leg.feet:
+            chain = [by_name[f]]
+            while chain[-1] != root:
+                chain.append(tree.parent_body(chain[-1]))
+            chain.reverse()  # the leg's root first
+            below = chain[MIN_LEG_JOINTS - 1:]
+            most = max(share[j] for j in below)
+            carrying = [j for j in below if most > 0 and share[j] >= CARRY_RATIO * most]
+            if carrying and carrying[0] != by_name[f]:
+                out[by_name[f]] = carrying[0]
+    return out
+
+
+def _fold(tree: _Tree, rest: SourcePoints, moving: SourcePoints, feet: set[int],
+          carrying: dict[int, int]) -> tuple[_Tree, set[int]]:
+    """``tree`` with every body below a carrying segment (``carrying``'s values) folded into it: their
+    bones become the segment's, their joints merge into its body; returns the tree and its feet (each of
+    ``feet`` replaced by the carrying segment above it). The folded foot's touch point is its joint or
+    End Site with the lowest median height above the body's lowest point over the motion."""
+    sk = tree.skeleton
+
+    def top_above(j: int, tops: set[int]) -> int | None:
+        while j != 0:
+            j = tree.parent_body(j)
+            if j in tops:
+                return j
+        return None
+
+    tops = set(carrying.values())
+    tops = {c for c in tops if top_above(c, tops) is None}  # a segment below another is folded into it
+    body_of = tree.body_of.copy()
+    folded: dict[int, list[tuple[FloatArray, FloatArray]]] = {c: [] for c in tops}
+    kept = []
+    for j in tree.kept:  # parents first
+        top = top_above(j, tops)
+        if top is None:
+            kept.append(j)
+            continue
+        folded[top] += tree.bones(j)
+        body_of[tree.body_of == j] = top
+    for c in tops:
+        folded[c] += [(tree.pos[c], tree.pos[k]) for k in tree.children[c]]
+    zs = moving.positions[:, :, 2]
+    rel = zs - zs.min(axis=1, keepdims=True)
+    tips = {}
+    for c in tops:
+        points = [k for k in range(sk.num_joints) if body_of[k] == c]
+        points += [sk.num_joints + e for e, p in enumerate(sk.end_site_parents) if body_of[p] == c]
+        low = min(points, key=lambda k: float(np.median(rel[:, k])))
+        tips[c] = rest.positions[low]
+    new = _Tree(skeleton=sk, pos=tree.pos, body_of=body_of, kept=kept,
+                children={j: [] if j in tops else list(tree.children[j]) for j in kept},
+                ends={j: tree.ends[j] for j in kept}, names={j: tree.names[j] for j in kept},
+                folded=folded, tips=tips)
+    return new, {int(body_of[f]) for f in feet}
+
+
 def _geoms(tree: _Tree, j: int, profile: CreatureProfile, size: float) -> list[GeomPlan]:
     """Body ``j``'s geoms (body frame, m, kg): a capsule along each bone leaving it (to each child body
     and End Site), radius ``radius_fraction`` x length clamped to [radius_min, radius_max] x ``size``,
     mass density x volume; a sphere of the smallest radius when no bone is long enough."""
-    lo_r, hi_r = profile.radius_min * size, profile.radius_max * size
     pos = tree.pos
     geoms = []
-    for t in [pos[c] for c in tree.children[j]] + tree.ends[j]:
-        length = float(np.linalg.norm(t - pos[j]))
+    for a, t in tree.bones(j):
+        length = float(np.linalg.norm(t - a))
         if length < MIN_CAPSULE_M:
             continue
-        r = float(np.clip(profile.radius_fraction * length, lo_r, hi_r))
+        r = _capsule_radius(length, profile, size)
         vol = np.pi * r * r * length + 4.0 / 3.0 * np.pi * r ** 3
-        geoms.append(GeomPlan(kind="capsule", size=[r], fromto=[0.0, 0.0, 0.0, *(t - pos[j])],
+        geoms.append(GeomPlan(kind="capsule", size=[r], fromto=[*(a - pos[j]), *(t - pos[j])],
                               mass=profile.density * vol))
     if not geoms:
-        r = float(lo_r)
+        r = float(profile.radius_min * size)
         geoms.append(GeomPlan(kind="sphere", size=[r], pos=[0.0, 0.0, 0.0],
                               mass=profile.density * 4.0 / 3.0 * np.pi * r ** 3))
     return geoms
+
+
+def _capsule_radius(length: float, profile: CreatureProfile, size: float) -> float:
+    """A bone's capsule radius (m): ``radius_fraction`` x its ``length`` (m), clamped to [radius_min,
+    radius_max] x the creature's ``size`` (m)."""
+    return float(np.clip(profile.radius_fraction * length, profile.radius_min * size, profile.radius_max * size))
 
 
 def _body(tree: _Tree, j: int, ball_range: float | None, is_foot: bool, profile: CreatureProfile,
@@ -245,7 +379,7 @@ def _body(tree: _Tree, j: int, ball_range: float | None, is_foot: bool, profile:
     geoms = _geoms(tree, j, profile, size)
     sites = []
     if not tree.children[j]:
-        tip = tree.ends[j][0] if tree.ends[j] else pos[j]
+        tip = tree.tips[j] if j in tree.tips else tree.ends[j][0] if tree.ends[j] else pos[j]
         r = max(g.size[0] for g in geoms) + 0.01 * size
         sites.append(SitePlan(name=f"{names[j]}_touch", pos=list(tip - pos[j]), size=[r], touch=True))
     joints = []
@@ -278,7 +412,7 @@ def _subtrees(tree: _Tree, mass: dict[int, float]) -> tuple[dict[int, float], di
     sub_mass = dict(mass)
     reach = {j: 0.0 for j in tree.kept}
     for j in reversed(tree.kept):
-        tips = [pos[c] for c in tree.children[j]] + tree.ends[j]
+        tips = [t for _, t in tree.bones(j)]
         reach[j] = max([float(np.linalg.norm(t - pos[j])) for t in tips] +
                        [float(np.linalg.norm(pos[c] - pos[j])) + reach[c] for c in tree.children[j]] + [0.0])
         for c in tree.children[j]:

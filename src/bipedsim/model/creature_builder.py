@@ -15,11 +15,12 @@ Rules:
 - a touch sensor on every end effector (a body with no child body); end effectors low over the motion
   are the first guess at the feet;
 - on more than two legs, each leg's foot is the segment the clip stands on (:func:`_carrying_feet`):
-  the highest segment of the leg whose capsules reach the floor on enough of the clip's frames, the
-  segments below it (toes or fingers held off the floor by the sole's or palm's own capsule) **folded**
-  into it (their capsules kept on the foot body, no joint of their own). A leaf that carries stays the
-  foot; bodies on two legs keep their leaves (their soles, added under the segment the toes spread
-  from, are what meets the floor: model/creature_sole.py).
+  the highest segment of the leg whose bones' ends reach the floor on about as many of the clip's
+  frames as the leg's most grounded segment; the segments below it (toes or fingers lying beside a
+  sole or palm, a dewclaw that never touches) are **folded** into it (their capsules kept on the foot
+  body, no joint of their own) and its touch site sits at its point nearest the floor. A leaf that
+  carries stays the foot; bodies on two legs keep their leaves (their soles, added under the segment
+  the toes spread from, are what meets the floor: model/creature_sole.py).
 """
 
 from __future__ import annotations
@@ -58,8 +59,8 @@ DAMPING_SHARE = 0.1
 ARMATURE_SHARE = 0.01
 
 #: a segment is at the floor on a frame when the lowest of its bones' ends is within this fraction of the
-#: body's size (m/m) of the whole body's lowest point on that frame: a foot's own thickness (a sole's
-#: joints sit a centimetre or two above its skin), under the height a swinging foot is lifted
+#: body's size (m/m) of the whole body's lowest point on that frame: more than a foot's own thickness (a
+#: sole's joints sit a centimetre or two above its toes' tips), less than a shin's end is lifted over it
 CONTACT_TOLERANCE_FRACTION = 0.03
 #: along a leg, a segment carries when it is at the floor on at least this share of the frames its leg's
 #: most carrying segment is (0-1): a sole and the toes flat beside it both do; a shin or forearm that

@@ -14,7 +14,7 @@ Rules:
 - motors on every ball axis; torque limit ``torque_scale`` x (subtree mass) x (subtree reach) x g;
 - a touch sensor on every end effector (a body with no child body); end effectors low over the motion
   are the first guess at the feet;
-- on more than two legs, each leg's foot is the segment the clip stands on (:func:`_carrying_feet`):
+- on more than two legs, each leg's foot is the segment the clip stands on (:mod:`~bipedsim.model.creature_feet`):
   the highest segment of the leg whose bones' ends reach the floor on about as many of the clip's
   frames as the leg's most grounded segment; the segments below it (toes or fingers lying beside a
   sole or palm, a dewclaw that never touches) are **folded** into it (their capsules kept on the foot
@@ -26,26 +26,23 @@ Rules:
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
-from bipedsim.errors import ModelError
+from bipedsim.model.creature_feet import carrying_feet, fold_feet, low_end_effectors
 from bipedsim.model.creature_kind import MIN_LEG_JOINTS
-from bipedsim.model.creature_sole import SOLE_MAX_LEGS, add_soles, lighten_legs
+from bipedsim.model.creature_sole import add_soles, lighten_legs
+from bipedsim.model.creature_tree import BodyTree, reduce_skeleton, skeleton_extent
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
 from bipedsim.model.profile import CreatureProfile
 from bipedsim.model.source import SourcePoints, motion_points, rest_points
 from bipedsim.motion.motion import Motion
-from bipedsim.motion.skeleton import Skeleton
 
 FloatArray = npt.NDArray[np.float64]
 
-#: End effectors whose rest height is within this fraction of the body's height from the bottom are
-#: feet (contact labels, fall detection).
-FOOT_HEIGHT_FRACTION = 0.25
 GRAVITY = 9.81
 #: A bone shorter than this (m) cannot carry a capsule: the body gets a small sphere instead.
 MIN_CAPSULE_M = 1e-3
@@ -57,16 +54,6 @@ MIN_CAPSULE_M = 1e-3
 #: past its own scale on every joint and stiffen; bodies of ordinary size stay well under the caps.
 DAMPING_SHARE = 0.1
 ARMATURE_SHARE = 0.01
-
-#: a segment is at the floor on a frame when the lowest of its bones' ends is within this fraction of the
-#: body's size (m/m) of the whole body's lowest point on that frame: more than a foot's own thickness (a
-#: sole's joints sit a centimetre or two above its toes' tips), less than a shin's end is lifted over it
-CONTACT_TOLERANCE_FRACTION = 0.03
-#: along a leg, a segment carries when it is at the floor on at least this share of the frames its leg's
-#: most carrying segment is (0-1): a sole and the toes flat beside it both do; a shin or forearm that
-#: rests on the floor only while the animal lies down (a tenth of a take that gets up) does not
-CARRY_RATIO = 0.5
-
 
 def _sized_sim(profile: CreatureProfile, mass: float, size: float) -> CreatureProfile:
     """``profile`` with its joint damping and armature held to :data:`DAMPING_SHARE` and
@@ -81,25 +68,20 @@ def _sized_sim(profile: CreatureProfile, mass: float, size: float) -> CreaturePr
     return replace(profile, sim=replace(sim, joint_damping=damping, armature=armature))
 
 
-def _safe(name: str) -> str:
-    """``name`` with every character MuJoCo names should not hold replaced by ``_``."""
-    return "".join(c if c.isalnum() or c in "_-." else "_" for c in name)
-
-
 def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float | None = None,
                   name: str = "creature") -> BodyPlanSet:
     """The creature body plan for a motion's skeleton (motion in the project frame: m, Z up)."""
     sk = motion.skeleton
     rest = rest_points(motion)
-    size = _extent(rest)
-    tree = _reduce(rest, profile.merge_fraction, size)
+    size = skeleton_extent(rest)
+    tree = reduce_skeleton(rest, profile.merge_fraction, size)
     moving = motion_points(motion)
     ranges = _ball_ranges(tree, moving, profile)
-    feet = _feet(tree, moving)
+    feet = low_end_effectors(tree, moving)
     bodies, legs = _bodies_and_legs(tree, ranges, feet, profile, size, name)
-    carrying = _carrying_feet(tree, moving, size, legs)
+    carrying = carrying_feet(tree, moving, size, [(leg.root, leg.feet) for leg in legs])
     if carrying:
-        tree, feet = _fold(tree, rest, moving, feet, carrying)
+        tree, feet = fold_feet(tree, rest, moving, feet, carrying)
         bodies, legs = _bodies_and_legs(tree, ranges, feet, profile, size, name)
     lighten_legs(bodies, legs)  # two legs: at most a human's share of the mass (model/creature_sole.py)
     mass_of = {j: sum(g.mass for g in b.geoms) for j, b in zip(tree.kept, bodies)}
@@ -121,7 +103,7 @@ def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float
                               **({"folded_feet": [tree.names[j] for j in sorted(tree.folded)]} if tree.folded else {})})
 
 
-def _bodies_and_legs(tree: _Tree, ranges: dict[int, float], feet: set[int], profile: CreatureProfile,
+def _bodies_and_legs(tree: BodyTree, ranges: dict[int, float], feet: set[int], profile: CreatureProfile,
                      size: float, name: str) -> tuple[list[BodyPlan], list[Leg]]:
     """The bodies of ``tree`` (``feet``: the kept joints that are feet) and the legs they make."""
     bodies = [_body(tree, j, ranges.get(j), j in feet, profile, size) for j in tree.kept]
@@ -130,102 +112,7 @@ def _bodies_and_legs(tree: _Tree, ranges: dict[int, float], feet: set[int], prof
     return bodies, legs
 
 
-def _extent(rest: SourcePoints) -> float:
-    """The creature's size (m): the largest extent of its rest pose (joints and End Sites) along x, y
-    or z. A ModelError for a skeleton with no extent or only zero-length bones."""
-    sk = rest.skeleton
-    pts = rest.positions
-    size = float(np.max(pts.max(axis=0) - pts.min(axis=0)))
-    if size <= 0:
-        raise ModelError("the skeleton has no extent: every joint sits at one point")
-    lengths = np.linalg.norm(sk.offsets, axis=1)
-    if sk.num_joints > 1 and np.all(lengths[1:] < 1e-9):
-        raise ModelError("zero-length bones: every joint offset is zero")
-    return size
-
-
-@dataclass
-class _Tree:
-    """The source skeleton reduced to the creature's bodies (rest pose, m, project frame).
-
-    ``body_of[j]``: the joint whose body joint ``j`` belongs to (itself when kept); ``kept``: the joints
-    that are bodies, in skeleton order (parents first); ``children[j]``: the kept joints hanging from
-    body ``j``; ``ends[j]``: rest positions (m) of the End Sites on body ``j``; ``names[j]``: body names.
-    """
-
-    skeleton: Skeleton
-    pos: FloatArray
-    body_of: npt.NDArray[np.int_]
-    kept: list[int]
-    children: dict[int, list[int]]
-    ends: dict[int, list[FloatArray]]
-    names: dict[int, str]
-    #: a foot's bones (rest start and end points, m) when segments below it were folded into it
-    folded: dict[int, list[tuple[FloatArray, FloatArray]]] = field(default_factory=dict)
-    #: a folded foot's touch point (rest, m): the point of it nearest the floor over the clip
-    tips: dict[int, FloatArray] = field(default_factory=dict)
-
-    def parent_body(self, j: int) -> int:
-        """The kept joint whose body is the parent of kept joint ``j`` (not the root)."""
-        return int(self.body_of[self.skeleton.parents[j]])
-
-    def bones(self, j: int) -> list[tuple[FloatArray, FloatArray]]:
-        """Body ``j``'s bones as (start, end) rest points (m): from its joint to each child body and End
-        Site, and for a foot with folded segments, theirs as well."""
-        own = [(self.pos[j], t) for t in [self.pos[c] for c in self.children[j]] + self.ends[j]]
-        return own + self.folded.get(j, [])
-
-    def bone_points(self, j: int) -> list[tuple[int, int]]:
-        """Body ``j``'s bones as (start, end) indices into the skeleton's points (joints, then End Sites)."""
-        sk = self.skeleton
-        ends = [sk.num_joints + e for e, p in enumerate(sk.end_site_parents) if self.body_of[p] == j]
-        return [(j, t) for t in list(self.children[j]) + ends]
-
-
-def _own_bones(rest: SourcePoints) -> FloatArray:
-    """(J,) length (m) of each joint's own bone: the longest segment from it to a child joint or End
-    Site (0 for a leaf without an End Site)."""
-    sk = rest.skeleton
-    pos = rest.positions[:sk.num_joints]
-    bone = np.zeros(sk.num_joints)
-    for c in range(1, sk.num_joints):
-        p = int(sk.parents[c])
-        bone[p] = max(bone[p], float(np.linalg.norm(pos[c] - pos[p])))
-    for e, p in enumerate(sk.end_site_parents):
-        bone[p] = max(bone[p], float(np.linalg.norm(rest.positions[sk.num_joints + e] - pos[p])))
-    return bone
-
-
-def _reduce(rest: SourcePoints, merge_fraction: float, size: float) -> _Tree:
-    """Which joints become bodies: a joint whose own bone is shorter than ``merge_fraction`` x the
-    creature's ``size`` (m) moves almost nothing when it turns, so it merges into its parent's body
-    (its children hang from that body at their rest positions)."""
-    sk = rest.skeleton
-    bone = _own_bones(rest)
-    body_of = np.arange(sk.num_joints)
-    for j in range(1, sk.num_joints):
-        if bone[j] < merge_fraction * size:
-            body_of[j] = body_of[sk.parents[j]]
-    kept = sorted({int(b) for b in body_of})
-    if len(kept) < 2:
-        # one rigid body has nothing to move: a rollout of it would "track" the clip with RMSE 0
-        raise ModelError(
-            f"every one of the {sk.num_joints} joints merges into the root: each bone is shorter than "
-            f"merge_fraction {merge_fraction:g} x the body's size {size:.3g} m "
-            f"(longest bone {bone.max():.3g} m), so the body would be one rigid piece with no joint to "
-            "drive; give a creature profile YAML with a smaller merge_fraction (convert --profile-file)")
-    children: dict[int, list[int]] = {j: [] for j in kept}
-    for j in kept:
-        if j != 0:
-            children[int(body_of[sk.parents[j]])].append(j)
-    ends: dict[int, list[FloatArray]] = {j: [] for j in kept}
-    for e, p in enumerate(sk.end_site_parents):
-        ends[int(body_of[p])].append(rest.positions[sk.num_joints + e])
-    return _Tree(skeleton=sk, pos=rest.positions[:sk.num_joints], body_of=body_of, kept=kept, children=children,
-                 ends=ends, names={j: _safe(sk.names[j]) for j in kept})
-
-
-def _ball_ranges(tree: _Tree, moving: SourcePoints, profile: CreatureProfile) -> dict[int, float]:
+def _ball_ranges(tree: BodyTree, moving: SourcePoints, profile: CreatureProfile) -> dict[int, float]:
     """Ball-joint limit (rad) of each kept non-root joint: the largest rotation of its body relative
     to its parent body over the motion plus ``range_margin``, at least ``range_min``, at most pi."""
     assert moving.rotations is not None
@@ -241,110 +128,7 @@ def _ball_ranges(tree: _Tree, moving: SourcePoints, profile: CreatureProfile) ->
     return ranges
 
 
-def _feet(tree: _Tree, moving: SourcePoints) -> set[int]:
-    """The end effectors (kept joints with no child body) that spend the motion low: median height of
-    their tip above the frame's lowest point within FOOT_HEIGHT_FRACTION of the body's median height;
-    every end effector when none does."""
-    sk = tree.skeleton
-    leaves = [j for j in tree.kept if not tree.children[j]]
-    zs = moving.positions[:, :, 2]
-    rel = zs - zs.min(axis=1, keepdims=True)
-    body_h = float(np.median(rel.max(axis=1))) or 1e-9
-
-    def tip_index(j: int) -> int:
-        e = [k for k, p in enumerate(sk.end_site_parents) if tree.body_of[p] == j]
-        return sk.num_joints + e[0] if e else j
-
-    return {j for j in leaves if np.median(rel[:, tip_index(j)]) <= FOOT_HEIGHT_FRACTION * body_h} or set(leaves)
-
-
-def _segment_bottoms(tree: _Tree, moving: SourcePoints) -> dict[int, FloatArray]:
-    """Per kept joint: the lowest of its bones' far ends (m, world z; one per frame): the child joints
-    and End Sites its body reaches, where the segment meets the floor when it stands on it (its own
-    joint is its parent's bone's end); the joint itself for a body with no bone."""
-    zs = moving.positions[:, :, 2]
-    return {j: zs[:, [t for _, t in tree.bone_points(j)] or [j]].min(axis=1) for j in tree.kept}
-
-
-def _carrying_feet(tree: _Tree, moving: SourcePoints, size: float, legs: list[Leg]) -> dict[int, int]:
-    """Each foot whose leg stands on a segment above it -> that segment (kept joints; {} when every leaf
-    carries, or on at most SOLE_MAX_LEGS legs).
-
-    A segment is at the floor on a frame when the lowest end of its bones is within
-    CONTACT_TOLERANCE_FRACTION x ``size`` (m) of the whole body's lowest point; along each foot's chain from
-    its leg's root (at least MIN_LEG_JOINTS bodies kept in the leg), a segment carries when it is at the
-    floor on at least CARRY_RATIO of the frames the chain's most often grounded segment is, and the foot is
-    the highest segment that carries: what hangs below it and touches too (toes or fingers lying flat
-    beside a sole or palm) is part of the same foot, what hangs below and never touches (a dewclaw) is no
-    foot at all. A chain never at the floor keeps its leaf."""
-    if len(legs) <= SOLE_MAX_LEGS:
-        return {}
-    bottoms = _segment_bottoms(tree, moving)
-    floor = np.min(np.stack(list(bottoms.values())), axis=0)
-    tol = CONTACT_TOLERANCE_FRACTION * size
-    share = {j: float(np.mean(b - floor <= tol)) for j, b in bottoms.items()}
-    by_name = {tree.names[j]: j for j in tree.kept}
-    out: dict[int, int] = {}
-    for leg in legs:
-        root = by_name[leg.root]
-        for f in leg.feet:
-            chain = [by_name[f]]
-            while chain[-1] != root:
-                chain.append(tree.parent_body(chain[-1]))
-            chain.reverse()  # the leg's root first
-            below = chain[MIN_LEG_JOINTS - 1:]
-            most = max(share[j] for j in below)
-            carrying = [j for j in below if most > 0 and share[j] >= CARRY_RATIO * most]
-            if carrying and carrying[0] != by_name[f]:
-                out[by_name[f]] = carrying[0]
-    return out
-
-
-def _fold(tree: _Tree, rest: SourcePoints, moving: SourcePoints, feet: set[int],
-          carrying: dict[int, int]) -> tuple[_Tree, set[int]]:
-    """``tree`` with every body below a carrying segment (``carrying``'s values) folded into it: their
-    bones become the segment's, their joints merge into its body; returns the tree and its feet (each of
-    ``feet`` replaced by the carrying segment above it). The folded foot's touch point is its joint or
-    End Site with the lowest median height above the body's lowest point over the motion."""
-    sk = tree.skeleton
-
-    def top_above(j: int, tops: set[int]) -> int | None:
-        while j != 0:
-            j = tree.parent_body(j)
-            if j in tops:
-                return j
-        return None
-
-    tops = set(carrying.values())
-    tops = {c for c in tops if top_above(c, tops) is None}  # a segment below another is folded into it
-    body_of = tree.body_of.copy()
-    folded: dict[int, list[tuple[FloatArray, FloatArray]]] = {c: [] for c in tops}
-    kept = []
-    for j in tree.kept:  # parents first
-        top = top_above(j, tops)
-        if top is None:
-            kept.append(j)
-            continue
-        folded[top] += tree.bones(j)
-        body_of[tree.body_of == j] = top
-    for c in tops:
-        folded[c] += [(tree.pos[c], tree.pos[k]) for k in tree.children[c]]
-    zs = moving.positions[:, :, 2]
-    rel = zs - zs.min(axis=1, keepdims=True)
-    tips = {}
-    for c in tops:
-        points = [k for k in range(sk.num_joints) if body_of[k] == c]
-        points += [sk.num_joints + e for e, p in enumerate(sk.end_site_parents) if body_of[p] == c]
-        low = min(points, key=lambda k: float(np.median(rel[:, k])))
-        tips[c] = rest.positions[low]
-    new = _Tree(skeleton=sk, pos=tree.pos, body_of=body_of, kept=kept,
-                children={j: [] if j in tops else list(tree.children[j]) for j in kept},
-                ends={j: tree.ends[j] for j in kept}, names={j: tree.names[j] for j in kept},
-                folded=folded, tips=tips)
-    return new, {int(body_of[f]) for f in feet}
-
-
-def _geoms(tree: _Tree, j: int, profile: CreatureProfile, size: float) -> list[GeomPlan]:
+def _geoms(tree: BodyTree, j: int, profile: CreatureProfile, size: float) -> list[GeomPlan]:
     """Body ``j``'s geoms (body frame, m, kg): a capsule along each bone leaving it (to each child body
     and End Site), radius ``radius_fraction`` x length clamped to [radius_min, radius_max] x ``size``,
     mass density x volume; a sphere of the smallest radius when no bone is long enough."""
@@ -371,7 +155,7 @@ def _capsule_radius(length: float, profile: CreatureProfile, size: float) -> flo
     return float(np.clip(profile.radius_fraction * length, profile.radius_min * size, profile.radius_max * size))
 
 
-def _body(tree: _Tree, j: int, ball_range: float | None, is_foot: bool, profile: CreatureProfile,
+def _body(tree: BodyTree, j: int, ball_range: float | None, is_foot: bool, profile: CreatureProfile,
           size: float) -> BodyPlan:
     """Kept joint ``j``'s body at its rest position (m): its geoms, a ball joint limited to
     ``ball_range`` (rad; none on the root, which gets the free joint), a touch site at the tip of an
@@ -406,7 +190,7 @@ def _scale_masses(bodies: list[BodyPlan], mass_of: dict[int, float], target: flo
     return scale
 
 
-def _subtrees(tree: _Tree, mass: dict[int, float]) -> tuple[dict[int, float], dict[int, float]]:
+def _subtrees(tree: BodyTree, mass: dict[int, float]) -> tuple[dict[int, float], dict[int, float]]:
     """Per kept joint: the mass (kg) of the subtree it carries (``mass``: each body's own) and the
     subtree's reach (m), the farthest bone tip from the joint along the tree."""
     pos = tree.pos
@@ -421,7 +205,7 @@ def _subtrees(tree: _Tree, mass: dict[int, float]) -> tuple[dict[int, float], di
     return sub_mass, reach
 
 
-def _leg_loads(bodies: list[BodyPlan], tree: _Tree, legs: list[Leg], total: float) -> dict[int, float]:
+def _leg_loads(bodies: list[BodyPlan], tree: BodyTree, legs: list[Leg], total: float) -> dict[int, float]:
     """The mass (kg) each leg joint holds up when its leg stands: the body's ``total`` mass times
     min(1, 2 / legs) (a biped stands on one leg, a quadruped trots on two), for every joint of a leg
     including its feet (the ground pushes on the foot: a paw sized for the paw alone folds under the body)."""
@@ -443,7 +227,7 @@ MAX_STIFFNESS_STEP = 0.25
 LEG_SWING_RATE = 2.0
 
 
-def _set_motors(bodies: list[BodyPlan], tree: _Tree, mass: dict[int, float], profile: CreatureProfile,
+def _set_motors(bodies: list[BodyPlan], tree: BodyTree, mass: dict[int, float], profile: CreatureProfile,
                 size: float, loads: dict[int, float] | None = None) -> None:
     """Motor strength from the load each ball joint carries: torque limit (N m) ``torque_scale`` x load x
     reach (at least 5 % of ``size``) x g, gains the profile's unit gains x load x reach, the stiffness

@@ -1,16 +1,21 @@
 """A creature's feet are the segments its clip stands on, found from the clip's contacts: a toe that
 hangs off a hoof above the floor is folded into the hoof, which stays the foot; a leaf that carries
-stays the foot, unchanged."""
+stays the foot, unchanged; a forearm that rests on the floor while the body lies is no foot."""
 
 from __future__ import annotations
 
 import mujoco
 import numpy as np
+import pytest
 from bvh_fixtures import E, J, relaid
 
 from bipedsim.control.creature.many_legs import ManyLegs
-from bipedsim.model import build_model
+from bipedsim.model import build_model, creature_feet
 from bipedsim.model.creature_builder import Leg, creature_legs
+from bipedsim.model.creature_feet import carrying_feet
+from bipedsim.model.creature_tree import reduce_skeleton, skeleton_extent
+from bipedsim.model.profile import CreatureProfile
+from bipedsim.model.source import SourcePoints, motion_points, rest_points
 from bipedsim.motion.motion import Motion
 from bipedsim.motion.samples import horse_walk
 
@@ -63,6 +68,36 @@ def test_leaves_that_carry_stay_the_feet() -> None:
     plan = build_model(_horse(), "creature").plan
     assert sorted(plan.foot_bodies) == sorted(HOOVES)
     assert "folded_feet" not in plan.extra
+
+
+#: the share of the take the stand-in horse lies for, and its joints' heights over the floor then (a
+#: share of the standing ones): well under creature_feet.STANDING_FRACTION
+LYING_SHARE, LYING_HEIGHT = 0.4, 0.3
+
+
+def test_a_forearm_on_the_floor_while_the_body_lies_is_no_foot(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The first LYING_SHARE of the horse's frames squashed toward the floor (the body lying) with each
+    fore leg's knee on it and its hoof raised: the forearms' ends are at the floor on more frames than
+    the hooves are, yet only the standing frames count."""
+    m = _horse()
+    rest = rest_points(m)
+    size = skeleton_extent(rest)
+    tree = reduce_skeleton(rest, CreatureProfile().merge_fraction, size)
+    moving = motion_points(m)
+    pos = moving.positions.copy()
+    z = pos[..., 2]
+    lie = slice(0, int(LYING_SHARE * len(z)))
+    low = z[lie].min(axis=1, keepdims=True)
+    z[lie] = low + LYING_HEIGHT * (z[lie] - low)
+    for hoof in ("LeftHand", "RightHand"):
+        z[lie, moving.index[hoof]] = low[:, 0]  # the knee down
+        z[lie, moving.index[f"{hoof}/end0"]] = low[:, 0] + 0.1 * size  # the hoof folded up
+    lying = SourcePoints(moving.skeleton, pos, moving.rotations)
+    legs = [(leg.root, leg.feet) for leg in creature_legs(build_model(m, "creature").plan)]
+    assert carrying_feet(tree, lying, size, legs) == {}
+    monkeypatch.setattr(creature_feet, "STANDING_FRACTION", 0.0)  # every frame counted
+    forearm = {tree.names[f]: tree.names[c] for f, c in carrying_feet(tree, lying, size, legs).items()}
+    assert forearm["LeftHand"] == "LeftForeArm" and forearm["RightHand"] == "RightForeArm"
 
 
 class _Legs:

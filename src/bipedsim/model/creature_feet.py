@@ -23,12 +23,15 @@ FloatArray = npt.NDArray[np.float64]
 FOOT_HEIGHT_FRACTION = 0.25
 #: a segment is at the floor on a frame when the lowest of its bones' ends is within this fraction of the
 #: body's size (m/m) of the whole body's lowest point on that frame: more than a foot's own thickness (a
-#: sole's joints sit a centimetre or two above its toes' tips), less than a shin's end is lifted over it
-CONTACT_TOLERANCE_FRACTION = 0.03
-#: along a leg, a segment carries when it is at the floor on at least this share of the frames its leg's
-#: most carrying segment is (0-1): a sole and the toes flat beside it both do; a shin or forearm that
-#: rests on the floor only while the animal lies down (a tenth of a take that gets up) does not
+#: sole's joints sit a centimetre or two above its toes' tips), less than a hoof's joint stands over its tip
+CONTACT_TOLERANCE_FRACTION = 0.02
+#: along a leg, a segment carries when it is at the floor on at least this share of the standing frames
+#: its leg's most carrying segment is (0-1): a sole and the toes flat beside it both do
 CARRY_RATIO = 0.5
+#: a frame counts when the body stands: its joints' mean height over its lowest point at least this share
+#: of its median over the motion (0-1); a shin or forearm resting on the floor while the animal lies (the
+#: tenth of a take that gets up) carries nothing
+STANDING_FRACTION = 0.75
 
 
 def low_end_effectors(tree: BodyTree, moving: SourcePoints) -> set[int]:
@@ -62,9 +65,10 @@ def carrying_feet(tree: BodyTree, moving: SourcePoints, size: float,
     carries, or on at most SOLE_MAX_LEGS legs). ``legs``: each leg's root body and its feet (body names).
 
     A segment is at the floor on a frame when the lowest end of its bones is within
-    CONTACT_TOLERANCE_FRACTION x ``size`` (m) of the whole body's lowest point; along each foot's chain from
-    its leg's root (at least MIN_LEG_JOINTS bodies kept in the leg), a segment carries when it is at the
-    floor on at least CARRY_RATIO of the frames the chain's most often grounded segment is, and the foot is
+    CONTACT_TOLERANCE_FRACTION x ``size`` (m) of the whole body's lowest point; only the frames the body
+    stands on count (STANDING_FRACTION). Along each foot's chain from its leg's root (at least
+    MIN_LEG_JOINTS bodies kept in the leg), a segment carries when it is at the floor on at least
+    CARRY_RATIO of the frames the chain's most often grounded segment is, and the foot is
     the highest segment that carries: what hangs below it and touches too (toes or fingers lying flat
     beside a sole or palm) is part of the same foot, what hangs below and never touches (a dewclaw) is no
     foot at all. A chain never at the floor keeps its leaf."""
@@ -72,8 +76,10 @@ def carrying_feet(tree: BodyTree, moving: SourcePoints, size: float,
         return {}
     bottoms = _segment_bottoms(tree, moving)
     floor = np.min(np.stack(list(bottoms.values())), axis=0)
+    mean_h = moving.positions[:, :, 2].mean(axis=1) - floor
+    standing = mean_h >= STANDING_FRACTION * float(np.median(mean_h))
     tol = CONTACT_TOLERANCE_FRACTION * size
-    share = {j: float(np.mean(b - floor <= tol)) for j, b in bottoms.items()}
+    share = {j: float(np.mean((b - floor <= tol)[standing])) for j, b in bottoms.items()}
     by_name = {tree.names[j]: j for j in tree.kept}
     out: dict[int, int] = {}
     for leg_root, leg_feet in legs:
@@ -135,5 +141,5 @@ def fold_feet(tree: BodyTree, rest: SourcePoints, moving: SourcePoints, feet: se
     return new, {int(body_of[f]) for f in feet}
 
 
-__all__ = ["CARRY_RATIO", "CONTACT_TOLERANCE_FRACTION", "FOOT_HEIGHT_FRACTION", "carrying_feet", "fold_feet",
-           "low_end_effectors"]
+__all__ = ["CARRY_RATIO", "CONTACT_TOLERANCE_FRACTION", "FOOT_HEIGHT_FRACTION", "STANDING_FRACTION", "carrying_feet",
+           "fold_feet", "low_end_effectors"]

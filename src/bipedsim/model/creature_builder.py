@@ -12,8 +12,15 @@ Rules:
 - ball-joint limits: the largest rotation the motion shows at that joint plus ``range_margin``, at
   least ``range_min``, at most pi;
 - motors on every ball axis; torque limit ``torque_scale`` x (subtree mass) x (subtree reach) x g;
-- a touch sensor on every end effector (a body with no child body); end effectors in the lowest part
-  of the rest pose count as feet.
+- a touch sensor on every end effector (a body with no child body); end effectors low over the motion
+  are the first guess at the feet;
+- on more than two legs, each leg's foot is the segment the clip stands on (:mod:`~bipedsim.model.creature_feet`):
+  the highest segment of the leg whose bones' ends reach the floor on about as many of the clip's
+  frames as the leg's most grounded segment; the segments below it (toes or fingers lying beside a
+  sole or palm, a dewclaw that never touches) are **folded** into it (their capsules kept on the foot
+  body, no joint of their own) and its touch site sits at its point nearest the floor. A leaf that
+  carries stays the foot; bodies on two legs keep their leaves (their soles, added under the segment
+  the toes spread from, are what meets the floor: model/creature_sole.py).
 """
 
 from __future__ import annotations
@@ -25,20 +32,17 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
-from bipedsim.errors import ModelError
+from bipedsim.model.creature_feet import carrying_feet, fold_feet, low_end_effectors
 from bipedsim.model.creature_kind import MIN_LEG_JOINTS
 from bipedsim.model.creature_sole import add_soles, lighten_legs
+from bipedsim.model.creature_tree import BodyTree, reduce_skeleton, skeleton_extent
 from bipedsim.model.plan import BodyPlan, BodyPlanSet, FitPlan, GeomPlan, JointPlan, SitePlan
 from bipedsim.model.profile import CreatureProfile
 from bipedsim.model.source import SourcePoints, motion_points, rest_points
 from bipedsim.motion.motion import Motion
-from bipedsim.motion.skeleton import Skeleton
 
 FloatArray = npt.NDArray[np.float64]
 
-#: End effectors whose rest height is within this fraction of the body's height from the bottom are
-#: feet (contact labels, fall detection).
-FOOT_HEIGHT_FRACTION = 0.25
 GRAVITY = 9.81
 #: A bone shorter than this (m) cannot carry a capsule: the body gets a small sphere instead.
 MIN_CAPSULE_M = 1e-3
@@ -50,7 +54,6 @@ MIN_CAPSULE_M = 1e-3
 #: past its own scale on every joint and stiffen; bodies of ordinary size stay well under the caps.
 DAMPING_SHARE = 0.1
 ARMATURE_SHARE = 0.01
-
 
 def _sized_sim(profile: CreatureProfile, mass: float, size: float) -> CreatureProfile:
     """``profile`` with its joint damping and armature held to :data:`DAMPING_SHARE` and
@@ -65,24 +68,21 @@ def _sized_sim(profile: CreatureProfile, mass: float, size: float) -> CreaturePr
     return replace(profile, sim=replace(sim, joint_damping=damping, armature=armature))
 
 
-def _safe(name: str) -> str:
-    """``name`` with every character MuJoCo names should not hold replaced by ``_``."""
-    return "".join(c if c.isalnum() or c in "_-." else "_" for c in name)
-
-
 def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float | None = None,
                   name: str = "creature") -> BodyPlanSet:
     """The creature body plan for a motion's skeleton (motion in the project frame: m, Z up)."""
     sk = motion.skeleton
     rest = rest_points(motion)
-    size = _extent(rest)
-    tree = _reduce(rest, profile.merge_fraction, size)
+    size = skeleton_extent(rest)
+    tree = reduce_skeleton(rest, profile.merge_fraction, size)
     moving = motion_points(motion)
     ranges = _ball_ranges(tree, moving, profile)
-    feet = _feet(tree, moving)
-    bodies = [_body(tree, j, ranges.get(j), j in feet, profile, size) for j in tree.kept]
-    legs = creature_legs(BodyPlanSet(name=name, profile="creature", bodies=bodies, heading_yaw=0.0, source_names=[],
-                                     sim={}))
+    feet = low_end_effectors(tree, moving)
+    bodies, legs = _bodies_and_legs(tree, ranges, feet, profile, size, name)
+    carrying = carrying_feet(tree, moving, size, [(leg.root, leg.feet) for leg in legs])
+    if carrying:
+        tree, feet = fold_feet(tree, rest, moving, feet, carrying)
+        bodies, legs = _bodies_and_legs(tree, ranges, feet, profile, size, name)
     lighten_legs(bodies, legs)  # two legs: at most a human's share of the mass (model/creature_sole.py)
     mass_of = {j: sum(g.mass for g in b.geoms) for j, b in zip(tree.kept, bodies)}
     target = total_mass if total_mass is not None else profile.total_mass
@@ -99,89 +99,20 @@ def creature_plan(motion: Motion, profile: CreatureProfile, *, total_mass: float
                        source_names=list(sk.names), sim=asdict(profile.sim),
                        extra={"markers": markers, "merged": [sk.names[j] for j in range(sk.num_joints)
                                                              if tree.body_of[j] != j],
-                              "size_m": size, "rest_lift": lift, "soles": soles})
+                              "size_m": size, "rest_lift": lift, "soles": soles,
+                              **({"folded_feet": [tree.names[j] for j in sorted(tree.folded)]} if tree.folded else {})})
 
 
-def _extent(rest: SourcePoints) -> float:
-    """The creature's size (m): the largest extent of its rest pose (joints and End Sites) along x, y
-    or z. A ModelError for a skeleton with no extent or only zero-length bones."""
-    sk = rest.skeleton
-    pts = rest.positions
-    size = float(np.max(pts.max(axis=0) - pts.min(axis=0)))
-    if size <= 0:
-        raise ModelError("the skeleton has no extent: every joint sits at one point")
-    lengths = np.linalg.norm(sk.offsets, axis=1)
-    if sk.num_joints > 1 and np.all(lengths[1:] < 1e-9):
-        raise ModelError("zero-length bones: every joint offset is zero")
-    return size
+def _bodies_and_legs(tree: BodyTree, ranges: dict[int, float], feet: set[int], profile: CreatureProfile,
+                     size: float, name: str) -> tuple[list[BodyPlan], list[Leg]]:
+    """The bodies of ``tree`` (``feet``: the kept joints that are feet) and the legs they make."""
+    bodies = [_body(tree, j, ranges.get(j), j in feet, profile, size) for j in tree.kept]
+    legs = creature_legs(BodyPlanSet(name=name, profile="creature", bodies=bodies, heading_yaw=0.0, source_names=[],
+                                     sim={}))
+    return bodies, legs
 
 
-@dataclass
-class _Tree:
-    """The source skeleton reduced to the creature's bodies (rest pose, m, project frame).
-
-    ``body_of[j]``: the joint whose body joint ``j`` belongs to (itself when kept); ``kept``: the joints
-    that are bodies, in skeleton order (parents first); ``children[j]``: the kept joints hanging from
-    body ``j``; ``ends[j]``: rest positions (m) of the End Sites on body ``j``; ``names[j]``: body names.
-    """
-
-    skeleton: Skeleton
-    pos: FloatArray
-    body_of: npt.NDArray[np.int_]
-    kept: list[int]
-    children: dict[int, list[int]]
-    ends: dict[int, list[FloatArray]]
-    names: dict[int, str]
-
-    def parent_body(self, j: int) -> int:
-        """The kept joint whose body is the parent of kept joint ``j`` (not the root)."""
-        return int(self.body_of[self.skeleton.parents[j]])
-
-
-def _own_bones(rest: SourcePoints) -> FloatArray:
-    """(J,) length (m) of each joint's own bone: the longest segment from it to a child joint or End
-    Site (0 for a leaf without an End Site)."""
-    sk = rest.skeleton
-    pos = rest.positions[:sk.num_joints]
-    bone = np.zeros(sk.num_joints)
-    for c in range(1, sk.num_joints):
-        p = int(sk.parents[c])
-        bone[p] = max(bone[p], float(np.linalg.norm(pos[c] - pos[p])))
-    for e, p in enumerate(sk.end_site_parents):
-        bone[p] = max(bone[p], float(np.linalg.norm(rest.positions[sk.num_joints + e] - pos[p])))
-    return bone
-
-
-def _reduce(rest: SourcePoints, merge_fraction: float, size: float) -> _Tree:
-    """Which joints become bodies: a joint whose own bone is shorter than ``merge_fraction`` x the
-    creature's ``size`` (m) moves almost nothing when it turns, so it merges into its parent's body
-    (its children hang from that body at their rest positions)."""
-    sk = rest.skeleton
-    bone = _own_bones(rest)
-    body_of = np.arange(sk.num_joints)
-    for j in range(1, sk.num_joints):
-        if bone[j] < merge_fraction * size:
-            body_of[j] = body_of[sk.parents[j]]
-    kept = sorted({int(b) for b in body_of})
-    if len(kept) < 2:
-        # one rigid body has nothing to move: a rollout of it would "track" the clip with RMSE 0
-        raise ModelError(
-            f"every one of the {sk.num_joints} joints merges into the root: each bone is shorter than "
-            f"merge_fraction {merge_fraction:g} x the body's size {size:.3g} m "
-            f"(longest bone {bone.max():.3g} m), so the body would be one rigid piece with no joint to "
-            "drive; give a creature profile YAML with a smaller merge_fraction (convert --profile-file)")
-    children: dict[int, list[int]] = {j: [] for j in kept}
-    for j in kept:
-        if j != 0:
-            children[int(body_of[sk.parents[j]])].append(j)
-    ends: dict[int, list[FloatArray]] = {j: [] for j in kept}
-    for e, p in enumerate(sk.end_site_parents):
-        ends[int(body_of[p])].append(rest.positions[sk.num_joints + e])
-    return _Tree(skeleton=sk, pos=rest.positions[:sk.num_joints], body_of=body_of, kept=kept, children=children,
-                 ends=ends, names={j: _safe(sk.names[j]) for j in kept})
-
-
-def _ball_ranges(tree: _Tree, moving: SourcePoints, profile: CreatureProfile) -> dict[int, float]:
+def _ball_ranges(tree: BodyTree, moving: SourcePoints, profile: CreatureProfile) -> dict[int, float]:
     """Ball-joint limit (rad) of each kept non-root joint: the largest rotation of its body relative
     to its parent body over the motion plus ``range_margin``, at least ``range_min``, at most pi."""
     assert moving.rotations is not None
@@ -197,46 +128,34 @@ def _ball_ranges(tree: _Tree, moving: SourcePoints, profile: CreatureProfile) ->
     return ranges
 
 
-def _feet(tree: _Tree, moving: SourcePoints) -> set[int]:
-    """The end effectors (kept joints with no child body) that spend the motion low: median height of
-    their tip above the frame's lowest point within FOOT_HEIGHT_FRACTION of the body's median height;
-    every end effector when none does."""
-    sk = tree.skeleton
-    leaves = [j for j in tree.kept if not tree.children[j]]
-    zs = moving.positions[:, :, 2]
-    rel = zs - zs.min(axis=1, keepdims=True)
-    body_h = float(np.median(rel.max(axis=1))) or 1e-9
-
-    def tip_index(j: int) -> int:
-        e = [k for k, p in enumerate(sk.end_site_parents) if tree.body_of[p] == j]
-        return sk.num_joints + e[0] if e else j
-
-    return {j for j in leaves if np.median(rel[:, tip_index(j)]) <= FOOT_HEIGHT_FRACTION * body_h} or set(leaves)
-
-
-def _geoms(tree: _Tree, j: int, profile: CreatureProfile, size: float) -> list[GeomPlan]:
+def _geoms(tree: BodyTree, j: int, profile: CreatureProfile, size: float) -> list[GeomPlan]:
     """Body ``j``'s geoms (body frame, m, kg): a capsule along each bone leaving it (to each child body
     and End Site), radius ``radius_fraction`` x length clamped to [radius_min, radius_max] x ``size``,
     mass density x volume; a sphere of the smallest radius when no bone is long enough."""
-    lo_r, hi_r = profile.radius_min * size, profile.radius_max * size
     pos = tree.pos
     geoms = []
-    for t in [pos[c] for c in tree.children[j]] + tree.ends[j]:
-        length = float(np.linalg.norm(t - pos[j]))
+    for a, t in tree.bones(j):
+        length = float(np.linalg.norm(t - a))
         if length < MIN_CAPSULE_M:
             continue
-        r = float(np.clip(profile.radius_fraction * length, lo_r, hi_r))
+        r = _capsule_radius(length, profile, size)
         vol = np.pi * r * r * length + 4.0 / 3.0 * np.pi * r ** 3
-        geoms.append(GeomPlan(kind="capsule", size=[r], fromto=[0.0, 0.0, 0.0, *(t - pos[j])],
+        geoms.append(GeomPlan(kind="capsule", size=[r], fromto=[*(a - pos[j]), *(t - pos[j])],
                               mass=profile.density * vol))
     if not geoms:
-        r = float(lo_r)
+        r = float(profile.radius_min * size)
         geoms.append(GeomPlan(kind="sphere", size=[r], pos=[0.0, 0.0, 0.0],
                               mass=profile.density * 4.0 / 3.0 * np.pi * r ** 3))
     return geoms
 
 
-def _body(tree: _Tree, j: int, ball_range: float | None, is_foot: bool, profile: CreatureProfile,
+def _capsule_radius(length: float, profile: CreatureProfile, size: float) -> float:
+    """A bone's capsule radius (m): ``radius_fraction`` x its ``length`` (m), clamped to [radius_min,
+    radius_max] x the creature's ``size`` (m)."""
+    return float(np.clip(profile.radius_fraction * length, profile.radius_min * size, profile.radius_max * size))
+
+
+def _body(tree: BodyTree, j: int, ball_range: float | None, is_foot: bool, profile: CreatureProfile,
           size: float) -> BodyPlan:
     """Kept joint ``j``'s body at its rest position (m): its geoms, a ball joint limited to
     ``ball_range`` (rad; none on the root, which gets the free joint), a touch site at the tip of an
@@ -245,7 +164,7 @@ def _body(tree: _Tree, j: int, ball_range: float | None, is_foot: bool, profile:
     geoms = _geoms(tree, j, profile, size)
     sites = []
     if not tree.children[j]:
-        tip = tree.ends[j][0] if tree.ends[j] else pos[j]
+        tip = tree.tips[j] if j in tree.tips else tree.ends[j][0] if tree.ends[j] else pos[j]
         r = max(g.size[0] for g in geoms) + 0.01 * size
         sites.append(SitePlan(name=f"{names[j]}_touch", pos=list(tip - pos[j]), size=[r], touch=True))
     joints = []
@@ -271,14 +190,14 @@ def _scale_masses(bodies: list[BodyPlan], mass_of: dict[int, float], target: flo
     return scale
 
 
-def _subtrees(tree: _Tree, mass: dict[int, float]) -> tuple[dict[int, float], dict[int, float]]:
+def _subtrees(tree: BodyTree, mass: dict[int, float]) -> tuple[dict[int, float], dict[int, float]]:
     """Per kept joint: the mass (kg) of the subtree it carries (``mass``: each body's own) and the
     subtree's reach (m), the farthest bone tip from the joint along the tree."""
     pos = tree.pos
     sub_mass = dict(mass)
     reach = {j: 0.0 for j in tree.kept}
     for j in reversed(tree.kept):
-        tips = [pos[c] for c in tree.children[j]] + tree.ends[j]
+        tips = [t for _, t in tree.bones(j)]
         reach[j] = max([float(np.linalg.norm(t - pos[j])) for t in tips] +
                        [float(np.linalg.norm(pos[c] - pos[j])) + reach[c] for c in tree.children[j]] + [0.0])
         for c in tree.children[j]:
@@ -286,7 +205,7 @@ def _subtrees(tree: _Tree, mass: dict[int, float]) -> tuple[dict[int, float], di
     return sub_mass, reach
 
 
-def _leg_loads(bodies: list[BodyPlan], tree: _Tree, legs: list[Leg], total: float) -> dict[int, float]:
+def _leg_loads(bodies: list[BodyPlan], tree: BodyTree, legs: list[Leg], total: float) -> dict[int, float]:
     """The mass (kg) each leg joint holds up when its leg stands: the body's ``total`` mass times
     min(1, 2 / legs) (a biped stands on one leg, a quadruped trots on two), for every joint of a leg
     including its feet (the ground pushes on the foot: a paw sized for the paw alone folds under the body)."""
@@ -308,7 +227,7 @@ MAX_STIFFNESS_STEP = 0.25
 LEG_SWING_RATE = 2.0
 
 
-def _set_motors(bodies: list[BodyPlan], tree: _Tree, mass: dict[int, float], profile: CreatureProfile,
+def _set_motors(bodies: list[BodyPlan], tree: BodyTree, mass: dict[int, float], profile: CreatureProfile,
                 size: float, loads: dict[int, float] | None = None) -> None:
     """Motor strength from the load each ball joint carries: torque limit (N m) ``torque_scale`` x load x
     reach (at least 5 % of ``size``) x g, gains the profile's unit gains x load x reach, the stiffness

@@ -38,10 +38,11 @@ def leg_rules(plan: BodyPlanSet, body: CreatureBody, legs: LegSet, ref: LoopedRe
               cfg: CreatureControlConfig) -> LegRules:
     """The planned gait's rules for these legs: two legs walk the dynamic gait of
     :class:`~bipedsim.control.creature.biped.BipedRules` (``cfg.biped``), any other number the
-    quasi-static one of :class:`~bipedsim.control.creature.many_legs.ManyLegs`."""
+    quasi-static one of :class:`~bipedsim.control.creature.many_legs.ManyLegs` (the plan's soles and palms,
+    ``extra["folded_feet"]``, turned by their own joints)."""
     if len(legs) == 2:
         return BipedRules(plan, body, legs, ref, cfg.biped)
-    return ManyLegs()
+    return ManyLegs(tuple(plan.extra.get("folded_feet", ())))
 
 
 class CreatureController(Controller):

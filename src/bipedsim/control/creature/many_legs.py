@@ -1,7 +1,10 @@
 """The planned gait's quasi-static rules, for any number of legs but two (four: a dog, a horse, a bred
 quadruped): the body rests on the support polygon of the feet that stay down while one leg swings.
 
-- **feet**: placed by their toes' touch sites, their own joints held at the neutral pose;
+- **feet**: placed by their toes' touch sites, their own joints held at the neutral pose -- except a
+  foot the body stands on along its length (a sole or palm with its toes or fingers folded in: the
+  plan's ``extra["folded_feet"]``), whose own joint (the ankle, the wrist) the IK turns as well: held,
+  the sole would tip onto its heel or toes as the leg sweeps under the body;
 - **trunk**: on its path, the centre of mass shifted toward the centroid of the feet that carry the
   next swing (sideways only, by ``lateral_only``), by the share an inverted pendulum follows at the
   gait's cycle (:func:`shift_share`);
@@ -52,9 +55,11 @@ class ManyLegs:
 
     name = "creature_gait"
 
-    def __init__(self) -> None:
+    def __init__(self, folded_feet: tuple[str, ...] = ()) -> None:
         #: the support shift's share for this walk (:func:`shift_share`), set per rollout
         self.share = 0.0
+        #: the feet the body stands on along their length (soles, palms): their own joints are not held
+        self.folded_feet = folded_feet
 
     def balance(self, bal: CreatureBalanceConfig) -> CreatureBalanceConfig:
         return bal
@@ -64,8 +69,8 @@ class ManyLegs:
         return [s[0] for s in legs.sites]
 
     def held_feet(self, legs: LegSet, i: int) -> tuple[str, ...]:
-        """The leg's feet."""
-        return legs.legs[i].feet
+        """The leg's feet, less the soles and palms (:attr:`folded_feet`)."""
+        return tuple(f for f in legs.legs[i].feet if f not in self.folded_feet)
 
     def site_heights(self, default: FloatArray) -> FloatArray:
         return default

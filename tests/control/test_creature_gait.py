@@ -104,6 +104,17 @@ def test_neutral_stance_is_feasible_on_the_built_body(quadruped: Path) -> None:
         assert angle <= lim + 1e-6
 
 
+def test_a_stance_wider_than_the_legs_reach_is_narrowed_until_reached() -> None:
+    """Widened past what the legs' joint ranges reach (the horse's feet asked 6 x its hips' half spacing
+    from the mid-line, 0.9 m), the neutral stance is narrowed until the IK reaches every foot, and the
+    legs keep a reach: an unreached stance measured a reach of 0 and planned a walk at 0 m/s."""
+    _, c = _gait(HORSE_WALK, stance_width=6.0)
+    g = c.gait
+    assert _miss(g, 0.0) <= REACH_TOL * g.stance.height
+    assert g.reach.half > 0.0
+    assert g.stance.half_width > 0.15  # wider than the hips (0.15 m from the mid-line), not collapsed
+
+
 def test_ik_reaches_the_planned_feet_inside_joint_ranges() -> None:
     """Over two seconds of the dog's planned walk (posed kinematically, the body on its path), each
     foot's IK residual stays under 1.5 cm and no leg joint leaves its range. (On the horse the swing

@@ -38,6 +38,13 @@ from bipedsim.control.creature.tracking import CreatureBody
 MAX_CROUCH = 0.25
 #: IK rounds (each re-centring the stance under the posed body) and iterations per round
 STANCE_ROUNDS, STANCE_IK_ITERS = 3, 20
+#: a widened stance whose feet the IK brings no nearer than this share of the root height to their places
+#: across the floor is narrowed (the legs' joint ranges do not reach it): the reach's own tolerance
+STANCE_REACH_TOL = 0.04
+#: widenings tried, from ``stance_width`` down to none in equal steps
+WIDEN_TRIES = 5
+#: IK iterations of the check that a posed stance's feet are reached (as many as a reach target's)
+STANCE_CHECK_ITERS = 30
 #: a body's axis turned by less than this (rad) is left as measured from the clip
 MIN_AXIS_TURN = 1e-3
 
@@ -116,7 +123,38 @@ def measure_stance(model: mujoco.MjModel, body: CreatureBody, legs: LegSet, ref:
     default = np.array([float(np.median(clip.qpos[a:b, 2] + rel[:, i, 2] - ref_low[:, i]))
                         if np.all(np.isfinite(ref_low[:, i])) else 0.0 for i in range(n)])
     site_ground = site_heights(default)
-    _widen_pairs(foot, hips, bal.stance_width)
+    ik.q = q.copy()
+    posed = None
+    for width in _widths(bal.stance_width):
+        trial = _pose(model, ik, root_id, q, foot, hips, com, site_ground, bal, width, height, clip_height,
+                      attitude)
+        if posed is None or trial[4] < posed[4]:
+            posed = trial
+        if trial[4] <= STANCE_REACH_TOL * height:
+            posed = trial
+            break
+    q, foot, com, height, _ = posed
+    across = foot[:, 1] - foot[:, 1].mean() if n else np.zeros(0)
+    return Stance(fwd=fwd, q=q, att=att, height=height, clip_height=clip_height, feet=foot, com=com,
+                  site_ground=site_ground, hips=hips, side=np.sign(across),
+                  half_width=float(np.abs(across).max()) if n else 0.0)
+
+
+def _widths(stance_width: float) -> list[float]:
+    """The widenings tried (x the hips' half spacing), widest first: ``stance_width``, then narrower by
+    halves down to none (the clip's own width), :data:`WIDEN_TRIES` in all."""
+    return [stance_width * (1.0 - k / (WIDEN_TRIES - 1)) for k in range(WIDEN_TRIES)]
+
+
+def _pose(model: mujoco.MjModel, ik: LegIK, root_id: int, q0: FloatArray, foot0: FloatArray, hips: FloatArray,
+          com: FloatArray, site_ground: FloatArray, bal: CreatureBalanceConfig, width: float, height: float,
+          clip_height: float, attitude: Attitude | None) -> tuple[FloatArray, FloatArray, FloatArray, float, float]:
+    """The stance posed from the clip's feet ``foot0`` (legs, 3) widened to ``width`` (see
+    :func:`_widen_pairs`) and centred under ``com``: (the posed qpos, the feet where they got, the posed
+    centre of mass, the root height (m), the IK's largest miss (m) in its last round)."""
+    d, n = ik.data, len(hips)
+    q, foot = q0.copy(), foot0.copy()
+    _widen_pairs(foot, hips, width)
     if n:  # centre: the feet's centroid under the neutral pose's centre of mass
         foot[:, 0:2] += com[0:2] - foot[:, 0:2].mean(axis=0)
     # reachable: the legs posed by IK on this stance (inside their joint ranges), the stance then taken
@@ -141,10 +179,27 @@ def measure_stance(model: mujoco.MjModel, body: CreatureBody, legs: LegSet, ref:
             q[2] = height
         if n:
             foot[:, 0:2] += com[0:2] - foot[:, 0:2].mean(axis=0)
-    across = foot[:, 1] - foot[:, 1].mean() if n else np.zeros(0)
-    return Stance(fwd=fwd, q=q, att=att, height=height, clip_height=clip_height, feet=foot, com=com,
-                  site_ground=site_ground, hips=hips, side=np.sign(across),
-                  half_width=float(np.abs(across).max()) if n else 0.0)
+    return q, foot, com, height, _stance_miss(model, ik, q, foot, site_ground, bal, attitude)
+
+
+def _stance_miss(model: mujoco.MjModel, ik: LegIK, q: FloatArray, foot: FloatArray, site_ground: FloatArray,
+                 bal: CreatureBalanceConfig, attitude: Attitude | None) -> float:
+    """The IK's largest miss (m) of the stance's feet (``foot`` relative to the root of ``q``, each on
+    the floor at its standing height), solved from the posed stance as the legs' reach is; the IK's
+    warm start and pose are left as they were."""
+    if not len(foot):
+        return 0.0
+    saved = ik.q.copy()
+    target = np.column_stack([q[0] + foot[:, 0], q[1] + foot[:, 1], site_ground])
+    trial = q.copy()
+    ik.solve(trial, target, q, bal.posture_pull, iters=STANCE_CHECK_ITERS, attitude=attitude)
+    mujoco.mj_kinematics(model, ik.data)
+    miss = float(np.max(np.linalg.norm(ik.site_positions() - target, axis=1)))
+    ik.q[:] = saved
+    ik.data.qpos[:] = saved
+    mujoco.mj_kinematics(model, ik.data)
+    mujoco.mj_comPos(model, ik.data)
+    return miss
 
 
 def _widen_pairs(foot: FloatArray, hips: FloatArray, stance_width: float) -> None:

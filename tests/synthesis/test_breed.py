@@ -394,3 +394,27 @@ def test_the_readme_dog_x_human_child_is_a_creature_by_breed_and_run(tmp_path: P
     _, _, motion, profile = read_source(out, scale="cm")
     assert profile == "creature" and len(detect_body_kind(motion).legs) == 4
 
+
+
+def test_a_bred_childs_rest_stands_with_left_and_right_alike() -> None:
+    """The child's rest (the pose its body is built in, each ball joint's range centred on it) has its
+    legs straight and left and right alike: a horse bred with itself stands in it with its left and
+    right hooves mirrored, each hoof below its hip, and its left and right joints given the same range.
+    On a mid-stride frame the hooves stood 0.13 m (hind) and 0.40 m (fore) apart along the body and the
+    hind knees' ranges differed by 0.12 rad; FK is unchanged."""
+    from bipedsim.synthesis.breed.alignment import _rest_positions, on_typical_rest
+
+    child, _ = breed(load_bvh(HORSE_WALK), load_bvh(HORSE_WALK), mutations=0)
+    sk = child.skeleton
+    np.testing.assert_allclose(child.fk()[0], on_typical_rest(child).fk()[0], atol=1e-9)
+    rest = _rest_positions(sk)
+    for n in ("UpLeg", "Leg", "Foot", "Arm", "ForeArm", "Hand"):
+        left, right = rest[sk.index(f"Left{n}")], rest[sk.index(f"Right{n}")]
+        np.testing.assert_allclose(left, right * [1.0, -1.0, 1.0], atol=0.02, err_msg=n)
+    for top, hoof in (("LeftUpLeg", "LeftFoot"), ("LeftArm", "LeftHand")):
+        leg = rest[sk.index(top)] - rest[sk.index(hoof)]
+        assert leg[2] > 0.9 * np.linalg.norm(leg), top  # a standing leg: its hoof below its hip
+    m = build_model(child, "creature").model
+    for n in ("UpLeg", "Leg", "Foot", "Arm", "ForeArm", "Hand"):
+        left, right = (m.jnt_range[m.joint(f"{s}{n}_ball").id, 1] for s in ("Left", "Right"))
+        assert abs(left - right) < 0.02, (n, left, right)

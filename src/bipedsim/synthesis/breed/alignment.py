@@ -1,6 +1,7 @@
 """3a. Rest-pose alignment: parent B re-expressed in parent A's rest pose at the paired joints (local
 rotations are blended, and rotations from rest poses that differ mean different poses), B's joints between
-paired ones folded into the paired joint below, and a parent rebased on its typical pose."""
+paired ones folded into the paired joint below, a parent rebased on its typical pose, and the child put
+on a standing rest with left and right limbs alike."""
 
 from __future__ import annotations
 
@@ -8,7 +9,9 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
-from bipedsim.motion.motion import Motion, canonical_quat
+from bipedsim.model.creature_kind import detect_body_kind
+from bipedsim.motion.conventions import axis_index
+from bipedsim.motion.motion import Motion, _yaw_between, canonical_quat
 from bipedsim.motion.skeleton import Skeleton
 from bipedsim.synthesis.breed.meta_skeleton import MetaSkeleton
 
@@ -154,6 +157,66 @@ def on_typical_rest(motion: Motion) -> Motion:
     pose of its own motion, with world-parallel joint frames, and its rotations measure how far each
     frame is from it. Two files' local rotations mean the same pose only from such a rest."""
     return motion.rebased(typical_frame(motion))
+
+
+def mean_pose_rotations(motion: Motion, g: FloatArray | None = None) -> FloatArray:
+    """Each joint's global rotation (J, 3, 3) in ``motion``'s mean pose: per joint the chordal mean over
+    the clip of its global rotation with the root's heading (its twist about ``up``) taken off each
+    frame, turned back to the heading of the :func:`typical_frame`. ``g``: the global rotations
+    (T, J, 3, 3), if known.
+
+    The mean over a walk of a limb's orientation is where it is on average: left and right legs,
+    swinging in opposite phases, have mirrored means (a mid-stride frame has one leg forward, the
+    other back), and the mean stands as the walk stands on average."""
+    g = motion.fk()[1] if g is None else g
+    u = axis_index(motion.up)
+    root = Rotation.from_matrix(g[:, 0]).as_quat()  # (T, 4): x, y, z, w
+    yaw = 2.0 * np.arctan2(root[:, u], root[:, 3])  # (T,) rad: the root's twist about up
+    axis = np.eye(3)[u]
+    off = Rotation.from_rotvec(-yaw[:, None] * axis).as_matrix()  # (T, 3, 3)
+    m = np.einsum("tab,tjbc->jac", off, g) / len(g)  # (J, 3, 3): the chordal (matrix) mean
+    uu, _, vt = np.linalg.svd(m)
+    d = np.sign(np.linalg.det(uu @ vt))
+    uu[:, :, 2] *= d[:, None]
+    mean = uu @ vt
+    head = Rotation.from_rotvec(yaw[typical_frame(motion)] * axis).as_matrix()
+    return np.einsum("ab,jbc->jac", head, mean)
+
+
+def on_standing_rest(motion: Motion) -> Motion:
+    """``motion`` with its joint frames turned (:meth:`Motion.reframed`; forward kinematics unchanged on
+    every frame) so that its rest pose (every rotation identity) stands with its left and right limbs
+    alike: the trunk and every joint outside a leg in the mean pose (:func:`mean_pose_rotations`), each
+    leg (the legs :func:`~bipedsim.model.creature_kind.detect_body_kind` measures from the clip) on the
+    frame where it is straightest (:func:`straightest_frame`), turned to the mean pose's heading.
+
+    A bred child's rest is the pose its body is built in, and the body builder centres each ball
+    joint's range on it. On a walk's mid-stride frame (:func:`on_typical_rest`) left and right legs
+    stand in opposite phases and get ranges of different size (a horse x flamingo child's hind hips:
+    0.85 and 0.56 rad); a file's own rest can be no pose the creature walks in (a Biped rig's). Each
+    leg at its straightest is the same pose for left and right in a walk, and a range measured from a
+    straight leg holds its bends; the mean pose alone (bent legs) gives the tightest ranges, and
+    children built on it fell."""
+    sk = motion.skeleton
+    pos, g = motion.fk()
+    rest = mean_pose_rotations(motion, g)
+    u = axis_index(motion.up)
+    for root, feet in detect_body_kind(motion).legs:
+        if root not in sk.names or not feet:
+            continue
+        top, foot = sk.index(root), sk.index(feet[0].split("/")[0])  # "Joint/End Site" -> its joint
+        f = straightest_frame(pos, top, foot)
+        par = int(sk.parents[top])
+        turn = _yaw_between(rest[par], g[f, par], u)
+        for k in sk.subtree(top):
+            rest[k] = turn @ g[f, k]
+    return motion.reframed(np.transpose(rest, (0, 2, 1)), g)
+
+
+def straightest_frame(pos: FloatArray, top: int, foot: int) -> int:
+    """The frame where the leg from joint ``top`` to joint ``foot`` is straightest: its foot farthest
+    from its top (``pos``: global joint positions (T, J, 3), m; the bones between are rigid)."""
+    return int(np.argmax(np.linalg.norm(pos[:, foot] - pos[:, top], axis=1)))
 
 
 def _folded_b_joints(meta: MetaSkeleton, b: Skeleton) -> list[str]:

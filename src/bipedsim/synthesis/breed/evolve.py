@@ -42,7 +42,13 @@ from bipedsim.motion.correspondence import correspondence
 from bipedsim.motion.motion import Motion
 from bipedsim.motion.reroot import fold_static_root
 from bipedsim.motion.skeleton import Skeleton
-from bipedsim.synthesis.breed.alignment import _folded_b_joints, across_unpaired, in_rest_of, on_typical_rest
+from bipedsim.synthesis.breed.alignment import (
+    _folded_b_joints,
+    across_unpaired,
+    in_rest_of,
+    on_standing_rest,
+    on_typical_rest,
+)
 from bipedsim.synthesis.breed.feasible import foot_heights, hold_feet_down
 from bipedsim.synthesis.breed.floor import floor_constraint
 from bipedsim.synthesis.breed.limits import X_RANGE, BreedError, max_breed_frames
@@ -226,6 +232,7 @@ def breed(a: Motion, b: Motion, *, x: float = 0.5, mutations: int = 5, weights: 
     stands_on = {n: h for n, h in stands_on.items() if n in child_sk.names}
     x_joints = hold_feet_down(meta, x, 0.0 if x <= ROLE_FROM_A_UP_TO_X else 1.0, one_parent, stands_on, child_of)
     child, fixes = floor_constraint(depth_first(child_of(x_joints)))
+    child = on_standing_rest(child)  # the rest its body is built in: standing, left and right limbs alike
     tm["constraint"] = time.perf_counter() - t0
     sk = meta.skeleton
     limbs = sorted(sk.names[i] for i in one_parent)

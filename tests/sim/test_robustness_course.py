@@ -365,9 +365,10 @@ def test_a_file_naming_one_course_key_keeps_the_other_defaults(tmp_path: Path) -
 
 def test_the_course_law_turns_the_heading_against_a_measured_crab() -> None:
     """A body whose travel runs 0.5 rad left of its pelvis heading (a crab the reference, walking straight
-    along +x with its pelvis that way, does not have) gets a heading target turned right by about that
-    much, after a few filter times; the travel then runs along the course. Without the compensation
-    (``crab_filter_s: 0``) the target stays the course's heading."""
+    along +x with its pelvis that way, does not have), a deadband beyond the course's band, gets its
+    heading target turned right by that much on top of the course law's turn, after a few filter times;
+    the travel then runs along the course. Without the compensation (``crab_filter_s: 0``) only the law's
+    turn; inside the band the target stays the course's heading."""
     from types import SimpleNamespace
 
     from bipedsim.control.humanoid.settings import CourseConfig
@@ -375,7 +376,8 @@ def test_the_course_law_turns_the_heading_against_a_measured_crab() -> None:
 
     n = 50
     course = Course(xy=tuple((0.02 * i, 0.0) for i in range(n + 1)), heading=(0.0,) * (n + 1), cycle=(0.0, 1.0, 0.0))
-    for cc, want in ((CourseConfig(), -0.5), (CourseConfig(crab_filter_s=0.0), 0.0)):
+    for cc, crab, y in ((CourseConfig(), 0.5, -1.0), (CourseConfig(crab_filter_s=0.0), 0.0, -1.0),
+                        (CourseConfig(), 0.0, 0.0)):
         steer = CourseSteering(course, cc)
         source = SimpleNamespace(course_start=lambda frame: ((0.0, 0.0, 0.0), 0))
         data = SimpleNamespace(xmat=np.eye(3).reshape(1, 9), qpos=np.zeros(7), subtree_com=np.zeros((1, 3)),
@@ -386,5 +388,8 @@ def test_the_course_law_turns_the_heading_against_a_measured_crab() -> None:
             h = steer.heading_target
             vx, vy = math.cos(h + 0.5), math.sin(h + 0.5)
             x += vx * dt
-            steer.steer(x, 0.0, vx, vy, h, dt)  # held on the course's line: the crab alone turns it
-        assert steer.heading_target == pytest.approx(want, abs=0.03)
+            steer.steer(x, y, vx, vy, h, dt)  # held at y: the law's turn and the crab's compensation
+        turn = course_turn(beyond(y, cc.deadband), steer.rate_f if y else 0.0, cc.steer_gain, cc.steer_damping,
+                           cc.max_turn)
+        assert steer.heading_target == pytest.approx(turn - crab, abs=0.03)
+        assert steer.crab == pytest.approx(0.5 if cc.crab_filter_s else 0.0, abs=0.03)

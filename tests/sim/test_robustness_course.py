@@ -366,9 +366,9 @@ def test_a_file_naming_one_course_key_keeps_the_other_defaults(tmp_path: Path) -
 def test_the_course_law_turns_the_heading_against_a_measured_crab() -> None:
     """A body whose travel runs 0.5 rad left of its pelvis heading (a crab the reference, walking straight
     along +x with its pelvis that way, does not have), a deadband beyond the course's band, gets its
-    heading target turned right by that much on top of the course law's turn, after a few filter times;
-    the travel then runs along the course. Without the compensation (``crab_filter_s: 0``) only the law's
-    turn; inside the band the target stays the course's heading."""
+    heading target turned right by that much on top of the course law's turn, after a few filter times,
+    and so does one on the course's line; the travel then runs along the course. Without the compensation
+    (``crab_filter_s: 0``) only the law's turn."""
     from types import SimpleNamespace
 
     from bipedsim.control.humanoid.settings import CourseConfig
@@ -377,7 +377,7 @@ def test_the_course_law_turns_the_heading_against_a_measured_crab() -> None:
     n = 50
     course = Course(xy=tuple((0.02 * i, 0.0) for i in range(n + 1)), heading=(0.0,) * (n + 1), cycle=(0.0, 1.0, 0.0))
     for cc, crab, y in ((CourseConfig(), 0.5, -1.0), (CourseConfig(crab_filter_s=0.0), 0.0, -1.0),
-                        (CourseConfig(), 0.0, 0.0)):
+                        (CourseConfig(), 0.5, 0.0)):
         steer = CourseSteering(course, cc)
         source = SimpleNamespace(course_start=lambda frame: ((0.0, 0.0, 0.0), 0))
         data = SimpleNamespace(xmat=np.eye(3).reshape(1, 9), qpos=np.zeros(7), subtree_com=np.zeros((1, 3)),

@@ -81,10 +81,7 @@ class CourseSteering:
         # inside the band the law is silent (damping included): the balance law keeps the walk's sway
         offset = beyond(offset, cc.deadband)
         rate = self.rate_f if offset != 0.0 else 0.0
-        # the crab's compensation comes in with the law, in full a deadband beyond it: a walk inside the
-        # band keeps the reference's heading, whatever its state
-        share = min(1.0, abs(offset) / cc.deadband) if cc.deadband > 0.0 else 1.0
-        h_t = h_ref + course_turn(offset, rate, cc.steer_gain, cc.steer_damping, cc.max_turn) - share * self.crab
+        h_t = h_ref + course_turn(offset, rate, cc.steer_gain, cc.steer_damping, cc.max_turn) - self.crab
         self.heading_target = h_t
         rh, ch, sh = self.r_heading, math.cos(h_t), math.sin(h_t)
         rh[0, 0], rh[0, 1], rh[1, 0], rh[1, 1] = ch, -sh, sh, ch

@@ -175,8 +175,7 @@ class CourseConfig:
     The crab is measured, the direction of the COM velocity less the pelvis heading, both low-passed over
     ``crab_filter_s`` s, less the reference's own (the course's direction less its heading), and the
     heading target is turned against it (at most ``max_crab`` rad; the estimate low-passed over the same
-    time; measured only while the pelvis follows its target), so the travel, not the pelvis, follows the
-    course. ``crab_filter_s: 0`` turns this off.
+    time), so the travel, not the pelvis, follows the course. ``crab_filter_s: 0`` turns this off.
 
     ``enabled: false``: the heading target stays the pelvis heading at the start (a veering clip is
     walked straight)."""

@@ -27,8 +27,6 @@ Vec3 = tuple[float, float, float]
 
 #: m/s: a COM slower than this (low-passed) has no direction of travel to measure a crab by
 MIN_CRAB_SPEED = 0.1
-#: rad: the crab is measured only while the pelvis heading (low-passed) keeps within this of its target's
-CRAB_FOLLOW = 0.2
 
 
 class CourseSteering:
@@ -50,7 +48,6 @@ class CourseSteering:
         self.crab = 0.0  #: rad, the compensated crab (the body's less the reference's, low-passed)
         self._v = (0.0, 0.0)  #: the COM velocity low-passed (m/s, world)
         self._h = (1.0, 0.0)  #: the pelvis heading's cosine and sine low-passed
-        self._t = (1.0, 0.0)  #: the heading target's cosine and sine low-passed
         self.r_heading = np.eye(3)  #: the heading target's yaw rotation (refilled in place)
 
     def reset(self, source: GaitSource, frame: float, data: mujoco.MjData, pelvis: int) -> None:
@@ -64,7 +61,7 @@ class CourseSteering:
         self.rate_f = 0.0
         self.crab = 0.0
         self._v = (float(data.subtree_linvel[pelvis][0]), float(data.subtree_linvel[pelvis][1]))
-        self._h = self._t = (math.cos(self.heading_target), math.sin(self.heading_target))
+        self._h = (math.cos(self.heading_target), math.sin(self.heading_target))
 
     def steer(self, cx: float, cy: float, vx: float, vy: float, heading: float, dt: float) -> None:
         """The COM at (cx, cy) m moving at (vx, vy) m/s (world), the pelvis heading ``heading`` rad,
@@ -93,15 +90,8 @@ class CourseSteering:
         v0, v1 = v0 + a * (vx - v0), v1 + a * (vy - v1)
         c, s = self._h
         c, s = c + a * (math.cos(heading) - c), s + a * (math.sin(heading) - s)
-        tc, ts = self._t
-        h_t = self.heading_target
-        tc, ts = tc + a * (math.cos(h_t) - tc), ts + a * (math.sin(h_t) - ts)
-        self._v, self._h, self._t = (v0, v1), (c, s), (tc, ts)
+        self._v, self._h = (v0, v1), (c, s)
         if v0 * v0 + v1 * v1 < MIN_CRAB_SPEED * MIN_CRAB_SPEED:  # too slow to have a direction
-            return
-        # a pelvis that does not follow its target (held by its stance foot, or turning) says nothing of the
-        # gait's crab: compensating what is the pelvis's lag would turn the target further from it
-        if abs(math.remainder(math.atan2(s, c) - math.atan2(ts, tc), 2.0 * math.pi)) > CRAB_FOLLOW:
             return
         body = math.remainder(math.atan2(v1, v0) - math.atan2(s, c), 2.0 * math.pi)
         m = self.cc.max_crab

@@ -73,6 +73,7 @@ def test_render_again_gives_the_run_frames(tmp_path: Path) -> None:
     assert len(fa) == len(fb) == 30 and all(np.array_equal(x, y) for x, y in zip(fa, fb))
 
 
+@pytest.mark.slow
 def test_push_arrow_is_drawn(run_dir: Path, tmp_path: Path) -> None:
     """A recorded external force shows as a red arrow on the frames where it acts."""
     import shutil

@@ -33,6 +33,7 @@ def _search(sc, workers: int = 1) -> Correction:
     return corr
 
 
+@pytest.mark.slow
 def test_the_search_is_deterministic_on_any_number_of_processes(small) -> None:
     short = _search(small)  # no loop searched: the search ends with the clip and its correction fades out
     small = replace(small, cfg=replace(small.cfg, reconstruct=replace(small.cfg.reconstruct, loop_cycles=1)))

@@ -86,7 +86,7 @@ def test_steering_in_the_controller_follows_the_law(walk) -> None:
         x0, y0 = data.subtree_com[ctrl.pelvis, :2].tolist()
         for e in (0.3, 1.0, -1.2, 4.0):
             ctrl.steering.rate_f = 0.0
-            ctrl.steering.steer(x0 + 0.5, y0 + e, 0.9, 0.0, 0.0, ctrl.model.opt.timestep)
+            ctrl.steering.steer(x0 + 0.5, y0 + e, 0.9, 0.0, 1.0, 0.0, ctrl.model.opt.timestep)
             assert ctrl.steering.offset == pytest.approx(e, abs=0.02)  # the course passes the start COM
             want = course_turn(beyond(ctrl.steering.offset, cc.deadband), 0.0, cc.steer_gain, cc.steer_damping,
                                cc.max_turn)
@@ -388,7 +388,8 @@ def test_the_course_law_turns_the_heading_against_a_measured_crab() -> None:
             h = steer.heading_target
             vx, vy = math.cos(h + 0.5), math.sin(h + 0.5)
             x += vx * dt
-            steer.steer(x, y, vx, vy, h, dt)  # held at y: the law's turn and the crab's compensation
+            # held at y: the law's turn and the crab's compensation
+            steer.steer(x, y, vx, vy, math.cos(h), math.sin(h), dt)
         turn = course_turn(beyond(y, cc.deadband), steer.rate_f if y else 0.0, cc.steer_gain, cc.steer_damping,
                            cc.max_turn)
         assert steer.heading_target == pytest.approx(turn - crab, abs=0.03)

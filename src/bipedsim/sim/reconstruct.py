@@ -162,8 +162,8 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
     if not isinstance(ctrl, SimbiconController) or not isinstance(src, ClipSource) or not src.whole:
         raise ModelError("reconstruction drives the humanoid's controller tracking a whole clip (source: clip)")
     frame0 = float(ctrl.start_frame())
-    total_s = search_span(ctrl, cfg.loop_cycles)
-    _, looped = search_end(src, cfg.loop_cycles, cfg.loop_max_s)
+    end_frame, looped = search_end(src, cfg.loop_cycles, cfg.loop_max_s)
+    total_s = (end_frame - frame0) * src.frame_time
     if total_s <= 0:
         return None, None
     played = (src.qpos_played, src.playlist.qvel)

@@ -141,8 +141,8 @@ def measure_stance(model: mujoco.MjModel, body: CreatureBody, legs: LegSet, ref:
 
 
 def _widths(stance_width: float) -> list[float]:
-    """The widenings tried (x the hips' half spacing), widest first: ``stance_width``, then narrower by
-    halves down to none (the clip's own width), :data:`WIDEN_TRIES` in all."""
+    """The widenings tried (x the hips' half spacing), widest first: ``stance_width``, then narrower in
+    equal steps down to none (the clip's own width), :data:`WIDEN_TRIES` in all."""
     return [stance_width * (1.0 - k / (WIDEN_TRIES - 1)) for k in range(WIDEN_TRIES)]
 
 

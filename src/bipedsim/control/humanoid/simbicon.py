@@ -304,7 +304,7 @@ class SimbiconController(Controller):
         heading = math.atan2(pm[3], pm[0])
         c, s = math.cos(heading), math.sin(heading)
         if tb.course_on:
-            self.steering.steer(cx, cy, vx, vy, heading, dt)
+            self.steering.steer(cx, cy, vx, vy, c, s, dt)
             self.state.course_offset = self.steering.offset
             self.state.heading_target = self.steering.heading_target
         ry = self._ry

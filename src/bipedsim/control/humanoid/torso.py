@@ -63,14 +63,14 @@ class CourseSteering:
         self._v = (float(data.subtree_linvel[pelvis][0]), float(data.subtree_linvel[pelvis][1]))
         self._h = (math.cos(self.heading_target), math.sin(self.heading_target))
 
-    def steer(self, cx: float, cy: float, vx: float, vy: float, heading: float, dt: float) -> None:
-        """The COM at (cx, cy) m moving at (vx, vy) m/s (world), the pelvis heading ``heading`` rad,
-        after a control step of ``dt`` s: the heading target becomes the course's heading turned back
-        toward it and against the walk's crab."""
+    def steer(self, cx: float, cy: float, vx: float, vy: float, hc: float, hs: float, dt: float) -> None:
+        """The COM at (cx, cy) m moving at (vx, vy) m/s (world), the pelvis heading's cosine ``hc`` and
+        sine ``hs``, after a control step of ``dt`` s: the heading target becomes the course's heading
+        turned back toward it and against the walk's crab."""
         cc = self.cc
         offset, rate, h_ref = self.tracker.update(cx, cy, vx, vy)
         if cc.crab_filter_s > 0.0 and self.tracker.moving:
-            self._measure_crab(vx, vy, heading, min(1.0, dt / cc.crab_filter_s))
+            self._measure_crab(vx, vy, hc, hs, min(1.0, dt / cc.crab_filter_s))
         self.offset = offset
         # the rate is low-passed: the walk's own sway swings it by about 0.1 m/s within every cycle
         a = dt / cc.rate_filter
@@ -83,13 +83,14 @@ class CourseSteering:
         rh, ch, sh = self.r_heading, math.cos(h_t), math.sin(h_t)
         rh[0, 0], rh[0, 1], rh[1, 0], rh[1, 1] = ch, -sh, sh, ch
 
-    def _measure_crab(self, vx: float, vy: float, heading: float, a: float) -> None:
-        """Low-pass the COM velocity (vx, vy) m/s and the pelvis ``heading`` (rad) by the share ``a``, and
-        move :attr:`crab` that share toward the angle between them less the reference's own crab."""
+    def _measure_crab(self, vx: float, vy: float, hc: float, hs: float, a: float) -> None:
+        """Low-pass the COM velocity (vx, vy) m/s and the pelvis heading (its cosine ``hc`` and sine
+        ``hs``) by the share ``a``, and move :attr:`crab` that share toward the angle between them less the
+        reference's own crab."""
         v0, v1 = self._v
         v0, v1 = v0 + a * (vx - v0), v1 + a * (vy - v1)
         c, s = self._h
-        c, s = c + a * (math.cos(heading) - c), s + a * (math.sin(heading) - s)
+        c, s = c + a * (hc - c), s + a * (hs - s)
         self._v, self._h = (v0, v1), (c, s)
         if v0 * v0 + v1 * v1 < MIN_CRAB_SPEED * MIN_CRAB_SPEED:  # too slow to have a direction
             return

@@ -261,6 +261,7 @@ def test_loop_segment_skips_lying_frames() -> None:
     assert z[a] > 0.75 * np.median(z) and b - a >= 0.4 * sc.clip.num_frames
 
 
+@pytest.mark.slow
 def test_run_a_dog_without_flags_and_sweep_it(tmp_path: Path) -> None:
     """README's creature command: no --profile; a sweep with a creature reference (no profile key)
     pushes the creature's root and draws its results."""

@@ -243,6 +243,7 @@ def test_best_yaml_runs(tiny_run, tmp_path: Path, capsys) -> None:
     assert "simulated" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_same_seed_same_result_and_a_finished_tune_reruns_nothing(tiny_run, tmp_path: Path, monkeypatch) -> None:
     p, first, _ = tiny_run
     summary = run_tune(load_tune(p), tmp_path / "b", progress=False)

@@ -235,3 +235,20 @@ def test_the_leap_is_asked_for_its_lead_time_before_the_take_off() -> None:
     assert ctrl.asked[0][1] == pytest.approx([3.0, 0.0, 2.0])  # along the path's heading, rising as planned
     leaps(1.3, data, ctrl)
     assert len(ctrl.asked) == 1 and leaps.asked == [1.2]
+
+
+def test_the_leap_asks_the_slowest_take_off_that_flies_the_plans_distance() -> None:
+    from types import SimpleNamespace
+
+    from bipedsim.synthesis.world.physics import Leaps
+
+    pts = np.stack([np.zeros(101), np.linspace(0.0, 10.0, 101)], axis=1)  # a path heading north
+    curve = Curve(xy=pts, s=pts[:, 1].copy(), yaw=np.full(101, math.pi / 2), tile_s=np.array([0.0]))
+    steering = Steering(curve, SimulateSettings(), parse_world({"tile": 2.0, "rows": ["S...G"]}, "w.yaml"))
+    jump = SimpleNamespace(s_takeoff=5.0, s_land=7.0, vx=3.5, vz=2.0, g=9.81)
+    v = Leaps([jump], curve, steering, 45.0).velocity(0)
+    # 45 degrees over the 2 m from take-off to landing: v^2 = g d, half of it in each component
+    assert v == pytest.approx([0.0, math.sqrt(9.81), math.sqrt(9.81)], abs=1e-9)
+    assert Leaps([jump], curve, steering, None).velocity(0) == pytest.approx([0.0, 3.5, 2.0], abs=1e-9)
+    with pytest.raises(ConfigError, match="simulate.leap_angle_deg"):
+        SimulateSettings(leap_angle_deg=90.0).validate()

@@ -4,9 +4,10 @@ aside from :meth:`Leap.__init__` until the body has landed, then restarted where
 - **crouch** (``crouch_time`` sqrt(L/g) s): every foot is set down where it is (a swinging one where
   it hangs, on the floor) and held there while the root sinks ``crouch`` L, keeping its horizontal
   velocity;
-- **push**: every leg touching the floor pushes the virtual force that takes the body from its velocity
-  to the take-off velocity over the stroke from the crouch to the legs straightened to ``straight`` of
-  their length (constant vertical acceleration: the push lasts 2 x stroke / v_z), F = m (a_plan + g) plus a PD of
+- **push**: every leg touching the floor (a foot that has left it is not pushed on) pushes the virtual
+  force that takes the body from where it is and its velocity to the take-off velocity over the rest of
+  the stroke, to the legs straightened to ``straight`` of their length (constant acceleration: the push
+  lasts 2 x rise / (v_z now + v_z take-off)), F = m (a_plan + g) plus a PD of
   the root toward its planned path, and a PD of the attitude toward level; shared among the feet, each
   share held to the friction cone, made joint torques through each leg's Jacobian transpose (as the
   gait's virtual forces are, :meth:`~bipedsim.control.creature.legs.LegSet.stance_torques`), the legs'
@@ -59,8 +60,8 @@ class LeapSettings:
     #: the legs' joint damping during the push, a share of the full (the gait's kd): the damping that
     #: steadies a standing leg would swallow much of a push that straightens it in a tenth of a second
     push_damping: float = field(default=0.1, metadata={"min": 0.0, "max": 1.0})
-    #: the legs' joint stiffness during the crouch and the push, a share of full: the virtual force
-    #: through the legs does the pushing, the joints' PD only keeps the legs' shape
+    #: the legs' joint stiffness during the push, a share of full (the crouch holds them at full): the
+    #: virtual force through the legs does the pushing, the joints' PD only keeps the legs' shape
     push_stiffness: float = field(default=0.3, metadata={"gt": 0.0, "max": 1.0})
     #: the push ends at the latest after this x its planned time (a body that cannot reach the take-off
     #: velocity leaves the ground with what it reached)
@@ -185,11 +186,7 @@ class Leap:
             return p, self.v0.copy(), np.zeros(3)
         tau = min(t - self.t_push, self.push_s)
         a = (self.v_to - self.vp) / self.push_s
-        a[2] = self.v_to[2] / self.push_s  # from rest: the stroke's rise is v_z x push_s / 2
-        p = self.pp + self.vp * tau + 0.5 * a * tau * tau
-        v = self.vp + a * tau
-        v[2] = a[2] * tau
-        return p, v, a
+        return self.pp + self.vp * tau + 0.5 * a * tau * tau, self.vp + a * tau, a
 
     def _attitude(self) -> FloatArray:
         """The root's planned orientation (quaternion w, x, y, z): the stance's, level, at the leap's heading."""
@@ -235,9 +232,7 @@ class Leap:
         if self.phase == "crouch" and t >= self.t_push:
             self.phase = "push"
             self._damp_legs(self.settings.push_damping)
-            self.pp = np.array([data.qpos[0], data.qpos[1], self.z_stand - self.settings.crouch * self.height])
-            self.vp = np.array([data.qvel[0], data.qvel[1], 0.0])
-            self.t_push = t
+            self._start_push(data, v_com, t)
         if self.phase == "push":
             reached = vz >= self.v_to[2]
             overrun = t >= self.t_push + self.settings.push_overrun * self.push_s
@@ -258,6 +253,19 @@ class Leap:
             if t >= self.t_land + self.settings.land_time / self.w0:
                 self.phase, self.t_done = "done", t
 
+    def _start_push(self, data: mujoco.MjData, v_com: FloatArray, t: float) -> None:
+        """The push's plan from where the body is at ``t`` (s): from the root's place and the centre of
+        mass's velocity (m/s) to the take-off velocity at the stroke's top (the legs straightened to
+        ``straight``), at constant acceleration. A body still sinking from the crouch starts its rise
+        from at most half the take-off's vertical speed downward."""
+        self.pp = data.qpos[0:3].copy()
+        self.vp = v_com.copy()
+        self.vp[2] = max(float(v_com[2]), -0.5 * float(self.v_to[2]))
+        top = self.z_stand + leg_extension(self.gait, self.settings.straight)
+        rise = max(top - float(self.pp[2]), 0.25 * self.stroke)
+        self.push_s = 2.0 * rise / (float(self.vp[2]) + float(self.v_to[2]))
+        self.t_push = t
+
     def _control(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, down: list[bool]) -> FloatArray:
         gait, body, legs, s = self.gait, self.gait.body, self.gait.legs, self.settings
         stiff = 1.0
@@ -267,7 +275,7 @@ class Leap:
             q_root = np.concatenate([p, self._attitude()])
             feet = self.feet
             force, torque = self._wrench(data, p, v, a)
-            stiff = s.push_stiffness
+            stiff = s.push_stiffness if self.phase == "push" else 1.0
         elif self.phase == "flight":
             q_root = data.qpos[0:7].copy()
             rising = data.qvel[2] > 0.0
@@ -288,9 +296,10 @@ class Leap:
         e = body.joint_error(data, target)
         tau_all = np.zeros(model.nu)
         tau_all[body.acts.ravel()] = (stiff * body.kp[:, None] * e).ravel()
-        # in the crouch and the push every foot is planned down: one that bounces off the floor for a
-        # step keeps pushing toward it (its point then its touch site)
-        stance = list(range(len(down))) if self.phase in ("crouch", "push") else [i for i, dn in enumerate(down) if dn]
+        # in the crouch every foot is planned down (one that bounces off the floor for a step keeps
+        # pressing toward it); in the push only the feet on the floor push: one that has left it is
+        # not flung (its leg keeps its shape)
+        stance = list(range(len(down))) if self.phase == "crouch" else [i for i, dn in enumerate(down) if dn]
         if force is not None and stance:
             self.peak_force = max(self.peak_force, float(np.linalg.norm(force)))
             tau_all += legs.stance_torques(data, force, torque, stance, data.subtree_com[body.root_body],

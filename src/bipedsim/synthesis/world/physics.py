@@ -77,6 +77,11 @@ class SimulateSettings:
     #: the body leaps at each jump event of its path (``CreatureController.leap``, the plan's take-off
     #: velocity along the path's heading), timed so its take-off comes at the plan's take-off point
     leap: bool = True
+    #: the take-off angle (degrees above the path) the body's leap is asked for, at the speed that flies
+    #: the plan's take-off-to-landing distance over level ground: 45 is the slowest take-off, the least
+    #: a short-legged push must give (the plan's own angle, chosen for the least force of a fixed-time
+    #: push, asks more speed); None: the plan's angle and speed
+    leap_angle_deg: float | None = 45.0
 
     def validate(self) -> None:
         """Each value in its range (a :class:`ConfigError` naming the key)."""
@@ -84,8 +89,10 @@ class SimulateSettings:
                             ("max_turn_rate", 0.01, 20.0), ("goal_radius_m", 0.01, 50.0),
                             ("time_factor", 0.1, 20.0), ("min_seconds", 0.0, 600.0), ("off_path_m", 0.01, 50.0),
                             ("record_hz", 1.0, 500.0),
-                            ("progress_window_m", 0.1, 100.0)):
+                            ("progress_window_m", 0.1, 100.0), ("leap_angle_deg", 5.0, 85.0)):
             v = getattr(self, key)
+            if key == "leap_angle_deg" and v is None:
+                continue
             if not (isinstance(v, (int, float)) and lo <= v <= hi):
                 raise ConfigError(f"must lie in [{lo:g}, {hi:g}], got {v!r}", key=f"simulate.{key}")
 
@@ -121,16 +128,24 @@ class Leaps:
     plan's take-off velocity (its forward part along the path's heading at the take-off, its vertical
     part as planned). A controller without ``leap`` is left walking."""
 
-    def __init__(self, jumps: list[Any], curve: Curve, steering: Steering) -> None:
+    def __init__(self, jumps: list[Any], curve: Curve, steering: Steering, angle_deg: float | None = None) -> None:
         self.jumps, self.curve, self.steering = jumps, curve, steering
+        #: the take-off angle asked (degrees; None: each plan's own)
+        self.angle_deg = angle_deg
         #: per jump: the time (s) its leap was asked for (None: not yet)
         self.asked: list[float | None] = [None] * len(jumps)
 
     def velocity(self, k: int) -> FloatArray:
-        """Jump ``k``'s take-off velocity (m/s, world)."""
+        """Jump ``k``'s take-off velocity (m/s, world): at :attr:`angle_deg` the speed that flies the plan's
+        take-off-to-landing distance d over level ground, v = sqrt(g d / sin 2a); else the plan's."""
         j = self.jumps[k]
         _, yaw = self.curve.at(np.array(j.s_takeoff))
-        return np.array([j.vx * math.cos(float(yaw)), j.vx * math.sin(float(yaw)), j.vz])
+        vx, vz = j.vx, j.vz
+        if self.angle_deg is not None:
+            a = math.radians(self.angle_deg)
+            v = math.sqrt(getattr(j, "g", 9.81) * (j.s_land - j.s_takeoff) / math.sin(2 * a))
+            vx, vz = v * math.cos(a), v * math.sin(a)
+        return np.array([vx * math.cos(float(yaw)), vx * math.sin(float(yaw)), vz])
 
     def __call__(self, t: float, data: Any, ctrl: Controller) -> None:
         leap = getattr(ctrl, "leap", None)
@@ -246,7 +261,7 @@ def run_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[s
     seconds = max(settings.min_seconds, settings.time_factor * syn.motion.duration)
     spec = RolloutSpec(seconds=seconds, seed=seed, start_frame=0.0, fall=sc.fall_criteria())
     steering = Steering(syn.curve, settings, world)
-    leaps = Leaps(syn.jumps if settings.leap else [], syn.curve, steering)
+    leaps = Leaps(syn.jumps if settings.leap else [], syn.curve, steering, settings.leap_angle_deg)
     rec = Recorder(sc.built.model, record_hz=settings.record_hz, seconds=seconds, feet=len(ctrl.foot_names()))
     t_built = time.perf_counter()
     with Rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=sc.clip.qpos[0].copy(),

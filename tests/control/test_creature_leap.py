@@ -1,5 +1,6 @@
-"""The creature's leap (control/creature/leap.py): its push's timing, its settings' checks, and a leap
-from standing on the generated dog going through its phases with every foot off the floor."""
+"""The creature's leap (control/creature/leap.py): its push's timing, its settings' checks, the feet's
+share of a wrench held in their friction cones, a leap from walking on the generated dog reaching its
+take-off velocity on all its feet, and one going through its phases with every foot off the floor."""
 
 from __future__ import annotations
 
@@ -11,7 +12,15 @@ import pytest
 from creature_clips import dog_clip
 
 from bipedsim.control.creature.controller import CreatureController
-from bipedsim.control.creature.leap import PHASES, LeapSettings, lead_time, leg_extension, push_time, stroke
+from bipedsim.control.creature.leap import (
+    PHASES,
+    LeapSettings,
+    cone_forces,
+    lead_time,
+    leg_extension,
+    push_time,
+    stroke,
+)
 from bipedsim.errors import ConfigError
 from bipedsim.sim.rollout import Rollout, RolloutSpec
 from bipedsim.sim.runner import load_scenario
@@ -25,10 +34,50 @@ def test_push_time_is_the_stroke_at_constant_acceleration() -> None:
 
 
 @pytest.mark.parametrize("key, value", [("crouch", -0.1), ("straight", 0.0), ("land_stiffness", 2.0),
-                                        ("crouch_time", float("nan"))])
+                                        ("crouch_time", float("nan")), ("set_time", -1.0), ("cone_edges", 2),
+                                        ("moment_weight", 0.0)])
 def test_bad_leap_settings_name_their_key(key: str, value: float) -> None:
     with pytest.raises(ConfigError, match=f"leap.{key}"):
         LeapSettings(**{key: value}).validate()
+
+
+def test_the_feet_share_a_wrench_inside_their_friction_cones() -> None:
+    """Four feet under a body 0.45 m up: a push forward and up (through the centre of mass) is carried
+    exactly, the hind feet taking most of it (the moment of the forward force about the centre of mass);
+    a sideways pull beyond friction is carried only as far as the cones allow."""
+    feet = np.array([[0.3, 0.1, 0.0], [0.3, -0.1, 0.0], [-0.3, 0.1, 0.0], [-0.3, -0.1, 0.0]])
+    com = np.array([0.0, 0.0, 0.45])
+    f = cone_forces(np.array([245.0, 0.0, 448.0]), np.zeros(3), feet, com, 0.8, 0.45)
+    assert f.sum(axis=0) == pytest.approx([245.0, 0.0, 448.0], abs=1.0)
+    moment = sum(np.cross(p - com, fi) for p, fi in zip(feet, f))
+    assert np.abs(moment).max() < 1.0
+    assert f[2:, 2].sum() > 3.0 * f[:2, 2].sum()  # the hind feet push
+    for want in (np.array([245.0, 0.0, 448.0]), np.array([0.0, 500.0, 100.0])):
+        f = cone_forces(want, np.zeros(3), feet, com, 0.8, 0.45)
+        assert (f[:, 2] >= -1e-9).all()
+        assert (np.linalg.norm(f[:, 0:2], axis=1) <= 0.8 * f[:, 2] + 1e-6).all()
+
+
+def test_a_leap_from_walking_reaches_its_take_off_on_all_its_feet() -> None:
+    """The generated dog, walking, asked at 1 s for 1 m/s forward and 2 m/s up: it crouches as it walks,
+    sets its feet and pushes on all four, none leaving the floor before half the push, and leaves the
+    floor with at least 85 % of the velocity asked, forward and up."""
+    sc = load_scenario(bvh=dog_clip())
+    ctrl = sc.controller()
+    watch = _Watch(1.0, np.array([1.0, 0.0, 2.0]))
+    spec = RolloutSpec(seconds=1.9, start_frame=0.0, fall=sc.fall_criteria())
+    with Rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=sc.clip.qpos[0].copy(),
+                 hooks=[watch]) as run:
+        while run.step():
+            pass
+        run.finish()
+    rec = ctrl.leaps[0].record()
+    assert rec["push_feet"] == 4
+    assert all(t is None or t >= 0.5 * rec["push_s"] for t in rec["push_feet_lost_s"])
+    asked, got = np.array(rec["takeoff_planned_m_s"]), np.array(rec["takeoff_reached_m_s"])
+    ahead = asked[0:2] / np.linalg.norm(asked[0:2])
+    assert got[0:2] @ ahead >= 0.85 * np.linalg.norm(asked[0:2])
+    assert got[2] >= 0.85 * asked[2]
 
 
 class _Watch:
@@ -69,7 +118,7 @@ def test_a_leap_from_standing_goes_through_its_phases_off_the_floor() -> None:
             pass
         run.finish()
     seen = [p for p in dict.fromkeys(r[1] for r in watch.rows) if p != "-"]
-    assert seen[:3] == list(PHASES[:3])
+    assert seen[:4] == list(PHASES[:4])
     flight = [r for r in watch.rows if r[1] == "flight"]
     assert any(r[2] == 0 for r in flight)
     rec = ctrl.leaps[0].record()

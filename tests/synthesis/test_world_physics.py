@@ -252,3 +252,40 @@ def test_the_leap_asks_the_slowest_take_off_that_flies_the_plans_distance() -> N
     assert Leaps([jump], curve, steering, None).velocity(0) == pytest.approx([0.0, 3.5, 2.0], abs=1e-9)
     with pytest.raises(ConfigError, match="simulate.leap_angle_deg"):
         SimulateSettings(leap_angle_deg=90.0).validate()
+
+
+class _FootprintLeaper(_Leaper):
+    """A leaper with a body: feet 0.4 m ahead of the root to 0.1 m behind it, a walked crouch of 0.3 s
+    before the set and 0.5 s to the take-off."""
+
+    def leap_footprint(self) -> tuple[float, float]:
+        return 0.4, -0.1
+
+    def leap_set_s(self) -> float:
+        return 0.3
+
+
+def test_the_leap_plants_the_front_feet_short_of_the_gap_and_lands_the_hind_feet_past_it() -> None:
+    from types import SimpleNamespace
+
+    from bipedsim.synthesis.world.physics import Leaps
+
+    pts = np.stack([np.linspace(0.0, 10.0, 101), np.zeros(101)], axis=1)
+    curve = Curve(xy=pts, s=pts[:, 0].copy(), yaw=np.zeros(101), tile_s=np.array([0.0]))
+    steering = Steering(curve, SimulateSettings(), parse_world({"tile": 2.0, "rows": ["S...G"]}, "w.yaml"))
+    jump = SimpleNamespace(s_takeoff=5.0, s_land=7.0, width=1.0, vx=3.0, vz=2.0, g=9.81)  # the gap: 5.5 to 6.5 m
+    leaps, ctrl = Leaps([jump], curve, steering, 45.0, margin=0.2, speed_margin=1.1), _FootprintLeaper()
+    # the set: front feet 0.2 x the 0.5 m footprint short of the near edge, 5.5 - 0.4 - 0.1 = 5.0 m
+    assert leaps.set_point(0, ctrl) == pytest.approx(5.0)
+    data = SimpleNamespace(qpos=np.array([4.0, 0.0, 0.5]), qvel=np.array([1.0, 0.0, 0.0]))
+    steering.progress = 4.6  # 0.4 m short of the set at 1 m/s: 0.4 s > the 0.3 s crouch
+    leaps(1.0, data, ctrl)
+    assert ctrl.asked == []
+    steering.progress = 4.75
+    leaps(1.2, data, ctrl)
+    assert len(ctrl.asked) == 1
+    # take-off 0.2 m on (set and push at 1 m/s), the hind feet down 0.1 m past the far edge:
+    # d = (6.5 + 0.1 + 0.1) - 5.2 = 1.5 m, at 45 degrees v^2 = g d, asked x 1.1
+    v = 1.1 * math.sqrt(9.81 * 1.5) / math.sqrt(2.0)
+    assert ctrl.asked[0][1] == pytest.approx([v, 0.0, v], rel=1e-6)
+    assert leaps.planned[0]["flight_m"] == pytest.approx(1.5)

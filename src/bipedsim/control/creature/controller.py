@@ -101,7 +101,7 @@ class CreatureController(Controller):
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, dt: float) -> FloatArray:
         if self.gait is None or self.cfg.support:
             return self.track.step(data, t)
-        tau = self._leap_step(model, data, t)
+        tau = self._leap_step(model, data, t, dt)
         return tau if tau is not None else self.gait.step(model, data, t, dt)
 
     # ------------------------------------------------------------------ the leap
@@ -124,7 +124,19 @@ class CreatureController(Controller):
         crouch and push."""
         return lead_time(self.gait, np.asarray(velocity, dtype=float).reshape(3), self.leap_settings)
 
-    def _leap_step(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> FloatArray | None:
+    def leap_set_s(self) -> float:
+        """The time (s) from :meth:`leap`'s ``t`` to the set, when the feet are planted for the push (the
+        walked crouch)."""
+        return self.leap_settings.crouch_time / self.gait.legs.omega0
+
+    def leap_footprint(self) -> tuple[float, float]:
+        """The feet's reach (m) ahead of the root along its heading in the gait's neutral stance: the
+        foremost foot's and the hindmost's (negative behind the root). A leap over a gap plants its
+        front feet short of the near edge and lands its hind feet past the far one."""
+        x = self.gait.stance.feet[:, 0]
+        return float(np.max(x)), float(np.min(x))
+
+    def _leap_step(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, dt: float = 0.0) -> FloatArray | None:
         """The leap's torques while one is under way (one asked for starts at its time), else None."""
         if self._leap_asked is not None and t >= self._leap_asked[0] - 1e-9:
             self._leaping = Leap(self.gait, data, t, self._leap_asked[1], self.leap_settings)
@@ -132,7 +144,7 @@ class CreatureController(Controller):
             self._leap_asked = None
         if self._leaping is None:
             return None
-        tau = self._leaping.step(model, data, t)
+        tau = self._leaping.step(model, data, t, dt)
         if tau is None:
             self._leaping = None
         return tau

@@ -1,17 +1,24 @@
-"""A legged creature's leap (a jump over a gap), for any number of legs: the planned gait is set
-aside from :meth:`Leap.__init__` until the body has landed, then restarted where it landed.
+"""A legged creature's leap (a jump over a gap), for any number of legs: the planned gait walks on
+through the crouch, is set aside from the set until the body has landed, then restarts where it landed.
 
-- **crouch** (``crouch_time`` sqrt(L/g) s): every foot is set down where it is (a swinging one where
-  it hangs, on the floor) and held there while the root sinks ``crouch`` L, keeping its horizontal
-  velocity;
-- **push**: every leg touching the floor (a foot that has left it is not pushed on) pushes the virtual
-  force that takes the body from where it is and its velocity to the take-off velocity over the rest of
-  the stroke, to the legs straightened to ``straight`` of their length (constant acceleration: the push
-  lasts 2 x rise / (v_z now + v_z take-off)), F = m (a_plan + g) plus a PD of
-  the root toward its planned path, and a PD of the attitude toward level; shared among the feet, each
-  share held to the friction cone, made joint torques through each leg's Jacobian transpose (as the
-  gait's virtual forces are, :meth:`~bipedsim.control.creature.legs.LegSet.stance_torques`), the legs'
-  joints PD-tracking the plan solved by IK with the feet where they stand;
+- **crouch** (``crouch_time`` sqrt(L/g) s): walked -- the gait steps on while its root is lowered
+  ``crouch`` L, so its feet stay under the body and the walking speed is carried into the push;
+- **set** (``set_time`` sqrt(L/g) s): every foot is set down where it is (a swinging one where it hangs,
+  on the floor) and held; the root's sideways sway is brought to rest and its speed along the heading
+  eased to ``crouch_carry`` of the walk's, at the crouch's depth;
+- **push**: every leg on the floor (within ``touch`` L of it: a foot that bounces off for a step still
+  pushes) pushes until it straightens to ``straight`` of its length or a joint reaches its range's end
+  (``limit_margin``); the stroke's top is where half the legs have straightened, moving along the push's
+  mean velocity from the feet as they stand. The force on the body is m (a + g), a the constant
+  acceleration that takes the centre of mass from its velocity now to the take-off velocity over the
+  rest of the stroke, re-planned every step (a body that falls behind is pushed the harder); the torque
+  about the centre of mass turns the root toward level and brings the body's mean spin (its angular
+  momentum over its inertia) to rest. The feet share that wrench each inside its friction cone and
+  pushing (:func:`cone_forces`: non-negative least squares on the cones' edges), and the joint torques
+  are the body's inverse dynamics with those contact forces and the feet fixed (the legs' own masses
+  included: a dog's legs are near half its mass), held as a whole to the torque limits (one factor for
+  every joint). The legs' shape is solved by IK for the body where it is, so a trunk that tilts does not
+  lift its feet; a foot off the floor is reached ``press`` L below it;
 - **flight**: the legs tucked (each foot drawn ``tuck`` L up toward the trunk from its neutral place,
   held in the root's own frame) while the body rises; past the apex they reach for the ground (the
   neutral stance under the root) with their stiffness x ``land_stiffness``;
@@ -34,6 +41,7 @@ from typing import Any
 
 import mujoco
 import numpy as np
+from scipy.optimize import nnls
 from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray
@@ -43,7 +51,7 @@ from bipedsim.control.creature.planner import smoothstep
 from bipedsim.errors import ConfigError
 
 #: the phases of a leap, in order
-PHASES = ("crouch", "push", "flight", "land", "done")
+PHASES = ("crouch", "set", "push", "flight", "land", "done")
 
 
 @dataclass(frozen=True)
@@ -51,18 +59,44 @@ class LeapSettings:
     """How a creature leaps (lengths in units of L, the gait's standing height; times in sqrt(L/g))."""
 
     #: the root sinks this x L before the push: the start of the push's stroke
-    crouch: float = field(default=0.25, metadata={"min": 0.0, "max": 0.5})
+    crouch: float = field(default=0.25, metadata={"min": 0.0, "max": 0.6})
     #: the push ends with the legs straightened to this share of their length (the bones from the leg's
     #: root to its foot, end to end), or as they stand where that is straighter: the stroke's top
     straight: float = field(default=0.92, metadata={"gt": 0.0, "max": 1.0})
-    #: the crouch lasts this x sqrt(L/g): long enough for a swinging foot to come down
-    crouch_time: float = field(default=1.2, metadata={"gt": 0.0, "max": 10.0})
+    #: the crouch is walked over this x sqrt(L/g): the gait steps on while its root is lowered, so its
+    #: feet stay under the body and the walking speed is carried into the push
+    crouch_time: float = field(default=2.0, metadata={"gt": 0.0, "max": 20.0})
+    #: then every foot is set down where it is and held there for this x sqrt(L/g), the root at the
+    #: crouch's depth: the push starts on all its feet
+    set_time: float = field(default=0.4, metadata={"min": 0.0, "max": 5.0})
+    #: the share of the walking speed (along the leap's heading) the root keeps at the set's end: the
+    #: feet stay planted, so a trunk that keeps walking rides over its front feet (0: it comes to rest;
+    #: its sideways sway is always brought to rest)
+    crouch_carry: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
+    #: a foot within this x L of its standing height counts as on the floor in the set and the push
+    touch: float = field(default=0.02, metadata={"min": 0.0, "max": 0.2})
+    #: in the set and the push, a foot off the floor is reached this x L below it (its leg extends to
+    #: find the floor rather than hang where the trunk's tilt lifted it)
+    press: float = field(default=0.1, metadata={"min": 0.0, "max": 0.5})
+    #: in the set and the push, an error of the root's moment weighs this x an equal force at L (a
+    #: push that cannot carry both gives up force rather than leave the floor spinning)
+    moment_weight: float = field(default=1.0, metadata={"gt": 0.0, "max": 100.0})
+    #: a leg with a ball joint turned to within this (rad) of its range's end stops pushing
+    limit_margin: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
+    #: friction pyramid edges per foot in the push's force sharing (more: nearer the cone)
+    cone_edges: int = field(default=4, metadata={"min": 3, "max": 16})
     #: the legs' joint damping during the push, a share of the full (the gait's kd): the damping that
     #: steadies a standing leg would swallow much of a push that straightens it in a tenth of a second
-    push_damping: float = field(default=0.1, metadata={"min": 0.0, "max": 1.0})
+    push_damping: float = field(default=0.0, metadata={"min": 0.0, "max": 1.0})
     #: the legs' joint stiffness during the push, a share of full (the crouch holds them at full): the
     #: virtual force through the legs does the pushing, the joints' PD only keeps the legs' shape
     push_stiffness: float = field(default=0.3, metadata={"gt": 0.0, "max": 1.0})
+    #: the attitude PD's frequency in the set and the push, x the gait's: the spin the body leaves the
+    #: floor with is kept through the flight
+    push_attitude: float = field(default=1.0, metadata={"gt": 0.0, "max": 20.0})
+    #: the push's remaining time is taken as at least this x sqrt(L/g) (its acceleration bounded near
+    #: the stroke's top)
+    push_min_left: float = field(default=0.05, metadata={"gt": 0.0, "max": 1.0})
     #: the push ends at the latest after this x its planned time (a body that cannot reach the take-off
     #: velocity leaves the ground with what it reached)
     push_overrun: float = field(default=1.5, metadata={"min": 1.0, "max": 5.0})
@@ -85,6 +119,50 @@ class LeapSettings:
             ok = ok and ("gt" not in meta or v > meta["gt"])
             if not ok:
                 raise ConfigError(f"out of range, got {v!r}", key=f"leap.{f.name}")
+
+
+def cone_share(maps: FloatArray, wrench: FloatArray, friction: float, edges: int = 4,
+               reg: float = 1e-4) -> FloatArray:
+    """(n, 3) contact forces (N, world), each inside its friction cone (a pyramid of ``edges`` edges of
+    slope ``friction`` inscribed in it) and pushing (f_z >= 0), whose images through ``maps`` ((n, 6, 3):
+    each foot's force to six wrench rows) sum nearest ``wrench`` (6,): non-negative least squares on
+    the edges' weights, ``reg`` x their squares added (a share spread over the feet, not flung from one
+    to another between steps)."""
+    n = len(maps)
+    ang = 2.0 * math.pi * np.arange(edges) / edges
+    e = np.stack([friction * np.cos(ang), friction * np.sin(ang), np.ones(edges)])  # (3, edges)
+    a = np.concatenate([np.asarray(m) @ e for m in maps], axis=1) if n else np.zeros((6, 0))
+    k = n * edges
+    c, _ = nnls(np.vstack([a, math.sqrt(reg) * np.eye(k)]), np.concatenate([wrench, np.zeros(k)]), maxiter=50 * k)
+    return (e @ c.reshape(n, edges).T).T
+
+
+def cone_forces(force: FloatArray, torque: FloatArray, points: FloatArray, com: FloatArray, friction: float,
+                lever: float, edges: int = 4) -> FloatArray:
+    """(n, 3) contact forces (N) at ``points`` (n, 3; m, world), each in its friction cone and pushing
+    (:func:`cone_share`), whose sum and moment about ``com`` come nearest ``force`` (N) and ``torque``
+    (N*m), the moment's error counted over the ``lever`` (m; the body's height: a moment error of
+    F x lever weighs as a force error of F)."""
+    maps = []
+    for p in points:
+        r = np.asarray(p, dtype=float) - com
+        rx = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
+        maps.append(np.vstack([np.eye(3), rx / lever]))
+    return cone_share(np.array(maps), np.concatenate([force, np.asarray(torque, dtype=float) / lever]), friction, edges)
+
+
+def leg_lengths(gait: PlannedGait) -> FloatArray:
+    """Each leg's length (m): its bones from the leg's root body to its foot site, end to end, as posed
+    in ``gait``'s neutral stance."""
+    model, legs, ik = gait.body.model, gait.legs, gait.ik
+    d = mujoco.MjData(model)
+    d.qpos[:] = gait.stance.q
+    mujoco.mj_kinematics(model, d)
+    out = []
+    for i, leg in enumerate(legs):
+        pts = np.array([d.xpos[model.body(b).id] for b in leg.bodies] + [d.site_xpos[ik.sites[i]]])
+        out.append(float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()))
+    return np.array(out)
 
 
 def leg_extension(gait: PlannedGait, straight: float) -> float:
@@ -120,8 +198,8 @@ def push_time(stroke_m: float, velocity: FloatArray) -> float:
 
 
 def lead_time(gait: PlannedGait, velocity: FloatArray, settings: LeapSettings) -> float:
-    """The time (s) from a leap's start to its planned take-off: the crouch and the push."""
-    return settings.crouch_time / gait.legs.omega0 + push_time(stroke(gait, settings), velocity)
+    """The time (s) from a leap's start to its planned take-off: the crouch, the set and the push."""
+    return (settings.crouch_time + settings.set_time) / gait.legs.omega0 + push_time(stroke(gait, settings), velocity)
 
 
 class Leap:
@@ -140,10 +218,13 @@ class Leap:
         s = self.settings
         #: the push's stroke (m) and planned duration (s)
         self.stroke = stroke(gait, s)
+        #: each leg's length (m)
+        self.leg_len = leg_lengths(gait)
         self.push_s = push_time(self.stroke, self.v_to)
-        self.crouch_s = s.crouch_time / self.w0
+        self.crouch_s, self.set_s = s.crouch_time / self.w0, s.set_time / self.w0
         self.t0 = t
-        self.t_push = t + self.crouch_s
+        self.t_set = t + self.crouch_s
+        self.t_push = self.t_set + self.set_s
         self.flight_s = 2.0 * self.v_to[2] / self.g
         #: the leap's heading (rad about world Z): its horizontal velocity's, or the plan's
         vh = self.v_to[0:2]
@@ -152,6 +233,9 @@ class Leap:
         self.z_stand = stance.height + gait.planner.z_offset
         self.p0 = data.qpos[0:3].copy()
         self.v0 = np.array([*data.qvel[0:2], 0.0])
+        #: the root's horizontal velocity (m/s) at the crouch's end: crouch_carry of the walk's along the heading
+        ahead = np.array([math.cos(self.yaw), math.sin(self.yaw), 0.0])
+        self.v1 = self.settings.crouch_carry * max(float(self.v0 @ ahead), 0.0) * ahead
         self.phase = "crouch"
         down = legs.feet_down(data)
         ground = stance.site_ground
@@ -163,16 +247,32 @@ class Leap:
         self.vp = self.v0.copy()
         self.t_takeoff: float | None = None
         self.v_takeoff: FloatArray | None = None
+        #: the body's mean spin at the take-off (rad/s, world: angular momentum over inertia, about the
+        #: centre of mass): the flight keeps it
+        self.w_takeoff: FloatArray | None = None
         self.t_land: float | None = None
         self.t_done: float | None = None
         self.apex_z = -math.inf
         self.peak_force = 0.0
         self.peak_torque_share = 0.0
+        #: the least factor the push's wrench torques were scaled by to stay within the limits (1: none)
+        self.min_push_scale = 1.0
+        #: per leg: the time (s) its foot left the floor during the push (None: down to the take-off)
+        self.push_lost: list[float | None] = [None] * len(legs)
+        #: per leg: its foot on the floor when the push started
+        self.push_feet: list[bool] = [False] * len(legs)
+        #: the push's planned rise (m): from where it starts to the stroke's top
+        self.push_rise = self.stroke
         self.landed_feet: dict[int, FloatArray] = {}
         self.target = gait.target.copy() if gait.target is not None else data.qpos.copy()
         self.next_plan = t
         self._leg_dofs = set(np.concatenate(legs.dofs).tolist()) if len(legs) else set()
-        body.damp()  # full damping on every leg: the gait's softened swing legs are all set down
+        #: per leg: its ball joints (indices into the body's balls); per ball: its joint id
+        self._leg_balls = [[k for k in range(len(body.dadr)) if int(body.dadr[k]) in set(d.tolist())]
+                           for d in legs.dofs]
+        self._ball_joint = [int(np.flatnonzero(body.model.jnt_dofadr == d)[0]) for d in body.dadr]
+        #: the gait's root height offset (m) as it walked: lowered by a walked crouch, restored at take-off
+        self.z_offset = gait.planner.z_offset
 
     # ------------------------------------------------------------------ the plan of the root
     def _root_plan(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -180,10 +280,14 @@ class Leap:
         feet are down (crouch and push)."""
         s, h = self.settings, self.height
         if t < self.t_push:
-            u = (t - self.t0) / self.crouch_s
-            p = self.p0 + self.v0 * (t - self.t0)
-            p[2] = self.z_stand - s.crouch * h * smoothstep(u)
-            return p, self.v0.copy(), np.zeros(3)
+            # the set: the horizontal velocity eased from the walk's (v0) to crouch_carry of its share
+            # along the heading (v1): v = v0 + (v1 - v0) S(u), S the smoothstep, integrated
+            T = max(self.set_s, 1e-9)
+            u = min(max((t - self.t_set) / T, 0.0), 1.0)
+            dv = self.v1 - self.v0
+            p = self.p0 + T * (self.v0 * u + dv * (u ** 3 - 0.5 * u ** 4))
+            p[2] = self.z_stand - s.crouch * h
+            return p, self.v0 + dv * smoothstep(u), dv * 6.0 * u * (1.0 - u) / T
         tau = min(t - self.t_push, self.push_s)
         a = (self.v_to - self.vp) / self.push_s
         return self.pp + self.vp * tau + 0.5 * a * tau * tau, self.vp + a * tau, a
@@ -209,15 +313,52 @@ class Leap:
                 body.model.dof_damping[d:d + 3] = body.base_damping[d:d + 3] + share * body.kd[k]
 
     # ------------------------------------------------------------------ the control step
-    def step(self, model: mujoco.MjModel, data: mujoco.MjData, t: float) -> FloatArray | None:
-        """The joint torques (N*m by actuator) at ``t`` (s); None once the landing is over (the gait's
-        plan has restarted: the caller steps the gait)."""
-        down = self.gait.legs.feet_down(data)
-        self._advance(data, t, down)
+    def step(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, dt: float = 0.0) -> FloatArray | None:
+        """The joint torques (N*m by actuator) at ``t`` (s; ``dt`` the control period, s); None once the
+        landing is over (the gait's plan has restarted: the caller steps the gait)."""
+        contact = self.gait.legs.feet_down(data)
+        down = self._on_floor(data, contact) if self.phase in ("set", "push") else contact
+        self._advance(data, t, down, contact)
         if self.phase == "done":
             resume_gait(self.gait, data, t, self.target)
+            self.gait.planner.z_offset = self.z_offset
             return None
+        if self.phase == "crouch":
+            u = (t - self.t0) / self.crouch_s
+            self.gait.planner.z_offset = self.z_offset - self.settings.crouch * self.height * smoothstep(u)
+            return self.gait.step(model, data, t, dt)
         return self._control(model, data, t, down)
+
+    def _at_limit(self, data: mujoco.MjData, i: int) -> bool:
+        """Whether a ball joint of leg ``i`` has turned to within ``limit_margin`` rad of its range (the
+        range's end takes the torque a push would put through it)."""
+        gait, model = self.gait, self.gait.body.model
+        for k in self._leg_balls[i]:
+            j = self._ball_joint[k]
+            if not model.jnt_limited[j]:
+                continue
+            q = data.qpos[gait.body.quat_idx[k]]
+            angle = 2.0 * math.acos(min(abs(float(q[0])) / max(float(np.linalg.norm(q)), 1e-12), 1.0))
+            if angle >= float(model.jnt_range[j][1]) - self.settings.limit_margin:
+                return True
+        return False
+
+    def _stretch(self, data: mujoco.MjData) -> list[float]:
+        """Per leg: the distance from its root body to its foot site as a share of its length."""
+        gait, model = self.gait, self.gait.body.model
+        out = []
+        for i, leg in enumerate(gait.legs):
+            hip = data.xpos[model.body(leg.root).id]
+            out.append(float(np.linalg.norm(data.site_xpos[gait.ik.sites[i]] - hip)) / self.leg_len[i])
+        return out
+
+    def _on_floor(self, data: mujoco.MjData, down: list[bool]) -> list[bool]:
+        """Per leg: its foot touches the floor or hangs within ``touch`` L of its standing height (a foot
+        pressed on the floor bounces off it for a step now and then: it is still a foot to push on)."""
+        gait = self.gait
+        tol = self.settings.touch * self.height
+        ground = gait.stance.site_ground
+        return [dn or float(data.site_xpos[gait.ik.sites[i]][2]) - ground[i] < tol for i, dn in enumerate(down)]
 
     def _com_velocity(self, data: mujoco.MjData) -> FloatArray:
         """The body's centre-of-mass velocity (m/s, world): what the push gives and the flight keeps
@@ -225,20 +366,33 @@ class Leap:
         mujoco.mj_subtreeVel(self.gait.body.model, data)
         return data.subtree_linvel[self.gait.body.root_body].copy()
 
-    def _advance(self, data: mujoco.MjData, t: float, down: list[bool]) -> None:
-        """Move on to the next phase when its time or event has come."""
+    def _advance(self, data: mujoco.MjData, t: float, down: list[bool], contact: list[bool]) -> None:
+        """Move on to the next phase when its time or event has come (``down``: the feet on the floor,
+        within ``touch``; ``contact``: those touching it now)."""
         v_com = self._com_velocity(data)
         vz = float(v_com[2])
-        if self.phase == "crouch" and t >= self.t_push:
+        if self.phase == "crouch" and t >= self.t_set:
+            self.phase = "set"
+            self._start_set(data, v_com, t)
+        if self.phase == "set" and t >= self.t_push:
             self.phase = "push"
+            self.push_feet = list(down)
             self._damp_legs(self.settings.push_damping)
-            self._start_push(data, v_com, t)
+            self._start_push(data, v_com, t, down)
         if self.phase == "push":
+            for i, dn in enumerate(down):
+                if not dn and self.push_lost[i] is None and self.push_feet[i]:
+                    self.push_lost[i] = t
             reached = vz >= self.v_to[2]
             overrun = t >= self.t_push + self.settings.push_overrun * self.push_s
-            lifted = not any(down) and t >= self.t_push + 0.5 * self.push_s
+            # in the air: no foot touches the floor and half the legs have straightened (a foot that
+            # bounces off the floor mid-stroke is still pushing)
+            stretch = sorted(self._stretch(data))
+            top = stretch[len(stretch) // 2] >= self.settings.straight if stretch else True
+            lifted = not any(contact) and (top or t >= self.t_push + self.push_s)
             if reached or overrun or lifted:
                 self.phase, self.t_takeoff, self.v_takeoff = "flight", t, v_com
+                self.w_takeoff = self._mean_spin(data)[1]
                 self.gait.body.damp()
         if self.phase == "flight":
             self.apex_z = max(self.apex_z, float(data.qpos[2]))
@@ -253,28 +407,84 @@ class Leap:
             if t >= self.t_land + self.settings.land_time / self.w0:
                 self.phase, self.t_done = "done", t
 
-    def _start_push(self, data: mujoco.MjData, v_com: FloatArray, t: float) -> None:
+    def _start_set(self, data: mujoco.MjData, v_com: FloatArray, t: float) -> None:
+        """The set from where the walked crouch left the body at ``t`` (s): every foot held where it is (one
+        that swings, where it hangs, on the floor), the root from its place and the centre of mass's
+        horizontal velocity (m/s) eased to ``crouch_carry`` of its share along the heading, at the
+        crouch's depth; every leg at full stiffness and damping."""
+        gait = self.gait
+        gait.planner.z_offset = self.z_offset
+        ground = gait.stance.site_ground
+        self.feet = np.array([[*data.site_xpos[gait.ik.sites[i]][0:2], ground[i]] for i in range(len(gait.legs))])
+        self.p0 = data.qpos[0:3].copy()
+        self.v0 = np.array([v_com[0], v_com[1], 0.0])
+        ahead = np.array([math.cos(self.yaw), math.sin(self.yaw), 0.0])
+        self.v1 = self.settings.crouch_carry * max(float(self.v0 @ ahead), 0.0) * ahead
+        if gait.target is not None:
+            self.target = gait.target.copy()
+        self.t_set = t
+        self.gait.body.damp()
+
+    def _start_push(self, data: mujoco.MjData, v_com: FloatArray, t: float, down: list[bool]) -> None:
         """The push's plan from where the body is at ``t`` (s): from the root's place and the centre of
-        mass's velocity (m/s) to the take-off velocity at the stroke's top (the legs straightened to
-        ``straight``), at constant acceleration. A body still sinking from the crouch starts its rise
-        from at most half the take-off's vertical speed downward."""
+        mass's velocity (m/s) to the take-off velocity at the stroke's top, at constant acceleration.
+        The stroke's top: where, moving along the push's mean velocity, half the legs on the floor have
+        straightened to ``straight`` of their length (the feet as they stand: a leg whose foot stands far
+        from under its hip straightens early). A body still sinking from the crouch starts its rise from
+        at most half the take-off's vertical speed downward."""
         self.pp = data.qpos[0:3].copy()
         self.vp = v_com.copy()
         self.vp[2] = max(float(v_com[2]), -0.5 * float(self.v_to[2]))
-        top = self.z_stand + leg_extension(self.gait, self.settings.straight)
-        rise = max(top - float(self.pp[2]), 0.25 * self.stroke)
+        u = self.vp + self.v_to
+        u = u / max(float(np.linalg.norm(u)), 1e-9)
+        room = sorted(self._room(data, u, i) for i, dn in enumerate(down) if dn)
+        if room:
+            reach = room[max(math.ceil(len(room) / 2) - 1, 0)]
+            rise = max(reach * float(u[2]), 0.25 * self.stroke)
+        else:
+            rise = self.stroke
+        self.push_rise = rise
         self.push_s = 2.0 * rise / (float(self.vp[2]) + float(self.v_to[2]))
         self.t_push = t
 
+    def _push_force(self, data: mujoco.MjData) -> FloatArray:
+        """The push's force (N, world) on the body: m (a + g), a the constant acceleration that takes the
+        centre of mass from its velocity now to the take-off velocity over the rest of the stroke (re-planned
+        every step, so a body that falls behind is pushed the harder: the remaining time is
+        2 x the rise left / (v_z now + v_z take-off), at least a control step's worth)."""
+        v = self._com_velocity(data)
+        left = self.pp[2] + self.push_rise - float(data.qpos[2])
+        vz = max(float(v[2]), 0.0) + float(self.v_to[2])
+        t_left = max(2.0 * left / vz, self.settings.push_min_left / self.w0)
+        a = (self.v_to - v) / t_left
+        return self.gait.body.mass * (a + np.array([0.0, 0.0, self.g]))
+
+    def _room(self, data: mujoco.MjData, u: FloatArray, i: int) -> float:
+        """How far (m) the root may move along the unit vector ``u`` before leg ``i`` (its foot where it
+        stands) has straightened to ``straight`` of its length; 0 where it already has."""
+        gait, model = self.gait, self.gait.body.model
+        d = data.xpos[model.body(gait.legs.legs[i].root).id] - data.site_xpos[gait.ik.sites[i]]
+        r = self.settings.straight * self.leg_len[i]
+        du = float(d @ u)
+        disc = du * du - (float(d @ d) - r * r)
+        return max(-du + math.sqrt(disc), 0.0) if disc >= 0.0 else 0.0
+
     def _control(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, down: list[bool]) -> FloatArray:
-        gait, body, legs, s = self.gait, self.gait.body, self.gait.legs, self.settings
+        gait, body, s = self.gait, self.gait.body, self.settings
         stiff = 1.0
         force = torque = None
-        if self.phase in ("crouch", "push"):
+        if self.phase in ("set", "push"):
             p, v, a = self._root_plan(t)
-            q_root = np.concatenate([p, self._attitude()])
-            feet = self.feet
-            force, torque = self._wrench(data, p, v, a)
+            # the legs' shape solved for the body where it is (the wrench moves it along its plan): a
+            # trunk that tilts does not lift its feet off the floor
+            q_root = data.qpos[0:7].copy()
+            feet = self.feet.copy()
+            for i, dn in enumerate(down):
+                if not dn:
+                    feet[i, 2] -= s.press * self.height
+            force, torque = self._wrench(data, p, v, a, attitude=s.push_attitude if self.phase == "push" else 1.0)
+            if self.phase == "push":
+                force = self._push_force(data)
             stiff = s.push_stiffness if self.phase == "push" else 1.0
         elif self.phase == "flight":
             q_root = data.qpos[0:7].copy()
@@ -299,19 +509,149 @@ class Leap:
         # in the crouch every foot is planned down (one that bounces off the floor for a step keeps
         # pressing toward it); in the push only the feet on the floor push: one that has left it is
         # not flung (its leg keeps its shape)
-        stance = list(range(len(down))) if self.phase == "crouch" else [i for i, dn in enumerate(down) if dn]
+        stance = list(range(len(down))) if self.phase == "set" else [i for i, dn in enumerate(down) if dn]
+        if self.phase == "push":  # a leg straightened, or with a joint at its range's end, is done pushing
+            stretch = self._stretch(data)
+            stance = [i for i in stance if stretch[i] < s.straight and not self._at_limit(data, i)]
+        tau_f = np.zeros(model.nu)
         if force is not None and stance:
             self.peak_force = max(self.peak_force, float(np.linalg.norm(force)))
-            tau_all += legs.stance_torques(data, force, torque, stance, data.subtree_com[body.root_body],
-                                           gait.bal.friction)
+            if self.phase in ("set", "push"):
+                m = gait.body.mass
+                accel = force / m - np.array([0.0, 0.0, self.g])
+                alpha = torque / (m * self.height ** 2)
+                torque_c = self._centroidal_torque(data, attitude=s.push_attitude if self.phase == "push" else 1.0)
+                tau_f = self._inverse_torques(data, accel, alpha, torque_c, stance)
+            else:
+                tau_f = self._stance_torques(data, force, torque, stance)
+        order = body.acts.ravel()
+        lim = np.repeat(body.limit, 3)
         if self.phase == "push":
-            lim = np.repeat(body.limit, 3)
-            share = np.abs(tau_all[body.acts.ravel()]) / np.maximum(lim, 1e-9)
+            share = np.abs((tau_all + tau_f)[order]) / np.maximum(lim, 1e-9)
             self.peak_torque_share = max(self.peak_torque_share, float(share.max()))
+        # the wrench's torques scaled as a whole (one factor for every leg) so that with the joints' PD
+        # no joint passes its limit: a push held to the limits keeps its direction and moment balance
+        pd = np.clip(tau_all[order], -lim, lim)
+        wf = tau_f[order]
+        room = np.where(wf > 0, lim - pd, lim + pd)
+        need = np.abs(wf)
+        scale = float(np.min(np.where(need > 1e-12, room / np.maximum(need, 1e-12), np.inf), initial=1.0))
+        scale = min(max(scale, 0.0), 1.0)
+        if self.phase == "push":
+            self.min_push_scale = min(self.min_push_scale, scale)
+        tau_all[order] = pd + scale * wf
         return body.clipped(tau_all)
 
+    def _inverse_torques(self, data: mujoco.MjData, accel: FloatArray, alpha: FloatArray, torque: FloatArray,
+                         stance: list[int]) -> FloatArray:
+        """Joint torques (N*m by actuator) that give the centre of mass the acceleration ``accel`` (m/s^2,
+        world) and the root the angular acceleration ``alpha`` (rad/s^2, world) with the ``stance`` feet
+        fixed on the floor and the other joints held (the body's inverse dynamics, its legs' masses
+        included): the generalised forces M qacc + bias, the root's share of them carried by the feet's
+        contact forces (each in its friction cone and pushing: non-negative least squares on the root's
+        rows), the rest by the joints."""
+        gait, legs = self.gait, self.gait.legs
+        model, body = gait.body.model, gait.body
+        nv = model.nv
+        if not stance:
+            return np.zeros(model.nu)
+        r = data.xmat[body.root_body].reshape(3, 3)
+        pts = [legs.contact_points[i] for i in stance]
+        jacs, drifts = [], []
+        for k, i in enumerate(stance):
+            jp = np.zeros((3, nv))
+            jd = np.zeros((3, nv))
+            mujoco.mj_jac(model, data, jp, None, pts[k], legs.feet[i][0])
+            mujoco.mj_jacDot(model, data, jd, None, pts[k], legs.feet[i][0])
+            jacs.append(jp)
+            drifts.append(jd @ data.qvel)
+
+        def qacc_of(lin: FloatArray, ang: FloatArray, drift: bool) -> FloatArray:
+            # the feet's points do not accelerate: J_leg qacc_leg = -(J_root qacc_root + Jdot qvel)
+            q = np.zeros(nv)
+            q[0:3], q[3:6] = lin, r.T @ ang
+            for k, i in enumerate(stance):
+                dofs = legs.dofs[i]
+                rhs = -(jacs[k][:, 0:6] @ q[0:6]) - (drifts[k] if drift else 0.0)
+                q[dofs] = np.linalg.lstsq(jacs[k][:, dofs], rhs, rcond=None)[0]
+            return q
+
+        def gen_of(q: FloatArray) -> FloatArray:
+            out_ = np.zeros(nv)
+            mujoco.mj_mulM(model, data, out_, q)
+            return out_
+
+        # the root's linear acceleration x that gives the whole body's momentum rate m (accel + g)
+        base = qacc_of(np.zeros(3), alpha, True)
+        g0 = gen_of(base) + data.qfrc_bias
+        cols = [qacc_of(np.eye(3)[k], np.zeros(3), False) for k in range(3)]
+        gx = np.stack([gen_of(c)[0:3] for c in cols], axis=1)
+        want = body.mass * (np.asarray(accel) + np.array([0.0, 0.0, self.g]))
+        x = np.linalg.solve(gx, want - g0[0:3])
+        qacc = base + sum(x[k] * cols[k] for k in range(3))
+        gen = gen_of(qacc) + data.qfrc_bias
+        out = np.zeros(model.nu)
+        # the feet's forces: the whole body's momentum rates about its centre of mass, m (accel + g) and
+        # torque (N*m), each foot in its friction cone and pushing
+        com = data.subtree_com[body.root_body].copy()
+        fs = cone_forces(body.mass * (np.asarray(accel) + np.array([0.0, 0.0, self.g])), torque, np.array(pts), com,
+                         gait.bal.friction, self.height / self.settings.moment_weight, self.settings.cone_edges)
+        #: the feet's planned contact forces (N, world) at the last control step, by leg
+        self.foot_forces = {i: fs[k] for k, i in enumerate(stance)}
+        tau = gen.copy()
+        for k, jp in enumerate(jacs):
+            tau -= jp.T @ fs[k]
+        held = np.zeros(nv, dtype=bool)
+        for i in stance:
+            held[legs.dofs[i]] = True
+        out[body.acts.ravel()] = np.where(held[body.vel_idx.ravel()], tau[body.vel_idx.ravel()], 0.0)
+        return out
+
+    def _mean_spin(self, data: mujoco.MjData) -> tuple[FloatArray, FloatArray]:
+        """The whole body's inertia about its centre of mass (kg*m^2, world) and its mean spin (rad/s,
+        world): its angular momentum about the centre of mass over that inertia."""
+        model, root = self.gait.body.model, self.gait.body.root_body
+        mujoco.mj_subtreeVel(model, data)
+        com = data.subtree_com[root]
+        inertia = np.zeros((3, 3))
+        for k in range(root, model.nbody):
+            if model.body_rootid[k] != model.body_rootid[root]:
+                continue
+            rk = data.xmat[k].reshape(3, 3)
+            d = data.xipos[k] - com
+            inertia += rk @ np.diag(model.body_inertia[k]) @ rk.T
+            inertia += model.body_mass[k] * (float(d @ d) * np.eye(3) - np.outer(d, d))
+        return inertia, np.linalg.solve(inertia, data.subtree_angmom[root])
+
+    def _centroidal_torque(self, data: mujoco.MjData, attitude: float = 1.0) -> FloatArray:
+        """The torque (N*m, world) about the centre of mass the feet are asked for: the whole body's
+        inertia (about its centre of mass) times an angular acceleration that turns the root toward level
+        at the leap's heading and brings the body's mean spin (its angular momentum over its inertia) to
+        rest (the gait's attitude PD, frequency x ``attitude``)."""
+        gait, b = self.gait, self.gait.bal
+        root = gait.body.root_body
+        inertia, spin = self._mean_spin(data)
+        r = data.xmat[root].reshape(3, 3)
+        rot = Rotation.from_matrix(rot_z(self.yaw) @ gait.stance.att @ r.T).as_rotvec()
+        wa = attitude * b.attitude_freq * self.w0
+        return inertia @ (wa * wa * rot - 2 * b.damping_ratio * wa * spin)
+
+    def _stance_torques(self, data: mujoco.MjData, force: FloatArray, torque: FloatArray,
+                        stance: list[int]) -> FloatArray:
+        """Joint torques (N*m by actuator) through the ``stance`` legs that push the wrench ``force`` (N),
+        ``torque`` (N*m about the centre of mass) on the body, shared by :func:`cone_forces` (each foot in
+        its friction cone and pushing)."""
+        gait, legs = self.gait, self.gait.legs
+        pts = np.array([legs.contact_points[i] for i in stance])
+        com = data.subtree_com[gait.body.root_body]
+        fs = cone_forces(force, torque, pts, com, gait.bal.friction, self.height, self.settings.cone_edges)
+        out = np.zeros(gait.body.model.nu)
+        for k, i in enumerate(stance):
+            out[legs.acts[i]] += legs.torques(data, i, pts[k], fs[k])
+        return out
+
     def _wrench(self, data: mujoco.MjData, p: FloatArray, v: FloatArray, a: FloatArray,
-                horizontal_pd: bool = True) -> tuple[FloatArray, FloatArray]:
+                horizontal_pd: bool = True, attitude: float = 1.0) -> tuple[FloatArray, FloatArray]:
         """The virtual force (N) and torque (N*m) on the root: the planned acceleration and gravity,
         a PD toward the planned position (horizontal too with ``horizontal_pd``) and velocity, and a
         PD of the attitude toward level at the leap's heading."""
@@ -326,7 +666,7 @@ class Leap:
         r = data.xmat[root].reshape(3, 3)
         r_d = rot_z(self.yaw) @ gait.stance.att
         rot = Rotation.from_matrix(r_d @ r.T).as_rotvec()
-        wa = b.attitude_freq * self.w0
+        wa = attitude * b.attitude_freq * self.w0
         torque = m * self.height ** 2 * (wa * wa * rot - 2 * b.damping_ratio * wa * (r @ data.qvel[3:6]))
         return force, torque
 
@@ -356,10 +696,13 @@ class Leap:
         return {"phase": self.phase, "t_start_s": self.t0, "push_s": self.push_s, "t_takeoff_s": self.t_takeoff,
                 "takeoff_planned_m_s": [float(x) for x in self.v_to],
                 "takeoff_reached_m_s": None if self.v_takeoff is None else [float(x) for x in self.v_takeoff],
+                "takeoff_spin_rad_s": None if self.w_takeoff is None else [float(x) for x in self.w_takeoff],
                 "t_land_s": self.t_land, "flight_s": flight, "ballistic_flight_s": self.flight_s,
                 "apex_z_m": None if self.apex_z == -math.inf else self.apex_z,
                 "peak_force_n": self.peak_force, "peak_force_body_weights": self.peak_force / weight,
-                "peak_torque_share": self.peak_torque_share}
+                "peak_torque_share": self.peak_torque_share, "push_scale_min": self.min_push_scale,
+                "push_feet": int(sum(self.push_feet)), "push_rise_m": self.push_rise,
+                "push_feet_lost_s": [None if x is None else round(x - self.t_push, 4) for x in self.push_lost]}
 
 
 def resume_gait(gait: PlannedGait, data: mujoco.MjData, t: float, target: FloatArray) -> None:

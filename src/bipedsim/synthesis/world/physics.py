@@ -78,10 +78,17 @@ class SimulateSettings:
     #: velocity along the path's heading), timed so its take-off comes at the plan's take-off point
     leap: bool = True
     #: the take-off angle (degrees above the path) the body's leap is asked for, at the speed that flies
-    #: the plan's take-off-to-landing distance over level ground: 45 is the slowest take-off, the least
-    #: a short-legged push must give (the plan's own angle, chosen for the least force of a fixed-time
-    #: push, asks more speed); None: the plan's angle and speed
+    #: the distance its feet need (:meth:`Leaps.velocity`): 45 is the slowest take-off over level
+    #: ground, the least a short-legged push must give (the plan's own angle, chosen for the least force
+    #: of a fixed-time push, asks more speed); None: the plan's angle, speed and take-off point
     leap_angle_deg: float | None = 45.0
+    #: the leap's margins at either edge of a gap, a share of the body's footprint (its feet's reach from
+    #: the foremost to the hindmost, in its neutral stance): the front feet are planted this far short
+    #: of the near edge, the hind feet land this far past the far one
+    leap_margin: float = 0.25
+    #: the take-off speed asked is this x the speed that just flies that distance: a push reaches about
+    #: nine tenths of the velocity it is asked for (its feet leave the floor as the legs straighten)
+    leap_speed_margin: float = 1.15
 
     def validate(self) -> None:
         """Each value in its range (a :class:`ConfigError` naming the key)."""
@@ -89,7 +96,8 @@ class SimulateSettings:
                             ("max_turn_rate", 0.01, 20.0), ("goal_radius_m", 0.01, 50.0),
                             ("time_factor", 0.1, 20.0), ("min_seconds", 0.0, 600.0), ("off_path_m", 0.01, 50.0),
                             ("record_hz", 1.0, 500.0),
-                            ("progress_window_m", 0.1, 100.0), ("leap_angle_deg", 5.0, 85.0)):
+                            ("progress_window_m", 0.1, 100.0), ("leap_angle_deg", 5.0, 85.0),
+                            ("leap_margin", 0.0, 5.0), ("leap_speed_margin", 1.0, 3.0)):
             v = getattr(self, key)
             if key == "leap_angle_deg" and v is None:
                 continue
@@ -122,28 +130,75 @@ def world_body(syn: Synthesis, world: World, settings: SimulateSettings) -> Scen
 
 
 class Leaps:
-    """The rollout hook that starts the body's leap over each jump of the synthesised path: when the
-    body's progress (:class:`Steering`'s) plus its speed times the leap's lead time (crouch and push,
-    ``ctrl.leap_lead_s``) reaches the jump's take-off point, the controller is asked to leap toward the
-    plan's take-off velocity (its forward part along the path's heading at the take-off, its vertical
-    part as planned). A controller without ``leap`` is left walking."""
+    """The rollout hook that starts the body's leap over each jump of the synthesised path, at
+    :attr:`angle_deg` (see :meth:`velocity`): the leap is asked for when the body's progress
+    (:class:`Steering`'s) plus its speed times the walked crouch (``ctrl.leap_set_s()``) reaches the
+    set point, where the front feet stand ``margin`` x the footprint short of the gap's near edge
+    (``ctrl.leap_footprint()``). With ``angle_deg`` None, the plan's take-off velocity is asked, timed
+    so the take-off comes at the plan's take-off point (``ctrl.leap_lead_s``). A controller without
+    ``leap`` is left walking."""
 
-    def __init__(self, jumps: list[Any], curve: Curve, steering: Steering, angle_deg: float | None = None) -> None:
-        self.jumps, self.curve, self.steering = jumps, curve, steering
-        #: the take-off angle asked (degrees; None: each plan's own)
-        self.angle_deg = angle_deg
+    def __init__(self, jumps: list[Any], curve: Curve, steering: Steering, angle_deg: float | None = None,
+                 world: World | None = None, margin: float = SimulateSettings.leap_margin,
+                 speed_margin: float = SimulateSettings.leap_speed_margin) -> None:
+        self.jumps, self.curve, self.steering, self.world = jumps, curve, steering, world
+        #: the take-off angle asked (degrees; None: each plan's own) and the margin (share of the footprint)
+        self.angle_deg, self.margin, self.speed_margin = angle_deg, margin, speed_margin
         #: per jump: the time (s) its leap was asked for (None: not yet)
         self.asked: list[float | None] = [None] * len(jumps)
+        #: per jump: where its leap was planned (arc lengths m, flight distance m, height change m)
+        self.planned: list[dict[str, float] | None] = [None] * len(jumps)
 
-    def velocity(self, k: int) -> FloatArray:
-        """Jump ``k``'s take-off velocity (m/s, world): at :attr:`angle_deg` the speed that flies the plan's
-        take-off-to-landing distance d over level ground, v = sqrt(g d / sin 2a); else the plan's."""
+    def _height(self, s: float) -> float:
+        """The terrain's height (m) under the path at arc length ``s`` (m); 0 without a world."""
+        if self.world is None:
+            return 0.0
+        xy, _ = self.curve.at(np.array(s))
+        return float(self.world.terrain(np.asarray(xy)[None, :])[0])
+
+    def edges(self, k: int) -> tuple[float, float]:
+        """Jump ``k``'s gap: its near and far edges (arc lengths, m; the plan's take-off and landing lie
+        symmetrically about its middle)."""
+        j = self.jumps[k]
+        mid = 0.5 * (j.s_takeoff + j.s_land)
+        return mid - j.width / 2, mid + j.width / 2
+
+    def set_point(self, k: int, ctrl: Controller) -> float:
+        """Where (arc length, m) the root stands when the feet are planted for jump ``k``'s push: the
+        front feet ``margin`` x the footprint short of the near edge."""
+        front, hind = ctrl.leap_footprint()
+        near, _ = self.edges(k)
+        return near - front - self.margin * (front - hind)
+
+    def velocity(self, k: int, ctrl: Controller | None = None, speed: float = 0.0) -> FloatArray:
+        """Jump ``k``'s take-off velocity (m/s, world) along the path's heading there. At :attr:`angle_deg`,
+        ``speed_margin`` x the speed that flies the root from its take-off (the set point, plus the set
+        and the push at the walking ``speed``, m/s) to where the hind feet land ``margin`` x the
+        footprint past the far edge, d (m), rising dh (m, the terrain's change):
+        v^2 = g d^2 / (2 cos^2 a (d tan a - dh)); without a controller that has a footprint, the plan's
+        take-off-to-landing distance. With ``angle_deg`` None, the plan's velocity."""
         j = self.jumps[k]
         _, yaw = self.curve.at(np.array(j.s_takeoff))
         vx, vz = j.vx, j.vz
         if self.angle_deg is not None:
             a = math.radians(self.angle_deg)
-            v = math.sqrt(getattr(j, "g", 9.81) * (j.s_land - j.s_takeoff) / math.sin(2 * a))
+            g = getattr(j, "g", 9.81)
+            if ctrl is not None and hasattr(ctrl, "leap_footprint"):
+                front, hind = ctrl.leap_footprint()
+                _, far = self.edges(k)
+                s_set = self.set_point(k, ctrl)
+                s_land = far - hind + self.margin * (front - hind)
+                v = math.sqrt(g * (s_land - s_set))
+                for _ in range(2):  # the set and the push move the root on before the take-off
+                    u = np.array([math.cos(a), 0.0, math.sin(a)]) * v
+                    s_to = s_set + speed * (ctrl.leap_lead_s(u) - ctrl.leap_set_s())
+                    d, dh = s_land - s_to, self._height(s_land) - self._height(s_to)
+                    v = math.sqrt(g * d * d / (2.0 * math.cos(a) ** 2 * max(d * math.tan(a) - dh, 1e-3)))
+                    v *= self.speed_margin
+                self.planned[k] = {"s_set_m": s_set, "s_takeoff_m": s_to, "s_land_m": s_land, "flight_m": d,
+                                   "rise_m": dh}
+            else:
+                v = math.sqrt(g * (j.s_land - j.s_takeoff) / math.sin(2 * a))
             vx, vz = v * math.cos(a), v * math.sin(a)
         return np.array([vx * math.cos(float(yaw)), vx * math.sin(float(yaw)), vz])
 
@@ -155,8 +210,13 @@ class Leaps:
         for k, j in enumerate(self.jumps):
             if self.asked[k] is not None or self.steering.progress > j.s_land:
                 continue
-            v = self.velocity(k)
-            if self.steering.progress + speed * ctrl.leap_lead_s(v) >= j.s_takeoff:
+            if self.angle_deg is None or not hasattr(ctrl, "leap_footprint"):
+                v = self.velocity(k)
+                due = self.steering.progress + speed * ctrl.leap_lead_s(v) >= j.s_takeoff
+            else:
+                due = self.steering.progress + speed * ctrl.leap_set_s() >= self.set_point(k, ctrl)
+                v = self.velocity(k, ctrl, speed) if due else None
+            if due:
                 leap(t, v)
                 self.asked[k] = t
             return
@@ -261,7 +321,8 @@ def run_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[s
     seconds = max(settings.min_seconds, settings.time_factor * syn.motion.duration)
     spec = RolloutSpec(seconds=seconds, seed=seed, start_frame=0.0, fall=sc.fall_criteria())
     steering = Steering(syn.curve, settings, world)
-    leaps = Leaps(syn.jumps if settings.leap else [], syn.curve, steering, settings.leap_angle_deg)
+    leaps = Leaps(syn.jumps if settings.leap else [], syn.curve, steering, settings.leap_angle_deg, world,
+                  settings.leap_margin, settings.leap_speed_margin)
     rec = Recorder(sc.built.model, record_hz=settings.record_hz, seconds=seconds, feet=len(ctrl.foot_names()))
     t_built = time.perf_counter()
     with Rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=sc.clip.qpos[0].copy(),
@@ -293,16 +354,19 @@ def run_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[s
 
 def jump_records(jumps: list[Any], steering: Steering, leaps: Leaps, made: list[Any]) -> list[dict[str, Any]]:
     """Per jump of the path: where (tile, gap width m, take-off and landing arc lengths m), the planned
-    take-off speed (m/s), whether the body got past its landing point (``crossed``), and the leap the
-    body made (``leap``: :meth:`~bipedsim.control.creature.leap.Leap.record`, its planned and reached
-    take-off velocity, flight and peak push; None: no leap was asked for)."""
+    take-off speed (m/s), whether the body got past its landing point (``crossed``), where the body's
+    leap was planned (``leap_planned``: the set, take-off and landing arc lengths m, the flight m, the
+    terrain's rise m; :meth:`Leaps.velocity`) and the leap the body made (``leap``:
+    :meth:`~bipedsim.control.creature.leap.Leap.record`, its planned and reached take-off velocity and
+    spin, flight and peak push; None: no leap was asked for)."""
     out = []
     records = iter(made)
     for k, j in enumerate(jumps):
         leap = next(records, None) if leaps.asked[k] is not None else None
         out.append({"tile": list(j.tile), "width_m": j.width, "s_takeoff_m": j.s_takeoff, "s_land_m": j.s_land,
                     "takeoff_speed_m_s": j.speed, "crossed": steering.progress >= j.s_land,
-                    "leap_asked_at_s": leaps.asked[k], "leap": None if leap is None else leap.record()})
+                    "leap_asked_at_s": leaps.asked[k], "leap_planned": leaps.planned[k],
+                    "leap": None if leap is None else leap.record()})
     return out
 
 

@@ -617,7 +617,7 @@ class Leap:
         for k in range(root, model.nbody):
             if model.body_rootid[k] != model.body_rootid[root]:
                 continue
-            rk = data.xmat[k].reshape(3, 3)
+            rk = data.ximat[k].reshape(3, 3)
             d = data.xipos[k] - com
             inertia += rk @ np.diag(model.body_inertia[k]) @ rk.T
             inertia += model.body_mass[k] * (float(d @ d) * np.eye(3) - np.outer(d, d))

@@ -52,6 +52,10 @@ def test_the_feet_share_a_wrench_inside_their_friction_cones() -> None:
     moment = sum(np.cross(p - com, fi) for p, fi in zip(feet, f))
     assert np.abs(moment).max() < 1.0
     assert f[2:, 2].sum() > 3.0 * f[:2, 2].sum()  # the hind feet push
+    weak = cone_forces(np.array([0.0, 0.0, 400.0]), np.zeros(3), feet, com, 0.8, 0.45,
+                       capacity=np.array([1.0, 1.0, 0.05, 1.0]))
+    assert weak[2, 2] < 0.2 * weak[3, 2]  # a foot of little capacity gets a small share
+    assert weak.sum(axis=0) == pytest.approx([0.0, 0.0, 400.0], abs=1.0)
     for want in (np.array([245.0, 0.0, 448.0]), np.array([0.0, 500.0, 100.0])):
         f = cone_forces(want, np.zeros(3), feet, com, 0.8, 0.45)
         assert (f[:, 2] >= -1e-9).all()

@@ -8,8 +8,9 @@ through the crouch, is set aside from the set until the body has landed, then re
   eased to ``crouch_carry`` of the walk's, at the crouch's depth;
 - **push**: every leg on the floor (within ``touch`` L of it: a foot that bounces off for a step still
   pushes) pushes until it straightens to ``straight`` of its length or a joint reaches its range's end
-  (``limit_margin``); the stroke's top is where half the legs have straightened, moving along the push's
-  mean velocity from the feet as they stand. The force on the body is m (a + g), a the constant
+  (``limit_margin``), its share of the force shrinking from ``bent`` of its length on (a nearly
+  straight leg makes a fraction of the force asked of it); the stroke's top is where half the legs have
+  straightened, moving along the push's mean velocity from the feet as they stand. The force on the body is m (a + g), a the constant
   acceleration that takes the centre of mass from its velocity now to the take-off velocity over the
   rest of the stroke, re-planned every step (a body that falls behind is pushed the harder); the torque
   about the centre of mass turns the root toward level and brings the body's mean spin (its angular
@@ -81,6 +82,9 @@ class LeapSettings:
     #: in the set and the push, an error of the root's moment weighs this x an equal force at L (a
     #: push that cannot carry both gives up force rather than leave the floor spinning)
     moment_weight: float = field(default=1.0, metadata={"gt": 0.0, "max": 100.0})
+    #: in the push, a leg stretched past this share of its length is given a smaller share of the force,
+    #: down to a twentieth at ``straight`` (a nearly straight leg makes a fraction of the force asked)
+    bent: float = field(default=0.75, metadata={"gt": 0.0, "max": 1.0})
     #: a leg with a ball joint turned to within this (rad) of its range's end stops pushing
     limit_margin: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
     #: friction pyramid edges per foot in the push's force sharing (more: nearer the cone)
@@ -122,7 +126,7 @@ class LeapSettings:
 
 
 def cone_share(maps: FloatArray, wrench: FloatArray, friction: float, edges: int = 4,
-               reg: float = 1e-4) -> FloatArray:
+               reg: float = 1e-4, capacity: FloatArray | None = None) -> FloatArray:
     """(n, 3) contact forces (N, world), each inside its friction cone (a pyramid of ``edges`` edges of
     slope ``friction`` inscribed in it) and pushing (f_z >= 0), whose images through ``maps`` ((n, 6, 3):
     each foot's force to six wrench rows) sum nearest ``wrench`` (6,): non-negative least squares on
@@ -131,14 +135,15 @@ def cone_share(maps: FloatArray, wrench: FloatArray, friction: float, edges: int
     n = len(maps)
     ang = 2.0 * math.pi * np.arange(edges) / edges
     e = np.stack([friction * np.cos(ang), friction * np.sin(ang), np.ones(edges)])  # (3, edges)
-    a = np.concatenate([np.asarray(m) @ e for m in maps], axis=1) if n else np.zeros((6, 0))
+    cap = np.ones(n) if capacity is None else np.asarray(capacity, dtype=float)
+    a = np.concatenate([cap[i] * np.asarray(m) @ e for i, m in enumerate(maps)], axis=1) if n else np.zeros((6, 0))
     k = n * edges
     c, _ = nnls(np.vstack([a, math.sqrt(reg) * np.eye(k)]), np.concatenate([wrench, np.zeros(k)]), maxiter=50 * k)
-    return (e @ c.reshape(n, edges).T).T
+    return cap[:, None] * (e @ c.reshape(n, edges).T).T
 
 
 def cone_forces(force: FloatArray, torque: FloatArray, points: FloatArray, com: FloatArray, friction: float,
-                lever: float, edges: int = 4) -> FloatArray:
+                lever: float, edges: int = 4, capacity: FloatArray | None = None) -> FloatArray:
     """(n, 3) contact forces (N) at ``points`` (n, 3; m, world), each in its friction cone and pushing
     (:func:`cone_share`), whose sum and moment about ``com`` come nearest ``force`` (N) and ``torque``
     (N*m), the moment's error counted over the ``lever`` (m; the body's height: a moment error of
@@ -148,7 +153,8 @@ def cone_forces(force: FloatArray, torque: FloatArray, points: FloatArray, com: 
         r = np.asarray(p, dtype=float) - com
         rx = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
         maps.append(np.vstack([np.eye(3), rx / lever]))
-    return cone_share(np.array(maps), np.concatenate([force, np.asarray(torque, dtype=float) / lever]), friction, edges)
+    return cone_share(np.array(maps), np.concatenate([force, np.asarray(torque, dtype=float) / lever]), friction, edges,
+                      capacity=capacity)
 
 
 def leg_lengths(gait: PlannedGait) -> FloatArray:
@@ -594,8 +600,13 @@ class Leap:
         # the feet's forces: the whole body's momentum rates about its centre of mass, m (accel + g) and
         # torque (N*m), each foot in its friction cone and pushing
         com = data.subtree_com[body.root_body].copy()
+        # a leg near straight delivers a fraction of its share: its share shrinks from ``bent`` of its
+        # length to ``straight`` (to a twentieth), the others carry the rest with the moment balanced
+        s, st = self.settings, self._stretch(data)
+        cap = np.array([min(max((s.straight - st[i]) / max(s.straight - s.bent, 1e-6), 0.05), 1.0) for i in stance])
         fs = cone_forces(body.mass * (np.asarray(accel) + np.array([0.0, 0.0, self.g])), torque, np.array(pts), com,
-                         gait.bal.friction, self.height / self.settings.moment_weight, self.settings.cone_edges)
+                         gait.bal.friction, self.height / self.settings.moment_weight, self.settings.cone_edges,
+                         capacity=cap)
         #: the feet's planned contact forces (N, world) at the last control step, by leg
         self.foot_forces = {i: fs[k] for k, i in enumerate(stance)}
         tau = gen.copy()

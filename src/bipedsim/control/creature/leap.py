@@ -10,8 +10,8 @@ through the crouch, is set aside from the set until the body has landed, then re
   pushes) pushes until it straightens to ``straight`` of its length or a joint reaches its range's end
   (``limit_margin``), its share of the force shrinking from ``bent`` of its length on (a nearly
   straight leg makes a fraction of the force asked of it); the stroke's top is where half the legs have
-  straightened, moving along the push's mean velocity from the feet as they stand. The force on the body is m (a + g), a the constant
-  acceleration that takes the centre of mass from its velocity now to the take-off velocity over the
+  straightened, moving along the push's mean velocity from the feet as they stand. The force on the
+  body is m (a + g), a the constant acceleration that takes the centre of mass from its velocity now to the take-off velocity over the
   rest of the stroke, re-planned every step (a body that falls behind is pushed the harder); the torque
   about the centre of mass turns the root toward level and brings the body's mean spin (its angular
   momentum over its inertia) to rest. The feet share that wrench each inside its friction cone and

@@ -8,18 +8,18 @@ through the crouch, is set aside from the set until the body has landed, then re
   eased to ``crouch_carry`` of the walk's, at the crouch's depth;
 - **push**: every leg on the floor (within ``touch`` L of it: a foot that bounces off for a step still
   pushes) pushes until it straightens to ``straight`` of its length or a joint reaches its range's end
-  (``limit_margin``), its share of the force shrinking from ``bent`` of its length on (a nearly
-  straight leg makes a fraction of the force asked of it); the stroke's top is where half the legs have
-  straightened, moving along the push's mean velocity from the feet as they stand. The force on the
-  body is m (a + g), a the constant acceleration that takes the centre of mass from its velocity now to the take-off velocity over the
-  rest of the stroke, re-planned every step (a body that falls behind is pushed the harder); the torque
-  about the centre of mass turns the root toward level and brings the body's mean spin (its angular
-  momentum over its inertia) to rest. The feet share that wrench each inside its friction cone and
-  pushing (:func:`cone_forces`: non-negative least squares on the cones' edges), and the joint torques
-  are the body's inverse dynamics with those contact forces and the feet fixed (the legs' own masses
-  included: a dog's legs are near half its mass), held as a whole to the torque limits (one factor for
-  every joint). The legs' shape is solved by IK for the body where it is, so a trunk that tilts does not
-  lift its feet; a foot off the floor is reached ``press`` L below it;
+  (``limit_margin``), its share of the force shrinking from ``bent`` of its length on (a nearly straight
+  leg makes a fraction of the force asked of it); the stroke's top is where half the legs have
+  straightened, moving along the push's mean velocity from the feet as they stand. The force on the body
+  is m (a + g), a the constant acceleration that takes the centre of mass from its velocity now to the
+  take-off velocity over the rest of the stroke, re-planned every step (a body that falls behind is
+  pushed the harder); the torque about the centre of mass turns the root toward level and brings the
+  body's mean spin (its angular momentum over its inertia) to rest. The feet share that wrench each
+  inside its friction cone and pushing (:func:`cone_forces`: non-negative least squares on the cones'
+  edges), and the joint torques are the body's inverse dynamics with those contact forces and the feet
+  fixed (the legs' own masses included: a dog's legs are near half its mass), held as a whole to the
+  torque limits (one factor for every joint). The legs' shape is solved by IK for the body where it is,
+  so a trunk that tilts does not lift its feet; a foot off the floor is reached ``press`` L below it;
 - **flight**: the legs tucked (each foot drawn ``tuck`` L up toward the trunk from its neutral place,
   held in the root's own frame) while the body rises; past the apex they reach for the ground (the
   neutral stance under the root) with their stiffness x ``land_stiffness``;

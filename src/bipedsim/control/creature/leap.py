@@ -14,21 +14,30 @@ through the crouch, is set aside from the set until the body has landed, then re
   is m (a + g), a the constant acceleration that takes the centre of mass from its velocity now to the
   take-off velocity over the rest of the stroke, re-planned every step (a body that falls behind is
   pushed the harder); the torque about the centre of mass turns the root toward level and brings the
-  body's mean spin (its angular momentum over its inertia) to rest. The feet share that wrench each
+  body's mean spin (its angular momentum over its inertia) to rest, less the moment the body gets beyond
+  the feet's planned one (the forces as made, not as planned: a leg near straight delivers less, a foot
+  slips), estimated from the angular momentum's rate over ``bias_time`` sqrt(L/g). The feet share that wrench each
   inside its friction cone and pushing (:func:`cone_forces`: non-negative least squares on the cones'
   edges), and the joint torques are the body's inverse dynamics with those contact forces and the feet
   fixed (the legs' own masses included: a dog's legs are near half its mass), held as a whole to the
   torque limits (one factor for every joint). The legs' shape is solved by IK for the body where it is,
   so a trunk that tilts does not lift its feet; a foot off the floor is reached ``press`` L below it;
-- **flight**: the legs tucked (each foot drawn ``tuck`` L up toward the trunk from its neutral place,
-  held in the root's own frame) while the body rises; past the apex they reach for the ground (the
-  neutral stance under the root) with their stiffness x ``land_stiffness``;
-- **landing** (``land_time`` sqrt(L/g) s from the first foot down): each foot is held where it came
-  down (the others reach on), the root's height and attitude are held by the standing PD of the gait
-  (its ``body_freq``, ``attitude_freq``, ``damping_ratio``) and its horizontal velocity brought to the
-  walking speed along the leap's heading, the legs' stiffness rising back to full;
-- **resume** (:func:`resume_gait`): the gait's plan restarts from where the body stands, as a walk
-  from rest (its settle time and speed ramp), heading as it was steered.
+- **flight**: the legs hold the pose they left the floor in while the body rises (a leg swung in flight
+  turns the trunk the other way); past the apex they reach for the ground with their stiffness x
+  ``land_stiffness``: each foot to its neutral place under the root, moved ahead along the horizontal
+  velocity by ``land_reach`` x v / sqrt(g/L) (toward the capture point: the braking force at the feet
+  then passes nearer the centre of mass);
+- **landing** (``land_time`` sqrt(L/g) s from the first foot down): the catch, while the body sinks,
+  is the push reversed: the force m (a + g), a the constant deceleration that stops the fall at the
+  crouch's depth and takes the horizontal velocity toward ``land_carry`` of the walking speed as far as
+  ``land_friction`` of the friction cone allows; once the fall has stopped, the standing PD of the gait
+  (its ``body_freq``, ``damping_ratio``) holds the root's height and brings the horizontal velocity to
+  ``land_carry`` of the walk's; both by the body's inverse dynamics through the feet on the floor (the
+  moment weighed ``land_moment_weight`` x), the root levelled and the spin brought to rest, each foot
+  held where it came down (the others reach on), the legs' stiffness rising back to full. A body thrown
+  back into the air reaches again and is caught anew;
+- **resume** (:func:`resume_gait`): the gait's plan restarts from where the body stands, heading as it
+  was steered, at the speed the body has along it (from rest: the settle time and the speed ramp).
 
 Every length scales with L, the height the gait works at, and every time with sqrt(L/g): the same
 settings serve any body. Lengths in m, times in s, velocities in m/s, forces in N; world frame, Z up.
@@ -104,8 +113,23 @@ class LeapSettings:
     #: the push ends at the latest after this x its planned time (a body that cannot reach the take-off
     #: velocity leaves the ground with what it reached)
     push_overrun: float = field(default=1.5, metadata={"min": 1.0, "max": 5.0})
-    #: in flight, each foot drawn this x L up toward the trunk from its neutral place
-    tuck: float = field(default=0.2, metadata={"min": 0.0, "max": 0.6})
+    #: the moment (about the centre of mass) the body gets beyond the feet's planned one is estimated from
+    #: its angular momentum's rate, low-passed over this x sqrt(L/g), and taken off the moment asked in the
+    #: set, the push and the landing (0: not): a push whose forces come out lopsided leaves the floor spinning
+    bias_time: float = field(default=0.05, metadata={"min": 0.0, "max": 5.0})
+    #: past the flight's apex each foot reaches this x v / sqrt(g/L) ahead of its neutral place along the
+    #: horizontal velocity v (the capture point's offset: the landing's braking force passes nearer the
+    #: centre of mass; the legs' reach bounds it)
+    land_reach: float = field(default=0.3, metadata={"min": 0.0, "max": 2.0})
+    #: the landing's catch decelerates the body horizontally by at most this share of what the friction
+    #: cone allows under the force that stops its fall
+    land_friction: float = field(default=0.8, metadata={"min": 0.0, "max": 1.0})
+    #: in the landing, an error of the root's moment weighs this x an equal force at L (a landing that
+    #: cannot both brake and keep its attitude brakes less rather than tip over its front feet)
+    land_moment_weight: float = field(default=3.0, metadata={"gt": 0.0, "max": 100.0})
+    #: the landing brings the horizontal velocity to this share of the walking speed along the leap's
+    #: heading (0: to rest; the gait then restarts as a walk from rest)
+    land_carry: float = field(default=0.0, metadata={"min": 0.0, "max": 1.0})
     #: the legs' joint stiffness while they reach for the ground and at touch-down, a share of full
     land_stiffness: float = field(default=0.4, metadata={"gt": 0.0, "max": 1.0})
     #: the landing lasts this x sqrt(L/g) from the first foot down, the stiffness back to full over it
@@ -279,6 +303,19 @@ class Leap:
         self._ball_joint = [int(np.flatnonzero(body.model.jnt_dofadr == d)[0]) for d in body.dadr]
         #: the gait's root height offset (m) as it walked: lowered by a walked crouch, restored at take-off
         self.z_offset = gait.planner.z_offset
+        #: the moment (N*m, world, about the centre of mass) the body gets beyond the feet's planned one
+        #: (:meth:`_moment_bias`), the feet's planned moment at the last control step and the last
+        #: angular momentum (time s, kg*m^2/s)
+        self.moment_bias = np.zeros(3)
+        self.planned_moment = np.zeros(3)
+        self._angmom: tuple[float, FloatArray] | None = None
+        #: whether the landing's catch has stopped the fall (the hold follows)
+        self.caught = False
+        #: at the first touch-down: the root's tilt from level (rad) and the centre of mass's horizontal
+        #: speed (m/s); the horizontal speed when the catch first stopped the fall (m/s)
+        self.land_tilt: float | None = None
+        self.land_speed: float | None = None
+        self.caught_speed: float | None = None
 
     # ------------------------------------------------------------------ the plan of the root
     def _root_plan(self, t: float) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -297,11 +334,6 @@ class Leap:
         tau = min(t - self.t_push, self.push_s)
         a = (self.v_to - self.vp) / self.push_s
         return self.pp + self.vp * tau + 0.5 * a * tau * tau, self.vp + a * tau, a
-
-    def _attitude(self) -> FloatArray:
-        """The root's planned orientation (quaternion w, x, y, z): the stance's, level, at the leap's heading."""
-        r = rot_z(self.yaw) @ self.gait.stance.att
-        return Rotation.from_matrix(r).as_quat(scalar_first=True)
 
     def _body_feet(self, data: mujoco.MjData, lift: float) -> FloatArray:
         """Each foot's neutral place under the root as it is now (its own frame), raised ``lift`` m."""
@@ -333,7 +365,7 @@ class Leap:
             u = (t - self.t0) / self.crouch_s
             self.gait.planner.z_offset = self.z_offset - self.settings.crouch * self.height * smoothstep(u)
             return self.gait.step(model, data, t, dt)
-        return self._control(model, data, t, down)
+        return self._control(model, data, t, down, contact)
 
     def _at_limit(self, data: mujoco.MjData, i: int) -> bool:
         """Whether a ball joint of leg ``i`` has turned to within ``limit_margin`` rad of its range (the
@@ -405,6 +437,10 @@ class Leap:
             late = t >= self.t_takeoff + self.settings.flight_overrun * max(self.flight_s, self.push_s)
             if (any(down) and vz < 0.0) or late:
                 self.phase, self.t_land = "land", t
+                self.moment_bias, self._angmom = np.zeros(3), None
+                r = data.xmat[self.gait.body.root_body].reshape(3, 3) @ self.gait.stance.att.T
+                self.land_tilt = float(math.acos(min(max(float(r[2, 2]), -1.0), 1.0)))
+                self.land_speed = float(np.linalg.norm(v_com[0:2]))
         if self.phase == "land":
             for i, dn in enumerate(down):
                 if dn and i not in self.landed_feet:
@@ -465,6 +501,56 @@ class Leap:
         a = (self.v_to - v) / t_left
         return self.gait.body.mass * (a + np.array([0.0, 0.0, self.g]))
 
+    def _reach_feet(self, data: mujoco.MjData) -> FloatArray:
+        """Each foot's place to land on (m, world): its neutral place under the root (in the root's own
+        frame), moved ahead along the centre of mass's horizontal velocity v by ``land_reach`` x v / sqrt(g/L)."""
+        v = self._com_velocity(data)
+        feet = self._body_feet(data, 0.0)
+        feet[:, 0:2] += self.settings.land_reach * v[0:2] / self.w0
+        return feet
+
+    def _catch_force(self, data: mujoco.MjData, v_land: FloatArray, hold: FloatArray) -> FloatArray:
+        """The landing's force (N, world) on the body. While it sinks (the catch): m (a + g), a the constant
+        deceleration that stops the fall over the rest of the stroke down to the crouch's depth (at least
+        ``push_min_left`` sqrt(L/g)) and takes the horizontal velocity toward ``v_land`` (m/s), its
+        horizontal part at most ``land_friction`` x the friction cone's under that force. Once the fall has
+        stopped: ``hold`` (N)."""
+        s = self.settings
+        v = self._com_velocity(data)
+        m = self.gait.body.mass
+        if self.caught or v[2] >= 0.0:
+            if not self.caught and self.caught_speed is None:
+                self.caught_speed = float(np.linalg.norm(v[0:2]))
+            self.caught = True
+            a = np.asarray(hold, dtype=float) / m - np.array([0.0, 0.0, self.g])
+        else:
+            low = self.z_stand - s.crouch * self.height
+            left = max(float(data.qpos[2]) - low, 1e-3)
+            t_left = max(2.0 * left / -float(v[2]), s.push_min_left / self.w0)
+            a = (np.array([v_land[0], v_land[1], 0.0]) - v) / t_left
+        most = s.land_friction * self.gait.bal.friction * max(float(a[2]) + self.g, 0.0)
+        ah = float(np.linalg.norm(a[0:2]))
+        if ah > most:
+            a[0:2] *= most / ah
+        return m * (a + np.array([0.0, 0.0, self.g]))
+
+    def _moment_bias(self, data: mujoco.MjData, t: float) -> FloatArray:
+        """The moment (N*m, world) about the centre of mass the body got beyond the feet's planned one: the
+        angular momentum's rate less the last plan's moment, low-passed over ``bias_time`` sqrt(L/g)
+        (zeros with ``bias_time`` 0)."""
+        tc = self.settings.bias_time / self.w0
+        if tc <= 0.0:
+            return np.zeros(3)
+        root = self.gait.body.root_body
+        mujoco.mj_subtreeVel(self.gait.body.model, data)
+        h = data.subtree_angmom[root].copy()
+        if self._angmom is not None and t > self._angmom[0] + 1e-9:
+            dt = t - self._angmom[0]
+            rate = (h - self._angmom[1]) / dt
+            self.moment_bias += min(1.0, dt / tc) * (rate - self.planned_moment - self.moment_bias)
+        self._angmom = (t, h)
+        return self.moment_bias
+
     def _room(self, data: mujoco.MjData, u: FloatArray, i: int) -> float:
         """How far (m) the root may move along the unit vector ``u`` before leg ``i`` (its foot where it
         stands) has straightened to ``straight`` of its length; 0 where it already has."""
@@ -475,7 +561,8 @@ class Leap:
         disc = du * du - (float(d @ d) - r * r)
         return max(-du + math.sqrt(disc), 0.0) if disc >= 0.0 else 0.0
 
-    def _control(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, down: list[bool]) -> FloatArray:
+    def _control(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, down: list[bool],
+                 contact: list[bool]) -> FloatArray:
         gait, body, s = self.gait, self.gait.body, self.settings
         stiff = 1.0
         force = torque = None
@@ -493,22 +580,30 @@ class Leap:
                 force = self._push_force(data)
             stiff = s.push_stiffness if self.phase == "push" else 1.0
         elif self.phase == "flight":
+            # rising, the legs hold the pose they left the floor in; past the apex they reach ahead
             q_root = data.qpos[0:7].copy()
-            rising = data.qvel[2] > 0.0
-            feet = self._body_feet(data, s.tuck * self.height if rising else 0.0)
+            rising = self._com_velocity(data)[2] > 0.0
+            feet = None if rising else self._reach_feet(data)
             stiff = 1.0 if rising else s.land_stiffness
         else:  # land
             u = (t - self.t_land) / (s.land_time / self.w0)
             stiff = s.land_stiffness + (1.0 - s.land_stiffness) * smoothstep(u)
             p = np.array([data.qpos[0], data.qpos[1], self.z_stand])
-            v_walk = gait.clock.v_des * np.array([math.cos(self.yaw), math.sin(self.yaw), 0.0])
-            q_root = np.concatenate([p, self._attitude()])
-            feet = self._body_feet(data, 0.0)
-            feet[:, 2] = gait.stance.site_ground
-            for i, f in self.landed_feet.items():
-                feet[i] = f
-            force, torque = self._wrench(data, p, v_walk, np.zeros(3), horizontal_pd=False)
-        target = self._solve(q_root, feet, data, t)
+            v_land = s.land_carry * gait.clock.v_des * np.array([math.cos(self.yaw), math.sin(self.yaw), 0.0])
+            q_root = data.qpos[0:7].copy()
+            feet = self._reach_feet(data)
+            if not any(contact):  # thrown back into the air: reach again, to be caught anew
+                self.landed_feet, self.caught = {}, False
+            else:
+                feet[:, 2] = gait.stance.site_ground
+                for i, f in self.landed_feet.items():
+                    feet[i] = f
+                for i, dn in enumerate(contact):  # a foot off the floor reaches below it, as in the push
+                    if not dn:
+                        feet[i, 2] -= s.press * self.height
+            force, torque = self._wrench(data, p, v_land, np.zeros(3), horizontal_pd=False)
+            force = self._catch_force(data, v_land, force)
+        target = self.target if feet is None else self._solve(q_root, feet, data, t)
         e = body.joint_error(data, target)
         tau_all = np.zeros(model.nu)
         tau_all[body.acts.ravel()] = (stiff * body.kp[:, None] * e).ravel()
@@ -522,14 +617,17 @@ class Leap:
         tau_f = np.zeros(model.nu)
         if force is not None and stance:
             self.peak_force = max(self.peak_force, float(np.linalg.norm(force)))
-            if self.phase in ("set", "push"):
-                m = gait.body.mass
-                accel = force / m - np.array([0.0, 0.0, self.g])
-                alpha = torque / (m * self.height ** 2)
-                torque_c = self._centroidal_torque(data, attitude=s.push_attitude if self.phase == "push" else 1.0)
-                tau_f = self._inverse_torques(data, accel, alpha, torque_c, stance)
+            m = gait.body.mass
+            accel = force / m - np.array([0.0, 0.0, self.g])
+            alpha = torque / (m * self.height ** 2)
+            # the set and the push: the whole body's spin to rest, over its own inertia; the landing: the
+            # gait's standing attitude PD (its moment scaled by m L^2), which holds a stance level
+            if self.phase == "land":
+                torque_c = torque
             else:
-                tau_f = self._stance_torques(data, force, torque, stance)
+                torque_c = self._centroidal_torque(data, attitude=s.push_attitude if self.phase == "push" else 1.0)
+            torque_c = torque_c - self._moment_bias(data, t)
+            tau_f = self._inverse_torques(data, accel, alpha, torque_c, stance)
         order = body.acts.ravel()
         lim = np.repeat(body.limit, 3)
         if self.phase == "push":
@@ -604,11 +702,12 @@ class Leap:
         # length to ``straight`` (to a twentieth), the others carry the rest with the moment balanced
         s, st = self.settings, self._stretch(data)
         cap = np.array([min(max((s.straight - st[i]) / max(s.straight - s.bent, 1e-6), 0.05), 1.0) for i in stance])
+        weight = s.land_moment_weight if self.phase == "land" else s.moment_weight
         fs = cone_forces(body.mass * (np.asarray(accel) + np.array([0.0, 0.0, self.g])), torque, np.array(pts), com,
-                         gait.bal.friction, self.height / self.settings.moment_weight, self.settings.cone_edges,
-                         capacity=cap)
+                         gait.bal.friction, self.height / weight, s.cone_edges, capacity=cap)
         #: the feet's planned contact forces (N, world) at the last control step, by leg
         self.foot_forces = {i: fs[k] for k, i in enumerate(stance)}
+        self.planned_moment = sum((np.cross(np.asarray(p) - com, f) for p, f in zip(pts, fs)), np.zeros(3))
         tau = gen.copy()
         for k, jp in enumerate(jacs):
             tau -= jp.T @ fs[k]
@@ -647,20 +746,6 @@ class Leap:
         wa = attitude * b.attitude_freq * self.w0
         return inertia @ (wa * wa * rot - 2 * b.damping_ratio * wa * spin)
 
-    def _stance_torques(self, data: mujoco.MjData, force: FloatArray, torque: FloatArray,
-                        stance: list[int]) -> FloatArray:
-        """Joint torques (N*m by actuator) through the ``stance`` legs that push the wrench ``force`` (N),
-        ``torque`` (N*m about the centre of mass) on the body, shared by :func:`cone_forces` (each foot in
-        its friction cone and pushing)."""
-        gait, legs = self.gait, self.gait.legs
-        pts = np.array([legs.contact_points[i] for i in stance])
-        com = data.subtree_com[gait.body.root_body]
-        fs = cone_forces(force, torque, pts, com, gait.bal.friction, self.height, self.settings.cone_edges)
-        out = np.zeros(gait.body.model.nu)
-        for k, i in enumerate(stance):
-            out[legs.acts[i]] += legs.torques(data, i, pts[k], fs[k])
-        return out
-
     def _wrench(self, data: mujoco.MjData, p: FloatArray, v: FloatArray, a: FloatArray,
                 horizontal_pd: bool = True, attitude: float = 1.0) -> tuple[FloatArray, FloatArray]:
         """The virtual force (N) and torque (N*m) on the root: the planned acceleration and gravity,
@@ -685,7 +770,7 @@ class Leap:
         """The legs' joint targets (a qpos) for the root at ``q_root`` and the feet at ``feet``
         (m, world), re-solved every ``plan_dt_s`` (every step in the push: it lasts a few plans)."""
         gait = self.gait
-        if self.phase != "push" and t < self.next_plan - 1e-9:
+        if self.phase not in ("push", "land") and t < self.next_plan - 1e-9:
             return self.target
         q = self.target.copy()
         q[0:7] = q_root
@@ -701,7 +786,8 @@ class Leap:
         """What the leap did: its phase now, times (s), the planned and reached take-off velocity
         (m/s), the flight's measured and ballistic duration (s), the root's highest point (m), the push's
         peak virtual force (N, and as a multiple of the body weight) and its peak joint torque as a share
-        of the joint's limit (1: a leg at its torque limit)."""
+        of the joint's limit (1: a leg at its torque limit), the root's tilt from level (rad) and the
+        horizontal speed (m/s) at touch-down, and the horizontal speed when the catch stopped the fall."""
         weight = self.gait.body.weight
         flight = None if self.t_takeoff is None or self.t_land is None else self.t_land - self.t_takeoff
         return {"phase": self.phase, "t_start_s": self.t0, "push_s": self.push_s, "t_takeoff_s": self.t_takeoff,
@@ -713,18 +799,26 @@ class Leap:
                 "peak_force_n": self.peak_force, "peak_force_body_weights": self.peak_force / weight,
                 "peak_torque_share": self.peak_torque_share, "push_scale_min": self.min_push_scale,
                 "push_feet": int(sum(self.push_feet)), "push_rise_m": self.push_rise,
-                "push_feet_lost_s": [None if x is None else round(x - self.t_push, 4) for x in self.push_lost]}
+                "push_feet_lost_s": [None if x is None else round(x - self.t_push, 4) for x in self.push_lost],
+                "land_tilt_rad": self.land_tilt, "land_speed_m_s": self.land_speed,
+                "caught_speed_m_s": self.caught_speed}
 
 
 def resume_gait(gait: PlannedGait, data: mujoco.MjData, t: float, target: FloatArray) -> None:
-    """Restart ``gait``'s plan at ``t`` (s) from where the body stands in ``data``: a walk from rest (its
-    settle time and speed ramp) from the root's place, along the plan's heading (as steered), each foot
+    """Restart ``gait``'s plan at ``t`` (s) from where the body stands in ``data``: from the root's place,
+    along the plan's heading (as steered), at the speed the body has along it (a share u of the walking
+    speed is taken as u of the way up the speed ramp; a body at rest walks off after the settle time), each foot
     planted where it is, the legs' IK warm-started from ``target`` (the last pose tracked), every leg at
     full stiffness and damping."""
     planner, clock, body, n = gait.planner, gait.clock, gait.body, len(gait.legs)
     ground = gait.stance.site_ground
+    # the plan's speed picks up where the body's is: u of the walking speed along the heading is u of the
+    # way up the speed ramp (u = 0: the settle time first), the path through the root's place now
+    along = float(data.qvel[0:2] @ planner.dir)
+    u = min(max(along / max(clock.v_des, 1e-9), 0.0), 1.0)
+    clock.t_walk = t + (1.0 - u) * gait.bal.settle_s - u * gait.bal.speed_ramp_s
     planner.origin = data.qpos[0:2].copy()
-    clock.t_walk = t + gait.bal.settle_s
+    planner.origin -= planner.root_path(t) - data.qpos[0:2]
     planner.shift = np.zeros(2)
     planner.v_filt = data.qvel[0:2].copy()
     planner.lift = [None] * n

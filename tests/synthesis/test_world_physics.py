@@ -19,7 +19,7 @@ from bipedsim.model.builtin import builtin_humanoid_path
 from bipedsim.model.ground import ground_geoms, terrain_of
 from bipedsim.model.ground_grid import GridTerrain, HeightGrid, with_height_grid
 from bipedsim.synthesis.world import SimulateSettings, cross_world, load_creature, parse_world, world_grid
-from bipedsim.synthesis.world.physics import Steering, can_simulate, fell_where, simulate_crossing
+from bipedsim.synthesis.world.physics import Steering, can_simulate, fell_where, jump_records, simulate_crossing
 from bipedsim.synthesis.world.synth import Curve
 from bipedsim.synthesis.world.tiles import GAP_DEPTH_M, MOUNTAIN_HEIGHT_M, WALL_HEIGHT_M
 
@@ -289,3 +289,22 @@ def test_the_leap_plants_the_front_feet_short_of_the_gap_and_lands_the_hind_feet
     v = 1.1 * math.sqrt(9.81 * 1.5) / math.sqrt(2.0)
     assert ctrl.asked[0][1] == pytest.approx([v, 0.0, v], rel=1e-6)
     assert leaps.planned[0]["flight_m"] == pytest.approx(1.5)
+
+
+def test_a_jump_is_crossed_once_the_root_is_past_the_gaps_far_edge() -> None:
+    """``crossed`` reads the gap, not the plan's landing point: a root over the far side of the gap (past
+    6.5 m) short of the plan's landing (7.0 m) has crossed; one over the gap has not."""
+    from types import SimpleNamespace
+
+    from bipedsim.synthesis.world.physics import Leaps
+
+    pts = np.stack([np.linspace(0.0, 10.0, 101), np.zeros(101)], axis=1)
+    curve = Curve(xy=pts, s=pts[:, 0].copy(), yaw=np.zeros(101), tile_s=np.array([0.0]))
+    steering = Steering(curve, SimulateSettings(), parse_world({"tile": 2.0, "rows": ["S...G"]}, "w.yaml"))
+    jump = SimpleNamespace(tile=(0, 2), s_takeoff=5.0, s_land=7.0, width=1.0, vx=3.0, vz=2.0, speed=3.6)
+    leaps = Leaps([jump], curve, steering)
+    for progress, crossed in ((6.2, False), (6.6, True)):
+        steering.progress = progress
+        rec = jump_records([jump], steering, leaps, [])[0]
+        assert rec["crossed"] is crossed
+        assert (rec["s_near_edge_m"], rec["s_far_edge_m"]) == pytest.approx((5.5, 6.5))

@@ -354,7 +354,8 @@ def run_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[s
 
 def jump_records(jumps: list[Any], steering: Steering, leaps: Leaps, made: list[Any]) -> list[dict[str, Any]]:
     """Per jump of the path: where (tile, gap width m, take-off and landing arc lengths m), the planned
-    take-off speed (m/s), whether the body got past its landing point (``crossed``), where the body's
+    take-off speed (m/s), the gap's near and far edges (arc lengths m), whether the body's root got past the
+    far edge (``crossed``: over ground beyond the gap, wherever the plan's landing point lies), where the body's
     leap was planned (``leap_planned``: the set, take-off and landing arc lengths m, the flight m, the
     terrain's rise m; :meth:`Leaps.velocity`) and the leap the body made (``leap``:
     :meth:`~bipedsim.control.creature.leap.Leap.record`, its planned and reached take-off velocity and
@@ -363,8 +364,10 @@ def jump_records(jumps: list[Any], steering: Steering, leaps: Leaps, made: list[
     records = iter(made)
     for k, j in enumerate(jumps):
         leap = next(records, None) if leaps.asked[k] is not None else None
+        near, far = leaps.edges(k)
         out.append({"tile": list(j.tile), "width_m": j.width, "s_takeoff_m": j.s_takeoff, "s_land_m": j.s_land,
-                    "takeoff_speed_m_s": j.speed, "crossed": steering.progress >= j.s_land,
+                    "s_near_edge_m": near, "s_far_edge_m": far,
+                    "takeoff_speed_m_s": j.speed, "crossed": steering.progress >= far,
                     "leap_asked_at_s": leaps.asked[k], "leap_planned": leaps.planned[k],
                     "leap": None if leap is None else leap.record()})
     return out

@@ -1,12 +1,14 @@
 """The creature's leap (control/creature/leap.py): its push's timing, its settings' checks, the feet's
 share of a wrench held in their friction cones, a leap from walking on the generated dog reaching its
-take-off velocity on all its feet, and one going through its phases with every foot off the floor."""
+take-off velocity on all its feet and holding its legs still as it rises, one going through its phases with
+every foot off the floor, and the gait resuming at the speed the body has."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
 
+import mujoco
 import numpy as np
 import pytest
 from creature_clips import dog_clip
@@ -19,6 +21,7 @@ from bipedsim.control.creature.leap import (
     lead_time,
     leg_extension,
     push_time,
+    resume_gait,
     stroke,
 )
 from bipedsim.errors import ConfigError
@@ -78,6 +81,10 @@ def test_a_leap_from_walking_reaches_its_take_off_on_all_its_feet() -> None:
     rec = ctrl.leaps[0].record()
     assert rec["push_feet"] == 4
     assert all(t is None or t >= 0.5 * rec["push_s"] for t in rec["push_feet_lost_s"])
+    # rising, the legs hold the pose they left the floor in (a leg swung in flight turns the trunk)
+    rising = [q for t, phase, q, vz in watch.targets if phase == "flight" and vz > 0.0]
+    assert len(rising) > 5
+    assert max(float(np.abs(q - rising[0]).max()) for q in rising) < 1e-12
     asked, got = np.array(rec["takeoff_planned_m_s"]), np.array(rec["takeoff_reached_m_s"])
     ahead = asked[0:2] / np.linalg.norm(asked[0:2])
     assert got[0:2] @ ahead >= 0.85 * np.linalg.norm(asked[0:2])
@@ -91,6 +98,8 @@ class _Watch:
     def __init__(self, t_leap: float, velocity: np.ndarray) -> None:
         self.t_leap, self.velocity = t_leap, velocity
         self.rows: list[tuple[float, str, int, float]] = []
+        #: per control step of a leap: time (s), phase, the legs' joint targets, the centre of mass's v_z (m/s)
+        self.targets: list[tuple[float, str, np.ndarray, float]] = []
 
     def __call__(self, t: float, data: object, ctrl: CreatureController) -> None:
         if t >= self.t_leap and not ctrl.leaps and not ctrl.leaping:
@@ -99,6 +108,9 @@ class _Watch:
             ctrl.leap(t, np.array([v[0] * math.cos(yaw), v[0] * math.sin(yaw), v[2]]))
         phase = ctrl.leaps[-1].phase if ctrl.leaps else "-"
         self.rows.append((t, phase, sum(ctrl.legs.feet_down(data)), float(data.qpos[2])))
+        if ctrl.leaps:
+            leap = ctrl.leaps[-1]
+            self.targets.append((t, phase, leap.target.copy(), float(leap._com_velocity(data)[2])))
 
 
 @pytest.mark.slow
@@ -127,3 +139,24 @@ def test_a_leap_from_standing_goes_through_its_phases_off_the_floor() -> None:
     assert any(r[2] == 0 for r in flight)
     rec = ctrl.leaps[0].record()
     assert rec["takeoff_reached_m_s"][2] > 0.0 and rec["t_takeoff_s"] > rec["t_start_s"]
+
+
+def test_the_gait_resumes_at_the_speed_the_body_has() -> None:
+    """After a landing the plan restarts from where the root is: moving at half the walking speed along
+    the heading, half-way up the speed ramp (no settle); at rest, the settle time first."""
+    sc = load_scenario(bvh=dog_clip())
+    ctrl = sc.controller()
+    data = mujoco.MjData(sc.built.model)
+    data.qpos[:] = sc.clip.qpos[0]
+    ctrl.reset(data, 0.0)
+    mujoco.mj_forward(sc.built.model, data)
+    g = ctrl.gait
+    v_des, t = g.clock.v_des, 3.0
+    data.qvel[0:2] = 0.5 * v_des * g.planner.dir
+    resume_gait(g, data, t, g.target)
+    assert g.clock.speed_at(t) == pytest.approx(0.5 * v_des)
+    assert g.planner.root_path(t) == pytest.approx(data.qpos[0:2])
+    data.qvel[:] = 0.0
+    resume_gait(g, data, t, g.target)
+    assert g.clock.t_walk == pytest.approx(t + g.bal.settle_s)
+    assert g.planner.root_path(t) == pytest.approx(data.qpos[0:2])

@@ -813,10 +813,11 @@ def resume_gait(gait: PlannedGait, data: mujoco.MjData, t: float, target: FloatA
     planner, clock, body, n = gait.planner, gait.clock, gait.body, len(gait.legs)
     ground = gait.stance.site_ground
     # the plan's speed picks up where the body's is: u of the walking speed along the heading is u of the
-    # way up the speed ramp (u = 0: the settle time first), the path through the root's place now
+    # way up the speed ramp (a body at rest or going back: the settle time first), the path through the
+    # root's place now
     along = float(data.qvel[0:2] @ planner.dir)
-    u = min(max(along / max(clock.v_des, 1e-9), 0.0), 1.0)
-    clock.t_walk = t + (1.0 - u) * gait.bal.settle_s - u * gait.bal.speed_ramp_s
+    u = min(along / max(clock.v_des, 1e-9), 1.0)
+    clock.t_walk = t - u * gait.bal.speed_ramp_s if u > 0.0 else t + gait.bal.settle_s
     planner.origin = data.qpos[0:2].copy()
     planner.origin -= planner.root_path(t) - data.qpos[0:2]
     planner.shift = np.zeros(2)

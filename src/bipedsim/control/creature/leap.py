@@ -46,193 +46,34 @@ settings serve any body. Lengths in m, times in s, velocities in m/s, forces in 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from typing import Any
 
 import mujoco
 import numpy as np
-from scipy.optimize import nnls
-from scipy.spatial.transform import Rotation
 
 from bipedsim.control.base import FloatArray
-from bipedsim.control.creature.frames import rot_z
 from bipedsim.control.creature.gait import PlannedGait
+from bipedsim.control.creature.leap_dynamics import LeapDynamics
+from bipedsim.control.creature.leap_plan import (
+    LeapSettings,
+    cone_forces,
+    cone_share,
+    lead_time,
+    leg_extension,
+    leg_lengths,
+    push_time,
+    stroke,
+)
 from bipedsim.control.creature.planner import smoothstep
-from bipedsim.errors import ConfigError
+
+__all__ = ["PHASES", "Leap", "LeapSettings", "cone_forces", "cone_share", "lead_time", "leg_extension", "leg_lengths",
+           "push_time", "resume_gait", "stroke"]
 
 #: the phases of a leap, in order
 PHASES = ("crouch", "set", "push", "flight", "land", "done")
 
 
-@dataclass(frozen=True)
-class LeapSettings:
-    """How a creature leaps (lengths in units of L, the gait's standing height; times in sqrt(L/g))."""
-
-    #: the root sinks this x L before the push: the start of the push's stroke
-    crouch: float = field(default=0.25, metadata={"min": 0.0, "max": 0.6})
-    #: the push ends with the legs straightened to this share of their length (the bones from the leg's
-    #: root to its foot, end to end), or as they stand where that is straighter: the stroke's top
-    straight: float = field(default=0.92, metadata={"gt": 0.0, "max": 1.0})
-    #: the crouch is walked over this x sqrt(L/g): the gait steps on while its root is lowered, so its
-    #: feet stay under the body and the walking speed is carried into the push
-    crouch_time: float = field(default=2.0, metadata={"gt": 0.0, "max": 20.0})
-    #: then every foot is set down where it is and held there for this x sqrt(L/g), the root at the
-    #: crouch's depth: the push starts on all its feet
-    set_time: float = field(default=0.4, metadata={"min": 0.0, "max": 5.0})
-    #: the share of the walking speed (along the leap's heading) the root keeps at the set's end: the
-    #: feet stay planted, so a trunk that keeps walking rides over its front feet (0: it comes to rest;
-    #: its sideways sway is always brought to rest)
-    crouch_carry: float = field(default=1.0, metadata={"min": 0.0, "max": 1.0})
-    #: a foot within this x L of its standing height counts as on the floor in the set and the push
-    touch: float = field(default=0.02, metadata={"min": 0.0, "max": 0.2})
-    #: in the set and the push, a foot off the floor is reached this x L below it (its leg extends to
-    #: find the floor rather than hang where the trunk's tilt lifted it)
-    press: float = field(default=0.1, metadata={"min": 0.0, "max": 0.5})
-    #: in the set and the push, an error of the root's moment weighs this x an equal force at L (a
-    #: push that cannot carry both gives up force rather than leave the floor spinning)
-    moment_weight: float = field(default=1.0, metadata={"gt": 0.0, "max": 100.0})
-    #: in the push, a leg stretched past this share of its length is given a smaller share of the force,
-    #: down to a twentieth at ``straight`` (a nearly straight leg makes a fraction of the force asked)
-    bent: float = field(default=0.75, metadata={"gt": 0.0, "max": 1.0})
-    #: a leg with a ball joint turned to within this (rad) of its range's end stops pushing
-    limit_margin: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
-    #: friction pyramid edges per foot in the push's force sharing (more: nearer the cone)
-    cone_edges: int = field(default=4, metadata={"min": 3, "max": 16})
-    #: the legs' joint damping during the push, a share of the full (the gait's kd): the damping that
-    #: steadies a standing leg would swallow much of a push that straightens it in a tenth of a second
-    push_damping: float = field(default=0.0, metadata={"min": 0.0, "max": 1.0})
-    #: the legs' joint stiffness during the push, a share of full (the crouch holds them at full): the
-    #: virtual force through the legs does the pushing, the joints' PD only keeps the legs' shape
-    push_stiffness: float = field(default=0.3, metadata={"gt": 0.0, "max": 1.0})
-    #: the attitude PD's frequency in the set and the push, x the gait's: the spin the body leaves the
-    #: floor with is kept through the flight
-    push_attitude: float = field(default=1.0, metadata={"gt": 0.0, "max": 20.0})
-    #: the push's remaining time is taken as at least this x sqrt(L/g) (its acceleration bounded near
-    #: the stroke's top)
-    push_min_left: float = field(default=0.05, metadata={"gt": 0.0, "max": 1.0})
-    #: the push ends at the latest after this x its planned time (a body that cannot reach the take-off
-    #: velocity leaves the ground with what it reached)
-    push_overrun: float = field(default=1.5, metadata={"min": 1.0, "max": 5.0})
-    #: the moment (about the centre of mass) the body gets beyond the feet's planned one is estimated from
-    #: its angular momentum's rate, low-passed over this x sqrt(L/g), and taken off the moment asked in the
-    #: set, the push and the landing (0: not): a push whose forces come out lopsided leaves the floor spinning
-    bias_time: float = field(default=0.05, metadata={"min": 0.0, "max": 5.0})
-    #: past the flight's apex each foot reaches this x v / sqrt(g/L) ahead of its neutral place along the
-    #: horizontal velocity v (the capture point's offset: the landing's braking force passes nearer the
-    #: centre of mass; the legs' reach bounds it)
-    land_reach: float = field(default=0.3, metadata={"min": 0.0, "max": 2.0})
-    #: the landing's catch decelerates the body horizontally by at most this share of what the friction
-    #: cone allows under the force that stops its fall
-    land_friction: float = field(default=0.8, metadata={"min": 0.0, "max": 1.0})
-    #: in the landing, an error of the root's moment weighs this x an equal force at L (a landing that
-    #: cannot both brake and keep its attitude brakes less rather than tip over its front feet)
-    land_moment_weight: float = field(default=3.0, metadata={"gt": 0.0, "max": 100.0})
-    #: the landing brings the horizontal velocity to this share of the walking speed along the leap's
-    #: heading (0: to rest; the gait then restarts as a walk from rest)
-    land_carry: float = field(default=0.0, metadata={"min": 0.0, "max": 1.0})
-    #: the legs' joint stiffness while they reach for the ground and at touch-down, a share of full
-    land_stiffness: float = field(default=0.4, metadata={"gt": 0.0, "max": 1.0})
-    #: the landing lasts this x sqrt(L/g) from the first foot down, the stiffness back to full over it
-    land_time: float = field(default=3.0, metadata={"gt": 0.0, "max": 20.0})
-    #: the flight ends (the landing starts) at the latest this x the ballistic flight time of the take-off
-    #: velocity: a body that never touches down again stops waiting
-    flight_overrun: float = field(default=3.0, metadata={"min": 1.0, "max": 10.0})
-
-    def validate(self) -> None:
-        """Each value in its range (a :class:`ConfigError` naming the key)."""
-        for f in self.__dataclass_fields__.values():
-            v, meta = getattr(self, f.name), f.metadata
-            ok = isinstance(v, (int, float)) and math.isfinite(v)
-            ok = ok and v >= meta.get("min", -math.inf) and v <= meta.get("max", math.inf)
-            ok = ok and ("gt" not in meta or v > meta["gt"])
-            if not ok:
-                raise ConfigError(f"out of range, got {v!r}", key=f"leap.{f.name}")
-
-
-def cone_share(maps: FloatArray, wrench: FloatArray, friction: float, edges: int = 4,
-               reg: float = 1e-4, capacity: FloatArray | None = None) -> FloatArray:
-    """(n, 3) contact forces (N, world), each inside its friction cone (a pyramid of ``edges`` edges of
-    slope ``friction`` inscribed in it) and pushing (f_z >= 0), whose images through ``maps`` ((n, 6, 3):
-    each foot's force to six wrench rows) sum nearest ``wrench`` (6,): non-negative least squares on
-    the edges' weights, ``reg`` x their squares added (a share spread over the feet, not flung from one
-    to another between steps)."""
-    n = len(maps)
-    ang = 2.0 * math.pi * np.arange(edges) / edges
-    e = np.stack([friction * np.cos(ang), friction * np.sin(ang), np.ones(edges)])  # (3, edges)
-    cap = np.ones(n) if capacity is None else np.asarray(capacity, dtype=float)
-    a = np.concatenate([cap[i] * np.asarray(m) @ e for i, m in enumerate(maps)], axis=1) if n else np.zeros((6, 0))
-    k = n * edges
-    c, _ = nnls(np.vstack([a, math.sqrt(reg) * np.eye(k)]), np.concatenate([wrench, np.zeros(k)]), maxiter=50 * k)
-    return cap[:, None] * (e @ c.reshape(n, edges).T).T
-
-
-def cone_forces(force: FloatArray, torque: FloatArray, points: FloatArray, com: FloatArray, friction: float,
-                lever: float, edges: int = 4, capacity: FloatArray | None = None) -> FloatArray:
-    """(n, 3) contact forces (N) at ``points`` (n, 3; m, world), each in its friction cone and pushing
-    (:func:`cone_share`), whose sum and moment about ``com`` come nearest ``force`` (N) and ``torque``
-    (N*m), the moment's error counted over the ``lever`` (m; the body's height: a moment error of
-    F x lever weighs as a force error of F)."""
-    maps = []
-    for p in points:
-        r = np.asarray(p, dtype=float) - com
-        rx = np.array([[0, -r[2], r[1]], [r[2], 0, -r[0]], [-r[1], r[0], 0]])
-        maps.append(np.vstack([np.eye(3), rx / lever]))
-    return cone_share(np.array(maps), np.concatenate([force, np.asarray(torque, dtype=float) / lever]), friction, edges,
-                      capacity=capacity)
-
-
-def leg_lengths(gait: PlannedGait) -> FloatArray:
-    """Each leg's length (m): its bones from the leg's root body to its foot site, end to end, as posed
-    in ``gait``'s neutral stance."""
-    model, legs, ik = gait.body.model, gait.legs, gait.ik
-    d = mujoco.MjData(model)
-    d.qpos[:] = gait.stance.q
-    mujoco.mj_kinematics(model, d)
-    out = []
-    for i, leg in enumerate(legs):
-        pts = np.array([d.xpos[model.body(b).id] for b in leg.bodies] + [d.site_xpos[ik.sites[i]]])
-        out.append(float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()))
-    return np.array(out)
-
-
-def leg_extension(gait: PlannedGait, straight: float) -> float:
-    """The least room (m) any leg of ``gait``'s body has to straighten from its neutral stance: per leg,
-    ``straight`` x its length (its bones from the leg's root body to its foot site, end to end, as
-    posed in the stance) less the distance from its root to its foot site as it stands; at least 0."""
-    model, legs, ik = gait.body.model, gait.legs, gait.ik
-    d = mujoco.MjData(model)
-    d.qpos[:] = gait.stance.q
-    mujoco.mj_kinematics(model, d)
-    room = math.inf
-    for i, leg in enumerate(legs):
-        pts = np.array([d.xpos[model.body(b).id] for b in leg.bodies] + [d.site_xpos[ik.sites[i]]])
-        length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
-        room = min(room, straight * length - float(np.linalg.norm(pts[-1] - pts[0])))
-    return max(room, 0.0) if math.isfinite(room) else 0.0
-
-
-def stroke(gait: PlannedGait, settings: LeapSettings) -> float:
-    """The push's stroke (m): the root's rise from the crouch (``crouch`` x L below standing) to the
-    legs straightened (:func:`leg_extension`)."""
-    return settings.crouch * gait.legs.height + leg_extension(gait, settings.straight)
-
-
-def push_time(stroke_m: float, velocity: FloatArray) -> float:
-    """The push's planned duration (s) for a take-off ``velocity`` (m/s, world; its z part > 0) over a
-    stroke of ``stroke_m`` (m) at constant vertical acceleration from rest to v_z: 2 stroke / v_z."""
-    vz = float(velocity[2])
-    if not (math.isfinite(vz) and vz > 0.0):
-        raise ConfigError(f"a leap's take-off velocity must rise (its z part > 0 m/s), got {vz!r}",
-                          key="leap.velocity")
-    return 2.0 * stroke_m / vz
-
-
-def lead_time(gait: PlannedGait, velocity: FloatArray, settings: LeapSettings) -> float:
-    """The time (s) from a leap's start to its planned take-off: the crouch, the set and the push."""
-    return (settings.crouch_time + settings.set_time) / gait.legs.omega0 + push_time(stroke(gait, settings), velocity)
-
-
-class Leap:
+class Leap(LeapDynamics):
     """One leap of ``gait``'s body from time ``t`` (s) toward the take-off ``velocity`` (m/s, world),
     its control step (:meth:`step`: torques by actuator, None once the gait has resumed) and what
     happened (:meth:`record`). See the module text."""
@@ -489,78 +330,6 @@ class Leap:
         self.push_s = 2.0 * rise / (float(self.vp[2]) + float(self.v_to[2]))
         self.t_push = t
 
-    def _push_force(self, data: mujoco.MjData) -> FloatArray:
-        """The push's force (N, world) on the body: m (a + g), a the constant acceleration that takes the
-        centre of mass from its velocity now to the take-off velocity over the rest of the stroke (re-planned
-        every step, so a body that falls behind is pushed the harder: the remaining time is
-        2 x the rise left / (v_z now + v_z take-off), at least a control step's worth)."""
-        v = self._com_velocity(data)
-        left = self.pp[2] + self.push_rise - float(data.qpos[2])
-        vz = max(float(v[2]), 0.0) + float(self.v_to[2])
-        t_left = max(2.0 * left / vz, self.settings.push_min_left / self.w0)
-        a = (self.v_to - v) / t_left
-        return self.gait.body.mass * (a + np.array([0.0, 0.0, self.g]))
-
-    def _reach_feet(self, data: mujoco.MjData) -> FloatArray:
-        """Each foot's place to land on (m, world): its neutral place under the root (in the root's own
-        frame), moved ahead along the centre of mass's horizontal velocity v by ``land_reach`` x v / sqrt(g/L)."""
-        v = self._com_velocity(data)
-        feet = self._body_feet(data, 0.0)
-        feet[:, 0:2] += self.settings.land_reach * v[0:2] / self.w0
-        return feet
-
-    def _catch_force(self, data: mujoco.MjData, v_land: FloatArray, hold: FloatArray) -> FloatArray:
-        """The landing's force (N, world) on the body. While it sinks (the catch): m (a + g), a the constant
-        deceleration that stops the fall over the rest of the stroke down to the crouch's depth (at least
-        ``push_min_left`` sqrt(L/g)) and takes the horizontal velocity toward ``v_land`` (m/s), its
-        horizontal part at most ``land_friction`` x the friction cone's under that force. Once the fall has
-        stopped: ``hold`` (N)."""
-        s = self.settings
-        v = self._com_velocity(data)
-        m = self.gait.body.mass
-        if self.caught or v[2] >= 0.0:
-            if not self.caught and self.caught_speed is None:
-                self.caught_speed = float(np.linalg.norm(v[0:2]))
-            self.caught = True
-            a = np.asarray(hold, dtype=float) / m - np.array([0.0, 0.0, self.g])
-        else:
-            low = self.z_stand - s.crouch * self.height
-            left = max(float(data.qpos[2]) - low, 1e-3)
-            t_left = max(2.0 * left / -float(v[2]), s.push_min_left / self.w0)
-            a = (np.array([v_land[0], v_land[1], 0.0]) - v) / t_left
-        most = s.land_friction * self.gait.bal.friction * max(float(a[2]) + self.g, 0.0)
-        ah = float(np.linalg.norm(a[0:2]))
-        if ah > most:
-            a[0:2] *= most / ah
-        return m * (a + np.array([0.0, 0.0, self.g]))
-
-    def _moment_bias(self, data: mujoco.MjData, t: float) -> FloatArray:
-        """The moment (N*m, world) about the centre of mass the body got beyond the feet's planned one: the
-        angular momentum's rate less the last plan's moment, low-passed over ``bias_time`` sqrt(L/g)
-        (zeros with ``bias_time`` 0)."""
-        tc = self.settings.bias_time / self.w0
-        if tc <= 0.0:
-            return np.zeros(3)
-        root = self.gait.body.root_body
-        mujoco.mj_subtreeVel(self.gait.body.model, data)
-        h = data.subtree_angmom[root].copy()
-        if self._angmom is not None and t > self._angmom[0] + 1e-9:
-            dt = t - self._angmom[0]
-            rate = (h - self._angmom[1]) / dt
-            self.moment_bias += min(1.0, dt / tc) * (rate - self.planned_moment - self.moment_bias)
-        self._angmom = (t, h)
-        return self.moment_bias
-
-    def _room(self, data: mujoco.MjData, u: FloatArray, i: int) -> float:
-        """How far (m) the root may move along the unit vector ``u`` before leg ``i`` (its foot where it
-        stands) has straightened to ``straight`` of its length; 0 where it already has."""
-        gait, model = self.gait, self.gait.body.model
-        d = data.xpos[model.body(gait.legs.legs[i].root).id] - data.site_xpos[gait.ik.sites[i]]
-        r = self.settings.straight * self.leg_len[i]
-        du = float(d @ u)
-        disc = du * du - (float(d @ d) - r * r)
-        return max(-du + math.sqrt(disc), 0.0) if disc >= 0.0 else 0.0
-
     def _control(self, model: mujoco.MjModel, data: mujoco.MjData, t: float, down: list[bool],
                  contact: list[bool]) -> FloatArray:
         gait, body, s = self.gait, self.gait.body, self.settings
@@ -645,126 +414,6 @@ class Leap:
             self.min_push_scale = min(self.min_push_scale, scale)
         tau_all[order] = pd + scale * wf
         return body.clipped(tau_all)
-
-    def _inverse_torques(self, data: mujoco.MjData, accel: FloatArray, alpha: FloatArray, torque: FloatArray,
-                         stance: list[int]) -> FloatArray:
-        """Joint torques (N*m by actuator) that give the centre of mass the acceleration ``accel`` (m/s^2,
-        world) and the root the angular acceleration ``alpha`` (rad/s^2, world) with the ``stance`` feet
-        fixed on the floor and the other joints held (the body's inverse dynamics, its legs' masses
-        included): the generalised forces M qacc + bias, the root's share of them carried by the feet's
-        contact forces (each in its friction cone and pushing: non-negative least squares on the root's
-        rows), the rest by the joints."""
-        gait, legs = self.gait, self.gait.legs
-        model, body = gait.body.model, gait.body
-        nv = model.nv
-        if not stance:
-            return np.zeros(model.nu)
-        r = data.xmat[body.root_body].reshape(3, 3)
-        pts = [legs.contact_points[i] for i in stance]
-        jacs, drifts = [], []
-        for k, i in enumerate(stance):
-            jp = np.zeros((3, nv))
-            jd = np.zeros((3, nv))
-            mujoco.mj_jac(model, data, jp, None, pts[k], legs.feet[i][0])
-            mujoco.mj_jacDot(model, data, jd, None, pts[k], legs.feet[i][0])
-            jacs.append(jp)
-            drifts.append(jd @ data.qvel)
-
-        def qacc_of(lin: FloatArray, ang: FloatArray, drift: bool) -> FloatArray:
-            # the feet's points do not accelerate: J_leg qacc_leg = -(J_root qacc_root + Jdot qvel)
-            q = np.zeros(nv)
-            q[0:3], q[3:6] = lin, r.T @ ang
-            for k, i in enumerate(stance):
-                dofs = legs.dofs[i]
-                rhs = -(jacs[k][:, 0:6] @ q[0:6]) - (drifts[k] if drift else 0.0)
-                q[dofs] = np.linalg.lstsq(jacs[k][:, dofs], rhs, rcond=None)[0]
-            return q
-
-        def gen_of(q: FloatArray) -> FloatArray:
-            out_ = np.zeros(nv)
-            mujoco.mj_mulM(model, data, out_, q)
-            return out_
-
-        # the root's linear acceleration x that gives the whole body's momentum rate m (accel + g)
-        base = qacc_of(np.zeros(3), alpha, True)
-        g0 = gen_of(base) + data.qfrc_bias
-        cols = [qacc_of(np.eye(3)[k], np.zeros(3), False) for k in range(3)]
-        gx = np.stack([gen_of(c)[0:3] for c in cols], axis=1)
-        want = body.mass * (np.asarray(accel) + np.array([0.0, 0.0, self.g]))
-        x = np.linalg.solve(gx, want - g0[0:3])
-        qacc = base + sum(x[k] * cols[k] for k in range(3))
-        gen = gen_of(qacc) + data.qfrc_bias
-        out = np.zeros(model.nu)
-        # the feet's forces: the whole body's momentum rates about its centre of mass, m (accel + g) and
-        # torque (N*m), each foot in its friction cone and pushing
-        com = data.subtree_com[body.root_body].copy()
-        # a leg near straight delivers a fraction of its share: its share shrinks from ``bent`` of its
-        # length to ``straight`` (to a twentieth), the others carry the rest with the moment balanced
-        s, st = self.settings, self._stretch(data)
-        cap = np.array([min(max((s.straight - st[i]) / max(s.straight - s.bent, 1e-6), 0.05), 1.0) for i in stance])
-        weight = s.land_moment_weight if self.phase == "land" else s.moment_weight
-        fs = cone_forces(body.mass * (np.asarray(accel) + np.array([0.0, 0.0, self.g])), torque, np.array(pts), com,
-                         gait.bal.friction, self.height / weight, s.cone_edges, capacity=cap)
-        #: the feet's planned contact forces (N, world) at the last control step, by leg
-        self.foot_forces = {i: fs[k] for k, i in enumerate(stance)}
-        self.planned_moment = sum((np.cross(np.asarray(p) - com, f) for p, f in zip(pts, fs)), np.zeros(3))
-        tau = gen.copy()
-        for k, jp in enumerate(jacs):
-            tau -= jp.T @ fs[k]
-        held = np.zeros(nv, dtype=bool)
-        for i in stance:
-            held[legs.dofs[i]] = True
-        out[body.acts.ravel()] = np.where(held[body.vel_idx.ravel()], tau[body.vel_idx.ravel()], 0.0)
-        return out
-
-    def _mean_spin(self, data: mujoco.MjData) -> tuple[FloatArray, FloatArray]:
-        """The whole body's inertia about its centre of mass (kg*m^2, world) and its mean spin (rad/s,
-        world): its angular momentum about the centre of mass over that inertia."""
-        model, root = self.gait.body.model, self.gait.body.root_body
-        mujoco.mj_subtreeVel(model, data)
-        com = data.subtree_com[root]
-        inertia = np.zeros((3, 3))
-        for k in range(root, model.nbody):
-            if model.body_rootid[k] != model.body_rootid[root]:
-                continue
-            rk = data.ximat[k].reshape(3, 3)
-            d = data.xipos[k] - com
-            inertia += rk @ np.diag(model.body_inertia[k]) @ rk.T
-            inertia += model.body_mass[k] * (float(d @ d) * np.eye(3) - np.outer(d, d))
-        return inertia, np.linalg.solve(inertia, data.subtree_angmom[root])
-
-    def _centroidal_torque(self, data: mujoco.MjData, attitude: float = 1.0) -> FloatArray:
-        """The torque (N*m, world) about the centre of mass the feet are asked for: the whole body's
-        inertia (about its centre of mass) times an angular acceleration that turns the root toward level
-        at the leap's heading and brings the body's mean spin (its angular momentum over its inertia) to
-        rest (the gait's attitude PD, frequency x ``attitude``)."""
-        gait, b = self.gait, self.gait.bal
-        root = gait.body.root_body
-        inertia, spin = self._mean_spin(data)
-        r = data.xmat[root].reshape(3, 3)
-        rot = Rotation.from_matrix(rot_z(self.yaw) @ gait.stance.att @ r.T).as_rotvec()
-        wa = attitude * b.attitude_freq * self.w0
-        return inertia @ (wa * wa * rot - 2 * b.damping_ratio * wa * spin)
-
-    def _wrench(self, data: mujoco.MjData, p: FloatArray, v: FloatArray, a: FloatArray,
-                horizontal_pd: bool = True, attitude: float = 1.0) -> tuple[FloatArray, FloatArray]:
-        """The virtual force (N) and torque (N*m) on the root: the planned acceleration and gravity,
-        a PD toward the planned position (horizontal too with ``horizontal_pd``) and velocity, and a
-        PD of the attitude toward level at the leap's heading."""
-        gait, b = self.gait, self.gait.bal
-        m, root = gait.body.mass, gait.body.root_body
-        w = b.body_freq * self.w0
-        err = p - data.qpos[0:3]
-        if not horizontal_pd:
-            err[0:2] = 0.0
-        force = m * (a + w * w * err + 2 * b.damping_ratio * w * (v - self._com_velocity(data)))
-        force[2] += m * self.g
-        r = data.xmat[root].reshape(3, 3)
-        r_d = rot_z(self.yaw) @ gait.stance.att
-        rot = Rotation.from_matrix(r_d @ r.T).as_rotvec()
-        wa = attitude * b.attitude_freq * self.w0
-        torque = m * self.height ** 2 * (wa * wa * rot - 2 * b.damping_ratio * wa * (r @ data.qvel[3:6]))
-        return force, torque
 
     def _solve(self, q_root: FloatArray, feet: FloatArray, data: mujoco.MjData, t: float) -> FloatArray:
         """The legs' joint targets (a qpos) for the root at ``q_root`` and the feet at ``feet``

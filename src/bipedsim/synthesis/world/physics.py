@@ -60,6 +60,21 @@ class SimulateSettings:
     #: the fastest turn (rad/s) the steering commands: the synthesised path turns a quarter circle over
     #: about half a tile, which a walking body takes in about 1-2 s
     max_turn_rate: float = 1.5
+    #: ... and at least the body's walking speed x this (s) ahead: pure pursuit's lookahead, so a faster
+    #: body starts its turn sooner and spreads it over a longer arc
+    lookahead_s: float = 1.5
+    #: the turn rate is also held to what the feet carry at the walking speed v: v x rate at most this
+    #: share of g x the support's half-width over its height (``CreatureController.turn_support``),
+    #: the rest left for the gait's own sway
+    turn_share: float = 0.15
+    #: the walk slows for a turn ahead: its speed at most sqrt(a / k), a the lateral acceleration above
+    #: (``turn_share`` x g x the support's ratio) and k the path's sharpest mean curvature (1/m) over a
+    #: lookahead-long arc within the lookahead plus the braking distance ahead; it changes by at most a
+    #: (m/s^2), up to the gait's own speed (``CreatureController.set_walk_speed``)
+    slow_for_turns: bool = True
+    #: the walking speed the two above read is the body's horizontal speed low-passed over this (s):
+    #: the steps make it swing by half within a stride
+    speed_filter_s: float = 0.5
     #: the crossing has ended when the body's progress is within this (m) of the path's end
     goal_radius_m: float = 0.25
     #: the run ends at the latest after this many times the synthesised motion's duration (the body
@@ -93,6 +108,7 @@ class SimulateSettings:
     def validate(self) -> None:
         """Each value in its range (a :class:`ConfigError` naming the key)."""
         for key, lo, hi in (("samples_per_tile", 2, 100), ("lookahead_m", 0.05, 20.0),
+                            ("lookahead_s", 0.0, 20.0), ("turn_share", 0.01, 1.0), ("speed_filter_s", 0.0, 10.0),
                             ("max_turn_rate", 0.01, 20.0), ("goal_radius_m", 0.01, 50.0),
                             ("time_factor", 0.1, 20.0), ("min_seconds", 0.0, 600.0), ("off_path_m", 0.01, 50.0),
                             ("record_hz", 1.0, 500.0),
@@ -235,6 +251,16 @@ class Steering:
         self.max_off = 0.0
         self.max_off_at: dict[str, Any] | None = None
         self.left_at: dict[str, Any] | None = None
+        #: the body's horizontal speed (m/s), low-passed over ``speed_filter_s``
+        self.speed = 0.0
+        #: the last turn-rate limit (rad/s) and the largest commanded turn rate (rad/s)
+        self.rate_limit = settings.max_turn_rate
+        #: the gait's own walking speed (m/s; None: not read yet, or no planned gait), the speed commanded
+        #: now (m/s) and the lowest commanded (m/s)
+        self.walk_speed: float | None = None
+        self.speed_cmd: float | None = None
+        self.min_speed_cmd: float | None = None
+        self.max_rate = 0.0
 
     def _closest(self, xy: FloatArray) -> tuple[float, float]:
         """The body's progress (m of arc, searched from :attr:`progress` back a little to
@@ -269,15 +295,73 @@ class Steering:
             self.left_at = self.where(t, xy, off)
         if self.yaw is None:
             self.yaw = ctrl.heading(data)
-        target = self.ahead(self.progress + self.settings.lookahead_m)
+        dt = max(t - self.t_last, 0.0)
+        st = self.settings
+        v = float(np.linalg.norm(data.qvel[0:2]))
+        self.speed += (v - self.speed) * (min(dt / st.speed_filter_s, 1.0) if st.speed_filter_s > 0 else 1.0)
+        look = max(st.lookahead_m, st.lookahead_s * self.speed)
+        target = self.ahead(self.progress + look)
         want = math.atan2(float(target[1] - xy[1]), float(target[0] - xy[0]))
+        if st.slow_for_turns:  # the pursuit's own curvature, 2 sin(a) / lookahead, a off the body's heading
+            self.slow(t, dt, ctrl, look, 2.0 * abs(math.sin(want - ctrl.heading(data))) / look)
         turn = math.remainder(want - self.yaw, 2 * math.pi)
-        most = self.settings.max_turn_rate * max(t - self.t_last, 0.0)
-        self.yaw += max(-most, min(most, turn))
+        model = getattr(ctrl, "model", None)
+        self.rate_limit = self.turn_limit(ctrl, 9.81 if model is None else -float(model.opt.gravity[2]))
+        most = self.rate_limit * dt
+        step = max(-most, min(most, turn))
+        if dt > 0:
+            self.max_rate = max(self.max_rate, abs(step) / dt)
+        self.yaw += step
         self.t_last = t
         steer = getattr(ctrl, "steer", None)
         if steer is not None:
             steer(t, self.yaw)
+
+    def curvature(self, look: float, within: float) -> float:
+        """The path's sharpest mean curvature (1/m): its heading change over a ``look``-long arc (m), for
+        arcs starting from the body's progress to ``within`` (m) ahead of it."""
+        c = self.curve
+        s0 = np.arange(self.progress, min(self.progress + within, c.length) + 1e-9, 0.1)
+        if s0.size == 0:
+            return 0.0
+        _, y0 = c.at(s0)
+        _, y1 = c.at(np.minimum(s0 + look, c.length))
+        turn = np.abs(np.remainder(np.asarray(y1) - np.asarray(y0) + math.pi, 2 * math.pi) - math.pi)
+        return float(np.max(turn)) / max(look, 1e-6)
+
+    def slow(self, t: float, dt: float, ctrl: Controller, look: float, pursuit: float = 0.0) -> None:
+        """Set the walk's speed for the turns ahead (``slow_for_turns``, see :class:`SimulateSettings`):
+        the path's curvature ahead, or the ``pursuit`` curvature (1/m) the body is turning at toward its
+        target, whichever is sharper (a body still turning out of a corner stays slow)."""
+        support, setter = getattr(ctrl, "turn_support", lambda: None)(), getattr(ctrl, "set_walk_speed", None)
+        if support is None or setter is None:
+            return
+        if self.walk_speed is None:
+            self.walk_speed = ctrl.walk_speed()
+            self.speed_cmd = self.min_speed_cmd = self.walk_speed
+        if not self.walk_speed or self.speed_cmd is None:
+            return
+        model = getattr(ctrl, "model", None)
+        g = 9.81 if model is None else -float(model.opt.gravity[2])
+        a = self.settings.turn_share * g * support
+        v = self.speed_cmd
+        k = max(self.curvature(look, look + v * v / (2.0 * a)), pursuit)
+        want = min(self.walk_speed, math.sqrt(a / k) if k > 1e-9 else self.walk_speed)
+        v += max(-a * dt, min(a * dt, want - v))
+        if v != self.speed_cmd:
+            setter(t, v)
+            self.speed_cmd = v
+            self.min_speed_cmd = min(self.min_speed_cmd or v, v)
+
+    def turn_limit(self, ctrl: Controller, g: float = 9.81) -> float:
+        """The fastest turn (rad/s) steered now: ``max_turn_rate``, and at the walking speed v (m/s,
+        :attr:`speed`) at most ``turn_share`` x g x ``ctrl.turn_support()`` / v (a controller without
+        it: ``max_turn_rate`` only)."""
+        st = self.settings
+        support = getattr(ctrl, "turn_support", lambda: None)()
+        if support is None or self.speed <= 1e-6:
+            return st.max_turn_rate
+        return min(st.max_turn_rate, st.turn_share * g * support / self.speed)
 
     @property
     def reached(self) -> bool:

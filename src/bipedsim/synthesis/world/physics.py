@@ -8,9 +8,12 @@ crossing tracked by its body in MuJoCo, on the world's terrain.
   and the creature controller tracking it, as ``bipedsim run --bvh OUT.bvh --profile creature`` does
   (:func:`bipedsim.sim.runner.load_scenario`), started where the world starts it;
 - **steering**: the planned gait walks a straight path; each control period the body is turned toward
-  the point :attr:`SimulateSettings.lookahead_m` ahead of it on the synthesised path (pure pursuit),
-  at most :attr:`SimulateSettings.max_turn_rate` rad/s, so it follows the path's turns and is steered
-  back when it strays;
+  the point ahead of it on the synthesised path (pure pursuit: :attr:`SimulateSettings.lookahead_m`, or
+  its walking speed x :attr:`SimulateSettings.lookahead_s` where longer), at most
+  :attr:`SimulateSettings.max_turn_rate` rad/s and at most what its feet carry at its speed (the
+  lateral acceleration v x rate within :attr:`SimulateSettings.turn_share` x g x the support's
+  half-width over its height), so it follows the path's turns and is steered back when it strays; the
+  walk slows for a sharp turn ahead (:attr:`SimulateSettings.slow_for_turns`);
 - **the end**: the body has reached the path's end (within :attr:`SimulateSettings.goal_radius_m` of
   its progress), it fell, or the run outlasted :attr:`SimulateSettings.time_factor` x the synthesised
   motion's duration (at least :attr:`SimulateSettings.min_seconds`).
@@ -302,7 +305,8 @@ class Steering:
         look = max(st.lookahead_m, st.lookahead_s * self.speed)
         target = self.ahead(self.progress + look)
         want = math.atan2(float(target[1] - xy[1]), float(target[0] - xy[0]))
-        if st.slow_for_turns:  # the pursuit's own curvature, 2 sin(a) / lookahead, a off the body's heading
+        # the pursuit's own curvature, 2 sin(a) / lookahead, a off the body's heading; a leap sets its own speeds
+        if st.slow_for_turns and not getattr(ctrl, "leaping", False):
             self.slow(t, dt, ctrl, look, 2.0 * abs(math.sin(want - ctrl.heading(data))) / look)
         turn = math.remainder(want - self.yaw, 2 * math.pi)
         model = getattr(ctrl, "model", None)

@@ -132,6 +132,8 @@ def test_simulate_writes_the_simulated_block(tmp_path: Path, capsys: pytest.Capt
         assert key in sim
     assert sim["outcome"] == "reached"  # one tile straight ahead: the horse walks it
     assert sim["end_to_goal_m"] < 0.75 and sim["max_off_path_m"] < 0.5
+    steer = sim["steering"]
+    assert 0 < steer["slowest_walk_m_s"] <= steer["walk_speed_m_s"] and steer["fastest_turn_rad_s"] >= 0
     assert "horse in physics: reached" in capsys.readouterr().out
 
 

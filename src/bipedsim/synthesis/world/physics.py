@@ -389,7 +389,8 @@ def simulate_crossing(world: World, creature: Creature, syn: Synthesis, modes: l
     goal tile's centre), ``max_off_path_m`` and where (``max_off_path_at``: time, position, tile,
     progress), ``left_path`` (the first time the body was farther than ``off_path_m`` from the path, or
     None), ``progress_m`` of ``path_length_m``, ``sim_s``, ``fall_reason`` and ``fell_at``,
-    ``speed_m_s`` (mean over the run), the jumps on the path and the settings."""
+    ``speed_m_s`` (mean over the run), ``steering`` (the gait's walking speed, the slowest it was walked
+    for a turn, m/s, and the fastest turn steered, rad/s), the jumps on the path and the settings."""
     return run_crossing(world, creature, syn, modes, settings=settings, seed=seed)[0]
 
 
@@ -434,6 +435,8 @@ def run_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[s
               "clip_speed_m_s": syn.curve.length / max(syn.motion.duration, 1e-9),
               "jumps": jump_records(syn.jumps, steering, leaps, getattr(ctrl, "leaps", [])),
               "fell_at": fell_where(world, out.fall_time_s, final) if out.outcome != "no_fall" else None,
+              "steering": {"slowest_walk_m_s": steering.min_speed_cmd, "walk_speed_m_s": steering.walk_speed,
+                           "fastest_turn_rad_s": steering.max_rate},
               "body_mass_kg": float(sum(sc.built.model.body_mass)), "body_size_m": float(creature.size),
               "settings": asdict(settings),
               "timings_s": {"build": t_built - t0, "rollout": time.perf_counter() - t_built}}

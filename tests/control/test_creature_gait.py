@@ -607,3 +607,20 @@ def test_the_stride_is_held_at_the_shortest_cycle_too() -> None:
     clock.period, clock.v_des = shortest, 0.9
     clock.hold_to_reach(1.0, 0.4)
     assert np.isclose(clock.v_des, 0.4 / shortest)
+
+
+def test_a_steered_speed_change_keeps_the_planned_root_and_the_support_reads_the_stance() -> None:
+    """``set_walk_speed`` changes the plan's speed from now on without moving the root's planned place;
+    ``turn_support`` is the widest stance foot's lateral offset over the leg height."""
+    _, c, _ = _dog_at_start()
+    g = c.gait
+    planner = g.planner
+    v0 = c.walk_speed()
+    assert v0 == pytest.approx(planner.clock.v_des) and v0 > 0
+    t = planner.clock.t_walk + 3.0 * g.bal.speed_ramp_s  # past the ramp
+    before = planner.root_path(t).copy()
+    c.set_walk_speed(t, 0.5 * v0)
+    assert planner.root_path(t) == pytest.approx(before, abs=1e-12)
+    ahead = planner.root_path(t + 1.0) - before
+    assert float(ahead @ planner.dir) == pytest.approx(0.5 * v0)
+    assert c.turn_support() == pytest.approx(float(np.max(np.abs(g.stance.feet[:, 1]))) / g.legs.height)

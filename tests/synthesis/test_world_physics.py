@@ -104,7 +104,8 @@ def test_bad_height_grids_are_refused(kw: dict, text: str) -> None:
 
 
 @pytest.mark.parametrize("key, value", [("lookahead_m", 0.0), ("time_factor", -1.0), ("samples_per_tile", 1),
-                                        ("max_turn_rate", float("nan"))])
+                                        ("max_turn_rate", float("nan")), ("turn_share", 0.0),
+                                        ("lookahead_s", -1.0)])
 def test_bad_simulate_settings_name_their_key(key: str, value: float) -> None:
     with pytest.raises(ConfigError, match=f"simulate.{key}"):
         SimulateSettings(**{key: value}).validate()
@@ -131,6 +132,8 @@ def test_simulate_writes_the_simulated_block(tmp_path: Path, capsys: pytest.Capt
         assert key in sim
     assert sim["outcome"] == "reached"  # one tile straight ahead: the horse walks it
     assert sim["end_to_goal_m"] < 0.75 and sim["max_off_path_m"] < 0.5
+    steer = sim["steering"]
+    assert 0 < steer["slowest_walk_m_s"] <= steer["walk_speed_m_s"] and steer["fastest_turn_rad_s"] >= 0
     assert "horse in physics: reached" in capsys.readouterr().out
 
 
@@ -156,8 +159,9 @@ class _Ctrl:
 
 
 class _Data:
-    def __init__(self, x: float, y: float) -> None:
+    def __init__(self, x: float, y: float, vx: float = 0.0, vy: float = 0.0) -> None:
         self.qpos = np.array([x, y, 0.5])
+        self.qvel = np.array([vx, vy, 0.0])
 
 
 def test_steering_turns_toward_the_path_ahead_at_most_its_rate() -> None:
@@ -181,6 +185,66 @@ def test_steering_turns_toward_the_path_ahead_at_most_its_rate() -> None:
     st(3.0, _Data(5.0, 2.0), ctrl)  # 1 m east of the second leg
     assert st.max_off == pytest.approx(1.0) and st.left_at["tile"] == [0, 2]
     assert st.progress == pytest.approx(6.0)
+
+
+def _l_path() -> Curve:
+    """An L-shaped path: 4 m east, then 4 m north (0.1 m samples)."""
+    xy = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]])
+    pts = np.concatenate([np.linspace(xy[0], xy[1], 41), np.linspace(xy[1], xy[2], 41)[1:]])
+    ss = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    return Curve(xy=pts, s=ss, yaw=np.where(ss < 4.0, 0.0, math.pi / 2), tile_s=np.array([0.0]))
+
+
+class _Walker(_Ctrl):
+    """A controller stand-in with a planned walk: 0.8 m/s, a support of 0.2 (half-width over height)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.speeds: list[tuple[float, float]] = []
+
+    def turn_support(self) -> float:
+        return 0.2
+
+    def walk_speed(self) -> float:
+        return 0.8
+
+    def set_walk_speed(self, t: float, speed: float) -> None:
+        self.speeds.append((t, speed))
+
+
+def test_steering_holds_the_turn_rate_to_what_the_feet_carry_at_the_speed() -> None:
+    w = parse_world({"tile": 2.0, "rows": ["..G", "S.."]}, "w.yaml")
+    st = Steering(_l_path(), SimulateSettings(max_turn_rate=1.5, turn_share=0.15, speed_filter_s=0.0,
+                                              slow_for_turns=False), w)
+    ctrl = _Walker()
+    st(0.0, _Data(3.5, 0.0, 1.0), ctrl)
+    st(0.1, _Data(3.5, 0.0, 1.0), ctrl)
+    # at 1 m/s: 0.15 x 9.81 x 0.2 / 1 = 0.29 rad/s, below max_turn_rate
+    assert st.rate_limit == pytest.approx(0.15 * 9.81 * 0.2)
+    assert ctrl.commands[-1][1] == pytest.approx(0.1 * 0.15 * 9.81 * 0.2)
+    # the lookahead grows with the speed: 1.5 s x 1 m/s = 1.5 m, so the target is 1 m up the second leg
+    slow = Steering(_l_path(), SimulateSettings(lookahead_s=1.5, speed_filter_s=0.0), w)
+    slow(0.0, _Data(3.5, 0.0, 0.2), _Ctrl())
+    fast = Steering(_l_path(), SimulateSettings(lookahead_s=1.5, speed_filter_s=0.0), w)
+    fast(0.0, _Data(3.5, 0.0, 1.0), _Ctrl())
+    assert slow.rate_limit == fast.rate_limit == SimulateSettings().max_turn_rate  # no turn_support: the rate only
+
+
+def test_steering_slows_the_walk_for_a_sharp_turn_ahead_and_not_on_a_straight() -> None:
+    w = parse_world({"tile": 2.0, "rows": ["..G", "S.."]}, "w.yaml")
+    settings = SimulateSettings(turn_share=0.15, speed_filter_s=0.0)
+    a = 0.15 * 9.81 * 0.2  # the lateral acceleration allowed (m/s^2)
+    st, ctrl = Steering(_l_path(), settings, w), _Walker()
+    for k in range(10):  # far from the corner on the first leg: the walk keeps its speed
+        st(0.1 * k, _Data(0.5, 0.0, 0.8), ctrl)
+    assert ctrl.speeds == [] and st.speed_cmd == pytest.approx(0.8)
+    st.progress = 0.0
+    for k in range(10, 60):  # 0.5 m before the corner: a quarter turn over a 1.2 m lookahead
+        st(0.1 * k, _Data(3.5, 0.0, 0.8), ctrl)
+    v_corner = math.sqrt(a / ((math.pi / 2) / 1.2))
+    assert ctrl.speeds[0][1] == pytest.approx(0.8 - a * 0.1)  # braking at most a
+    assert ctrl.speeds[-1][1] == pytest.approx(v_corner, rel=0.05)
+    assert st.min_speed_cmd == pytest.approx(v_corner, rel=0.05)
 
 
 def test_a_fall_says_how_far_the_root_was_from_a_gap() -> None:

@@ -156,6 +156,28 @@ class CreatureController(Controller):
         if isinstance(self.gait, PlannedGait) and not self.cfg.support:
             self.gait.planner.turn_to(t, yaw)
 
+    def walk_speed(self) -> float | None:
+        """The planned walk's speed (m/s, past its ramp); None: no planned gait."""
+        if not isinstance(self.gait, PlannedGait) or self.cfg.support:
+            return None
+        return float(self.gait.planner.clock.v_des)
+
+    def set_walk_speed(self, t: float, speed: float) -> None:
+        """Walk the planned gait on at ``speed`` (m/s) from time ``t`` (s) (a caller slowing for a turn);
+        without a planned gait nothing changes."""
+        if isinstance(self.gait, PlannedGait) and not self.cfg.support:
+            self.gait.planner.set_speed(t, speed)
+
+    def turn_support(self) -> float | None:
+        """The planned gait's support half-width over its standing height (dimensionless: the widest
+        foot's lateral offset in the neutral stance over the leg height): a turn at speed v and rate w
+        carries the body out sideways at v w, which the feet hold up to about g x this. None: no
+        planned gait."""
+        if not isinstance(self.gait, PlannedGait) or self.cfg.support:
+            return None
+        half = float(np.max(np.abs(self.gait.stance.feet[:, 1])))
+        return half / max(float(self.gait.legs.height), 1e-3)
+
     @property
     def leaping(self) -> bool:
         """Whether a leap is under way (asked for, or not yet landed and walking)."""

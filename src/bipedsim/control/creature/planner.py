@@ -165,6 +165,13 @@ class GaitPlanner:
         self.dir = np.array([math.cos(self.yaw), math.sin(self.yaw)])
         self.origin += before - self.root_path(t)
 
+    def set_speed(self, t: float, speed: float) -> None:
+        """Walk on at ``speed`` (m/s, the speed past the ramp) from time ``t`` (s): the path's origin moves
+        so the root's planned position does not jump (a steering command)."""
+        before = self.root_path(t)
+        self.clock.v_des = max(float(speed), 0.0)
+        self.origin += before - self.root_path(t)
+
     def heading_rot(self) -> FloatArray:
         """The plan's heading frame (3x3): world turned by :attr:`yaw`."""
         return rot_z(self.yaw)

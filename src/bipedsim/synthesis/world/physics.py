@@ -8,9 +8,12 @@ crossing tracked by its body in MuJoCo, on the world's terrain.
   and the creature controller tracking it, as ``bipedsim run --bvh OUT.bvh --profile creature`` does
   (:func:`bipedsim.sim.runner.load_scenario`), started where the world starts it;
 - **steering**: the planned gait walks a straight path; each control period the body is turned toward
-  the point :attr:`SimulateSettings.lookahead_m` ahead of it on the synthesised path (pure pursuit),
-  at most :attr:`SimulateSettings.max_turn_rate` rad/s, so it follows the path's turns and is steered
-  back when it strays;
+  the point ahead of it on the synthesised path (pure pursuit: :attr:`SimulateSettings.lookahead_m`, or
+  its walking speed x :attr:`SimulateSettings.lookahead_s` where longer), at most
+  :attr:`SimulateSettings.max_turn_rate` rad/s and at most what its feet carry at its speed (the
+  lateral acceleration v x rate within :attr:`SimulateSettings.turn_share` x g x the support's
+  half-width over its height), so it follows the path's turns and is steered back when it strays; the
+  walk slows for a sharp turn ahead (:attr:`SimulateSettings.slow_for_turns`);
 - **the end**: the body has reached the path's end (within :attr:`SimulateSettings.goal_radius_m` of
   its progress), it fell, or the run outlasted :attr:`SimulateSettings.time_factor` x the synthesised
   motion's duration (at least :attr:`SimulateSettings.min_seconds`).
@@ -60,6 +63,21 @@ class SimulateSettings:
     #: the fastest turn (rad/s) the steering commands: the synthesised path turns a quarter circle over
     #: about half a tile, which a walking body takes in about 1-2 s
     max_turn_rate: float = 1.5
+    #: ... and at least the body's walking speed x this (s) ahead: pure pursuit's lookahead, so a faster
+    #: body starts its turn sooner and spreads it over a longer arc
+    lookahead_s: float = 1.5
+    #: the turn rate is also held to what the feet carry at the walking speed v: v x rate at most this
+    #: share of g x the support's half-width over its height (``CreatureController.turn_support``),
+    #: the rest left for the gait's own sway
+    turn_share: float = 0.15
+    #: the walk slows for a turn ahead: its speed at most sqrt(a / k), a the lateral acceleration above
+    #: (``turn_share`` x g x the support's ratio) and k the path's sharpest mean curvature (1/m) over a
+    #: lookahead-long arc within the lookahead plus the braking distance ahead; it changes by at most a
+    #: (m/s^2), up to the gait's own speed (``CreatureController.set_walk_speed``)
+    slow_for_turns: bool = True
+    #: the walking speed the two above read is the body's horizontal speed low-passed over this (s):
+    #: the steps make it swing by half within a stride
+    speed_filter_s: float = 0.5
     #: the crossing has ended when the body's progress is within this (m) of the path's end
     goal_radius_m: float = 0.25
     #: the run ends at the latest after this many times the synthesised motion's duration (the body
@@ -93,6 +111,7 @@ class SimulateSettings:
     def validate(self) -> None:
         """Each value in its range (a :class:`ConfigError` naming the key)."""
         for key, lo, hi in (("samples_per_tile", 2, 100), ("lookahead_m", 0.05, 20.0),
+                            ("lookahead_s", 0.0, 20.0), ("turn_share", 0.01, 1.0), ("speed_filter_s", 0.0, 10.0),
                             ("max_turn_rate", 0.01, 20.0), ("goal_radius_m", 0.01, 50.0),
                             ("time_factor", 0.1, 20.0), ("min_seconds", 0.0, 600.0), ("off_path_m", 0.01, 50.0),
                             ("record_hz", 1.0, 500.0),
@@ -235,6 +254,16 @@ class Steering:
         self.max_off = 0.0
         self.max_off_at: dict[str, Any] | None = None
         self.left_at: dict[str, Any] | None = None
+        #: the body's horizontal speed (m/s), low-passed over ``speed_filter_s``
+        self.speed = 0.0
+        #: the last turn-rate limit (rad/s) and the largest commanded turn rate (rad/s)
+        self.rate_limit = settings.max_turn_rate
+        #: the gait's own walking speed (m/s; None: not read yet, or no planned gait), the speed commanded
+        #: now (m/s) and the lowest commanded (m/s)
+        self.walk_speed: float | None = None
+        self.speed_cmd: float | None = None
+        self.min_speed_cmd: float | None = None
+        self.max_rate = 0.0
 
     def _closest(self, xy: FloatArray) -> tuple[float, float]:
         """The body's progress (m of arc, searched from :attr:`progress` back a little to
@@ -269,15 +298,74 @@ class Steering:
             self.left_at = self.where(t, xy, off)
         if self.yaw is None:
             self.yaw = ctrl.heading(data)
-        target = self.ahead(self.progress + self.settings.lookahead_m)
+        dt = max(t - self.t_last, 0.0)
+        st = self.settings
+        v = float(np.linalg.norm(data.qvel[0:2]))
+        self.speed += (v - self.speed) * (min(dt / st.speed_filter_s, 1.0) if st.speed_filter_s > 0 else 1.0)
+        look = max(st.lookahead_m, st.lookahead_s * self.speed)
+        target = self.ahead(self.progress + look)
         want = math.atan2(float(target[1] - xy[1]), float(target[0] - xy[0]))
+        # the pursuit's own curvature, 2 sin(a) / lookahead, a off the body's heading; a leap sets its own speeds
+        if st.slow_for_turns and not getattr(ctrl, "leaping", False):
+            self.slow(t, dt, ctrl, look, 2.0 * abs(math.sin(want - ctrl.heading(data))) / look)
         turn = math.remainder(want - self.yaw, 2 * math.pi)
-        most = self.settings.max_turn_rate * max(t - self.t_last, 0.0)
-        self.yaw += max(-most, min(most, turn))
+        model = getattr(ctrl, "model", None)
+        self.rate_limit = self.turn_limit(ctrl, 9.81 if model is None else -float(model.opt.gravity[2]))
+        most = self.rate_limit * dt
+        step = max(-most, min(most, turn))
+        if dt > 0:
+            self.max_rate = max(self.max_rate, abs(step) / dt)
+        self.yaw += step
         self.t_last = t
         steer = getattr(ctrl, "steer", None)
         if steer is not None:
             steer(t, self.yaw)
+
+    def curvature(self, look: float, within: float) -> float:
+        """The path's sharpest mean curvature (1/m): its heading change over a ``look``-long arc (m), for
+        arcs starting from the body's progress to ``within`` (m) ahead of it."""
+        c = self.curve
+        s0 = np.arange(self.progress, min(self.progress + within, c.length) + 1e-9, 0.1)
+        if s0.size == 0:
+            return 0.0
+        _, y0 = c.at(s0)
+        _, y1 = c.at(np.minimum(s0 + look, c.length))
+        turn = np.abs(np.remainder(np.asarray(y1) - np.asarray(y0) + math.pi, 2 * math.pi) - math.pi)
+        return float(np.max(turn)) / max(look, 1e-6)
+
+    def slow(self, t: float, dt: float, ctrl: Controller, look: float, pursuit: float = 0.0) -> None:
+        """Set the walk's speed for the turns ahead (``slow_for_turns``, see :class:`SimulateSettings`):
+        the path's curvature ahead, or the ``pursuit`` curvature (1/m) the body is turning at toward its
+        target, whichever is sharper (a body still turning out of a corner stays slow)."""
+        support, setter = getattr(ctrl, "turn_support", lambda: None)(), getattr(ctrl, "set_walk_speed", None)
+        if support is None or setter is None:
+            return
+        if self.walk_speed is None:
+            self.walk_speed = ctrl.walk_speed()
+            self.speed_cmd = self.min_speed_cmd = self.walk_speed
+        if not self.walk_speed or self.speed_cmd is None:
+            return
+        model = getattr(ctrl, "model", None)
+        g = 9.81 if model is None else -float(model.opt.gravity[2])
+        a = self.settings.turn_share * g * support
+        v = self.speed_cmd
+        k = max(self.curvature(look, look + v * v / (2.0 * a)), pursuit)
+        want = min(self.walk_speed, math.sqrt(a / k) if k > 1e-9 else self.walk_speed)
+        v += max(-a * dt, min(a * dt, want - v))
+        if v != self.speed_cmd:
+            setter(t, v)
+            self.speed_cmd = v
+            self.min_speed_cmd = min(self.min_speed_cmd or v, v)
+
+    def turn_limit(self, ctrl: Controller, g: float = 9.81) -> float:
+        """The fastest turn (rad/s) steered now: ``max_turn_rate``, and at the walking speed v (m/s,
+        :attr:`speed`) at most ``turn_share`` x g x ``ctrl.turn_support()`` / v (a controller without
+        it: ``max_turn_rate`` only)."""
+        st = self.settings
+        support = getattr(ctrl, "turn_support", lambda: None)()
+        if support is None or self.speed <= 1e-6:
+            return st.max_turn_rate
+        return min(st.max_turn_rate, st.turn_share * g * support / self.speed)
 
     @property
     def reached(self) -> bool:
@@ -301,7 +389,8 @@ def simulate_crossing(world: World, creature: Creature, syn: Synthesis, modes: l
     goal tile's centre), ``max_off_path_m`` and where (``max_off_path_at``: time, position, tile,
     progress), ``left_path`` (the first time the body was farther than ``off_path_m`` from the path, or
     None), ``progress_m`` of ``path_length_m``, ``sim_s``, ``fall_reason`` and ``fell_at``,
-    ``speed_m_s`` (mean over the run), the jumps on the path and the settings."""
+    ``speed_m_s`` (mean over the run), ``steering`` (the gait's walking speed, the slowest it was walked
+    for a turn, m/s, and the fastest turn steered, rad/s), the jumps on the path and the settings."""
     return run_crossing(world, creature, syn, modes, settings=settings, seed=seed)[0]
 
 
@@ -346,6 +435,8 @@ def run_crossing(world: World, creature: Creature, syn: Synthesis, modes: list[s
               "clip_speed_m_s": syn.curve.length / max(syn.motion.duration, 1e-9),
               "jumps": jump_records(syn.jumps, steering, leaps, getattr(ctrl, "leaps", [])),
               "fell_at": fell_where(world, out.fall_time_s, final) if out.outcome != "no_fall" else None,
+              "steering": {"slowest_walk_m_s": steering.min_speed_cmd, "walk_speed_m_s": steering.walk_speed,
+                           "fastest_turn_rad_s": steering.max_rate},
               "body_mass_kg": float(sum(sc.built.model.body_mass)), "body_size_m": float(creature.size),
               "settings": asdict(settings),
               "timings_s": {"build": t_built - t0, "rollout": time.perf_counter() - t_built}}

@@ -189,7 +189,10 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
     clip_s = search_span(ctrl, 0)
     clip_windows = int(math.ceil(clip_s / (per_window * dt) - 1e-9)) if total_s > clip_s else n_windows
     at_clip: _Node | None = None
-    retries, boost = 0, 1
+    # SAMCON's backtracking: where every sample of a window falls, the search backs up one window more
+    # for each failure in a row at that frontier, and searches from there with more samples until it
+    # is past it (a fall is often sealed a window or more before it happens)
+    retries, boost, frontier, streak = 0, 1, 0, 0
     while len(history) <= n_windows:
         step = (len(history) - 1) * per_window
         parents = history[-1]
@@ -201,17 +204,20 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
             history.append(found)
             if at_clip is None and len(history) == clip_windows + 1:
                 at_clip = found[0]
-            boost = 1
+            if len(history) - 1 > frontier:  # past the window that failed
+                boost, streak = 1, 0
             if progress is not None:
                 progress(min((step + per_window) * dt, total_s), total_s)
             continue
-        # every sample fell: search the window before again, with more samples (SAMCON's backtracking)
         if retries >= cfg.retries:
             break
         retries += 1
-        boost = min(2 * boost, MAX_BOOST)
-        if len(history) > 1:
-            history.pop()
+        window = len(history) - 1
+        if window >= frontier:
+            frontier, streak = window, 0
+        streak += 1
+        boost = min(2 ** streak, MAX_BOOST)
+        del history[max(1, frontier - streak + 1):]
     best = history[-1][0]
     if not best.rows:
         return None, None

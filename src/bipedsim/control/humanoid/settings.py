@@ -289,7 +289,7 @@ class ReconstructConfig:
     samples: int = field(default=100, metadata={"min": 1, "max": 10000})
     keep: int = field(default=10, metadata={"min": 1, "max": 1000})
     coherence: float = field(default=0.7, metadata={"min": 0.0, "max": 1.0})
-    hinge_sigma: float = field(default=0.02, metadata={"min": 0.0, "max": 1.0})
+    hinge_sigma: float = field(default=0.06, metadata={"min": 0.0, "max": 1.0})
     feedback_sigma: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
     torso_sigma: float = field(default=0.03, metadata={"min": 0.0, "max": 1.0})
     pose_weight: float = field(default=1.0, metadata={"min": 0.0})

@@ -213,7 +213,7 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
             break
         retries += 1
         window = len(history) - 1
-        if window >= frontier:
+        if window > frontier:  # a new frontier
             frontier, streak = window, 0
         streak += 1
         boost = min(2 ** streak, MAX_BOOST)

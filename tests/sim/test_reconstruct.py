@@ -216,3 +216,37 @@ def test_search_past_the_clip_is_bounded():
     assert search_end(src(100.0), 2, 5.0) == (390.0, True)  # one 3.3 s period fits, two do not
     assert search_end(src(240.0), 2, 5.0) == (449.0, False)  # an 8 s loop: 5 s past the clip, no repeat
     assert search_end(src(240.0), 0, 5.0) == (299.0, False)
+
+
+def test_a_window_that_keeps_failing_backs_the_search_up_further_each_time(small, monkeypatch) -> None:
+    """SAMCON's backtracking: each failure in a row at one window backs the search up one window more,
+    the windows up to it searched with 2, 4, then 8x the samples, and the count starts again past it."""
+    from types import SimpleNamespace
+
+    import bipedsim.sim.reconstruct as rec
+
+    searched: list[tuple[int, int]] = []
+    fails = {"left": 3}
+
+    def fake_window(search, parents, rows, step, workers):
+        w = step // search.per_window
+        searched.append((w, len(rows)))
+        if w == 3 and fails["left"]:
+            fails["left"] -= 1
+            return []  # every sample fell
+        p = parents[0]
+        return [rec._Node(None, SimpleNamespace(frame=float(w + 1)), p.starts + [float(w)], p.rows + [rows[0]], 0.0)]
+
+    monkeypatch.setattr(rec, "_window", fake_window)
+    cfg = replace(small.cfg.reconstruct, samples=3, window_s=0.3, retries=8)
+    ctrl = small.controller()
+    try:
+        corr, _ = search_corrections(small.built.model, ctrl, cfg, small.fall_criteria())
+    finally:
+        ctrl.restore_model()
+    assert searched[:15] == [(0, 3), (1, 3), (2, 3), (3, 3),  # fails: back up one window
+                             (2, 6), (3, 6),  # fails again: back up two
+                             (1, 12), (2, 12), (3, 12),  # and again: three
+                             (0, 24), (1, 24), (2, 24), (3, 24),  # passes, with 8x the samples
+                             (4, 3), (5, 3)]  # past it: the samples as set
+    assert corr is not None and len(corr.starts) == len(searched) - 13 + 4

@@ -309,8 +309,8 @@ class ReconstructConfig:
     #: its span, and a loop of many strides would double a 10 s clip's. Whole periods that fit are searched
     #: and repeated; where not one fits, the search ends this long after the clip and its correction fades
     loop_max_s: float | None = field(default=5.0, metadata={"gt": 0.0})
-    #: seconds over which a correction without a searched loop fades out after its end: the feedback takes
-    #: over the corrected gait gradually (a correction of the spread above, faded in 1 s, felled CMU 02_01)
+    #: seconds over which a correction without a searched loop fades out after its end: long enough for
+    #: the feedback to take the corrected gait over gradually
     fade_s: float = field(default=3.0, metadata={"min": 0.0, "max": 10.0})
     #: processes sampling each window (0: one per core this process may use); the result is the same
     workers: int = field(default=0, metadata={"min": 0, "max": 256})

@@ -309,6 +309,10 @@ class ReconstructConfig:
     #: its span, and a loop of many strides would double a 10 s clip's. Whole periods that fit are searched
     #: and repeated; where not one fits, the search ends this long after the clip and its correction fades
     loop_max_s: float | None = field(default=5.0, metadata={"gt": 0.0})
+    #: the share of the spread (the sigmas above) the loop's windows after the clip are sampled with: the
+    #: loop is the clip's best cycle, which the feedback walks; a small correction there hands the gait
+    #: back to the feedback gently where the correction ends
+    loop_spread: float = field(default=0.33, metadata={"min": 0.0, "max": 1.0})
     #: seconds over which a correction without a searched loop fades out after its end: long enough for
     #: the feedback to take the corrected gait over gradually
     fade_s: float = field(default=3.0, metadata={"min": 0.0, "max": 10.0})

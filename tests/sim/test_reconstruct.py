@@ -216,6 +216,11 @@ def test_search_past_the_clip_is_bounded():
     assert search_end(src(100.0), 2, 5.0) == (390.0, True)  # one 3.3 s period fits, two do not
     assert search_end(src(240.0), 2, 5.0) == (449.0, False)  # an 8 s loop: 5 s past the clip, no repeat
     assert search_end(src(240.0), 0, 5.0) == (299.0, False)
+    # at least cover_s from the run's start (frame 0): whole periods up to 20 s (frame 600), however many
+    assert search_end(src(30.0), 20, 5.0, 0.0, 20.0) == (590.0, True)
+    assert search_end(src(30.0), 3, 5.0, 0.0, 20.0) == (380.0, True)  # loop_cycles still bounds it
+    assert search_end(src(240.0), 20, 5.0, 0.0, 20.0) == (530.0, True)  # one 8 s period fits in 20 s
+    assert search_end(src(30.0), 20, 5.0, 200.0, 5.0) == (440.0, True)  # 5 s past the clip is later: 5 periods
 
 
 def test_a_window_that_keeps_failing_backs_the_search_up_further_each_time(small, monkeypatch) -> None:

@@ -325,7 +325,7 @@ BODY_UNSCALED: frozenset[str] = frozenset({
     "reconstruct.window_s", "reconstruct.coherence", "reconstruct.hinge_sigma", "reconstruct.feedback_sigma",
     "reconstruct.torso_sigma", "reconstruct.loop_spread", "reconstruct.pose_weight", "reconstruct.root_weight",
     "reconstruct.position_weight", "reconstruct.height_weight", "reconstruct.velocity_weight", "reconstruct.fade_s",
-    "reconstruct.loop_max_s"})
+    "reconstruct.loop_max_s", "reconstruct.cover_s"})
 
 
 def _scaled_gain(g: Gain, f_kp: float, f_kd: float) -> Gain:

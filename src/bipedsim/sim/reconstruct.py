@@ -113,19 +113,21 @@ def _shared(ctrl: SimbiconController) -> dict[int, object]:
     return {id(x): x for x in keep}
 
 
-def search_end(src: ClipSource, loop_cycles: int, loop_max_s: float | None = None) -> tuple[float, bool]:
+def search_end(src: ClipSource, loop_cycles: int, loop_max_s: float | None = None, start: float = 0.0,
+               cover_s: float = 0.0) -> tuple[float, bool]:
     """The reference frame a search of ``src`` ends at, and whether that covers whole periods of its
-    loop: the clip's end, or, where the clip has a cycle to loop, ``loop_cycles`` periods of the loop
-    played after it (a cycle's correction then repeats). ``loop_max_s`` (s) bounds the search past the
-    clip's end: as many whole periods as fit in it, or, where not one does (a loop of many strides), the
-    search ends that long after the clip and its correction fades out (None: no bound)."""
+    loop: the clip's end, or, where the clip has a cycle to loop, up to ``loop_cycles`` periods of the loop
+    played after it (a cycle's correction then repeats). The search past the clip's end is bounded by
+    the later of ``loop_max_s`` (s) after the clip and ``cover_s`` (s) after ``start`` (the run's first
+    frame): as many whole periods as fit, or, where not one does (a loop of many strides), the search
+    ends there and its correction fades out (``loop_max_s`` None: no bound)."""
     end = float(src.clip.num_frames - 1)
     looping = any(len(v) for v in src.playlist.loop.values())
     if not looping or loop_cycles <= 0:
         return end, False
     cycles = loop_cycles
     if loop_max_s is not None:
-        limit = end + loop_max_s / src.frame_time
+        limit = max(end + loop_max_s / src.frame_time, start + cover_s / src.frame_time)
         cycles = min(cycles, int(math.floor((limit - src.a) / src.period + 1e-9)))
         if cycles <= 0:
             return max(end, limit), False
@@ -139,7 +141,8 @@ def search_span(ctrl: SimbiconController, loop_cycles: int | None = None) -> flo
     assert isinstance(src, ClipSource)
     rc = ctrl.cfg.reconstruct
     cycles = rc.loop_cycles if loop_cycles is None else loop_cycles
-    return (search_end(src, cycles, rc.loop_max_s)[0] - ctrl.start_frame()) * src.frame_time
+    start = float(ctrl.start_frame())
+    return (search_end(src, cycles, rc.loop_max_s, start, rc.cover_s)[0] - start) * src.frame_time
 
 
 def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: ReconstructConfig, fall: FallCriteria, *,
@@ -162,7 +165,7 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
     if not isinstance(ctrl, SimbiconController) or not isinstance(src, ClipSource) or not src.whole:
         raise ModelError("reconstruction drives the humanoid's controller tracking a whole clip (source: clip)")
     frame0 = float(ctrl.start_frame())
-    end_frame, looped = search_end(src, cfg.loop_cycles, cfg.loop_max_s)
+    end_frame, looped = search_end(src, cfg.loop_cycles, cfg.loop_max_s, frame0, cfg.cover_s)
     total_s = (end_frame - frame0) * src.frame_time
     if total_s <= 0:
         return None, None

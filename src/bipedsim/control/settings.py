@@ -323,7 +323,7 @@ BODY_UNSCALED: frozenset[str] = frozenset({
     "body.leg_max", "body.mass", "body.torque_scale",
     # the search's own settings: angles, weights and its windows' times, the same for any body
     "reconstruct.window_s", "reconstruct.coherence", "reconstruct.hinge_sigma", "reconstruct.feedback_sigma",
-    "reconstruct.torso_sigma", "reconstruct.loop_spread", "reconstruct.pose_weight", "reconstruct.root_weight",
+    "reconstruct.torso_sigma", "reconstruct.pose_weight", "reconstruct.root_weight",
     "reconstruct.position_weight", "reconstruct.height_weight", "reconstruct.velocity_weight", "reconstruct.fade_s",
     "reconstruct.loop_max_s", "reconstruct.cover_s"})
 

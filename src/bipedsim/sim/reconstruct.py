@@ -200,9 +200,8 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
         step = (len(history) - 1) * per_window
         parents = history[-1]
         n = cfg.samples * boost
-        spread = sigma if len(history) <= clip_windows else sigma * cfg.loop_spread  # the clip's, the loop's
         rows = [cfg.coherence * (parents[j % len(parents)].rows[-1] if parents[j % len(parents)].rows
-                                 else 0.0) + rng.normal(0.0, spread) for j in range(n)]
+                                 else 0.0) + rng.normal(0.0, sigma) for j in range(n)]
         found = _window(search, parents, rows, step, workers)
         if found:
             history.append(found)

@@ -314,10 +314,6 @@ class ReconstructConfig:
     #: clip's loop that the feedback alone does not walk is walked under its searched correction for a
     #: run this long (the judge's shortest run, sim/runner.py JUDGE_MIN_S)
     cover_s: float = field(default=20.0, metadata={"min": 0.0, "max": 600.0})
-    #: the share of the spread (the sigmas above) the loop's windows after the clip are sampled with: the
-    #: loop is the clip's best cycle, which the feedback walks; a small correction there hands the gait
-    #: back to the feedback gently where the correction ends
-    loop_spread: float = field(default=0.33, metadata={"min": 0.0, "max": 1.0})
     #: seconds over which a correction without a searched loop fades out after its end: long enough for
     #: the feedback to take the corrected gait over gradually
     fade_s: float = field(default=3.0, metadata={"min": 0.0, "max": 10.0})

@@ -255,3 +255,31 @@ def test_a_window_that_keeps_failing_backs_the_search_up_further_each_time(small
                              (0, 24), (1, 24), (2, 24), (3, 24),  # passes, with 8x the samples
                              (4, 3), (5, 3)]  # past it: the samples as set
     assert corr is not None and len(corr.starts) == len(searched) - 13 + 4
+
+
+def test_the_loop_is_searched_to_cover_s_only_where_the_feedback_falls_on_it(small, tmp_path, monkeypatch) -> None:
+    """``cover_s`` holds where the clip's best cycle looped by the feedback alone falls within a judging
+    run; where it stands the whole run, the search stops ``loop_max_s`` after the clip (cover_s 0); a
+    search cached before is used as it was, without a judging run."""
+    from bipedsim.sim.reconstruct import correction_key
+    from bipedsim.sim.runner import judging_seconds, search_settings
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    asked: list[str] = []
+
+    def judge(stands: float):
+        def judged(sc):
+            asked.append(sc.cfg.source)
+            return stands, 0.0
+        return judged
+
+    assert small.cfg.reconstruct.cover_s > 0
+    full = judging_seconds(small)
+    assert search_settings(small, judge(full)).reconstruct.cover_s == 0.0  # the loop walks: no cover
+    assert search_settings(small, judge(full - 1.0)) == small.cfg  # it falls: the search covers the run
+    assert asked == ["cycle", "cycle"]
+    short = search_settings(small, judge(full))
+    folder = tmp_path / "bipedsim" / "corrections"
+    folder.mkdir(parents=True)
+    (folder / f"{correction_key(small.clip, small.built.hash, short)}.json").write_text("{}")
+    assert search_settings(small, judge(0.0)) == short and len(asked) == 3  # read back, not judged again

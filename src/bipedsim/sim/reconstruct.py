@@ -414,6 +414,11 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     return (corr if kept else None), what
 
 
+def has_correction(key: str) -> bool:
+    """Whether the search of cache key ``key`` (:func:`correction_key`) was run and cached before."""
+    return (cache_folder() / f"{key}.json").is_file()
+
+
 def cached_choice(key: str) -> tuple[str, str | None] | None:
     """The reference source chosen before for the scenario of cache ``key`` (:func:`correction_key`):
     ``("clip" | "cycle", the line that said why)``, or None when none was recorded (or the record is

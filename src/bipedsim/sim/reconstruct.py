@@ -49,8 +49,8 @@ from bipedsim.reference.clip import ReferenceClip
 from bipedsim.sim.rollout import FallCriteria, FallDetector, control_every, walk_window
 
 FloatArray = npt.NDArray[np.float64]
-#: a window searched again after every sample fell gets up to this many times the samples
-MAX_BOOST = 8
+#: the samples' multiple for the windows searched again after every sample of one fell
+RETRY_BOOST = 2
 
 
 @dataclass
@@ -116,22 +116,24 @@ def _shared(ctrl: SimbiconController) -> dict[int, object]:
 def search_end(src: ClipSource, loop_cycles: int, loop_max_s: float | None = None, start: float = 0.0,
                cover_s: float = 0.0) -> tuple[float, bool]:
     """The reference frame a search of ``src`` ends at, and whether that covers whole periods of its
-    loop: the clip's end, or, where the clip has a cycle to loop, up to ``loop_cycles`` periods of the loop
-    played after it (a cycle's correction then repeats). The search past the clip's end is bounded by
-    the later of ``loop_max_s`` (s) after the clip and ``cover_s`` (s) after ``start`` (the run's first
-    frame): as many whole periods as fit, or, where not one does (a loop of many strides), the search
-    ends there and its correction fades out (``loop_max_s`` None: no bound)."""
+    loop: the clip's end, or, where the clip has a cycle to loop, ``loop_cycles`` periods of the loop
+    played after it (a cycle's correction then repeats). ``loop_max_s`` (s) bounds the search past the
+    clip's end: as many whole periods as fit in it, or, where not one does (a loop of many strides), the
+    search ends that long after the clip and its correction fades out (None: no bound). ``cover_s`` (s;
+    0: none) takes the search on over as many more whole periods as fit up to that long after ``start``
+    (the run's first frame), whatever ``loop_cycles`` and ``loop_max_s`` say."""
     end = float(src.clip.num_frames - 1)
     looping = any(len(v) for v in src.playlist.loop.values())
     if not looping or loop_cycles <= 0:
         return end, False
     cycles = loop_cycles
+    cover = int(math.floor((start + cover_s / src.frame_time - src.a) / src.period + 1e-9)) if cover_s > 0 else 0
     if loop_max_s is not None:
-        limit = max(end + loop_max_s / src.frame_time, start + cover_s / src.frame_time)
+        limit = end + loop_max_s / src.frame_time
         cycles = min(cycles, int(math.floor((limit - src.a) / src.period + 1e-9)))
-        if cycles <= 0:
+        if cycles <= 0 and cover <= 0:
             return max(end, limit), False
-    return max(end, src.a + cycles * src.period), True
+    return max(end, src.a + max(cycles, cover) * src.period), True
 
 
 def search_span(ctrl: SimbiconController, loop_cycles: int | None = None) -> float:
@@ -192,10 +194,10 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
     clip_s = search_span(ctrl, 0)
     clip_windows = int(math.ceil(clip_s / (per_window * dt) - 1e-9)) if total_s > clip_s else n_windows
     at_clip: _Node | None = None
-    # SAMCON's backtracking: where every sample of a window falls, the search backs up one window more
-    # for each failure in a row at that frontier, and searches from there with more samples until it
-    # is past it (a fall is often sealed a window or more before it happens)
-    retries, boost, frontier, streak = 0, 1, 0, 0
+    # SAMCON's backtracking: where every sample of a window falls, the window before is searched again,
+    # and the windows from it on with RETRY_BOOST times the samples until the search is past the one that
+    # failed (then as set again)
+    retries, boost, frontier = 0, 1, 0
     while len(history) <= n_windows:
         step = (len(history) - 1) * per_window
         parents = history[-1]
@@ -208,19 +210,17 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
             if at_clip is None and len(history) == clip_windows + 1:
                 at_clip = found[0]
             if len(history) - 1 > frontier:  # past the window that failed
-                boost, streak = 1, 0
+                boost = 1
             if progress is not None:
                 progress(min((step + per_window) * dt, total_s), total_s)
             continue
         if retries >= cfg.retries:
             break
         retries += 1
-        window = len(history) - 1
-        if window > frontier:  # a new frontier
-            frontier, streak = window, 0
-        streak += 1
-        boost = min(2 ** streak, MAX_BOOST)
-        del history[max(1, frontier - streak + 1):]
+        frontier = max(frontier, len(history) - 1)
+        boost = RETRY_BOOST
+        if len(history) > 1:
+            history.pop()
     best = history[-1][0]
     if not best.rows:
         return None, None

@@ -301,18 +301,18 @@ class ReconstructConfig:
     #: in all; then the correction ends where the search got to
     retries: int = field(default=8, metadata={"min": 0, "max": 1000})
     seed: int = field(default=0, metadata={"min": 0})  #: the search's random draws
-    #: loop periods searched after the clip at most (the clip's best cycle, looped from its end); the run
-    #: then repeats the correction of the last one, phase for phase. 0: the search ends with the clip and
-    #: the correction fades out over ``fade_s``, as it does where the search could not reach the end
-    loop_cycles: int = field(default=20, metadata={"min": 0, "max": 100})
-    #: s of the loop searched after the clip's end at most (null: no bound), or up to ``cover_s``
-    #: from the run's start where that is later: the search's cost grows with its span. Whole periods
-    #: that fit are searched and repeated; where not one fits, the search ends there and its correction
-    #: fades
+    #: loop periods searched after the clip (the clip's best cycle, looped from its end); the run then
+    #: repeats the correction of the last one, phase for phase. 0: the search ends with the clip and the
+    #: correction fades out over ``fade_s``, as it does where the search could not reach the end
+    loop_cycles: int = field(default=2, metadata={"min": 0, "max": 20})
+    #: s of the loop searched at most after the clip's end (null: no bound): the search's cost grows with
+    #: its span, and a loop of many strides would double a 10 s clip's. Whole periods that fit are searched
+    #: and repeated; where not one fits, the search ends this long after the clip and its correction fades
     loop_max_s: float | None = field(default=5.0, metadata={"gt": 0.0})
-    #: s from the run's start the search covers at least (whole loop periods after the clip): a styled
-    #: clip's loop that the feedback alone does not walk is walked under its searched correction for a
-    #: run this long (the judge's shortest run, sim/runner.py JUDGE_MIN_S)
+    #: s from the run's start the search covers at least, in whole loop periods after the clip, where the
+    #: clip's best cycle looped by the feedback alone falls within a judging run (sim/runner.py
+    #: search_settings): a styled loop the feedback does not walk is walked under its correction for a
+    #: run this long (the judge's shortest, JUDGE_MIN_S). 0: never
     cover_s: float = field(default=20.0, metadata={"min": 0.0, "max": 600.0})
     #: seconds over which a correction without a searched loop fades out after its end: long enough for
     #: the feedback to take the corrected gait over gradually

@@ -222,9 +222,9 @@ def test_search_past_the_clip_is_bounded():
     assert search_end(src(30.0), 2, 5.0, 200.0, 5.0) == (350.0, True)  # cover ends sooner: loop_cycles'
 
 
-def test_a_window_where_every_sample_falls_is_searched_again_from_the_one_before(small, monkeypatch) -> None:
-    """SAMCON's backtracking: where every sample of a window falls, the window before is searched again,
-    and from it on with twice the samples until the search is past the window that failed."""
+def test_a_window_that_keeps_failing_backs_the_search_up_further_each_time(small, monkeypatch) -> None:
+    """SAMCON's backtracking: each failure in a row at one window backs the search up one window more,
+    the windows up to it searched with 2, 4, then 8x the samples, and the count starts again past it."""
     from types import SimpleNamespace
 
     import bipedsim.sim.reconstruct as rec
@@ -248,18 +248,12 @@ def test_a_window_where_every_sample_falls_is_searched_again_from_the_one_before
         corr, _ = search_corrections(small.built.model, ctrl, cfg, small.fall_criteria())
     finally:
         ctrl.restore_model()
-    assert searched[:11] == [(0, 3), (1, 3), (2, 3), (3, 3),  # fails: the window before again
-                             (2, 6), (3, 6), (2, 6), (3, 6),  # with twice the samples, until
-                             (2, 6), (3, 6),  # the window passes
-                             (4, 3)]  # past it: the samples as set
-    assert corr is not None and len(corr.starts) == len(searched) - 10 + 4
-    fails["left"], searched[:] = 100, []  # a window that never passes: the search ends after the retries
-    ctrl = small.controller()
-    try:
-        corr, _ = search_corrections(small.built.model, ctrl, cfg, small.fall_criteria())
-    finally:
-        ctrl.restore_model()
-    assert len(searched) == 4 + 2 * 8 and corr is not None and len(corr.starts) == 3
+    assert searched[:15] == [(0, 3), (1, 3), (2, 3), (3, 3),  # fails: back up one window
+                             (2, 6), (3, 6),  # fails again: back up two
+                             (1, 12), (2, 12), (3, 12),  # and again: three
+                             (0, 24), (1, 24), (2, 24), (3, 24),  # passes, with 8x the samples
+                             (4, 3), (5, 3)]  # past it: the samples as set
+    assert corr is not None and len(corr.starts) == len(searched) - 13 + 4
 
 
 def test_the_loop_is_searched_to_cover_s_only_where_the_feedback_falls_on_it(small, tmp_path, monkeypatch) -> None:

@@ -49,8 +49,8 @@ from bipedsim.reference.clip import ReferenceClip
 from bipedsim.sim.rollout import FallCriteria, FallDetector, control_every, walk_window
 
 FloatArray = npt.NDArray[np.float64]
-#: the samples' multiple for the windows searched again after every sample of one fell
-RETRY_BOOST = 2
+#: a window searched again after every sample fell gets up to this many times the samples
+MAX_BOOST = 8
 
 
 @dataclass
@@ -194,10 +194,10 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
     clip_s = search_span(ctrl, 0)
     clip_windows = int(math.ceil(clip_s / (per_window * dt) - 1e-9)) if total_s > clip_s else n_windows
     at_clip: _Node | None = None
-    # SAMCON's backtracking: where every sample of a window falls, the window before is searched again,
-    # and the windows from it on with RETRY_BOOST times the samples until the search is past the one that
-    # failed (then as set again)
-    retries, boost, frontier = 0, 1, 0
+    # SAMCON's backtracking: where every sample of a window falls, the search backs up one window more
+    # for each failure in a row at that frontier, and searches from there with more samples until it
+    # is past it (a fall is often sealed a window or more before it happens)
+    retries, boost, frontier, streak = 0, 1, 0, 0
     while len(history) <= n_windows:
         step = (len(history) - 1) * per_window
         parents = history[-1]
@@ -210,17 +210,19 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
             if at_clip is None and len(history) == clip_windows + 1:
                 at_clip = found[0]
             if len(history) - 1 > frontier:  # past the window that failed
-                boost = 1
+                boost, streak = 1, 0
             if progress is not None:
                 progress(min((step + per_window) * dt, total_s), total_s)
             continue
         if retries >= cfg.retries:
             break
         retries += 1
-        frontier = max(frontier, len(history) - 1)
-        boost = RETRY_BOOST
-        if len(history) > 1:
-            history.pop()
+        window = len(history) - 1
+        if window > frontier:  # a new frontier
+            frontier, streak = window, 0
+        streak += 1
+        boost = min(2 ** streak, MAX_BOOST)
+        del history[max(1, frontier - streak + 1):]
     best = history[-1][0]
     if not best.rows:
         return None, None

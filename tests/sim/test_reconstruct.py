@@ -216,10 +216,10 @@ def test_search_past_the_clip_is_bounded():
     assert search_end(src(100.0), 2, 5.0) == (390.0, True)  # one 3.3 s period fits, two do not
     assert search_end(src(240.0), 2, 5.0) == (449.0, False)  # an 8 s loop: 5 s past the clip, no repeat
     assert search_end(src(240.0), 0, 5.0) == (299.0, False)
-    # cover_s: on over whole periods up to 20 s (frame 600) from the run's start, past loop_cycles
-    assert search_end(src(30.0), 2, 5.0, 0.0, 20.0) == (590.0, True)
-    assert search_end(src(240.0), 2, 5.0, 0.0, 20.0) == (530.0, True)  # one 8 s period fits in 20 s
-    assert search_end(src(30.0), 2, 5.0, 200.0, 5.0) == (350.0, True)  # cover ends sooner: loop_cycles'
+    # cover_s: on over whole periods until at least 20 s (frame 600) from the run's start, past loop_cycles
+    assert search_end(src(30.0), 2, 5.0, 0.0, 20.0) == (620.0, True)
+    assert search_end(src(240.0), 2, 5.0, 0.0, 20.0) == (770.0, True)  # two 8 s periods to pass 20 s
+    assert search_end(src(30.0), 2, 5.0, 200.0, 5.0) == (350.0, True)  # cover ends as soon: loop_cycles'
 
 
 def test_a_window_that_keeps_failing_backs_the_search_up_further_each_time(small, monkeypatch) -> None:

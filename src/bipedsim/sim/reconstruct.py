@@ -120,14 +120,14 @@ def search_end(src: ClipSource, loop_cycles: int, loop_max_s: float | None = Non
     played after it (a cycle's correction then repeats). ``loop_max_s`` (s) bounds the search past the
     clip's end: as many whole periods as fit in it, or, where not one does (a loop of many strides), the
     search ends that long after the clip and its correction fades out (None: no bound). ``cover_s`` (s;
-    0: none) takes the search on over as many more whole periods as fit up to that long after ``start``
-    (the run's first frame), whatever ``loop_cycles`` and ``loop_max_s`` say."""
+    0: none) takes the search on over whole periods until it is at least that long after ``start`` (the
+    run's first frame), whatever ``loop_cycles`` and ``loop_max_s`` say."""
     end = float(src.clip.num_frames - 1)
     looping = any(len(v) for v in src.playlist.loop.values())
     if not looping or loop_cycles <= 0:
         return end, False
     cycles = loop_cycles
-    cover = int(math.floor((start + cover_s / src.frame_time - src.a) / src.period + 1e-9)) if cover_s > 0 else 0
+    cover = int(math.ceil((start + cover_s / src.frame_time - src.a) / src.period - 1e-9)) if cover_s > 0 else 0
     if loop_max_s is not None:
         limit = end + loop_max_s / src.frame_time
         cycles = min(cycles, int(math.floor((limit - src.a) / src.period + 1e-9)))

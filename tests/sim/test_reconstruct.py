@@ -216,3 +216,69 @@ def test_search_past_the_clip_is_bounded():
     assert search_end(src(100.0), 2, 5.0) == (390.0, True)  # one 3.3 s period fits, two do not
     assert search_end(src(240.0), 2, 5.0) == (449.0, False)  # an 8 s loop: 5 s past the clip, no repeat
     assert search_end(src(240.0), 0, 5.0) == (299.0, False)
+    # cover_s: on over whole periods until at least 20 s (frame 600) from the run's start, past loop_cycles
+    assert search_end(src(30.0), 2, 5.0, 0.0, 20.0) == (620.0, True)
+    assert search_end(src(240.0), 2, 5.0, 0.0, 20.0) == (770.0, True)  # two 8 s periods to pass 20 s
+    assert search_end(src(30.0), 2, 5.0, 200.0, 5.0) == (350.0, True)  # cover ends as soon: loop_cycles'
+
+
+def test_a_window_that_keeps_failing_backs_the_search_up_further_each_time(small, monkeypatch) -> None:
+    """SAMCON's backtracking: each failure in a row at one window backs the search up one window more,
+    the windows up to it searched with 2, 4, then 8x the samples, and the count starts again past it."""
+    from types import SimpleNamespace
+
+    import bipedsim.sim.reconstruct as rec
+
+    searched: list[tuple[int, int]] = []
+    fails = {"left": 3}
+
+    def fake_window(search, parents, rows, step, workers):
+        w = step // search.per_window
+        searched.append((w, len(rows)))
+        if w == 3 and fails["left"]:
+            fails["left"] -= 1
+            return []  # every sample fell
+        p = parents[0]
+        return [rec._Node(None, SimpleNamespace(frame=float(w + 1)), p.starts + [float(w)], p.rows + [rows[0]], 0.0)]
+
+    monkeypatch.setattr(rec, "_window", fake_window)
+    cfg = replace(small.cfg.reconstruct, samples=3, window_s=0.3, retries=8)
+    ctrl = small.controller()
+    try:
+        corr, _ = search_corrections(small.built.model, ctrl, cfg, small.fall_criteria())
+    finally:
+        ctrl.restore_model()
+    assert searched[:15] == [(0, 3), (1, 3), (2, 3), (3, 3),  # fails: back up one window
+                             (2, 6), (3, 6),  # fails again: back up two
+                             (1, 12), (2, 12), (3, 12),  # and again: three
+                             (0, 24), (1, 24), (2, 24), (3, 24),  # passes, with 8x the samples
+                             (4, 3), (5, 3)]  # past it: the samples as set
+    assert corr is not None and len(corr.starts) == len(searched) - 13 + 4
+
+
+def test_the_loop_is_searched_to_cover_s_only_where_the_feedback_falls_on_it(small, tmp_path, monkeypatch) -> None:
+    """``cover_s`` holds where the clip's best cycle looped by the feedback alone falls within a judging
+    run; where it stands the whole run, the search stops ``loop_max_s`` after the clip (cover_s 0); a
+    search cached before is used as it was, without a judging run."""
+    from bipedsim.sim.reconstruct import correction_key
+    from bipedsim.sim.runner import judging_seconds, search_settings
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    asked: list[str] = []
+
+    def judge(stands: float):
+        def judged(sc):
+            asked.append(sc.cfg.source)
+            return stands, 0.0
+        return judged
+
+    assert small.cfg.reconstruct.cover_s > 0
+    full = judging_seconds(small)
+    assert search_settings(small, judge(full)).reconstruct.cover_s == 0.0  # the loop walks: no cover
+    assert search_settings(small, judge(full - 1.0)) == small.cfg  # it falls: the search covers the run
+    assert asked == ["cycle", "cycle"]
+    short = search_settings(small, judge(full))
+    folder = tmp_path / "bipedsim" / "corrections"
+    folder.mkdir(parents=True)
+    (folder / f"{correction_key(small.clip, small.built.hash, short)}.json").write_text("{}")
+    assert search_settings(small, judge(0.0)) == short and len(asked) == 3  # read back, not judged again

@@ -323,8 +323,9 @@ BODY_UNSCALED: frozenset[str] = frozenset({
     "body.leg_max", "body.mass", "body.torque_scale",
     # the search's own settings: angles, weights and its windows' times, the same for any body
     "reconstruct.window_s", "reconstruct.coherence", "reconstruct.hinge_sigma", "reconstruct.feedback_sigma",
-    "reconstruct.torso_sigma", "reconstruct.pose_weight", "reconstruct.root_weight", "reconstruct.position_weight",
-    "reconstruct.height_weight", "reconstruct.velocity_weight", "reconstruct.fade_s", "reconstruct.loop_max_s"})
+    "reconstruct.torso_sigma", "reconstruct.pose_weight", "reconstruct.root_weight",
+    "reconstruct.position_weight", "reconstruct.height_weight", "reconstruct.velocity_weight", "reconstruct.fade_s",
+    "reconstruct.loop_max_s", "reconstruct.cover_s"})
 
 
 def _scaled_gain(g: Gain, f_kp: float, f_kd: float) -> Gain:

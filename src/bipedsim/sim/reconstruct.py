@@ -113,23 +113,27 @@ def _shared(ctrl: SimbiconController) -> dict[int, object]:
     return {id(x): x for x in keep}
 
 
-def search_end(src: ClipSource, loop_cycles: int, loop_max_s: float | None = None) -> tuple[float, bool]:
+def search_end(src: ClipSource, loop_cycles: int, loop_max_s: float | None = None, start: float = 0.0,
+               cover_s: float = 0.0) -> tuple[float, bool]:
     """The reference frame a search of ``src`` ends at, and whether that covers whole periods of its
     loop: the clip's end, or, where the clip has a cycle to loop, ``loop_cycles`` periods of the loop
     played after it (a cycle's correction then repeats). ``loop_max_s`` (s) bounds the search past the
     clip's end: as many whole periods as fit in it, or, where not one does (a loop of many strides), the
-    search ends that long after the clip and its correction fades out (None: no bound)."""
+    search ends that long after the clip and its correction fades out (None: no bound). ``cover_s`` (s;
+    0: none) takes the search on over whole periods until it is at least that long after ``start`` (the
+    run's first frame), whatever ``loop_cycles`` and ``loop_max_s`` say."""
     end = float(src.clip.num_frames - 1)
     looping = any(len(v) for v in src.playlist.loop.values())
     if not looping or loop_cycles <= 0:
         return end, False
     cycles = loop_cycles
+    cover = int(math.ceil((start + cover_s / src.frame_time - src.a) / src.period - 1e-9)) if cover_s > 0 else 0
     if loop_max_s is not None:
         limit = end + loop_max_s / src.frame_time
         cycles = min(cycles, int(math.floor((limit - src.a) / src.period + 1e-9)))
-        if cycles <= 0:
+        if cycles <= 0 and cover <= 0:
             return max(end, limit), False
-    return max(end, src.a + cycles * src.period), True
+    return max(end, src.a + max(cycles, cover) * src.period), True
 
 
 def search_span(ctrl: SimbiconController, loop_cycles: int | None = None) -> float:
@@ -139,7 +143,8 @@ def search_span(ctrl: SimbiconController, loop_cycles: int | None = None) -> flo
     assert isinstance(src, ClipSource)
     rc = ctrl.cfg.reconstruct
     cycles = rc.loop_cycles if loop_cycles is None else loop_cycles
-    return (search_end(src, cycles, rc.loop_max_s)[0] - ctrl.start_frame()) * src.frame_time
+    start = float(ctrl.start_frame())
+    return (search_end(src, cycles, rc.loop_max_s, start, rc.cover_s)[0] - start) * src.frame_time
 
 
 def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: ReconstructConfig, fall: FallCriteria, *,
@@ -162,7 +167,7 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
     if not isinstance(ctrl, SimbiconController) or not isinstance(src, ClipSource) or not src.whole:
         raise ModelError("reconstruction drives the humanoid's controller tracking a whole clip (source: clip)")
     frame0 = float(ctrl.start_frame())
-    end_frame, looped = search_end(src, cfg.loop_cycles, cfg.loop_max_s)
+    end_frame, looped = search_end(src, cfg.loop_cycles, cfg.loop_max_s, frame0, cfg.cover_s)
     total_s = (end_frame - frame0) * src.frame_time
     if total_s <= 0:
         return None, None
@@ -189,7 +194,10 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
     clip_s = search_span(ctrl, 0)
     clip_windows = int(math.ceil(clip_s / (per_window * dt) - 1e-9)) if total_s > clip_s else n_windows
     at_clip: _Node | None = None
-    retries, boost = 0, 1
+    # SAMCON's backtracking: where every sample of a window falls, the search backs up one window more
+    # for each failure in a row at that frontier, and searches from there with more samples until it
+    # is past it (a fall is often sealed a window or more before it happens)
+    retries, boost, frontier, streak = 0, 1, 0, 0
     while len(history) <= n_windows:
         step = (len(history) - 1) * per_window
         parents = history[-1]
@@ -201,17 +209,20 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
             history.append(found)
             if at_clip is None and len(history) == clip_windows + 1:
                 at_clip = found[0]
-            boost = 1
+            if len(history) - 1 > frontier:  # past the window that failed
+                boost, streak = 1, 0
             if progress is not None:
                 progress(min((step + per_window) * dt, total_s), total_s)
             continue
-        # every sample fell: search the window before again, with more samples (SAMCON's backtracking)
         if retries >= cfg.retries:
             break
         retries += 1
-        boost = min(2 * boost, MAX_BOOST)
-        if len(history) > 1:
-            history.pop()
+        window = len(history) - 1
+        if window > frontier:  # a new frontier
+            frontier, streak = window, 0
+        streak += 1
+        boost = min(2 ** streak, MAX_BOOST)
+        del history[max(1, frontier - streak + 1):]
     best = history[-1][0]
     if not best.rows:
         return None, None
@@ -403,6 +414,11 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     except OSError as exc:
         what += f"; not cached ({exc.strerror or exc})"
     return (corr if kept else None), what
+
+
+def has_correction(key: str) -> bool:
+    """Whether the search of cache key ``key`` (:func:`correction_key`) was run and cached before."""
+    return (cache_folder() / f"{key}.json").is_file()
 
 
 def cached_choice(key: str) -> tuple[str, str | None] | None:

@@ -39,7 +39,7 @@ from bipedsim.reference.prepare import load_source
 from bipedsim.reference.retarget import retarget
 from bipedsim.sim.fidelity import measure_fidelity
 from bipedsim.sim.push import Push, PushSchedule, check_pushes
-from bipedsim.sim.reconstruct import cached_choice, correction_for, correction_key, remember_choice
+from bipedsim.sim.reconstruct import cached_choice, correction_for, correction_key, has_correction, remember_choice
 from bipedsim.sim.recorder import Recorder
 from bipedsim.sim.rollout import FallCriteria, FloatArray, Outcome, RolloutSpec, control_every, rollout
 
@@ -189,10 +189,11 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     # a capture's (the built-in walk was made for its body and tracks without one)
     if search and bvh is not None and profile == "humanoid" and cfg.source == "clip":
         judged = judge_once()
+        searched = search_settings(sc, judged)
         sc.correction, sc.extra["reconstruct"] = correction_for(
-            sc.built.model, sc.built.hash, sc.controller, clip, cfg, sc.fall_criteria(),
+            sc.built.model, sc.built.hash, replace(sc, cfg=searched).controller, clip, searched, sc.fall_criteria(),
             lambda c: judge_correction(sc, c, judged))
-        key = correction_key(clip, sc.built.hash, cfg)
+        key = correction_key(clip, sc.built.hash, searched)
         chosen = cached_choice(key)
         if chosen is None:
             sc, fallback = whole_or_looped(sc, judged)
@@ -203,6 +204,25 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
         if fallback:
             sc.extra["reconstruct"] += "\n" + fallback
     return sc
+
+
+def search_settings(sc: Scenario, judged: Judge) -> ControllerConfig:
+    """The settings ``sc``'s search runs with: its own, or ``reconstruct.cover_s`` 0 where the clip's best
+    cycle looped by the feedback alone (:func:`looped`) stands a whole judging run (:func:`_judged`): a
+    loop the controller walks needs no open-loop correction past ``loop_max_s``, which would only make the
+    run more sensitive to a disturbance. A search cached with either is used without a judging run."""
+    cfg = sc.cfg
+    if cfg.reconstruct.cover_s <= 0.0:
+        return cfg
+    short = replace(cfg, reconstruct=replace(cfg.reconstruct, cover_s=0.0))
+    for settings in (cfg, short):  # the search run before, whichever it was
+        if has_correction(correction_key(sc.clip, sc.built.hash, settings)):
+            return settings
+    try:
+        t_loop, _ = judged(looped(sc))
+    except ModelError:  # no cycle to loop: nothing past the clip to search
+        return cfg
+    return short if t_loop >= judging_seconds(sc) - 1e-9 else cfg
 
 
 def on_ground(sc: Scenario, ground: Ground | None) -> Scenario:
@@ -243,11 +263,17 @@ JUDGE_BEYOND_S = 5.0
 JUDGE_MIN_S = 20.0
 
 
+def judging_seconds(sc: Scenario) -> float:
+    """How long a judging run of ``sc`` lasts (s): its clip and :data:`JUDGE_BEYOND_S` beyond, at least
+    :data:`JUDGE_MIN_S`."""
+    return max(JUDGE_MIN_S, sc.clip.duration + JUDGE_BEYOND_S)
+
+
 def _judged(sc: Scenario) -> tuple[float, float]:
     """One run of ``sc`` over its clip and :data:`JUDGE_BEYOND_S` beyond (at least :data:`JUDGE_MIN_S`): how
     long it stands (s) and the
     largest distance of its root path from the clip's (m, :func:`~bipedsim.sim.fidelity.measure_fidelity`)."""
-    seconds = max(JUDGE_MIN_S, sc.clip.duration + JUDGE_BEYOND_S)
+    seconds = judging_seconds(sc)
     rec = Recorder(sc.built.model, record_hz=30.0, seconds=seconds)
     out, ctrl = run_scenario(sc, RolloutSpec(seconds=seconds), hooks=[rec])
     tr = rec.trajectory()

@@ -289,7 +289,7 @@ class ReconstructConfig:
     samples: int = field(default=100, metadata={"min": 1, "max": 10000})
     keep: int = field(default=10, metadata={"min": 1, "max": 1000})
     coherence: float = field(default=0.7, metadata={"min": 0.0, "max": 1.0})
-    hinge_sigma: float = field(default=0.02, metadata={"min": 0.0, "max": 1.0})
+    hinge_sigma: float = field(default=0.06, metadata={"min": 0.0, "max": 1.0})
     feedback_sigma: float = field(default=0.05, metadata={"min": 0.0, "max": 1.0})
     torso_sigma: float = field(default=0.03, metadata={"min": 0.0, "max": 1.0})
     pose_weight: float = field(default=1.0, metadata={"min": 0.0})
@@ -309,8 +309,14 @@ class ReconstructConfig:
     #: its span, and a loop of many strides would double a 10 s clip's. Whole periods that fit are searched
     #: and repeated; where not one fits, the search ends this long after the clip and its correction fades
     loop_max_s: float | None = field(default=5.0, metadata={"gt": 0.0})
-    #: seconds over which a correction without a searched loop fades out after its end
-    fade_s: float = field(default=1.0, metadata={"min": 0.0, "max": 10.0})
+    #: s from the run's start the search covers at least, in whole loop periods after the clip, where the
+    #: clip's best cycle looped by the feedback alone falls within a judging run (sim/runner.py
+    #: search_settings): a styled loop the feedback does not walk is walked under its correction for a
+    #: run this long (the judge's shortest, JUDGE_MIN_S). 0: never
+    cover_s: float = field(default=20.0, metadata={"min": 0.0, "max": 600.0})
+    #: seconds over which a correction without a searched loop fades out after its end: long enough for
+    #: the feedback to take the corrected gait over gradually
+    fade_s: float = field(default=3.0, metadata={"min": 0.0, "max": 10.0})
     #: processes sampling each window (0: one per core this process may use); the result is the same
     workers: int = field(default=0, metadata={"min": 0, "max": 256})
 

@@ -378,7 +378,9 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     bar = progress_bar(round(total, 1), "reconstruct", "s of clip")
     rc = cfg.reconstruct
     cycles = f"{rc.loop_cycles} cycle" + ("s" if rc.loop_cycles != 1 else "")
-    over = "the clip" if rc.loop_cycles <= 0 else f"the clip and up to {cycles} of its loop"
+    over = ("the clip" if rc.loop_cycles <= 0
+            else f"the clip and its loop to {rc.cover_s:g} s from the start: the controller alone does not walk "
+                 "the loop" if rc.cover_s > 0 else f"the clip and up to {cycles} of its loop")
     if bar is None:  # no terminal for a bar: one line says why the run has not started yet
         print(f"reconstruct: searching a correction for {max(total, 0.0):.1f} s ({over}; the first run of a clip; "
               "cached after it; --no-reconstruct skips it)", file=sys.stderr, flush=True)

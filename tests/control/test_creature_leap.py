@@ -66,6 +66,16 @@ def test_the_feet_share_a_wrench_inside_their_friction_cones() -> None:
         assert (np.linalg.norm(f[:, 0:2], axis=1) <= 0.8 * f[:, 2] + 1e-6).all()
 
 
+def _walk(sc, ctrl, seconds: float, watch) -> None:
+    """``ctrl`` run ``seconds`` s from the clip's first frame, ``watch`` seeing every step."""
+    spec = RolloutSpec(seconds=seconds, start_frame=0.0, fall=sc.fall_criteria())
+    with Rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=sc.clip.qpos[0].copy(),
+                 hooks=[watch]) as run:
+        while run.step():
+            pass
+        run.finish()
+
+
 @pytest.mark.skipif(not HAVE_SHARED, reason="the generated stand-in dog leaves the floor with 69 % of the "
                     "vertical take-off asked; the bound is the shared MANN dog's")
 def test_a_leap_from_walking_reaches_its_take_off_on_all_its_feet() -> None:
@@ -75,12 +85,7 @@ def test_a_leap_from_walking_reaches_its_take_off_on_all_its_feet() -> None:
     sc = load_scenario(bvh=dog_clip())
     ctrl = sc.controller()
     watch = _Watch(1.0, np.array([1.0, 0.0, 2.0]))
-    spec = RolloutSpec(seconds=1.9, start_frame=0.0, fall=sc.fall_criteria())
-    with Rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=sc.clip.qpos[0].copy(),
-                 hooks=[watch]) as run:
-        while run.step():
-            pass
-        run.finish()
+    _walk(sc, ctrl, 1.9, watch)
     rec = ctrl.leaps[0].record()
     assert rec["push_feet"] == 4
     assert all(t is None or t >= 0.5 * rec["push_s"] for t in rec["push_feet_lost_s"])
@@ -130,12 +135,7 @@ def test_a_leap_from_standing_goes_through_its_phases_off_the_floor() -> None:
     v = np.array([0.5, 0.0, 1.5])
     assert ctrl.leap_lead_s(v) == pytest.approx(lead_time(g, v, LeapSettings()))
     watch = _Watch(1.0, v)
-    spec = RolloutSpec(seconds=4.0, start_frame=0.0, fall=sc.fall_criteria())
-    with Rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=sc.clip.qpos[0].copy(),
-                 hooks=[watch]) as run:
-        while run.step():
-            pass
-        run.finish()
+    _walk(sc, ctrl, 4.0, watch)
     seen = [p for p in dict.fromkeys(r[1] for r in watch.rows) if p != "-"]
     assert seen[:4] == list(PHASES[:4])
     flight = [r for r in watch.rows if r[1] == "flight"]

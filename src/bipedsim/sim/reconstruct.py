@@ -7,7 +7,8 @@ each with its own random offsets of the controller's targets
 torso's pitch and roll) drawn around its parent's (``coherence``: the offsets of one window carry into
 the next, so the correction is smooth); the ``keep`` whose end states lie nearest the clip at the same
 time (:func:`tracking_cost`) go on. A sample that falls is dropped; when every sample of a window falls
-the search stops there and the correction ends at that window. The best final state's offsets, window
+the search backs up and searches again with more samples (``retries`` in all), then stops there and the
+correction ends at that window. The best final state's offsets, window
 by window, are the :class:`~bipedsim.control.humanoid.correction.Correction`.
 
 The search runs the controller exactly as a rollout does (the same control step, physics steps and
@@ -378,9 +379,13 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     bar = progress_bar(round(total, 1), "reconstruct", "s of clip")
     rc = cfg.reconstruct
     cycles = f"{rc.loop_cycles} cycle" + ("s" if rc.loop_cycles != 1 else "")
+    src = ctrl.source
+    assert isinstance(src, ClipSource)
+    start = float(ctrl.start_frame())
+    grown = total > (search_end(src, rc.loop_cycles, rc.loop_max_s)[0] - start) * src.frame_time + 1e-9
     over = ("the clip" if rc.loop_cycles <= 0
             else f"the clip and its loop to {rc.cover_s:g} s from the start: the controller alone does not walk "
-                 "the loop" if rc.cover_s > 0 else f"the clip and up to {cycles} of its loop")
+                 "the loop" if grown else f"the clip and up to {cycles} of its loop")
     if bar is None:  # no terminal for a bar: one line says why the run has not started yet
         print(f"reconstruct: searching a correction for {max(total, 0.0):.1f} s ({over}; the first run of a clip; "
               "cached after it; --no-reconstruct skips it)", file=sys.stderr, flush=True)

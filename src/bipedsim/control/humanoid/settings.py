@@ -297,8 +297,9 @@ class ReconstructConfig:
     position_weight: float = field(default=1.0, metadata={"min": 0.0})
     height_weight: float = field(default=3.0, metadata={"min": 0.0})
     velocity_weight: float = field(default=1.0, metadata={"min": 0.0})
-    #: windows searched again (the one before, with up to 8x the samples) when every sample of one fell,
-    #: in all; then the correction ends where the search got to
+    #: failures answered by backing up (one window more per failure in a row at a window, with 2, 4, then
+    #: 8x the samples) where every sample of a window fell, in all; then the correction ends where the
+    #: search got to
     retries: int = field(default=8, metadata={"min": 0, "max": 1000})
     seed: int = field(default=0, metadata={"min": 0})  #: the search's random draws
     #: loop periods searched after the clip (the clip's best cycle, looped from its end); the run then

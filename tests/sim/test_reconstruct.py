@@ -153,6 +153,37 @@ def test_a_second_run_of_a_clip_makes_no_judging_runs(tmp_path, monkeypatch) -> 
     assert "clip" in runs and "cycle" in runs
 
 
+def test_the_looped_cycle_is_run_where_it_walks_the_clip_better(small) -> None:
+    """Whole clip or looped cycle: the one that stands longer, then the one whose root path keeps nearer
+    the clip's; a tie keeps the whole clip."""
+    from bipedsim.sim.runner import whole_or_looped
+
+    def judge(results):
+        return lambda sc: results[sc.cfg.source]
+
+    sc = replace(small, cfg=replace(small.cfg, source="clip"))
+    chosen, why = whole_or_looped(sc, judge({"clip": (20.0, 1.6), "cycle": (20.0, 0.3)}))
+    assert chosen.cfg.source == "cycle" and "within 1.60 m" in why and "within 0.30 m" in why
+    chosen, why = whole_or_looped(sc, judge({"clip": (20.0, 0.3), "cycle": (20.0, 1.6)}))
+    assert chosen is sc and why is None
+    chosen, why = whole_or_looped(sc, judge({"clip": (20.0, 0.3), "cycle": (20.0, 0.3)}))
+    assert chosen is sc and why is None
+    chosen, why = whole_or_looped(sc, judge({"clip": (5.0, 0.1), "cycle": (20.0, 2.0)}))
+    assert chosen.cfg.source == "cycle" and "falls at 5.0 s" in why
+    chosen, _ = whole_or_looped(sc, judge({"clip": (20.0, 2.0), "cycle": (5.0, 0.1)}))
+    assert chosen is sc
+
+
+def test_a_choice_cached_by_other_choosing_code_is_made_again(tmp_path, monkeypatch) -> None:
+    from bipedsim.sim.reconstruct import cached_choice, remember_choice
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    remember_choice("k", "cycle", "why", "rule-a")
+    assert cached_choice("k", "rule-a") == ("cycle", "why")
+    assert cached_choice("k", "rule-b") is None
+    assert cached_choice("other", "rule-a") is None
+
+
 def test_the_tracking_cost_measures_height_above_the_ground_under_the_body(small) -> None:
     """On shaped ground the body's root height counts above the ground under it, as the clip's does above
     its flat floor: a body lifted with the ground costs what it costs on the flat."""

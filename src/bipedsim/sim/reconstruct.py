@@ -428,30 +428,30 @@ def has_correction(key: str) -> bool:
     return (cache_folder() / f"{key}.json").is_file()
 
 
-def cached_choice(key: str) -> tuple[str, str | None] | None:
-    """The reference source chosen before for the scenario of cache ``key`` (:func:`correction_key`):
-    ``("clip" | "cycle", the line that said why)``, or None when none was recorded (or the record is
-    unreadable: the choice is then made again)."""
+def cached_choice(key: str, rule: str = "") -> tuple[str, str | None] | None:
+    """The reference source chosen before for the scenario of cache ``key`` (:func:`correction_key`) by
+    the choosing code ``rule`` (a digest of it): ``("clip" | "cycle", the line that said why)``, or None
+    when none was recorded by that code (or the record is unreadable: the choice is then made again)."""
     path = cache_folder() / f"{key}.source.json"
     if not path.is_file():
         return None
     try:
         d = json.loads(read_input_text(path, "json"))
-        source, line = d["source"], d["line"]
-    except (BipedsimError, ValueError, KeyError, TypeError):
+        source, line, made_by = d["source"], d["line"], d.get("rule", "")
+    except (BipedsimError, ValueError, KeyError, TypeError, AttributeError):
         return None
-    if source not in ("clip", "cycle") or not (line is None or isinstance(line, str)):
+    if source not in ("clip", "cycle") or not (line is None or isinstance(line, str)) or made_by != rule:
         return None
     return source, line
 
 
-def remember_choice(key: str, source: str, line: str | None) -> None:
-    """Record which reference source the scenario of cache ``key`` runs (the judging runs that chose it
-    are not repeated by the next run of the same clip and settings); a cache that cannot be written is
-    left alone (the choice is made again next time)."""
+def remember_choice(key: str, source: str, line: str | None, rule: str = "") -> None:
+    """Record which reference source the scenario of cache ``key`` runs, and the choosing code's digest
+    ``rule`` (the judging runs that chose it are not repeated by the next run of the same clip, settings
+    and code); a cache that cannot be written is left alone (the choice is made again next time)."""
     with contextlib.suppress(OSError):
         atomic_write_text(cache_folder() / f"{key}.source.json", json.dumps({"key": key, "source": source,
-                                                                            "line": line}))
+                                                                            "line": line, "rule": rule}))
 
 
 def search_workers(rc: ReconstructConfig) -> int:

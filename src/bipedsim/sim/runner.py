@@ -3,6 +3,7 @@ profile. Used by ``bipedsim run``, sweeps and regression suites."""
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 from collections.abc import Callable
@@ -129,7 +130,7 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
     naming the file and the keys. A humanoid tracking the whole of a ``bvh`` clip gets its feed-forward
     correction (:func:`~bipedsim.sim.reconstruct.correction_for`: searched, or read from the cache)
     when ``reconstruct`` says so (None: :func:`reconstruct_wanted`), and then loops the clip's best cycle
-    instead where the whole clip falls sooner (:func:`whole_or_looped`). ``ground`` (default flat)
+    instead where that walks the clip better (:func:`whole_or_looped`). ``ground`` (default flat)
     replaces the floor before a correction is searched (:func:`on_ground`): the search walks the same
     ground, its tracking cost measuring heights above it."""
     profile = AUTO if profile is None else profile
@@ -194,10 +195,11 @@ def load_scenario(config: str | os.PathLike[str] | ControllerConfig | None = Non
             sc.built.model, sc.built.hash, replace(sc, cfg=searched).controller, clip, searched, sc.fall_criteria(),
             lambda c: judge_correction(sc, c, judged))
         key = correction_key(clip, sc.built.hash, searched)
-        chosen = cached_choice(key)
+        rule = choice_rule()
+        chosen = cached_choice(key, rule)
         if chosen is None:
             sc, fallback = whole_or_looped(sc, judged)
-            remember_choice(key, sc.cfg.source, fallback)
+            remember_choice(key, sc.cfg.source, fallback, rule)
         else:
             fallback = chosen[1]
             sc = looped(sc) if chosen[0] == "cycle" else sc
@@ -307,21 +309,31 @@ def looped(sc: Scenario) -> Scenario:
 
 
 def whole_or_looped(sc: Scenario, judged: Judge = _judged) -> tuple[Scenario, str | None]:
-    """``sc`` tracking its whole clip (with its correction, if any), or, where that falls sooner than
-    the clip's best cycle looped (``source: cycle``) over a judging run (:func:`_judged`), the
-    looped cycle: the scenario to run and a line saying which was chosen (None: the whole clip, standing
-    as long)."""
-    t_whole, _ = judged(sc)
+    """``sc`` tracking its whole clip (with its correction, if any), or the clip's best cycle looped
+    (``source: cycle``) where that does better over a judging run (:func:`_judged`, :func:`_better`): it
+    stands longer, or as long with its root path nearer the clip's. The scenario to run and a line saying
+    which was chosen (None: the whole clip)."""
+    whole = judged(sc)
     cycle = looped(sc)
     try:
-        t_loop, _ = judged(cycle)
+        loop = judged(cycle)
     except ModelError:  # no cycle to loop
         return sc, None
-    if t_loop <= t_whole + 1e-9:
+    if not _better(loop, whole) or _better(whole, loop):
         return sc, None
-    return cycle, (f"reference: the whole clip falls at {t_whole:.1f} s where its best cycle looped stands "
-                    f"{t_loop:.1f} s (over max({JUDGE_MIN_S:g} s, the clip and {JUDGE_BEYOND_S:g} s beyond)): the run "
-                    "loops the cycle (source: cycle); --no-reconstruct tracks the whole clip anyway")
+    over = f"over max({JUDGE_MIN_S:g} s, the clip and {JUDGE_BEYOND_S:g} s beyond)"
+    why = (f"the whole clip falls at {whole[0]:.1f} s where its best cycle looped stands {loop[0]:.1f} s ({over})"
+           if loop[0] > whole[0] + 1e-9 else
+           f"both stand {whole[0]:.1f} s ({over}), the whole clip's root path keeps within {whole[1]:.2f} m of the "
+           f"clip's, its best cycle looped within {loop[1]:.2f} m")
+    return cycle, (f"reference: {why}: the run loops the cycle (source: cycle); --no-reconstruct tracks the whole "
+                   "clip anyway")
+
+
+def choice_rule() -> str:
+    """A digest of the code that chooses between the whole clip and its looped cycle (this module): a
+    choice cached by other code is made again."""
+    return hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
 
 
 def _better(a: tuple[float, float], b: tuple[float, float]) -> bool:

@@ -128,7 +128,7 @@ def test_a_second_run_of_a_clip_makes_no_judging_runs(tmp_path, monkeypatch) -> 
     the second reads all three from the cache and runs nothing before the user's run."""
     from bvh_fixtures import standin
 
-    import bipedsim.sim.runner as runner
+    import bipedsim.sim.judging as judging
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     cfg = load_scenario(None, reconstruct=False).cfg
@@ -136,7 +136,7 @@ def test_a_second_run_of_a_clip_makes_no_judging_runs(tmp_path, monkeypatch) -> 
                                                               loop_cycles=0))
     runs: list[str] = []
     # the whole clip falls at once, its looped cycle stands: the run loops the cycle
-    monkeypatch.setattr(runner, "_judged", lambda sc: runs.append(sc.cfg.source) or
+    monkeypatch.setattr(judging, "_judged", lambda sc: runs.append(sc.cfg.source) or
                         ((1.0, 0.5) if sc.cfg.source == "clip" else (9.0, 0.5)))
     bvh = standin("human/games105_walk60__metres_crlf.bvh")
     first = load_scenario(cfg, bvh, reconstruct=True)
@@ -156,7 +156,7 @@ def test_a_second_run_of_a_clip_makes_no_judging_runs(tmp_path, monkeypatch) -> 
 def test_the_looped_cycle_is_run_where_it_walks_the_clip_better(small) -> None:
     """Whole clip or looped cycle: the one that stands longer, then the one whose root path keeps nearer
     the clip's; a tie keeps the whole clip."""
-    from bipedsim.sim.runner import whole_or_looped
+    from bipedsim.sim.judging import whole_or_looped
 
     def judge(results):
         return lambda sc: results[sc.cfg.source]
@@ -206,7 +206,7 @@ def test_the_tracking_cost_measures_height_above_the_ground_under_the_body(small
 def test_the_judge_keeps_the_better_of_repeating_the_loop_and_fading_out(small) -> None:
     """A correction that repeats its last loop period is also judged fading out after it; the one that
     stands longer is kept (and compared with no correction at all)."""
-    from bipedsim.sim.runner import judge_correction
+    from bipedsim.sim.judging import judge_correction
 
     rows = np.zeros((2, small.controller().tables.kp.shape[0] + EXTRA))
     corr = Correction(starts=(10.0, 20.0), rows=rows, end=30.0, fade=10.0, period=15.0)
@@ -229,6 +229,57 @@ def test_the_judge_keeps_the_better_of_repeating_the_loop_and_fading_out(small) 
     keep, why, chosen = judge_correction(small, [corr, at_clip], by_end)
     assert keep and chosen is at_clip and "the clip's end" in why
 
+
+
+def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeypatch) -> None:
+    """A search without the loop's cover whose run falls within the judging run is made again with the
+    cover, judged with the first search's corrections; one whose run stands, or one read from the cache,
+    is not."""
+    import bipedsim.sim.judging as judging
+
+    full = judging.judging_seconds(small)
+    short = replace(small.cfg, reconstruct=replace(small.cfg.reconstruct, cover_s=0.0))
+    rows = np.zeros((1, small.controller().tables.kp.shape[0] + EXTRA))
+    found = {0.0: Correction(starts=(10.0,), rows=rows, end=20.0, fade=10.0),
+             20.0: Correction(starts=(10.0,), rows=rows + 0.01, end=90.0, fade=10.0)}
+    searches: list[float] = []
+    judged_with: list[int] = []
+
+    def fake_search(stands: dict, cached: bool = False):
+        def correction_for(model, h, ctrl, clip, cfg, fall, judge):
+            cover = cfg.reconstruct.cover_s
+            searches.append(cover)
+            if cached:
+                return found[cover], "read"
+            keep, _, corr = judge([found[cover]])
+            return (corr if keep else None), f"searched {cover:g}"
+        return correction_for
+
+    def judged(stands: dict):
+        def run(sc):
+            judged_with.append(0)
+            return stands[None if sc.correction is None else sc.correction.end], 0.1
+        return run
+
+    # the short search's run falls: searched again to cover_s; its correction, standing, is kept
+    monkeypatch.setattr(judging, "correction_for", fake_search({}))
+    corr, line, cfg = judging.searched_correction(small, short, judged({None: 3.0, 20.0: 8.0, 90.0: full}))
+    assert searches == [0.0, 20.0] and cfg == small.cfg and corr is found[20.0]
+    assert "falls at 8.0 s" in line and line.startswith("searched 0") and line.endswith("searched 20")
+    # the first search's correction stands better than the second's: it is the one kept
+    searches.clear()
+    corr, _, _ = judging.searched_correction(small, short, judged({None: 3.0, 20.0: 8.0, 90.0: 5.0}))
+    assert searches == [0.0, 20.0] and corr is found[0.0]
+    # the run stands: no second search
+    searches.clear()
+    corr, line, cfg = judging.searched_correction(small, short, judged({None: 3.0, 20.0: full, 90.0: full}))
+    assert searches == [0.0] and cfg == short and corr is found[0.0] and "falls" not in line
+    # read from the cache: no judging run, no second search
+    searches.clear()
+    judged_with.clear()
+    monkeypatch.setattr(judging, "correction_for", fake_search({}, cached=True))
+    corr, _, cfg = judging.searched_correction(small, short, judged({None: 3.0, 20.0: 3.0, 90.0: full}))
+    assert searches == [0.0] and cfg == short and judged_with == []
 
 
 def test_search_past_the_clip_is_bounded():
@@ -291,8 +342,8 @@ def test_the_loop_is_searched_to_cover_s_only_where_the_feedback_falls_on_it(sma
     """``cover_s`` holds where the clip's best cycle looped by the feedback alone falls within a judging
     run; where it stands the whole run, the search stops ``loop_max_s`` after the clip (cover_s 0); a
     search cached before is used as it was, without a judging run."""
+    from bipedsim.sim.judging import judging_seconds, search_settings
     from bipedsim.sim.reconstruct import correction_key
-    from bipedsim.sim.runner import judging_seconds, search_settings
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     asked: list[str] = []

@@ -358,7 +358,7 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     """The correction for ``clip`` on this body with these settings, and a line saying where it came
     from: read from the cache when this search was run before, else searched (a progress bar on a
     terminal), judged and cached. ``judge`` says whether a searched correction is kept (a run with it
-    against one without, :func:`bipedsim.sim.runner.judge_correction`) and which: the search's, or its best
+    against one without, :func:`bipedsim.sim.judging.judge_correction`) and which: the search's, or its best
     at the clip's end (:func:`search_corrections`), or a variant; one it rejects is cached as
     rejected, so the run goes on without one and the next run does not search again."""
     key = correction_key(clip, model_hash, cfg)

@@ -311,9 +311,10 @@ class ReconstructConfig:
     #: and repeated; where not one fits, the search ends this long after the clip and its correction fades
     loop_max_s: float | None = field(default=5.0, metadata={"gt": 0.0})
     #: s from the run's start the search covers at least, in whole loop periods after the clip, where the
-    #: clip's best cycle looped by the feedback alone falls within a judging run (sim/runner.py
-    #: search_settings): a styled loop the feedback does not walk is walked under its correction for a
-    #: run this long (the judge's shortest, JUDGE_MIN_S). 0: never
+    #: clip's best cycle looped by the feedback alone falls within a judging run, or where a run with a
+    #: search's correction without the cover falls in it (sim/judging.py search_settings,
+    #: searched_correction): a loop the feedback does not walk is walked under its correction for a run
+    #: this long (the judge's shortest, JUDGE_MIN_S). 0: never
     cover_s: float = field(default=20.0, metadata={"min": 0.0, "max": 600.0})
     #: seconds over which a correction without a searched loop fades out after its end: long enough for
     #: the feedback to take the corrected gait over gradually

@@ -237,8 +237,9 @@ def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeyp
     is not."""
     import bipedsim.sim.judging as judging
 
-    full = judging.judging_seconds(small)
-    short = replace(small.cfg, reconstruct=replace(small.cfg.reconstruct, cover_s=0.0))
+    loops = replace(small, cfg=replace(small.cfg, reconstruct=replace(small.cfg.reconstruct, loop_cycles=2)))
+    full = judging.judging_seconds(loops)
+    short = replace(loops.cfg, reconstruct=replace(loops.cfg.reconstruct, cover_s=0.0))
     rows = np.zeros((1, small.controller().tables.kp.shape[0] + EXTRA))
     found = {0.0: Correction(starts=(10.0,), rows=rows, end=20.0, fade=10.0),
              20.0: Correction(starts=(10.0,), rows=rows + 0.01, end=90.0, fade=10.0)}
@@ -263,23 +264,29 @@ def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeyp
 
     # the short search's run falls: searched again to cover_s; its correction, standing, is kept
     monkeypatch.setattr(judging, "correction_for", fake_search({}))
-    corr, line, cfg = judging.searched_correction(small, short, judged({None: 3.0, 20.0: 8.0, 90.0: full}))
-    assert searches == [0.0, 20.0] and cfg == small.cfg and corr is found[20.0]
+    corr, line, cfg = judging.searched_correction(loops, short, judged({None: 3.0, 20.0: 8.0, 90.0: full}))
+    assert searches == [0.0, 20.0] and cfg == loops.cfg and corr is found[20.0]
     assert "falls at 8.0 s" in line and line.startswith("searched 0") and line.endswith("searched 20")
     # the first search's correction stands better than the second's: it is the one kept
     searches.clear()
-    corr, _, _ = judging.searched_correction(small, short, judged({None: 3.0, 20.0: 8.0, 90.0: 5.0}))
+    corr, _, _ = judging.searched_correction(loops, short, judged({None: 3.0, 20.0: 8.0, 90.0: 5.0}))
     assert searches == [0.0, 20.0] and corr is found[0.0]
     # the run stands: no second search
     searches.clear()
-    corr, line, cfg = judging.searched_correction(small, short, judged({None: 3.0, 20.0: full, 90.0: full}))
+    corr, line, cfg = judging.searched_correction(loops, short, judged({None: 3.0, 20.0: full, 90.0: full}))
     assert searches == [0.0] and cfg == short and corr is found[0.0] and "falls" not in line
     # read from the cache: no judging run, no second search
     searches.clear()
     judged_with.clear()
     monkeypatch.setattr(judging, "correction_for", fake_search({}, cached=True))
-    corr, _, cfg = judging.searched_correction(small, short, judged({None: 3.0, 20.0: 3.0, 90.0: full}))
+    corr, _, cfg = judging.searched_correction(loops, short, judged({None: 3.0, 20.0: 3.0, 90.0: full}))
     assert searches == [0.0] and cfg == short and judged_with == []
+    # where the cover adds nothing to the span searched (no loop searched), no second search either
+    searches.clear()
+    monkeypatch.setattr(judging, "correction_for", fake_search({}))
+    short = replace(small.cfg, reconstruct=replace(small.cfg.reconstruct, cover_s=0.0))
+    judging.searched_correction(small, short, judged({None: 3.0, 20.0: 8.0, 90.0: full}))
+    assert searches == [0.0]
 
 
 def test_search_past_the_clip_is_bounded():

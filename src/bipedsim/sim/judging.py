@@ -16,7 +16,14 @@ from bipedsim.control.humanoid.correction import Correction
 from bipedsim.control.settings import ControllerConfig
 from bipedsim.errors import ModelError
 from bipedsim.sim.fidelity import measure_fidelity
-from bipedsim.sim.reconstruct import cached_choice, correction_for, correction_key, has_correction, remember_choice
+from bipedsim.sim.reconstruct import (
+    cached_choice,
+    correction_for,
+    correction_key,
+    has_correction,
+    remember_choice,
+    search_span,
+)
 from bipedsim.sim.recorder import Recorder
 from bipedsim.sim.rollout import RolloutSpec
 from bipedsim.sim.scenario import Scenario, run_scenario
@@ -193,6 +200,8 @@ def searched_correction(sc: Scenario, searched: ControllerConfig, judged: Judge
     corr, line = correction_for(model, hash_, replace(sc, cfg=searched).controller, sc.clip, searched, fall, judge)
     if searched == sc.cfg or not stood or stood[-1] >= judging_seconds(sc) - 1e-9:
         return corr, line, searched
+    if search_span(sc.controller()) <= search_span(replace(sc, cfg=searched).controller()) + 1e-9:
+        return corr, line, searched  # a clip as long as the cover: the cover adds nothing to search
     again = (f"reconstruct: the run falls at {stood[-1]:.1f} s of {judging_seconds(sc):.1f} s past the searched span:"
              f" the search covers the loop to {sc.cfg.reconstruct.cover_s:g} s from the start")
     corr, more = correction_for(model, hash_, sc.controller, sc.clip, sc.cfg, fall, judge)

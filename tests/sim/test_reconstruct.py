@@ -246,13 +246,13 @@ def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeyp
     searches: list[float] = []
     judged_with: list[int] = []
 
-    def fake_search(stands: dict, cached: bool = False):
+    def fake_search(stands: dict, cached: bool = False, reached: bool = True):
         def correction_for(model, h, ctrl, clip, cfg, fall, judge):
             cover = cfg.reconstruct.cover_s
             searches.append(cover)
             if cached:
                 return found[cover], "read"
-            keep, _, corr = judge([found[cover]])
+            keep, _, corr = judge([found[cover]], reached)
             return (corr if keep else None), f"searched {cover:g}"
         return correction_for
 
@@ -281,6 +281,11 @@ def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeyp
     monkeypatch.setattr(judging, "correction_for", fake_search({}, cached=True))
     corr, _, cfg = judging.searched_correction(loops, short, judged({None: 3.0, 20.0: 3.0, 90.0: full}))
     assert searches == [0.0] and cfg == short and judged_with == []
+    # a first search that stopped short of its end (every sample fell): it would stop there again
+    searches.clear()
+    monkeypatch.setattr(judging, "correction_for", fake_search({}, reached=False))
+    judging.searched_correction(loops, short, judged({None: 3.0, 20.0: 8.0, 90.0: full}))
+    assert searches == [0.0]
     # where the cover adds nothing to the span searched (no loop searched), no second search either
     searches.clear()
     monkeypatch.setattr(judging, "correction_for", fake_search({}))

@@ -184,25 +184,27 @@ def searched_correction(sc: Scenario, searched: ControllerConfig, judged: Judge
                         ) -> tuple[Correction | None, str, ControllerConfig]:
     """``sc``'s correction searched with ``searched`` (:func:`search_settings`), or read from the cache,
     and judged (:func:`judge_correction`); the line saying where it came from; the settings it was found
-    with. A search just made without its loop covered to ``reconstruct.cover_s`` whose run (with what
-    was kept, or without) falls within a judging run is made again covering it, judged with the first
-    search's corrections: the run needs the correction past where the loop's feedback alone took over."""
+    with. A search just made without its loop covered to ``reconstruct.cover_s`` that reached its end,
+    but whose run (with what was kept, or without) falls within a judging run, is made again covering
+    it, judged with the first search's corrections: the run needs the correction past where the loop's
+    feedback alone took over."""
     model, hash_, fall = sc.built.model, sc.built.hash, sc.fall_criteria()
     tried: list[Correction] = []
-    stood: list[float] = []
+    stood: list[tuple[float, bool]] = []  # how long the run stood, and whether the search reached its end
 
-    def judge(cands: list[Correction]) -> tuple[bool, str, Correction]:
+    def judge(cands: list[Correction], reached: bool) -> tuple[bool, str, Correction]:
         keep, why, corr = judge_correction(sc, cands + tried, judged)
         tried.extend(cands)
-        stood.append(judged(replace(sc, correction=corr if keep else None))[0])  # judged already: no new run
+        stood.append((judged(replace(sc, correction=corr if keep else None))[0], reached))  # no new run: judged
         return keep, why, corr
 
     corr, line = correction_for(model, hash_, replace(sc, cfg=searched).controller, sc.clip, searched, fall, judge)
-    if searched == sc.cfg or not stood or stood[-1] >= judging_seconds(sc) - 1e-9:
+    # a search that stopped short of its span's end stops there again covering more of it
+    if searched == sc.cfg or not stood or stood[-1][0] >= judging_seconds(sc) - 1e-9 or not stood[-1][1]:
         return corr, line, searched
     if search_span(sc.controller()) <= search_span(replace(sc, cfg=searched).controller()) + 1e-9:
         return corr, line, searched  # a clip as long as the cover: the cover adds nothing to search
-    again = (f"reconstruct: the run falls at {stood[-1]:.1f} s of {judging_seconds(sc):.1f} s past the searched span:"
-             f" the search covers the loop to {sc.cfg.reconstruct.cover_s:g} s from the start")
+    again = (f"reconstruct: the run falls at {stood[-1][0]:.1f} s of {judging_seconds(sc):.1f} s past the searched "
+             f"span: the search covers the loop to {sc.cfg.reconstruct.cover_s:g} s from the start")
     corr, more = correction_for(model, hash_, sc.controller, sc.clip, sc.cfg, fall, judge)
     return corr, "\n".join((line, again, more)), sc.cfg

@@ -354,11 +354,12 @@ Verdict = tuple[bool, str, Correction]
 
 def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[], SimbiconController],
                    clip: ReferenceClip, cfg: ControllerConfig, fall: FallCriteria,
-                   judge: Callable[[list[Correction]], Verdict] | None = None) -> tuple[Correction | None, str]:
+                   judge: Callable[[list[Correction], bool], Verdict] | None = None) -> tuple[Correction | None, str]:
     """The correction for ``clip`` on this body with these settings, and a line saying where it came
     from: read from the cache when this search was run before, else searched (a progress bar on a
     terminal), judged and cached. ``judge`` says whether a searched correction is kept (a run with it
-    against one without, :func:`bipedsim.sim.judging.judge_correction`) and which: the search's, or its best
+    against one without, :func:`bipedsim.sim.judging.judge_correction`; told too whether the search
+    reached the end of its span) and which: the search's, or its best
     at the clip's end (:func:`search_corrections`), or a variant; one it rejects is cached as
     rejected, so the run goes on without one and the next run does not search again."""
     key = correction_key(clip, model_hash, cfg)
@@ -411,7 +412,7 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
         what += f"; every sample fell after {done[0]:.1f} s, so the correction ends there"
     kept, why = (False, "no window could be walked") if corr is None else (True, "")
     if corr is not None and judge is not None:
-        kept, why, corr = judge([corr] if at_clip is None else [corr, at_clip])
+        kept, why, corr = judge([corr] if at_clip is None else [corr, at_clip], done[0] >= total - 1e-6)
     what += f"; {why}" if why else ""
     (cache_folder() / f"{key}.source.json").unlink(missing_ok=True)  # chosen with the correction it replaces
     try:

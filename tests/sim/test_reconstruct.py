@@ -247,7 +247,7 @@ def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeyp
     judged_with: list[int] = []
 
     def fake_search(stands: dict, cached: bool = False, reached: bool = True):
-        def correction_for(model, h, ctrl, clip, cfg, fall, judge):
+        def correction_for(model, h, ctrl, clip, cfg, fall, judge, state=None):
             cover = cfg.reconstruct.cover_s
             searches.append(cover)
             if cached:
@@ -292,6 +292,34 @@ def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeyp
     short = replace(small.cfg, reconstruct=replace(small.cfg.reconstruct, cover_s=0.0))
     judging.searched_correction(small, short, judged({None: 3.0, 20.0: 8.0, 90.0: full}))
     assert searches == [0.0]
+
+
+def test_a_longer_search_goes_on_from_a_shorter_one_with_the_same_result(small) -> None:
+    """A search over a longer span (``cover_s``) given the state of a shorter one that reached its end
+    finds what a search from the start finds, walking only the windows after the shorter one's."""
+    from bipedsim.sim.reconstruct import search_corrections
+
+    base = replace(small.cfg.reconstruct, loop_cycles=1, samples=1, keep=1, workers=1)
+    short = replace(base, cover_s=0.0)
+    span = search_span(replace(small, cfg=replace(small.cfg, reconstruct=short)).controller())
+    long = replace(base, cover_s=span + 1.5)
+
+    def search(cfg, state=None, ticks=None):
+        c = small.controller()
+        try:
+            return search_corrections(small.built.model, c, cfg, small.fall_criteria(), state=state,
+                                      progress=None if ticks is None else lambda t, _n: ticks.append(t))[0]
+        finally:
+            c.restore_model()
+
+    fresh = search(long)
+    state: dict = {}
+    search(short, state)
+    assert state, "a search that reached its end leaves its state"
+    ticks: list[float] = []
+    went_on = search(long, state, ticks)
+    assert went_on.starts == fresh.starts and np.array_equal(went_on.rows, fresh.rows)
+    assert went_on.end == fresh.end and ticks and ticks[0] > 1.0  # it started past the shorter span
 
 
 def test_search_past_the_clip_is_bounded():

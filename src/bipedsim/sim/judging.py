@@ -198,7 +198,9 @@ def searched_correction(sc: Scenario, searched: ControllerConfig, judged: Judge
         stood.append((judged(replace(sc, correction=corr if keep else None))[0], reached))  # no new run: judged
         return keep, why, corr
 
-    corr, line = correction_for(model, hash_, replace(sc, cfg=searched).controller, sc.clip, searched, fall, judge)
+    state: dict[str, object] = {}  # the first search's, for the second to go on from
+    corr, line = correction_for(model, hash_, replace(sc, cfg=searched).controller, sc.clip, searched, fall, judge,
+                                state)
     # a search that stopped short of its span's end stops there again covering more of it
     if searched == sc.cfg or not stood or stood[-1][0] >= judging_seconds(sc) - 1e-9 or not stood[-1][1]:
         return corr, line, searched
@@ -206,5 +208,5 @@ def searched_correction(sc: Scenario, searched: ControllerConfig, judged: Judge
         return corr, line, searched  # a clip as long as the cover: the cover adds nothing to search
     again = (f"reconstruct: the run falls at {stood[-1][0]:.1f} s of {judging_seconds(sc):.1f} s past the searched "
              f"span: the search covers the loop to {sc.cfg.reconstruct.cover_s:g} s from the start")
-    corr, more = correction_for(model, hash_, sc.controller, sc.clip, sc.cfg, fall, judge)
+    corr, more = correction_for(model, hash_, sc.controller, sc.clip, sc.cfg, fall, judge, state)
     return corr, "\n".join((line, again, more)), sc.cfg

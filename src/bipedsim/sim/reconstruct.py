@@ -28,7 +28,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import mujoco
@@ -159,11 +159,14 @@ def reconstruct(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Reconstruc
 
 
 def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: ReconstructConfig,
-                       fall: FallCriteria, *, workers: int = 1, progress: Callable[[float, float], None] | None = None
-                       ) -> tuple[Correction | None, Correction | None]:
+                       fall: FallCriteria, *, workers: int = 1, progress: Callable[[float, float], None] | None = None,
+                       state: dict[str, object] | None = None) -> tuple[Correction | None, Correction | None]:
     """:func:`reconstruct`'s correction, and the best one at the clip's end: the search's best path when
     its windows first covered the clip (what a search of the clip alone finds, window for window), which
-    fades out after the clip; None where there is none, or where it is the first."""
+    fades out after the clip; None where there is none, or where it is the first. ``state`` (a dict)
+    receives the search's state where it reached its end; given one so filled by a search of the same
+    body and clip with the same settings but ``cover_s``, a search over a longer span goes on from it:
+    the same result as a search from the start, without walking the shorter one's windows again."""
     src = ctrl.source
     if not isinstance(ctrl, SimbiconController) or not isinstance(src, ClipSource) or not src.whole:
         raise ModelError("reconstruction drives the humanoid's controller tracking a whole clip (source: clip)")
@@ -199,6 +202,12 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
     # for each failure in a row at that frontier, and searches from there with more samples until it
     # is past it (a fall is often sealed a window or more before it happens)
     retries, boost, frontier, streak = 0, 1, 0, 0
+    # what a search to go on from shares: the body, the clip's start, the windows, every setting but the span
+    same = (id(model), frame0, per_window, fall, replace(cfg, cover_s=0.0, workers=0))
+    if state and state.get("same") == same and len(state["history"]) <= n_windows + 1:  # type: ignore[arg-type]
+        # its nodes' controllers share the first search's constants (the deep copies' memo)
+        search, history, rng, at_clip = state["search"], state["history"], state["rng"], state["at_clip"]  # type: ignore[assignment]
+        retries, boost, frontier, streak = state["counts"]  # type: ignore[misc]
     while len(history) <= n_windows:
         step = (len(history) - 1) * per_window
         parents = history[-1]
@@ -224,6 +233,9 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
         streak += 1
         boost = min(2 ** streak, MAX_BOOST)
         del history[max(1, frontier - streak + 1):]
+    if state is not None and len(history) > n_windows:
+        state.update(same=same, search=search, history=list(history), rng=rng, at_clip=at_clip,
+                     counts=(retries, boost, frontier, streak))
     best = history[-1][0]
     if not best.rows:
         return None, None
@@ -354,14 +366,16 @@ Verdict = tuple[bool, str, Correction]
 
 def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[], SimbiconController],
                    clip: ReferenceClip, cfg: ControllerConfig, fall: FallCriteria,
-                   judge: Callable[[list[Correction], bool], Verdict] | None = None) -> tuple[Correction | None, str]:
+                   judge: Callable[[list[Correction], bool], Verdict] | None = None,
+                   state: dict[str, object] | None = None) -> tuple[Correction | None, str]:
     """The correction for ``clip`` on this body with these settings, and a line saying where it came
     from: read from the cache when this search was run before, else searched (a progress bar on a
     terminal), judged and cached. ``judge`` says whether a searched correction is kept (a run with it
     against one without, :func:`bipedsim.sim.judging.judge_correction`; told too whether the search
     reached the end of its span) and which: the search's, or its best
     at the clip's end (:func:`search_corrections`), or a variant; one it rejects is cached as
-    rejected, so the run goes on without one and the next run does not search again."""
+    rejected, so the run goes on without one and the next run does not search again. ``state``: as for
+    :func:`search_corrections` (a search over a longer span goes on from a shorter one's)."""
     key = correction_key(clip, model_hash, cfg)
     path = cache_folder() / f"{key}.json"
     ctrl = make_ctrl()
@@ -400,7 +414,7 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     t0 = time.perf_counter()
     try:
         corr, at_clip = search_corrections(model, ctrl, cfg.reconstruct, fall, workers=search_workers(cfg.reconstruct),
-                                           progress=tick)
+                                           progress=tick, state=state)
     finally:
         ctrl.restore_model()
         if bar is not None:

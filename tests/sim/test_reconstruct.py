@@ -233,8 +233,8 @@ def test_the_judge_keeps_the_better_of_repeating_the_loop_and_fading_out(small) 
 
 def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeypatch) -> None:
     """A search without the loop's cover whose run falls within the judging run is made again with the
-    cover, judged with the first search's corrections; one whose run stands, or one read from the cache,
-    is not."""
+    cover, judged with the first search's corrections; one whose run stands, one read from the cache, one
+    that stopped short, or one whose clip's looped cycle already walks the clip's path, is not."""
     import bipedsim.sim.judging as judging
 
     loops = replace(small, cfg=replace(small.cfg, reconstruct=replace(small.cfg.reconstruct, loop_cycles=2)))
@@ -256,9 +256,11 @@ def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeyp
             return (corr if keep else None), f"searched {cover:g}"
         return correction_for
 
-    def judged(stands: dict):
+    def judged(stands: dict, loop: tuple[float, float] = (20.0, 9.0)):
         def run(sc):
             judged_with.append(0)
+            if sc.cfg.source == "cycle":
+                return loop
             return stands[None if sc.correction is None else sc.correction.end], 0.1
         return run
 
@@ -281,6 +283,11 @@ def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeyp
     monkeypatch.setattr(judging, "correction_for", fake_search({}, cached=True))
     corr, _, cfg = judging.searched_correction(loops, short, judged({None: 3.0, 20.0: 3.0, 90.0: full}))
     assert searches == [0.0] and cfg == short and judged_with == []
+    # the looped cycle stands within the path's tolerance: it is run, no longer search
+    searches.clear()
+    monkeypatch.setattr(judging, "correction_for", fake_search({}))
+    judging.searched_correction(loops, short, judged({None: 3.0, 20.0: 8.0, 90.0: full}, loop=(full, 0.2)))
+    assert searches == [0.0]
     # a first search that stopped short of its end (every sample fell): it would stop there again
     searches.clear()
     monkeypatch.setattr(judging, "correction_for", fake_search({}, reached=False))

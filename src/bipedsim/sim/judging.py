@@ -12,10 +12,12 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
+
 from bipedsim.control.humanoid.correction import Correction
 from bipedsim.control.settings import ControllerConfig
 from bipedsim.errors import ModelError
-from bipedsim.sim.fidelity import measure_fidelity
+from bipedsim.sim.fidelity import PATH_TOLERANCE_M, interp_rows, measure_fidelity
 from bipedsim.sim.reconstruct import (
     cached_choice,
     correction_for,
@@ -55,6 +57,8 @@ def with_correction(sc: Scenario) -> Scenario:
 JUDGE_BEYOND_S = 5.0
 #: the shortest judging run (s): what a run of a short clip is judged by (a walk holds 20 s)
 JUDGE_MIN_S = 20.0
+#: samples per second a judging run records (its root path, against the clip's)
+JUDGE_HZ = 30.0
 
 
 def judging_seconds(sc: Scenario) -> float:
@@ -68,7 +72,7 @@ def _judged(sc: Scenario) -> tuple[float, float]:
     long it stands (s) and the
     largest distance of its root path from the clip's (m, :func:`~bipedsim.sim.fidelity.measure_fidelity`)."""
     seconds = judging_seconds(sc)
-    rec = Recorder(sc.built.model, record_hz=30.0, seconds=seconds)
+    rec = Recorder(sc.built.model, record_hz=JUDGE_HZ, seconds=seconds)
     out, ctrl = run_scenario(sc, RolloutSpec(seconds=seconds), hooks=[rec])
     tr = rec.trajectory()
     fid = measure_fidelity(sc.built.model, tr.time, tr.qpos, sc.clip.qpos, sc.clip.frame_time,
@@ -187,7 +191,9 @@ def searched_correction(sc: Scenario, searched: ControllerConfig, judged: Judge
     with. A search just made without its loop covered to ``reconstruct.cover_s`` that reached its end,
     but whose run (with what was kept, or without) falls within a judging run, is made again covering
     it, judged with the first search's corrections: the run needs the correction past where the loop's
-    feedback alone took over."""
+    feedback alone took over. Not where the clip's looped cycle already stands the judging run within
+    the path's tolerance (:func:`path_tolerance`): that is run instead, and a longer search would only
+    cost time."""
     model, hash_, fall = sc.built.model, sc.built.hash, sc.fall_criteria()
     tried: list[Correction] = []
     stood: list[tuple[float, bool]] = []  # how long the run stood, and whether the search reached its end
@@ -206,7 +212,22 @@ def searched_correction(sc: Scenario, searched: ControllerConfig, judged: Judge
         return corr, line, searched
     if search_span(sc.controller()) <= search_span(replace(sc, cfg=searched).controller()) + 1e-9:
         return corr, line, searched  # a clip as long as the cover: the cover adds nothing to search
+    loop = judged(looped(sc))  # judged by search_settings: no new run
+    if loop[0] >= judging_seconds(sc) - 1e-9 and loop[1] <= path_tolerance(sc):
+        return corr, line, searched  # the looped cycle already walks the clip's path (whole_or_looped runs it)
     again = (f"reconstruct: the run falls at {stood[-1][0]:.1f} s of {judging_seconds(sc):.1f} s past the searched "
              f"span: the search covers the loop to {sc.cfg.reconstruct.cover_s:g} s from the start")
     corr, more = correction_for(model, hash_, sc.controller, sc.clip, sc.cfg, fall, judge, state)
     return corr, "\n".join((line, again, more)), sc.cfg
+
+
+def path_tolerance(sc: Scenario) -> float:
+    """How far (m) a run's root path may stray from ``sc``'s clip by the fidelity goal
+    (:attr:`~bipedsim.sim.fidelity.Fidelity.path_tolerance_m`: max(0.5 m, 10 % of the clip's path from
+    the run's start frame), measured on the clip's own root path at the judging runs' 30 Hz."""
+    clip, start = sc.clip, float(sc.controller().start_frame())
+    span = (clip.num_frames - 1 - start) * clip.frame_time
+    t = np.arange(0.0, max(span, 0.0) + 1e-9, 1.0 / JUDGE_HZ)
+    fid = measure_fidelity(sc.built.model, t, interp_rows(clip.qpos, start + t / clip.frame_time), clip.qpos,
+                           clip.frame_time, start)
+    return fid.path_tolerance_m if fid is not None else PATH_TOLERANCE_M

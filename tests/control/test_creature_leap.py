@@ -99,6 +99,25 @@ def test_a_leap_from_walking_reaches_its_take_off_on_all_its_feet() -> None:
     assert got[2] >= 0.85 * asked[2]
 
 
+@pytest.mark.slow
+@pytest.mark.skipif(not HAVE_SHARED, reason="measured on the shared MANN dog's walk")
+def test_the_push_brings_the_walks_spin_to_rest() -> None:
+    """The shared dog, walking, asked to leap at three walking phases (1.0, 1.1, 1.2 s): with the push
+    bringing the angular momentum to rest by the take-off (``push_spin_stop``) it leaves the floor
+    spinning less, over the three, than with the attitude PD's damping alone."""
+    spins = {}
+    for stop in (True, False):
+        total = 0.0
+        for t_leap in (1.0, 1.1, 1.2):
+            sc = load_scenario(bvh=dog_clip())
+            ctrl = sc.controller()
+            ctrl.leap_settings = dataclasses.replace(ctrl.leap_settings, push_spin_stop=stop)
+            _walk(sc, ctrl, t_leap + 0.9, _Watch(t_leap, np.array([1.0, 0.0, 2.0])))
+            total += float(np.linalg.norm(ctrl.leaps[0].record()["takeoff_spin_rad_s"]))
+        spins[stop] = total
+    assert spins[True] <= 0.95 * spins[False]
+
+
 class _Watch:
     """A rollout hook: asks for a leap at ``t_leap`` and records, per control step, the leap's phase and
     how many legs touch the floor."""

@@ -59,6 +59,10 @@ class LeapSettings:
     #: the attitude PD's frequency in the set and the push, x the gait's: the spin the body leaves the
     #: floor with is kept through the flight
     push_attitude: float = field(default=1.0, metadata={"gt": 0.0, "max": 20.0})
+    #: the push brings the body's angular momentum to rest over its remaining time, as it brings the
+    #: velocity to the take-off's (False: the attitude PD's damping only): the spin the walk leaves the
+    #: body with (a walking body sways and turns) would otherwise be kept through the flight
+    push_spin_stop: bool = True
     #: the push's remaining time is taken as at least this x sqrt(L/g) (its acceleration bounded near
     #: the stroke's top)
     push_min_left: float = field(default=0.05, metadata={"gt": 0.0, "max": 1.0})

@@ -14,7 +14,7 @@ through the crouch, is set aside from the set until the body has landed, then re
   is m (a + g), a the constant acceleration that takes the centre of mass from its velocity now to the
   take-off velocity over the rest of the stroke, re-planned every step (a body that falls behind is
   pushed the harder); the torque about the centre of mass turns the root toward level and brings the
-  body's mean spin (its angular momentum over its inertia) to rest, less the moment the body gets beyond
+  body's angular momentum to rest by the take-off (``push_spin_stop``), less the moment the body gets beyond
   the feet's planned one (the forces as made, not as planned: a leg near straight delivers less, a foot
   slips), estimated from the angular momentum's rate over ``bias_time`` sqrt(L/g). The feet share that wrench each
   inside its friction cone and pushing (:func:`cone_forces`: non-negative least squares on the cones'

@@ -287,7 +287,8 @@ class Leap(LeapDynamics):
                 if dn and i not in self.landed_feet:
                     p = data.site_xpos[self.gait.ik.sites[i]]
                     self.landed_feet[i] = np.array([p[0], p[1], self.gait.stance.site_ground[i]])
-            if t >= self.t_land + self.settings.land_time / self.w0:
+            if t >= self.t_land + self.settings.land_time / self.w0 and (
+                    self._settled(data, contact, v_com) or t >= self.t_land + self.settings.land_max / self.w0):
                 self.phase, self.t_done = "done", t
 
     def _start_set(self, data: mujoco.MjData, v_com: FloatArray, t: float) -> None:

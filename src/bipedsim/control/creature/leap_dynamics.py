@@ -85,6 +85,15 @@ class LeapDynamics:
         self._angmom = (t, h)
         return self.moment_bias
 
+    def _settled(self, data: mujoco.MjData, contact: list[bool], v_com: FloatArray) -> bool:
+        """Whether the landed body is settled for the gait to walk on: all its feet but one on the floor,
+        the centre of mass's vertical speed under ``settle_speed`` x sqrt(g L) and the body's mean spin
+        under ``settle_spin`` x sqrt(g/L)."""
+        s = self.settings
+        if sum(contact) < len(contact) - 1 or abs(float(v_com[2])) > s.settle_speed * self.w0 * self.height:
+            return False
+        return float(np.linalg.norm(self._mean_spin(data)[1])) <= s.settle_spin * self.w0
+
     def _room(self, data: mujoco.MjData, u: FloatArray, i: int) -> float:
         """How far (m) the root may move along the unit vector ``u`` before leg ``i`` (its foot where it
         stands) has straightened to ``straight`` of its length; 0 where it already has."""

@@ -27,7 +27,8 @@ through the crouch, is set aside from the set until the body has landed, then re
   ``land_stiffness``: each foot to its neutral place under the root, moved ahead along the horizontal
   velocity by ``land_reach`` x v / sqrt(g/L) (toward the capture point: the braking force at the feet
   then passes nearer the centre of mass);
-- **landing** (``land_time`` sqrt(L/g) s from the first foot down): the catch, while the body sinks,
+- **landing** (``land_time`` sqrt(L/g) s from the first foot down, on until the body has settled, at most
+  ``land_max``): the catch, while the body sinks,
   is the push reversed: the force m (a + g), a the constant deceleration that stops the fall at the
   crouch's depth and takes the horizontal velocity toward ``land_carry`` of the walking speed as far as
   ``land_friction`` of the friction cone allows; once the fall has stopped, the standing PD of the gait

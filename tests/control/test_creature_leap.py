@@ -39,10 +39,33 @@ def test_push_time_is_the_stroke_at_constant_acceleration() -> None:
 
 @pytest.mark.parametrize("key, value", [("crouch", -0.1), ("straight", 0.0), ("land_stiffness", 2.0),
                                         ("crouch_time", float("nan")), ("set_time", -1.0), ("cone_edges", 2),
-                                        ("moment_weight", 0.0)])
+                                        ("moment_weight", 0.0), ("land_max", 0.0), ("settle_speed", -1.0),
+                                        ("settle_spin", 0.0)])
 def test_bad_leap_settings_name_their_key(key: str, value: float) -> None:
     with pytest.raises(ConfigError, match=f"leap.{key}"):
         LeapSettings(**{key: value}).validate()
+
+
+class _Landed:
+    """A stand-in for a landed leap: its settings, sqrt(g/L) (1/s), L (m) and a mean spin (rad/s)."""
+
+    def __init__(self, spin: np.ndarray) -> None:
+        self.settings, self.w0, self.height, self.spin = LeapSettings(), 4.5, 0.48, spin
+
+    def _mean_spin(self, data: object) -> tuple[np.ndarray, np.ndarray]:
+        return np.eye(3), self.spin
+
+
+def test_a_landing_is_settled_on_its_feet_at_rest() -> None:
+    """All feet but one down, the fall and the spin stopped: settled; a foot more in the air, a body still
+    rising at 0.3 m/s or rolling at 2 rad/s: not (the gait would restart from feet in the air)."""
+    from bipedsim.control.creature.leap_dynamics import LeapDynamics
+
+    still = _Landed(np.zeros(3))
+    assert LeapDynamics._settled(still, None, [True, True, True, False], np.array([0.5, 0.0, 0.05]))
+    assert not LeapDynamics._settled(still, None, [True, True, False, False], np.zeros(3))
+    assert not LeapDynamics._settled(still, None, [True] * 4, np.array([0.0, 0.0, 0.3]))
+    assert not LeapDynamics._settled(_Landed(np.array([2.0, 0.0, 0.0])), None, [True] * 4, np.zeros(3))
 
 
 def test_the_feet_share_a_wrench_inside_their_friction_cones() -> None:
@@ -97,6 +120,25 @@ def test_a_leap_from_walking_reaches_its_take_off_on_all_its_feet() -> None:
     ahead = asked[0:2] / np.linalg.norm(asked[0:2])
     assert got[0:2] @ ahead >= 0.85 * np.linalg.norm(asked[0:2])
     assert got[2] >= 0.85 * asked[2]
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not HAVE_SHARED, reason="measured on the shared MANN dog's walk")
+def test_the_push_brings_the_walks_spin_to_rest() -> None:
+    """The shared dog, walking, asked to leap at three walking phases (1.0, 1.1, 1.2 s): with the push
+    bringing the angular momentum to rest by the take-off (``push_spin_stop``) it leaves the floor
+    spinning less, over the three, than with the attitude PD's damping alone."""
+    spins = {}
+    for stop in (True, False):
+        total = 0.0
+        for t_leap in (1.0, 1.1, 1.2):
+            sc = load_scenario(bvh=dog_clip())
+            ctrl = sc.controller()
+            ctrl.leap_settings = dataclasses.replace(ctrl.leap_settings, push_spin_stop=stop)
+            _walk(sc, ctrl, t_leap + 0.9, _Watch(t_leap, np.array([1.0, 0.0, 2.0])))
+            total += float(np.linalg.norm(ctrl.leaps[0].record()["takeoff_spin_rad_s"]))
+        spins[stop] = total
+    assert spins[True] <= 0.95 * spins[False]
 
 
 class _Watch:

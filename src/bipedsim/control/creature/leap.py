@@ -14,7 +14,7 @@ through the crouch, is set aside from the set until the body has landed, then re
   is m (a + g), a the constant acceleration that takes the centre of mass from its velocity now to the
   take-off velocity over the rest of the stroke, re-planned every step (a body that falls behind is
   pushed the harder); the torque about the centre of mass turns the root toward level and brings the
-  body's mean spin (its angular momentum over its inertia) to rest, less the moment the body gets beyond
+  body's angular momentum to rest by the take-off (``push_spin_stop``), less the moment the body gets beyond
   the feet's planned one (the forces as made, not as planned: a leg near straight delivers less, a foot
   slips), estimated from the angular momentum's rate over ``bias_time`` sqrt(L/g). The feet share that wrench each
   inside its friction cone and pushing (:func:`cone_forces`: non-negative least squares on the cones'
@@ -27,7 +27,8 @@ through the crouch, is set aside from the set until the body has landed, then re
   ``land_stiffness``: each foot to its neutral place under the root, moved ahead along the horizontal
   velocity by ``land_reach`` x v / sqrt(g/L) (toward the capture point: the braking force at the feet
   then passes nearer the centre of mass);
-- **landing** (``land_time`` sqrt(L/g) s from the first foot down): the catch, while the body sinks,
+- **landing** (``land_time`` sqrt(L/g) s from the first foot down, on until the body has settled, at most
+  ``land_max``): the catch, while the body sinks,
   is the push reversed: the force m (a + g), a the constant deceleration that stops the fall at the
   crouch's depth and takes the horizontal velocity toward ``land_carry`` of the walking speed as far as
   ``land_friction`` of the friction cone allows; once the fall has stopped, the standing PD of the gait
@@ -287,7 +288,8 @@ class Leap(LeapDynamics):
                 if dn and i not in self.landed_feet:
                     p = data.site_xpos[self.gait.ik.sites[i]]
                     self.landed_feet[i] = np.array([p[0], p[1], self.gait.stance.site_ground[i]])
-            if t >= self.t_land + self.settings.land_time / self.w0:
+            if t >= self.t_land + self.settings.land_time / self.w0 and (
+                    self._settled(data, contact, v_com) or t >= self.t_land + self.settings.land_max / self.w0):
                 self.phase, self.t_done = "done", t
 
     def _start_set(self, data: mujoco.MjData, v_com: FloatArray, t: float) -> None:

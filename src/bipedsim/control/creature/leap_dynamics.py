@@ -25,11 +25,15 @@ class LeapDynamics:
         every step, so a body that falls behind is pushed the harder: the remaining time is
         2 x the rise left / (v_z now + v_z take-off), at least a control step's worth)."""
         v = self._com_velocity(data)
+        a = (self.v_to - v) / self._push_left(data, v)
+        return self.gait.body.mass * (a + np.array([0.0, 0.0, self.g]))
+
+    def _push_left(self, data: mujoco.MjData, v: FloatArray) -> float:
+        """The push's remaining time (s) at the centre of mass's velocity ``v`` (m/s): 2 x the rise left /
+        (v_z now + v_z take-off), at least ``push_min_left`` sqrt(L/g)."""
         left = self.pp[2] + self.push_rise - float(data.qpos[2])
         vz = max(float(v[2]), 0.0) + float(self.v_to[2])
-        t_left = max(2.0 * left / vz, self.settings.push_min_left / self.w0)
-        a = (self.v_to - v) / t_left
-        return self.gait.body.mass * (a + np.array([0.0, 0.0, self.g]))
+        return max(2.0 * left / vz, self.settings.push_min_left / self.w0)
 
     def _reach_feet(self, data: mujoco.MjData) -> FloatArray:
         """Each foot's place to land on (m, world): its neutral place under the root (in the root's own
@@ -80,6 +84,15 @@ class LeapDynamics:
             self.moment_bias += min(1.0, dt / tc) * (rate - self.planned_moment - self.moment_bias)
         self._angmom = (t, h)
         return self.moment_bias
+
+    def _settled(self, data: mujoco.MjData, contact: list[bool], v_com: FloatArray) -> bool:
+        """Whether the landed body is settled for the gait to walk on: all its feet but one on the floor,
+        the centre of mass's vertical speed under ``settle_speed`` x sqrt(g L) and the body's mean spin
+        under ``settle_spin`` x sqrt(g/L)."""
+        s = self.settings
+        if sum(contact) < len(contact) - 1 or abs(float(v_com[2])) > s.settle_speed * self.w0 * self.height:
+            return False
+        return float(np.linalg.norm(self._mean_spin(data)[1])) <= s.settle_spin * self.w0
 
     def _room(self, data: mujoco.MjData, u: FloatArray, i: int) -> float:
         """How far (m) the root may move along the unit vector ``u`` before leg ``i`` (its foot where it
@@ -182,13 +195,19 @@ class LeapDynamics:
         """The torque (N*m, world) about the centre of mass the feet are asked for: the whole body's
         inertia (about its centre of mass) times an angular acceleration that turns the root toward level
         at the leap's heading and brings the body's mean spin (its angular momentum over its inertia) to
-        rest (the gait's attitude PD, frequency x ``attitude``)."""
+        rest (the gait's attitude PD, frequency x ``attitude``); in the push (``push_spin_stop``) the
+        angular momentum is brought to rest over the push's remaining time instead of by the PD's damping."""
         gait, b = self.gait, self.gait.bal
         root = gait.body.root_body
         inertia, spin = self._mean_spin(data)
         r = data.xmat[root].reshape(3, 3)
         rot = Rotation.from_matrix(rot_z(self.yaw) @ gait.stance.att @ r.T).as_rotvec()
         wa = attitude * b.attitude_freq * self.w0
+        if self.phase == "push" and self.settings.push_spin_stop:
+            # the push: the angular momentum brought to rest by the take-off, as the velocity is brought to
+            # the take-off's (whatever spin the walk left the body with, it leaves the floor without it)
+            t_left = self._push_left(data, self._com_velocity(data))
+            return inertia @ (wa * wa * rot) - data.subtree_angmom[root] / t_left
         return inertia @ (wa * wa * rot - 2 * b.damping_ratio * wa * spin)
 
     def _wrench(self, data: mujoco.MjData, p: FloatArray, v: FloatArray, a: FloatArray,

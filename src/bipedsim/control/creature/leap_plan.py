@@ -59,6 +59,10 @@ class LeapSettings:
     #: the attitude PD's frequency in the set and the push, x the gait's: the spin the body leaves the
     #: floor with is kept through the flight
     push_attitude: float = field(default=1.0, metadata={"gt": 0.0, "max": 20.0})
+    #: the push brings the body's angular momentum to rest over its remaining time, as it brings the
+    #: velocity to the take-off's (False: the attitude PD's damping only): the spin the walk leaves the
+    #: body with (a walking body sways and turns) would otherwise be kept through the flight
+    push_spin_stop: bool = True
     #: the push's remaining time is taken as at least this x sqrt(L/g) (its acceleration bounded near
     #: the stroke's top)
     push_min_left: float = field(default=0.05, metadata={"gt": 0.0, "max": 1.0})
@@ -86,6 +90,13 @@ class LeapSettings:
     land_stiffness: float = field(default=0.4, metadata={"gt": 0.0, "max": 1.0})
     #: the landing lasts this x sqrt(L/g) from the first foot down, the stiffness back to full over it
     land_time: float = field(default=3.0, metadata={"gt": 0.0, "max": 20.0})
+    #: the landing goes on past ``land_time`` until the body has settled (all its feet but one on the
+    #: floor, its vertical speed under ``settle_speed`` x sqrt(g L), its mean spin under ``settle_spin``
+    #: x sqrt(g/L): a gait restarted on a body still bouncing steps from feet in the air), for at most
+    #: this x sqrt(L/g) in all
+    land_max: float = field(default=8.0, metadata={"gt": 0.0, "max": 50.0})
+    settle_speed: float = field(default=0.1, metadata={"gt": 0.0, "max": 10.0})
+    settle_spin: float = field(default=0.2, metadata={"gt": 0.0, "max": 10.0})
     #: the flight ends (the landing starts) at the latest this x the ballistic flight time of the take-off
     #: velocity: a body that never touches down again stops waiting
     flight_overrun: float = field(default=3.0, metadata={"min": 1.0, "max": 10.0})

@@ -231,11 +231,15 @@ def test_the_judge_keeps_the_better_of_repeating_the_loop_and_fading_out(small) 
 
 
 
-def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeypatch) -> None:
+def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeypatch, tmp_path) -> None:
     """A search without the loop's cover whose run falls within the judging run is made again with the
-    cover, judged with the first search's corrections; one whose run stands, one read from the cache, one
-    that stopped short, or one whose clip's looped cycle already walks the clip's path, is not."""
+    cover, judged with the first search's corrections; one whose run stands, one that stopped short, or
+    one whose clip's looped cycle already walks the clip's path, is not. One read from the cache is made
+    again only where the first run found it needed (and was stopped before the second search ended)."""
     import bipedsim.sim.judging as judging
+    from bipedsim.sim.reconstruct import correction_key, remember_more
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
 
     loops = replace(small, cfg=replace(small.cfg, reconstruct=replace(small.cfg.reconstruct, loop_cycles=2)))
     full = judging.judging_seconds(loops)
@@ -247,7 +251,7 @@ def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeyp
     judged_with: list[int] = []
 
     def fake_search(stands: dict, cached: bool = False, reached: bool = True):
-        def correction_for(model, h, ctrl, clip, cfg, fall, judge, state=None):
+        def correction_for(model, h, ctrl, clip, cfg, fall, judge, state=None, cover_why=""):
             cover = cfg.reconstruct.cover_s
             searches.append(cover)
             if cached:
@@ -283,6 +287,11 @@ def test_a_search_whose_run_falls_is_made_again_covering_the_loop(small, monkeyp
     monkeypatch.setattr(judging, "correction_for", fake_search({}, cached=True))
     corr, _, cfg = judging.searched_correction(loops, short, judged({None: 3.0, 20.0: 3.0, 90.0: full}))
     assert searches == [0.0] and cfg == short and judged_with == []
+    # read from the cache where the first run found a second search needed (and was stopped in it)
+    searches.clear()
+    remember_more(correction_key(loops.clip, loops.built.hash, short), True)
+    corr, line, cfg = judging.searched_correction(loops, short, judged({None: 3.0, 20.0: 3.0, 90.0: full}))
+    assert searches == [0.0, 20.0] and cfg == loops.cfg and "goes on over the loop" in line
     # the looped cycle stands within the path's tolerance: it is run, no longer search
     searches.clear()
     monkeypatch.setattr(judging, "correction_for", fake_search({}))
@@ -405,6 +414,10 @@ def test_the_loop_is_searched_to_cover_s_only_where_the_feedback_falls_on_it(sma
     full = judging_seconds(small)
     assert search_settings(small, judge(full)).reconstruct.cover_s == 0.0  # the loop walks: no cover
     assert search_settings(small, judge(full - 1.0)) == small.cfg  # it falls: the search covers the run
+    # a run lasts whole physics steps: one a fraction of a step short of the judging run stood it through
+    dt = small.built.model.opt.timestep
+    assert search_settings(small, judge(full - 0.6 * dt)).reconstruct.cover_s == 0.0
+    asked.pop()
     assert asked == ["cycle", "cycle"]
     short = search_settings(small, judge(full))
     folder = tmp_path / "bipedsim" / "corrections"

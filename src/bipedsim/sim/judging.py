@@ -24,7 +24,9 @@ from bipedsim.sim.reconstruct import (
     correction_key,
     has_correction,
     remember_choice,
+    remember_more,
     search_span,
+    wants_more,
 )
 from bipedsim.sim.recorder import Recorder
 from bipedsim.sim.rollout import RolloutSpec
@@ -65,6 +67,12 @@ def judging_seconds(sc: Scenario) -> float:
     """How long a judging run of ``sc`` lasts (s): its clip and :data:`JUDGE_BEYOND_S` beyond, at least
     :data:`JUDGE_MIN_S`."""
     return max(JUDGE_MIN_S, sc.clip.duration + JUDGE_BEYOND_S)
+
+
+def stands_through(sc: Scenario, stood_s: float) -> bool:
+    """Whether a judging run of ``sc`` that stood ``stood_s`` s stood it through: a run lasts whole
+    physics steps, up to one short of :func:`judging_seconds`."""
+    return stood_s >= judging_seconds(sc) - float(sc.built.model.opt.timestep) - 1e-9
 
 
 def _judged(sc: Scenario) -> tuple[float, float]:
@@ -181,7 +189,7 @@ def search_settings(sc: Scenario, judged: Judge) -> ControllerConfig:
         t_loop, _ = judged(looped(sc))
     except ModelError:  # no cycle to loop: nothing past the clip to search
         return cfg
-    return short if t_loop >= judging_seconds(sc) - 1e-9 else cfg
+    return short if stands_through(sc, t_loop) else cfg
 
 
 def searched_correction(sc: Scenario, searched: ControllerConfig, judged: Judge
@@ -191,9 +199,10 @@ def searched_correction(sc: Scenario, searched: ControllerConfig, judged: Judge
     with. A search just made without its loop covered to ``reconstruct.cover_s`` that reached its end,
     but whose run (with what was kept, or without) falls within a judging run, is made again covering
     it, judged with the first search's corrections: the run needs the correction past where the loop's
-    feedback alone took over. Not where the clip's looped cycle already stands the judging run within
-    the path's tolerance (:func:`path_tolerance`): that is run instead, and a longer search would only
-    cost time."""
+    feedback alone took over. Not where the cover adds nothing to the span, nor where the clip's looped
+    cycle already stands the judging run within the path's tolerance (:func:`path_tolerance`): that is
+    run instead, and a longer search would only cost time. The decision is cached with the first search,
+    so a run stopped during the second makes it again."""
     model, hash_, fall = sc.built.model, sc.built.hash, sc.fall_criteria()
     tried: list[Correction] = []
     stood: list[tuple[float, bool]] = []  # how long the run stood, and whether the search reached its end
@@ -207,18 +216,38 @@ def searched_correction(sc: Scenario, searched: ControllerConfig, judged: Judge
     state: dict[str, object] = {}  # the first search's, for the second to go on from
     corr, line = correction_for(model, hash_, replace(sc, cfg=searched).controller, sc.clip, searched, fall, judge,
                                 state)
-    # a search that stopped short of its span's end stops there again covering more of it
-    if searched == sc.cfg or not stood or stood[-1][0] >= judging_seconds(sc) - 1e-9 or not stood[-1][1]:
+    if searched == sc.cfg:
         return corr, line, searched
-    if search_span(sc.controller()) <= search_span(replace(sc, cfg=searched).controller()) + 1e-9:
-        return corr, line, searched  # a clip as long as the cover: the cover adds nothing to search
-    loop = judged(looped(sc))  # judged by search_settings: no new run
-    if loop[0] >= judging_seconds(sc) - 1e-9 and loop[1] <= path_tolerance(sc):
-        return corr, line, searched  # the looped cycle already walks the clip's path (whole_or_looped runs it)
-    again = (f"reconstruct: the run falls at {stood[-1][0]:.1f} s of {judging_seconds(sc):.1f} s past the searched "
-             f"span: the search covers the loop to {sc.cfg.reconstruct.cover_s:g} s from the start")
-    corr, more = correction_for(model, hash_, sc.controller, sc.clip, sc.cfg, fall, judge, state)
-    return corr, "\n".join((line, again, more)), sc.cfg
+    key = correction_key(sc.clip, sc.built.hash, searched)
+    if not stood:  # read from the cache: taken further where that was found needed (a run stopped in it)
+        if not wants_more(key):
+            return corr, line, searched
+        tried.extend([corr] if corr is not None else [])
+        why = "the run with the shorter search's correction fell within its judging run"
+    else:
+        fell, reached = stood[-1]
+        more = (not stands_through(sc, fell) and reached  # a search that stopped short would stop there again
+                and search_span(sc.controller()) > search_span(replace(sc, cfg=searched).controller()) + 1e-9
+                and not _loop_walks_the_path(sc, judged))
+        remember_more(key, more)
+        if not more:
+            return corr, line, searched
+        why = f"the run falls at {fell:.1f} s of its {judging_seconds(sc):.1f} s judging run"
+    again = (f"reconstruct: {why}: the search goes on over the loop to {sc.cfg.reconstruct.cover_s:g} s from the "
+             "start")
+    corr, more_line = correction_for(model, hash_, sc.controller, sc.clip, sc.cfg, fall, judge, state,
+                                     cover_why=why)
+    return corr, "\n".join((line, again, more_line)), sc.cfg
+
+
+def _loop_walks_the_path(sc: Scenario, judged: Judge) -> bool:
+    """Whether the clip's looped cycle stands a judging run within the path's tolerance
+    (:func:`path_tolerance`): it is then run (:func:`whole_or_looped`), and a longer search only costs time."""
+    try:
+        loop = judged(looped(sc))  # judged already by search_settings where it searched: no new run
+    except ModelError:  # no cycle to loop
+        return False
+    return stands_through(sc, loop[0]) and loop[1] <= path_tolerance(sc)
 
 
 def path_tolerance(sc: Scenario) -> float:

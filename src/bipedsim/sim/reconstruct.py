@@ -203,7 +203,8 @@ def search_corrections(model: mujoco.MjModel, ctrl: SimbiconController, cfg: Rec
     # is past it (a fall is often sealed a window or more before it happens)
     retries, boost, frontier, streak = 0, 1, 0, 0
     # what a search to go on from shares: the body, the clip's start, the windows, every setting but the span
-    same = (id(model), frame0, per_window, fall, replace(cfg, cover_s=0.0, workers=0))
+    same = (id(model), id(src.clip), frame0, per_window, fall, replace(cfg, cover_s=0.0, workers=0),
+            replace(ctrl.cfg, reconstruct=replace(ctrl.cfg.reconstruct, cover_s=0.0, workers=0)))
     if state and state.get("same") == same and len(state["history"]) <= n_windows + 1:  # type: ignore[arg-type]
         # its nodes' controllers share the first search's constants (the deep copies' memo)
         search, history, rng, at_clip = state["search"], state["history"], state["rng"], state["at_clip"]  # type: ignore[assignment]
@@ -367,7 +368,8 @@ Verdict = tuple[bool, str, Correction]
 def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[], SimbiconController],
                    clip: ReferenceClip, cfg: ControllerConfig, fall: FallCriteria,
                    judge: Callable[[list[Correction], bool], Verdict] | None = None,
-                   state: dict[str, object] | None = None) -> tuple[Correction | None, str]:
+                   state: dict[str, object] | None = None,
+                   cover_why: str = "the controller alone does not walk the loop") -> tuple[Correction | None, str]:
     """The correction for ``clip`` on this body with these settings, and a line saying where it came
     from: read from the cache when this search was run before, else searched (a progress bar on a
     terminal), judged and cached. ``judge`` says whether a searched correction is kept (a run with it
@@ -375,7 +377,8 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     reached the end of its span) and which: the search's, or its best
     at the clip's end (:func:`search_corrections`), or a variant; one it rejects is cached as
     rejected, so the run goes on without one and the next run does not search again. ``state``: as for
-    :func:`search_corrections` (a search over a longer span goes on from a shorter one's)."""
+    :func:`search_corrections` (a search over a longer span goes on from a shorter one's). ``cover_why``:
+    why the search covers the loop to ``cover_s`` where it does (for its printout)."""
     key = correction_key(clip, model_hash, cfg)
     path = cache_folder() / f"{key}.json"
     ctrl = make_ctrl()
@@ -399,8 +402,8 @@ def correction_for(model: mujoco.MjModel, model_hash: str, make_ctrl: Callable[[
     start = float(ctrl.start_frame())
     grown = total > (search_end(src, rc.loop_cycles, rc.loop_max_s)[0] - start) * src.frame_time + 1e-9
     over = ("the clip" if rc.loop_cycles <= 0
-            else f"the clip and its loop to {rc.cover_s:g} s from the start: the controller alone does not walk "
-                 "the loop" if grown else f"the clip and up to {cycles} of its loop")
+            else f"the clip and its loop to {rc.cover_s:g} s from the start: {cover_why}" if grown
+            else f"the clip and up to {cycles} of its loop")
     if bar is None:  # no terminal for a bar: one line says why the run has not started yet
         print(f"reconstruct: searching a correction for {max(total, 0.0):.1f} s ({over}; the first run of a clip; "
               "cached after it; --no-reconstruct skips it)", file=sys.stderr, flush=True)
@@ -467,6 +470,23 @@ def remember_choice(key: str, source: str, line: str | None, rule: str = "") -> 
     with contextlib.suppress(OSError):
         atomic_write_text(cache_folder() / f"{key}.source.json", json.dumps({"key": key, "source": source,
                                                                             "line": line, "rule": rule}))
+
+
+def remember_more(key: str, more: bool) -> None:
+    """Record (or clear) that the search of cache ``key`` is to be taken further
+    (:func:`bipedsim.sim.judging.searched_correction`), so that a run stopped during the longer search
+    makes it again rather than settling for the shorter one; a cache that cannot be written is left alone."""
+    path = cache_folder() / f"{key}.more.json"
+    with contextlib.suppress(OSError):
+        if more:
+            atomic_write_text(path, json.dumps({"key": key, "more": True}))
+        else:
+            path.unlink(missing_ok=True)
+
+
+def wants_more(key: str) -> bool:
+    """Whether the search of cache ``key`` was found to need taking further (:func:`remember_more`)."""
+    return (cache_folder() / f"{key}.more.json").is_file()
 
 
 def search_workers(rc: ReconstructConfig) -> int:

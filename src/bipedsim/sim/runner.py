@@ -28,11 +28,21 @@ from bipedsim.reference.feasible import feasible_clip
 from bipedsim.reference.feasible_measure import measure, resolve_because
 from bipedsim.reference.prepare import load_source
 from bipedsim.reference.retarget import retarget
-from bipedsim.sim.judging import with_correction
+from bipedsim.sim.judging import (
+    JUDGE_BEYOND_S,
+    JUDGE_MIN_S,
+    judge_correction,
+    judging_seconds,
+    looped,
+    search_settings,
+    whole_or_looped,
+    with_correction,
+)
 from bipedsim.sim.rollout import control_every
 from bipedsim.sim.scenario import (
     SEED_NOISE,
     Scenario,
+    reading_record,
     record_made,
     run_scenario,
     run_seeds,
@@ -161,4 +171,6 @@ def reconstruct_wanted(cfg: ControllerConfig, asked: bool | None) -> bool:
 
 
 __all__ = ["AUTO", "PROFILES", "SEED_NOISE", "resolve_profile", "Scenario", "load_scenario", "run_scenario",
-           "run_seeds", "seed_noise", "write_outcome", "on_ground", "settings_for", "start_state", "record_made"]
+           "run_seeds", "seed_noise", "write_outcome", "on_ground", "settings_for", "start_state", "record_made",
+           "JUDGE_BEYOND_S", "JUDGE_MIN_S", "judge_correction", "judging_seconds", "looped", "search_settings",
+           "whole_or_looped", "reading_record"]

@@ -89,8 +89,8 @@ class Scenario:
 
 def settings_for(sc: Scenario, settings: ControllerConfig) -> ControllerConfig:
     """A humanoid controller's ``settings`` made for this scenario's body and reference as
-    :func:`load_scenario` makes its own: scaled to the body (:func:`~bipedsim.control.settings.for_body`)
-    and the ``"auto"`` modulation switches resolved for its reference
+    :func:`~bipedsim.sim.runner.load_scenario` makes its own: scaled to the body
+    (:func:`~bipedsim.control.settings.for_body`) and the ``"auto"`` modulation switches resolved for its reference
     (:func:`~bipedsim.control.settings.for_reference`). Both leave settings already made so unchanged."""
     m = sc.built.model
     return for_reference(for_body(settings, leg_length(m), body_mass(m)), "feasible" in sc.extra)

@@ -93,9 +93,11 @@ class LeapSettings:
     #: the landing goes on past ``land_time`` until the body has settled (all its feet but one on the
     #: floor, its vertical speed under ``settle_speed`` x sqrt(g L), its mean spin under ``settle_spin``
     #: x sqrt(g/L): a gait restarted on a body still bouncing steps from feet in the air), for at most
-    #: this x sqrt(L/g) in all
+    #: this x sqrt(L/g) in all (or ``land_time``, where that is longer)
     land_max: float = field(default=8.0, metadata={"gt": 0.0, "max": 50.0})
+    #: settled: the vertical speed under this x sqrt(g L)
     settle_speed: float = field(default=0.1, metadata={"gt": 0.0, "max": 10.0})
+    #: settled: the mean spin (angular momentum over inertia) under this x sqrt(g/L)
     settle_spin: float = field(default=0.2, metadata={"gt": 0.0, "max": 10.0})
     #: the flight ends (the landing starts) at the latest this x the ballistic flight time of the take-off
     #: velocity: a body that never touches down again stops waiting

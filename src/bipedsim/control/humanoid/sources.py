@@ -178,6 +178,9 @@ class ClipSource(GaitSource):
         self.q_qd = np.ascontiguousarray(np.hstack([self.q, self.qd]))  # one interpolation per step
         n = self.n = len(pl.qpos)
         self._last_f, self._last_k = float("nan"), 0
+        none = (float("nan"), float("nan"), None)
+        self._next_memo: dict[str, tuple[float, float, float | None]] = {s: none for s in SIDES}
+        self._last_memo: dict[str, tuple[float, float, float | None]] = {s: none for s in SIDES}
         data = mujoco.MjData(model)
         pelvis = model.body("pelvis").id
         thighs = {s: model.body(f"{s}_thigh").id for s in SIDES}
@@ -339,10 +342,36 @@ class ClipSource(GaitSource):
         i = int(f) if f > 0.0 else 0
         return self._speeds[min(i, len(self._speeds) - 1)]
 
+    # next_strike and swing_phase run on every control step; their answers change only at strikes, so
+    # each is kept with the span of frames it holds for: (low, high, answer)
     def next_strike(self, f: float, side: str) -> float | None:
+        lo, hi, v = self._next_memo[side]
+        if lo < f - 1e-9 <= hi:
+            return v
         c = self._strikes_near(f, side)
-        c = c[c >= f - 1e-9]
-        return float(c.min()) if len(c) else None
+        after = c[c >= f - 1e-9]
+        if not len(after):
+            return None
+        v = float(after.min())
+        before = c[c < v]
+        # the answer holds from just after the strike before it (or from f) to itself
+        self._next_memo[side] = (float(before.max()) if len(before) else f - 1e-9 - 1e-12, v, v)
+        return v
+
+    def _last_strike(self, f: float, side: str) -> float | None:
+        """The last strike frame of ``side`` at or before ``f`` (unwrapped), if known."""
+        lo, hi, v = self._last_memo[side]
+        if lo <= f + 1e-9 < hi:
+            return v
+        c = self._strikes_near(f, side)
+        upto = c[c <= f + 1e-9]
+        if not len(upto):
+            return None
+        v = float(upto.max())
+        later = c[c > v]
+        # the answer holds from itself to just before the next strike (or up to f)
+        self._last_memo[side] = (v, float(later.min()) if len(later) else f + 1e-9 + 1e-12, v)
+        return v
 
     def nearest_strike(self, f: float, side: str) -> float | None:
         c = self._strikes_near(f, side)
@@ -354,11 +383,9 @@ class ClipSource(GaitSource):
 
     def swing_phase(self, f: float, swing: str) -> float | None:
         nxt = self.next_strike(f, swing)
-        c = self._strikes_near(f, "left" if swing == "right" else "right")
-        c = c[c <= f + 1e-9]
-        if nxt is None or not len(c):
+        prv = self._last_strike(f, "left" if swing == "right" else "right")
+        if nxt is None or prv is None:
             return None
-        prv = float(c.max())
         return (f - prv) / max(nxt - prv, 1e-6)
 
     def start_frame(self) -> float:

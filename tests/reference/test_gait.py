@@ -180,13 +180,18 @@ def test_run_prints_what_it_found_and_the_clip_speed(tmp_path: Path, capsys) -> 
     assert 0.9 < o["extra"]["clip_speed_mps"] < 1.1 and o["reference_speed_mps"] > 0.5
 
 
-#: The walks the default controller tracks 20 s at >= 70 % of their speed (docs/results.md); the others
-#: are strict expected failures, so a walk that starts to pass flags its marker.
+#: The walks the default controller tracks 20 s at >= 70 % of their speed with the search off, as the
+#: test suite runs (conftest.py; docs/results.md, *whole clip, feedback alone*); the others are strict
+#: expected failures, so a walk that starts to pass flags its marker.
 TRACKED = {"bandai2_walk_exhausted_001", "cmu_02_01_walk__holden31_crlf", "cmu_02_02_walk__19joint_Hip_Abdomen",
-           "cmu_02_02_walk__daz43", "cmu_12_03_walk__cgspeed_mb31", "games105_walk60__metres_crlf"}
+           "cmu_02_02_walk__daz43", "games105_walk60__metres_crlf"}
 _NOT_YET = pytest.mark.xfail(strict=True, reason="not tracked at 70 % of its speed yet (docs/results.md); "
                              "strict: passing flags the marker for removal")
-_MARKS: dict[str, pytest.MarkDecorator] = {}
+_MARKS: dict[str, pytest.MarkDecorator] = {
+    "cmu_12_03_walk__cgspeed_mb31": pytest.mark.xfail(
+        strict=True, reason="its whole clip falls within 2 s by the feedback alone; with the search on (the "
+        "default of bipedsim run) its looped cycle is chosen and walks 20 s (docs/results.md)"),
+}
 
 
 @pytest.mark.slow

@@ -214,3 +214,28 @@ def test_a_clip_with_one_right_strike_loops_from_left_strike_to_left_strike(tmp_
     out, _ = run_scenario(sc, RolloutSpec(seconds=10.0))
     assert out.outcome == "no_fall" and out.foot_strikes >= 15
     assert out.mean_speed_mps > 0.5 * out.reference_speed_mps
+
+
+def _contacts(pattern: str, repeats: int = 10) -> np.ndarray:
+    """Contacts (T, 2) from a step pattern of 'L', 'R', 'B' (both down) and '-' (none), repeated."""
+    rows = {"L": (True, False), "R": (False, True), "B": (True, True), "-": (False, False)}
+    return np.array([rows[c] for c in pattern * repeats], dtype=bool)
+
+
+def test_a_run_is_told_and_a_walk_is_not():
+    """A clip whose feet are never both down and are both up in a fifth of its frames is called a run;
+    a walk (double support each step), a walk with contact chatter (a flight frame in fifty) and a
+    clip without double support but with less flight than a frame in twenty are not."""
+    from bipedsim.control.humanoid.cycles import FLIGHT_SHARE, running_note
+
+    run = _contacts("LLLL-RRRR-")
+    note = running_note(run)
+    assert note is not None and "20 %" in note and "runs or hops" in note
+    assert running_note(_contacts("BLLLLBRRRR")) is None
+    chatter = _contacts("BLLLLBRRRR" * 5)
+    chatter[3] = (False, False)
+    assert running_note(chatter) is None
+    sparse = _contacts("L" * 30 + "R" * 30)
+    sparse[0] = (False, False)
+    assert (~sparse.any(axis=1)).mean() < FLIGHT_SHARE and running_note(sparse) is None
+    assert running_note(np.zeros((0, 2), dtype=bool)) is None

@@ -25,6 +25,9 @@ from bipedsim.reference.prepare import LOOP_OPEN_FACTOR, LOOP_SEAM_FRACTION, LOO
 FloatArray = npt.NDArray[np.float64]
 
 
+#: The share of a clip's frames with both feet off the floor from which a clip without double support is
+#: called a run or hop (:func:`running_note`): more than contact chatter, a frame in twenty.
+FLIGHT_SHARE = 0.05
 #: Seam cost: joint-velocity mismatch (rad/s) counts at this time scale (s) against pose mismatch (rad).
 CYCLE_VELOCITY_TIME_S = 0.1
 #: Loops whose cost is within this (rad) of the best are equally good; the longest of them is kept
@@ -271,6 +274,22 @@ def step_time(clip: ReferenceClip) -> float | None:
     return float(np.median(np.diff(strikes))) * clip.frame_time
 
 
+def running_note(contacts: npt.NDArray[np.bool_]) -> str | None:
+    """A line saying the clip is no walk, or None: its feet (``contacts``, (T, 2) bool per frame) are never
+    both on the floor, and both are off it in at least :data:`FLIGHT_SHARE` of its frames. A walk has
+    double support in every step (the definition of walking); the humanoid controller's four-state gait
+    has no flight phase to track a run, hop or leap with."""
+    c = np.asarray(contacts, dtype=bool)
+    if c.ndim != 2 or c.shape[0] == 0 or c.shape[1] != 2 or c.all(axis=1).any():
+        return None
+    flight = float((~c.any(axis=1)).mean())
+    if flight < FLIGHT_SHARE:
+        return None
+    return (f"the clip's feet are never both on the floor, and both are off it in {flight * 100:.0f} % of its "
+            "frames: it runs or hops, and the controller walks (its gait has no flight phase), so the body "
+            "may fall within its first steps")
+
+
 def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet) -> list[str]:
     """Lines saying what was found in a humanoid's reference clip: the feet and their strikes, the cycle
     looped and its speed, the whole clip's speed."""
@@ -296,4 +315,5 @@ def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet)
                          f"(pose and velocity; a steady walk's loop closes within {CYCLE_SEAM_WARN}), so every "
                          "loop jumps at its seam and the walk may not be tracked; a take with two or more "
                          "cycles of steady walking loops cleanly")
-    return lines
+    note = running_note(clip.contacts)
+    return lines + ([f"gait: {note}"] if note else [])

@@ -13,7 +13,7 @@ import numpy as np
 
 from bipedsim.config import to_dict
 from bipedsim.control import CONTROLLERS, Controller, CreatureControlConfig
-from bipedsim.control.humanoid.correction import Correction
+from bipedsim.control.humanoid.correction import Correction, Nominal
 from bipedsim.control.humanoid.simbicon import SimbiconController, body_mass, leg_length
 from bipedsim.control.settings import ControllerConfig, for_body, for_reference
 from bipedsim.files import atomic_write_json, versions
@@ -64,6 +64,7 @@ class Scenario:
         ctrl = CONTROLLERS[self.profile](self.built.model, self.built.plan, self.clip, cfg)
         if self.correction is not None and isinstance(ctrl, SimbiconController):
             ctrl.correction = self.correction
+            ctrl.nominal = nominal_path(self)
         if isinstance(ctrl, SimbiconController):
             ctrl.terrain = self.terrain
         return ctrl
@@ -85,6 +86,29 @@ class Scenario:
     def controller_config(self) -> dict[str, Any]:
         """The controller's settings as recorded with an outcome."""
         return to_dict(self.creature_cfg) if self.profile == "creature" else to_dict(self.cfg)
+
+
+def nominal_path(sc: Scenario) -> Nominal | None:
+    """Where the scenario's correction keeps the body (:class:`Nominal`): its noiseless rollout from the
+    start over the searched frames, made once per scenario and correction."""
+    corr = sc.correction
+    if corr is None or sc.profile != "humanoid" or sc.cfg.reconstruct.reach <= 0.0:
+        return None
+    memo = sc.extra.setdefault("nominal", {})
+    if id(corr) not in memo:
+        ctrl = CONTROLLERS[sc.profile](sc.built.model, sc.built.plan, sc.clip, sc.cfg)
+        assert isinstance(ctrl, SimbiconController)
+        ctrl.correction, ctrl.terrain, ctrl.nominal_log = corr, sc.terrain, []
+        src = ctrl.source
+        seconds = max(0.0, (corr.end - ctrl.start_frame()) * src.frame_time)
+        if seconds > 0.0:
+            spec, qpos0, qvel0, _ = start_state(sc, RolloutSpec(seconds=seconds), ctrl)
+            rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=qpos0, initial_qvel=qvel0)
+        log = ctrl.nominal_log
+        path = Nominal(frames=np.array([r[0] for r in log]), com=np.array([r[1:5] for r in log]).reshape(-1, 4),
+                       left=np.array([r[5] for r in log], dtype=bool), period=corr.period)
+        memo[id(corr)] = (corr, path)  # the correction kept with it, so its id is not reused
+    return memo[id(corr)][1]
 
 
 def settings_for(sc: Scenario, settings: ControllerConfig) -> ControllerConfig:

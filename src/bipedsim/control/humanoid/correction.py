@@ -82,6 +82,46 @@ class Correction:
         return Correction(starts=starts, rows=rows, end=end, fade=fade, period=period)
 
 
+@dataclass(frozen=True)
+class Nominal:
+    """Where a correction's own rollout had the body, by reference frame: the path a correction was
+    searched for (a noiseless run with it from the start), so that a run knows when it has left it.
+
+    ``frames`` (N,) the reference frame of each control step (increasing), ``com`` (N, 4) the centre of
+    mass's offset from the stance ankle and its velocity in the heading frame (m, m/s; the balance law's
+    d and v), ``left`` (N,) whether the left foot was the stance foot. ``period`` (frames): past the last
+    frame the path repeats with this period (the correction's own, its last period repeated; 0: no path
+    there)."""
+
+    frames: FloatArray
+    com: FloatArray
+    left: npt.NDArray[np.bool_]
+    period: float = 0.0
+
+    def deviation(self, frame: float, com: tuple[float, float, float, float], left: bool,
+                  omega: float) -> float | None:
+        """How far (m) the body's capture point (``d + v / omega`` per plane, ``com`` as :attr:`com`) lies
+        from the nominal one at reference ``frame``: inf where the other foot stands, None where the
+        nominal path does not reach ``frame``."""
+        n = len(self.frames)
+        if n == 0:
+            return None
+        last = float(self.frames[-1])
+        if frame > last:
+            if self.period <= 0.0:
+                return None
+            frame -= self.period * math.ceil((frame - last) / self.period)
+        k = int(np.searchsorted(self.frames, frame))
+        if k >= n or k <= 0 and frame < float(self.frames[0]):
+            return None
+        if k > 0 and frame - float(self.frames[k - 1]) < float(self.frames[k]) - frame:
+            k -= 1
+        if bool(self.left[k]) != left:
+            return math.inf
+        c = self.com[k]
+        return math.hypot(com[0] - c[0] + (com[2] - c[2]) / omega, com[1] - c[1] + (com[3] - c[3]) / omega)
+
+
 class LiveCorrection:
     """The correction a search is building: one row at a time, set by the search for its window
     (:meth:`set`); :meth:`at` gives it on every control step and notes the frame the row began at."""

@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from bipedsim.control.base import Controller, register
-from bipedsim.control.humanoid.correction import Correction, LiveCorrection, torso_offset
+from bipedsim.control.humanoid.correction import Correction, LiveCorrection, Nominal, torso_offset
 from bipedsim.control.humanoid.feedback import feedback_angles, heading_frame_com, virtual_force
 from bipedsim.control.humanoid.feet import feet_world
 from bipedsim.control.humanoid.fsm import GaitFSM
@@ -122,6 +122,9 @@ class SimbiconController(Controller):
         self._r_torso = np.eye(3)  #: the torso law's heading when the stance foot's yaw limits it
         #: the feed-forward correction under the controller (:mod:`~bipedsim.control.humanoid.correction`)
         self.correction: Correction | LiveCorrection | None = None
+        #: where the correction's own rollout had the body (None: none known), and a log of it being made
+        self.nominal: Nominal | None = None
+        self.nominal_log: list[tuple[float, float, float, float, float, bool]] | None = None
         self._corr: FloatArray | None = None  #: this step's offsets
         #: the ground's height and normal queries (:class:`~bipedsim.model.ground.Terrain`; None: flat at z = 0)
         self.terrain: Terrain | None = None
@@ -268,6 +271,15 @@ class SimbiconController(Controller):
         qd = data.qvel[tb.dsel]
         self.tracking_error = q - q_d  # against the reference itself, before limits and balance
         corr = self._corr = self.correction.at(self.frame) if self.correction is not None else None
+        if self.nominal_log is not None:  # the correction's own path being recorded (sim.scenario.nominal_path)
+            if t > 0.0:  # the COM is measured from the first step on
+                self.nominal_log.append((self.frame, *self._com_hf, fsm.stance == "left"))
+        elif corr is not None and self.nominal is not None and t > 0.0:  # the correction's reach
+            reach = cfg.reconstruct.reach
+            off = self.nominal.deviation(self.frame, self._com_hf, fsm.stance == "left", tb.omega)
+            if off is not None and off > reach:
+                w = max(0.0, 2.0 - off / reach)
+                corr = self._corr = corr * w if w > 0.0 else None
         if corr is not None:
             q_d += corr[:self.tables.kp.shape[0]]
         if self.target_offset is not None:  # a policy's residual or absolute targets (Controller.target_offset)

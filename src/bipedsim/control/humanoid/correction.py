@@ -4,8 +4,10 @@ Sampling-based control reconstruction (Liu et al. 2010, "Sampling-based contact-
 finds, window by window, offsets of the controller's targets that keep the simulated body on the clip;
 :mod:`bipedsim.sim.reconstruct` runs that search. The result is a :class:`Correction`: from each
 window's first reference frame on, one row of offsets added to the targets, until the next window's.
-It is looked up by the reference frame, not by time, so under a push (when resynchronisation moves the
-frame) the offsets stay with the part of the clip they were found for; the balance feedback acts on top.
+It is looked up by the reference frame, not by time, so where the gait clock is hurried or held the
+offsets stay with the part of the clip they were found for; the balance feedback acts on top. A
+:class:`Nominal` is the path the correction was found for: off it, beyond ``reconstruct.reach``, the
+controller lets the correction go (docs/controller.md, *Reconstruction*).
 
 A row holds, in order (rad): one offset per hinge (added to its PD target; the ankles' to their
 world-frame targets' angles), then the swing hip's sagittal and coronal feedback angles (added to eq. 6's

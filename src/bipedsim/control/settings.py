@@ -305,7 +305,7 @@ BODY_SCALED: dict[str, str] = {
     "modulation.ground.max_raise": "length", "modulation.ground.max_drop": "length",
     "modulation.ground.edge_margin": "length", "modulation.ground.max_shift": "length",
     "modulation.ground.shift_gain": "per_length",
-    "reference.smooth_s": "time", "pose_gait.state_a_time": "time"}
+    "reference.smooth_s": "time", "pose_gait.state_a_time": "time", "reconstruct.reach": "length"}
 
 #: the humanoid settings with no unit to scale: angles (rad), ratios, weights, counts of clip frames,
 #: lengths given as a share of the leg (``reference.clearance``), and ``control_dt``, which stays with the

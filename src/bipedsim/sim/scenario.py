@@ -88,27 +88,41 @@ class Scenario:
         return to_dict(self.creature_cfg) if self.profile == "creature" else to_dict(self.cfg)
 
 
+#: s: a strike this much sooner or later than the correction's path's counts as the path's (Nominal.window)
+STRIKE_WINDOW_S = 0.05
+
+
 def nominal_path(sc: Scenario) -> Nominal | None:
     """Where the scenario's correction keeps the body (:class:`Nominal`): its noiseless rollout from the
-    start over the searched frames, made once per scenario and correction."""
+    controller's start over the searched frames and the correction's fade after them, made once per
+    scenario, correction, settings and ground. None without a correction, with ``reconstruct.reach`` 0,
+    or where the reference frame does not move on at every control step (a resynchronisation that holds
+    or moves it back: frames would not name the path's places)."""
     corr = sc.correction
     if corr is None or sc.profile != "humanoid" or sc.cfg.reconstruct.reach <= 0.0:
         return None
     memo = sc.extra.setdefault("nominal", {})
-    if id(corr) not in memo:
+    key = (id(corr), sc.built.hash, tuple(sc.ground.terms()))
+    kept = memo.get(key)
+    if kept is None or kept[0] is not corr or kept[1] != sc.cfg:
         ctrl = CONTROLLERS[sc.profile](sc.built.model, sc.built.plan, sc.clip, sc.cfg)
         assert isinstance(ctrl, SimbiconController)
         ctrl.correction, ctrl.terrain, ctrl.nominal_log = corr, sc.terrain, []
         src = ctrl.source
-        seconds = max(0.0, (corr.end - ctrl.start_frame()) * src.frame_time)
+        span = corr.end + (corr.fade if corr.period <= 0.0 else 0.0) - ctrl.start_frame()
+        seconds = max(0.0, span * src.frame_time)
         if seconds > 0.0:
             spec, qpos0, qvel0, _ = start_state(sc, RolloutSpec(seconds=seconds), ctrl)
             rollout(sc.built.model, sc.built.plan, ctrl, spec, initial_qpos=qpos0, initial_qvel=qvel0)
         log = ctrl.nominal_log
-        path = Nominal(frames=np.array([r[0] for r in log]), com=np.array([r[1:5] for r in log]).reshape(-1, 4),
-                       left=np.array([r[5] for r in log], dtype=bool), period=corr.period)
-        memo[id(corr)] = (corr, path)  # the correction kept with it, so its id is not reused
-    return memo[id(corr)][1]
+        frames = np.array([r[0] for r in log])
+        path = None
+        if len(frames) and np.all(np.diff(frames) > 0.0):
+            path = Nominal(frames=frames, com=np.array([r[1:5] for r in log]).reshape(-1, 4),
+                           left=np.array([r[5] for r in log], dtype=bool), end=corr.end, period=corr.period,
+                           window=STRIKE_WINDOW_S / src.frame_time)
+        memo[key] = kept = (corr, sc.cfg, path)  # the correction kept with it, so its id is not reused
+    return kept[2]
 
 
 def settings_for(sc: Scenario, settings: ControllerConfig) -> ControllerConfig:

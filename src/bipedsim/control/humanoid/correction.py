@@ -89,38 +89,56 @@ class Nominal:
     """Where a correction's own rollout had the body, by reference frame: the path a correction was
     searched for (a noiseless run with it from the start), so that a run knows when it has left it.
 
-    ``frames`` (N,) the reference frame of each control step (increasing), ``com`` (N, 4) the centre of
-    mass's offset from the stance ankle and its velocity in the heading frame (m, m/s; the balance law's
-    d and v), ``left`` (N,) whether the left foot was the stance foot. ``period`` (frames): past the last
-    frame the path repeats with this period (the correction's own, its last period repeated; 0: no path
-    there)."""
+    ``frames`` (N,) the reference frame of each control step (not decreasing), ``com`` (N, 4) the centre
+    of mass's offset from the stance ankle and its velocity in the heading frame (m, m/s; the balance
+    law's d and v), ``left`` (N,) whether that stance ankle was the left. ``end`` and ``period`` (frames):
+    the correction's; past ``end`` a frame is looked up a whole number of periods earlier, as the
+    correction's rows are (no period: the path is known up to its last frame only). ``window`` (frames):
+    where the nearest sample stands on the other foot (a strike a little sooner or later than the
+    path's), the nearest on the same foot within this many frames is compared."""
 
     frames: FloatArray
     com: FloatArray
     left: npt.NDArray[np.bool_]
+    end: float = math.inf
     period: float = 0.0
+    window: float = 0.0
+
+    def __post_init__(self) -> None:
+        # plain lists: the lookup runs on every control step, where numpy's per-call cost dominates
+        object.__setattr__(self, "_f", [float(v) for v in self.frames])
+        object.__setattr__(self, "_c", [tuple(float(x) for x in r) for r in np.asarray(self.com).reshape(-1, 4)])
+        object.__setattr__(self, "_l", [bool(v) for v in self.left])
 
     def deviation(self, frame: float, com: tuple[float, float, float, float], left: bool,
                   omega: float) -> float | None:
-        """How far (m) the body's capture point (``d + v / omega`` per plane, ``com`` as :attr:`com`) lies
-        from the nominal one at reference ``frame``: inf where the other foot stands, None where the
-        nominal path does not reach ``frame``."""
-        n = len(self.frames)
+        """How far (m) the body's capture point (``d + v / omega`` per plane, ``com`` as :attr:`com`, from
+        the ``left`` or right stance ankle) lies from the path's at reference ``frame``: inf where the
+        path stands on the other foot, None where the path does not reach ``frame``."""
+        f: list[float] = self._f  # type: ignore[attr-defined]
+        n = len(f)
         if n == 0:
             return None
-        last = float(self.frames[-1])
-        if frame > last:
-            if self.period <= 0.0:
-                return None
-            frame -= self.period * math.ceil((frame - last) / self.period)
-        k = int(np.searchsorted(self.frames, frame))
-        if k >= n or k <= 0 and frame < float(self.frames[0]):
+        if frame >= self.end and self.period > 0.0:
+            frame -= self.period * (math.floor((frame - self.end) / self.period) + 1.0)
+        if frame < f[0] or frame > f[-1]:
             return None
-        if k > 0 and frame - float(self.frames[k - 1]) < float(self.frames[k]) - frame:
+        k = bisect.bisect_left(f, frame)
+        if k > 0 and (k == n or frame - f[k - 1] <= f[k] - frame):
             k -= 1
-        if bool(self.left[k]) != left:
-            return math.inf
-        c = self.com[k]
+        side: list[bool] = self._l  # type: ignore[attr-defined]
+        if side[k] != left:  # the nearest sample on the same foot, within the window
+            lo, hi, best = k - 1, k + 1, -1
+            while best < 0 and (lo >= 0 and frame - f[lo] <= self.window or hi < n and f[hi] - frame <= self.window):
+                if lo >= 0 and side[lo] == left and frame - f[lo] <= self.window:
+                    best = lo
+                elif hi < n and side[hi] == left and f[hi] - frame <= self.window:
+                    best = hi
+                lo, hi = lo - 1, hi + 1
+            if best < 0:
+                return math.inf
+            k = best
+        c = self._c[k]  # type: ignore[attr-defined]
         return math.hypot(com[0] - c[0] + (com[2] - c[2]) / omega, com[1] - c[1] + (com[3] - c[3]) / omega)
 
 

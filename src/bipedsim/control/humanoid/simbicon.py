@@ -115,6 +115,7 @@ class SimbiconController(Controller):
         self._ff = np.zeros(n)  #: the last step's gravity feedforward (N*m)
         self._v_sag = self._vf_v = self.tables.speed  #: the sagittal COM velocity: last, and low-passed (m/s)
         self._com_hf = (0.0, 0.0, 0.0, 0.0)  #: the last step's COM offset from the stance ankle and velocity
+        self._com_left = False  #: whether that stance ankle was the left
         # scratch refilled on every step (building a fresh array costs more than the product)
         self._jacp = np.zeros((3, model.nv))
         self._ry = np.eye(3)  #: the pelvis's heading rotation
@@ -271,12 +272,13 @@ class SimbiconController(Controller):
         qd = data.qvel[tb.dsel]
         self.tracking_error = q - q_d  # against the reference itself, before limits and balance
         corr = self._corr = self.correction.at(self.frame) if self.correction is not None else None
+        # the COM state below was measured last step, from that step's stance ankle (_com_left)
         if self.nominal_log is not None:  # the correction's own path being recorded (sim.scenario.nominal_path)
             if t > 0.0:  # the COM is measured from the first step on
-                self.nominal_log.append((self.frame, *self._com_hf, fsm.stance == "left"))
+                self.nominal_log.append((self.frame, *self._com_hf, self._com_left))
         elif corr is not None and self.nominal is not None and t > 0.0:  # the correction's reach
             reach = cfg.reconstruct.reach
-            off = self.nominal.deviation(self.frame, self._com_hf, fsm.stance == "left", tb.omega)
+            off = self.nominal.deviation(self.frame, self._com_hf, self._com_left, tb.omega)
             if off is not None and off > reach:
                 w = max(0.0, 2.0 - off / reach)
                 corr = self._corr = corr * w if w > 0.0 else None
@@ -332,6 +334,7 @@ class SimbiconController(Controller):
                                  r_p, pm, data.qvel[3:6].tolist(), c, s)
         ax, ay, _ = data.xpos[tb.foot_body[stance]].tolist()
         self._com_hf = com = heading_frame_com(cx - ax, cy - ay, vx, vy, c, s)
+        self._com_left = stance == "left"
         self._v_sag = com[2]
         fs, fc = feedback_angles(b, tb, src, frame, stance, com, speed)
         if corr is not None:

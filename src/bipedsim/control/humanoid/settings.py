@@ -321,10 +321,10 @@ class ReconstructConfig:
     fade_s: float = field(default=3.0, metadata={"min": 0.0, "max": 10.0})
     #: m: the correction's reach. It was searched for one path of the body (its own noiseless run from
     #: the start); it holds in full while the body's capture point (d + v / omega) lies within this of
-    #: that path's at the same reference frame, fades linearly to nothing at twice this, and is off
-    #: while the other foot stands there, so a pushed or disturbed body walks by the feedback alone until
-    #: it is back on the path. The default is the walk's own step-to-step swing of the capture point
-    #: (about +-0.07 m) with a margin. 0: the correction acts everywhere
+    #: that path's at the same reference frame on the same stance foot, fades linearly to nothing at
+    #: twice this, so a pushed or disturbed body walks by the feedback alone until it is back near the
+    #: path (docs/controller.md, *Reconstruction*, has how far bodies go off it). 0: the correction acts
+    #: everywhere
     reach: float = field(default=0.1, metadata={"min": 0.0, "max": 10.0})
     #: processes sampling each window (0: one per core this process may use); the result is the same
     workers: int = field(default=0, metadata={"min": 0, "max": 256})

@@ -1,8 +1,9 @@
 """Whole-clip tracking against the looped cycle, on every clip given: the table of docs/results.md.
 
-    python benchmarks/whole_clips.py CLIP.bvh ... [--dir DIR] [--jobs N] [--csv F]
+    python benchmarks/whole_clips.py CLIP.bvh ... [--dir DIR] [--jobs N] [--csv F] [--config YAML]
 
-Per clip, three ways, each run for max(20 s, the clip's duration) with the default settings:
+Per clip, three ways, each run for max(20 s, the clip's duration) with the default settings (or those of a
+controller file, ``--config``, layered over them as ``bipedsim run CONFIG`` does):
 
 - ``cycle``: the clip's best gait cycle looped from its first strike (``source: cycle``), no search --
   what ``bipedsim run --bvh`` did before whole-clip tracking;
@@ -30,7 +31,8 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-from bipedsim.control.settings import ControllerConfig
+from bipedsim.control.settings import load_controller
+from bipedsim.errors import BipedsimError
 from bipedsim.sim.fidelity import measure_fidelity
 from bipedsim.sim.recorder import Recorder
 from bipedsim.sim.rollout import RolloutSpec
@@ -41,13 +43,17 @@ WAYS = ("cycle", "whole", "default")
 MIN_RUN_S = 20.0
 
 
+#: the controller file the ways run with (``--config``; None: the defaults), set before the workers fork
+CONFIG: str | None = None
+
+
 def one(job: tuple[str, str]) -> dict[str, object]:
     """One clip one way: its row."""
     path, way = job
     row: dict[str, object] = {"clip": Path(path).name, "way": way}
     c0 = time.process_time()
     try:
-        base = ControllerConfig()
+        base = load_controller(CONFIG)
         cfg = replace(base, source="cycle") if way == "cycle" else base
         if way == "default":
             cfg = replace(cfg, reconstruct=replace(cfg.reconstruct, workers=1))
@@ -90,7 +96,16 @@ def main() -> int:
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--csv", default=None, help="write the rows here too")
     ap.add_argument("--jsonl", default=None, help="append each row here as it is done (one JSON object a line)")
+    ap.add_argument("--config", default=None, help="a controller YAML layered over the defaults, as `bipedsim run "
+                    "CONFIG` takes it: every way runs with it (default: the defaults)")
     args = ap.parse_args()
+    global CONFIG
+    CONFIG = args.config
+    try:
+        load_controller(CONFIG)  # a bad file is refused here, once, not in every row
+    except BipedsimError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     files = list(args.clips) + [str(p) for d in args.dir for p in sorted(Path(d).rglob("*.bvh"))]
     if not files:
         ap.error("no clips: give BVH files or --dir")

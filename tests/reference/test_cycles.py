@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from conftest import HAVE_SHARED, IN_PLACE_SPEED, SHARED_BVH, shared_files, shared_or_standin
 
+from bipedsim.control.humanoid.cycles import loop_turn_note
 from bipedsim.control.humanoid.sources import (
     CYCLE_COST_TOLERANCE,
     CYCLE_STANCE_FLOAT_M,
@@ -239,3 +240,26 @@ def test_a_run_is_told_and_a_walk_is_not():
     sparse[0] = (False, False)
     assert (~sparse.any(axis=1)).mean() < FLIGHT_SHARE and running_note(sparse) is None
     assert running_note(np.zeros((0, 2), dtype=bool)) is None
+
+
+def _circling(turn_per_pass: float, radius: float, frames: int = 61, passes: float = 2.0) -> np.ndarray:
+    """Root frames (qpos: x, y, z, quaternion) walking ``passes`` loops of 30 frames along a circle of
+    ``radius`` m (0: turning on the spot), turning ``turn_per_pass`` rad a loop, heading along the path."""
+    t = np.arange(frames) / 30.0
+    yaw = turn_per_pass * t
+    xy = np.column_stack([radius * np.sin(yaw), radius * (1.0 - np.cos(yaw))])  # radius 0: in place
+    q = np.zeros((frames, 7))
+    q[:, :2], q[:, 2] = xy, 0.9
+    q[:, 3], q[:, 6] = np.cos(yaw / 2.0), np.sin(yaw / 2.0)
+    return q
+
+
+def test_a_loop_that_turns_is_named_with_the_circle_it_walks() -> None:
+    q = _circling(np.radians(43.0), 2.0)
+    note = loop_turn_note(q, 0, 30, 1 / 30)
+    assert note is not None and "turns +43 deg each pass" in note and "2.0 m radius" in note
+    assert "last 1.00 s turn +43 deg" in note
+    assert "turning on the spot" in loop_turn_note(_circling(np.radians(-90.0), 0.0), 0, 30, 1 / 30)
+    # a straight loop (and one that veers a little) says nothing
+    assert loop_turn_note(_circling(np.radians(5.0), 20.0), 0, 30, 1 / 30) is None
+    assert loop_turn_note(_circling(0.0, 0.0), 0, 30, 1 / 30) is None

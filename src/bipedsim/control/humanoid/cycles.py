@@ -8,6 +8,7 @@ Frames are clip frames; angles rad, lengths m, times s.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import mujoco
@@ -51,6 +52,10 @@ CYCLE_STANCE_SCALE_M = 0.1
 #: have no steady stretch of walking do not (CMU 131's one and a half cycles between a leap and a stop
 #: 0.885, a Xia walk 1.36; docs/controller.md, *Cycles*)
 CYCLE_SEAM_WARN = 0.6
+#: A loop whose root heading turns more than this (deg) a pass is named in the clip's printout
+#: (:func:`loop_turn_note`): looped after the clip, its course is a circle. The 26 clips' best loops turn
+#: -8 to +6 deg but one (a 50 deg veer whose only loop lies inside it: 43 deg, docs/results.md).
+CYCLE_TURN_NOTE_DEG = 15.0
 #: Seconds before the loop's end over which its last frames are blended into the frames one loop
 #: earlier, so that the seam is continuous.
 SEAM_BLEND_S = 0.2
@@ -290,6 +295,31 @@ def running_note(contacts: npt.NDArray[np.bool_]) -> str | None:
             "may fall within its first steps")
 
 
+def root_heading(qpos: FloatArray) -> FloatArray:
+    """(T,) the root body's heading (rad): its x axis's yaw, from the free joint's quaternion."""
+    w, x, y, z = (qpos[:, 3 + k] for k in range(4))
+    return np.arctan2(2.0 * (x * y + w * z), 1.0 - 2.0 * (y * y + z * z))
+
+
+def loop_turn_note(qpos: FloatArray, a: int, b: int, frame_time: float) -> str | None:
+    """A clause for a loop over frames [a, b] of the clip ``qpos`` that turns more than
+    :data:`CYCLE_TURN_NOTE_DEG` a pass: how much, the circle its course then walks after the clip (its
+    radius from the root's travel over the loop) and how much the clip's own last loop-length turns;
+    None for a loop that turns less."""
+    heading = np.unwrap(root_heading(qpos))
+    turn = float(heading[b] - heading[a])
+    if abs(math.degrees(turn)) < CYCLE_TURN_NOTE_DEG:
+        return None
+    travel = float(np.linalg.norm(qpos[b, :2] - qpos[a, :2]))
+    n = len(qpos) - 1
+    end = math.degrees(float(heading[n] - heading[max(0, n - (b - a))]))
+    circle = (f"a circle of about {travel / (2.0 * math.sin(abs(turn) / 2.0)):.1f} m radius" if travel >= 0.05
+              else "turning on the spot")
+    return (f"the loop turns {math.degrees(turn):+.0f} deg each pass, so looped (after the clip, or throughout "
+            f"with source: cycle) the reference walks {circle} (the clip's own last {(b - a) * frame_time:.2f} s "
+            f"turn {end:+.0f} deg)")
+
+
 def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet) -> list[str]:
     """Lines saying what was found in a humanoid's reference clip: the feet and their strikes, the cycle
     looped and its speed, the whole clip's speed."""
@@ -310,6 +340,9 @@ def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet)
                      f"{c.seam:.3f}, steps {c.step_balance:.2f} alike, step speeds {c.steady:.2f} alike, stance "
                      f"feet {c.stance_float * 100:.1f} cm off the floor) at {loop_v:.2f} m/s; the whole clip "
                      f"{clip_speed(clip):.2f} m/s")
+        turning = loop_turn_note(clip.qpos, c.a, c.b, clip.frame_time)
+        if turning:
+            lines.append(f"cycle: {turning}")
         if c.seam > CYCLE_SEAM_WARN:
             lines.append(f"cycle: no clean gait cycle in this clip: the best loop's ends differ by {c.seam:.2f} rad "
                          f"(pose and velocity; a steady walk's loop closes within {CYCLE_SEAM_WARN}), so every "

@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.humanoid.cycles import Cycle, blend_seam
+from bipedsim.control.humanoid.cycles import Cycle, blend_seam, root_heading
 from bipedsim.control.humanoid.hinges import SIDES
 from bipedsim.reference.clip import ReferenceClip
 
@@ -68,12 +68,6 @@ def cycle_playlist(clip: ReferenceClip, cycle: Cycle, hq: FloatArray, hqd: Float
     return Playlist(qpos=clip.qpos, qvel=clip.qvel, q=blend_seam(hq, a, b, blend), qd=blend_seam(hqd, a, b, blend),
                     contacts=_feet(clip), a=a, b=b, once={s: np.zeros(0) for s in SIDES}, loop=loop, whole=False,
                     clip_end=clip.num_frames - 1)
-
-
-def root_heading(qpos: FloatArray) -> FloatArray:
-    """(T,) the root body's heading (rad): its x axis's yaw, from the free joint's quaternion."""
-    w, x, y, z = (qpos[:, 3 + k] for k in range(4))
-    return np.arctan2(2.0 * (x * y + w * z), 1.0 - 2.0 * (y * y + z * z))
 
 
 def whole_playlist(clip: ReferenceClip, cycle: Cycle | None, hq: FloatArray, hqd: FloatArray, blend: int,

@@ -263,3 +263,13 @@ def test_a_loop_that_turns_is_named_with_the_circle_it_walks() -> None:
     # a straight loop (and one that veers a little) says nothing
     assert loop_turn_note(_circling(np.radians(5.0), 20.0), 0, 30, 1 / 30) is None
     assert loop_turn_note(_circling(0.0, 0.0), 0, 30, 1 / 30) is None
+
+
+def test_a_loop_inside_a_veer_the_clip_leaves_is_said_to_follow_the_clip_after_it() -> None:
+    # 30 frames turning 43 deg (the loop), then 30 straight on: looped as captured it circles, but after the
+    # whole clip it turns as the clip's own last second does
+    q = _circling(np.radians(43.0), 2.0)
+    q[31:, 3:7] = q[30, 3:7]
+    note = loop_turn_note(q, 0, 30, 1 / 30)
+    assert note is not None and "turns +43 deg each pass (a circle of about 2.0 m radius" in note
+    assert "after the whole clip it is played turning as the clip's own last 1.00 s turn +0 deg" in note

@@ -53,8 +53,9 @@ CYCLE_STANCE_SCALE_M = 0.1
 #: 0.885, a Xia walk 1.36; docs/controller.md, *Cycles*)
 CYCLE_SEAM_WARN = 0.6
 #: A loop whose root heading turns more than this (deg) a pass is named in the clip's printout
-#: (:func:`loop_turn_note`): looped after the clip, its course is a circle. The 26 clips' best loops turn
-#: -8 to +6 deg but one (a 50 deg veer whose only loop lies inside it: 43 deg, docs/results.md).
+#: (:func:`loop_turn_note`): looped as captured, its course is a circle; after the whole clip it is
+#: turned to the clip's own rate where that differs by as much (playlist.LOOP_TURN_MATCH_DEG). The 26
+#: clips' best loops turn -8 to +6 deg but one (a 50 deg veer whose only loop lies inside it: 43 deg, docs/results.md).
 CYCLE_TURN_NOTE_DEG = 15.0
 #: Seconds before the loop's end over which its last frames are blended into the frames one loop
 #: earlier, so that the seam is continuous.
@@ -303,9 +304,10 @@ def root_heading(qpos: FloatArray) -> FloatArray:
 
 def loop_turn_note(qpos: FloatArray, a: int, b: int, frame_time: float) -> str | None:
     """A clause for a loop over frames [a, b] of the clip ``qpos`` that turns more than
-    :data:`CYCLE_TURN_NOTE_DEG` a pass: how much, the circle its course then walks after the clip (its
-    radius from the root's travel over the loop) and how much the clip's own last loop-length turns;
-    None for a loop that turns less."""
+    :data:`CYCLE_TURN_NOTE_DEG` a pass: how much, the circle it walks looped as captured (its radius from
+    the root's travel over the loop) and how much the clip's own last loop-length turns, which after the
+    whole clip it follows where the two differ by as much (``playlist.whole_playlist``); None for a loop
+    that turns less."""
     heading = np.unwrap(root_heading(qpos))
     turn = float(heading[b] - heading[a])
     if abs(math.degrees(turn)) < CYCLE_TURN_NOTE_DEG:
@@ -315,9 +317,12 @@ def loop_turn_note(qpos: FloatArray, a: int, b: int, frame_time: float) -> str |
     end = math.degrees(float(heading[n] - heading[max(0, n - (b - a))]))
     circle = (f"a circle of about {travel / (2.0 * math.sin(abs(turn) / 2.0)):.1f} m radius" if travel >= 0.05
               else "turning on the spot")
+    own = f"the clip's own last {(b - a) * frame_time:.2f} s turn {end:+.0f} deg"
+    if abs(end - math.degrees(turn)) >= CYCLE_TURN_NOTE_DEG:  # playlist.whole_playlist turns it to the clip's
+        return (f"the loop turns {math.degrees(turn):+.0f} deg each pass ({circle} looped as captured, as "
+                f"source: cycle walks it); after the whole clip it is played turning as {own}")
     return (f"the loop turns {math.degrees(turn):+.0f} deg each pass, so looped (after the clip, or throughout "
-            f"with source: cycle) the reference walks {circle} (the clip's own last {(b - a) * frame_time:.2f} s "
-            f"turn {end:+.0f} deg)")
+            f"with source: cycle) the reference walks {circle} ({own})")
 
 
 def describe_clip(clip: ReferenceClip, model: mujoco.MjModel, plan: BodyPlanSet) -> list[str]:

@@ -3,8 +3,9 @@
 ``source: clip`` plays the whole clip as captured, frame 0 to its end (its turns, speed changes, starts
 and stops), then its best gait cycle (:func:`~bipedsim.control.humanoid.cycles.best_cycle`) looped from
 where the clip left off: one copy of the cycle is appended at the clip's last strike of the cycle's
-foot, turned and moved so that it starts where the clip's pelvis is there, and eased into over
-:data:`~bipedsim.control.humanoid.cycles.SEAM_BLEND_S`; the source then loops that copy. A clip with
+foot, turned and moved so that it starts where the clip's pelvis is there (a loop that turns unlike the
+clip's end, turned evenly over its pass to the clip's own rate: :data:`LOOP_TURN_MATCH_DEG`), and eased
+into over :data:`~bipedsim.control.humanoid.cycles.SEAM_BLEND_S`; the source then loops that copy. A clip with
 no gait cycle (a gesture, a single step) holds its last frame after its end.
 
 ``source: cycle`` loops the best cycle from its first strike on, never playing the rest of the clip.
@@ -21,7 +22,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.humanoid.cycles import Cycle, blend_seam, root_heading
+from bipedsim.control.humanoid.cycles import CYCLE_TURN_NOTE_DEG, Cycle, blend_seam, root_heading
 from bipedsim.control.humanoid.hinges import SIDES
 from bipedsim.reference.clip import ReferenceClip
 
@@ -29,6 +30,10 @@ FloatArray = npt.NDArray[np.float64]
 
 #: frames appended after a clip with no gait cycle: its last frame, held
 HOLD_FRAMES = 2
+#: deg a pass: a loop whose heading turns more than this, and more than this otherwise than the clip's
+#: own over its last loop-length, is turned at the clip's rate (:func:`_turn_copy`): looped as captured,
+#: a loop found inside a veer the clip then leaves walks a circle after the clip
+LOOP_TURN_MATCH_DEG = CYCLE_TURN_NOTE_DEG
 
 
 @dataclass(frozen=True)
@@ -106,6 +111,10 @@ def whole_playlist(clip: ReferenceClip, cycle: Cycle | None, hq: FloatArray, hqd
         row[3:7] = quat
     copy_v = clip.qvel[ca:cb + 1].copy()
     copy_v[:, :2] = copy_v[:, :2] @ rot.T  # the free joint's linear velocity is world; its angular, local
+    # a loop that turns, otherwise than the clip's own last loop-length, turns at the clip's rate
+    own, loop_turn = float(heading[n - 1] - heading[max(0, n - 1 - period)]), float(heading[cb] - heading[ca])
+    if abs(math.degrees(loop_turn)) >= LOOP_TURN_MATCH_DEG:
+        _turn_copy(copy_q, copy_v, own - loop_turn, clip.frame_time)
     # the copy's hinges with the loop's own seam eased, then the clip eased into the copy after the cut
     loop_q = blend_seam(hq, ca, cb, blend)[ca:cb + 1]
     loop_qd = blend_seam(hqd, ca, cb, blend)[ca:cb + 1]
@@ -125,3 +134,32 @@ def whole_playlist(clip: ReferenceClip, cycle: Cycle | None, hq: FloatArray, hqd
     return Playlist(qpos=qpos, qvel=np.vstack([clip.qvel[:cut], copy_v]), q=q, qd=qd,
                     contacts=np.vstack([feet[:cut], feet[ca:cb + 1]]), a=cut, b=cut + period, once=once,
                     loop=loop, whole=True, clip_end=cut)
+
+
+def _turn_copy(copy_q: FloatArray, copy_v: FloatArray, extra: float, frame_time: float) -> None:
+    """Turn the loop's copy (qpos ``copy_q``, qvel ``copy_v``, in place) by ``extra`` rad more over its
+    pass, evenly from its first frame (0) to its last (all of it), where ``|extra|`` is at least
+    :data:`LOOP_TURN_MATCH_DEG`: its root's travel turned frame by frame, its orientation turned about
+    the vertical, its linear velocity (world) turned and its angular velocity (local) given the added
+    yaw rate. The hinges are as captured."""
+    if abs(math.degrees(extra)) < LOOP_TURN_MATCH_DEG or len(copy_q) < 2:
+        return
+    m = len(copy_q) - 1
+    rate = extra / (m * frame_time)
+    steps = np.diff(copy_q[:, :2], axis=0)
+    xy = copy_q[0, :2].copy()
+    for k in range(m + 1):
+        ang = extra * k / m
+        c, s = math.cos(ang), math.sin(ang)
+        if k:
+            dx, dy = steps[k - 1]
+            xy = xy + np.array([c * dx - s * dy, s * dx + c * dy])
+            copy_q[k, :2] = xy
+        quat = np.empty(4)
+        mujoco.mju_mulQuat(quat, np.array([math.cos(ang / 2), 0.0, 0.0, math.sin(ang / 2)]), copy_q[k, 3:7])
+        copy_q[k, 3:7] = quat
+        vx, vy = copy_v[k, :2]
+        copy_v[k, :2] = (c * vx - s * vy, s * vx + c * vy)
+        frame = np.empty(9)
+        mujoco.mju_quat2Mat(frame, quat)
+        copy_v[k, 3:6] += rate * frame.reshape(3, 3)[2]  # the world's vertical in the root's frame

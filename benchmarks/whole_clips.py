@@ -61,7 +61,7 @@ def one(job: tuple[str, str]) -> dict[str, object]:
         row["search_cpu_s"] = round(time.process_time() - c0, 1) if way == "default" else ""
         row["search"] = sc.extra.get("reconstruct", "")
         seconds = max(MIN_RUN_S, sc.clip.duration)
-        rec = Recorder(sc.built.model, record_hz=30.0, seconds=seconds)
+        rec = Recorder(sc.built.model, seconds=seconds)  # at bipedsim run's rate: its fidelity, to the cm
         out, ctrl = run_scenario(sc, RolloutSpec(seconds=seconds), hooks=[rec])
         tr = rec.trajectory()
         fid = measure_fidelity(sc.built.model, tr.time, tr.qpos, sc.clip.qpos, sc.clip.frame_time,

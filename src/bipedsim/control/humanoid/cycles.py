@@ -302,6 +302,19 @@ def root_heading(qpos: FloatArray) -> FloatArray:
     return np.arctan2(2.0 * (x * y + w * z), 1.0 - 2.0 * (y * y + z * z))
 
 
+def loop_turn_extra(qpos: FloatArray, a: int, b: int) -> float:
+    """The turn (rad) a pass of the loop over frames [a, b] of the clip ``qpos`` is given after the whole
+    clip: where the loop turns more than :data:`CYCLE_TURN_NOTE_DEG` a pass, and more than that otherwise
+    than the clip's own last loop-length, the difference, so that it turns at the clip's rate; else 0."""
+    heading = np.unwrap(root_heading(qpos))
+    turn = float(heading[b] - heading[a])
+    n = len(qpos) - 1
+    extra = float(heading[n] - heading[max(0, n - (b - a))]) - turn
+    if abs(math.degrees(turn)) < CYCLE_TURN_NOTE_DEG or abs(math.degrees(extra)) < CYCLE_TURN_NOTE_DEG:
+        return 0.0
+    return extra
+
+
 def loop_turn_note(qpos: FloatArray, a: int, b: int, frame_time: float) -> str | None:
     """A clause for a loop over frames [a, b] of the clip ``qpos`` that turns more than
     :data:`CYCLE_TURN_NOTE_DEG` a pass: how much, the circle it walks looped as captured (its radius from
@@ -318,7 +331,7 @@ def loop_turn_note(qpos: FloatArray, a: int, b: int, frame_time: float) -> str |
     circle = (f"a circle of about {travel / (2.0 * math.sin(abs(turn) / 2.0)):.1f} m radius" if travel >= 0.05
               else "turning on the spot")
     own = f"the clip's own last {(b - a) * frame_time:.2f} s turn {end:+.0f} deg"
-    if abs(end - math.degrees(turn)) >= CYCLE_TURN_NOTE_DEG:  # playlist.whole_playlist turns it to the clip's
+    if loop_turn_extra(qpos, a, b):  # playlist.whole_playlist turns it to the clip's
         return (f"the loop turns {math.degrees(turn):+.0f} deg each pass ({circle} looped as captured, as "
                 f"source: cycle walks it); after the whole clip it is played turning as {own}")
     return (f"the loop turns {math.degrees(turn):+.0f} deg each pass, so looped (after the clip, or throughout "

@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 
-from bipedsim.control.humanoid.cycles import CYCLE_TURN_NOTE_DEG, Cycle, blend_seam, root_heading
+from bipedsim.control.humanoid.cycles import CYCLE_TURN_NOTE_DEG, Cycle, blend_seam, loop_turn_extra, root_heading
 from bipedsim.control.humanoid.hinges import SIDES
 from bipedsim.reference.clip import ReferenceClip
 
@@ -31,8 +31,9 @@ FloatArray = npt.NDArray[np.float64]
 #: frames appended after a clip with no gait cycle: its last frame, held
 HOLD_FRAMES = 2
 #: deg a pass: a loop whose heading turns more than this, and more than this otherwise than the clip's
-#: own over its last loop-length, is turned at the clip's rate (:func:`_turn_copy`): looped as captured,
-#: a loop found inside a veer the clip then leaves walks a circle after the clip
+#: own over its last loop-length, is turned at the clip's rate (:func:`_turn_copy`; the rule is
+#: :func:`~bipedsim.control.humanoid.cycles.loop_turn_extra`): looped as captured, a loop found inside a
+#: veer the clip then leaves walks a circle after the clip
 LOOP_TURN_MATCH_DEG = CYCLE_TURN_NOTE_DEG
 
 
@@ -112,9 +113,9 @@ def whole_playlist(clip: ReferenceClip, cycle: Cycle | None, hq: FloatArray, hqd
     copy_v = clip.qvel[ca:cb + 1].copy()
     copy_v[:, :2] = copy_v[:, :2] @ rot.T  # the free joint's linear velocity is world; its angular, local
     # a loop that turns, otherwise than the clip's own last loop-length, turns at the clip's rate
-    own, loop_turn = float(heading[n - 1] - heading[max(0, n - 1 - period)]), float(heading[cb] - heading[ca])
-    if abs(math.degrees(loop_turn)) >= LOOP_TURN_MATCH_DEG:
-        _turn_copy(copy_q, copy_v, own - loop_turn, clip.frame_time)
+    extra = loop_turn_extra(clip.qpos, ca, cb)
+    if extra:
+        _turn_copy(copy_q, copy_v, extra, clip.frame_time)
     # the copy's hinges with the loop's own seam eased, then the clip eased into the copy after the cut
     loop_q = blend_seam(hq, ca, cb, blend)[ca:cb + 1]
     loop_qd = blend_seam(hqd, ca, cb, blend)[ca:cb + 1]
@@ -138,11 +139,10 @@ def whole_playlist(clip: ReferenceClip, cycle: Cycle | None, hq: FloatArray, hqd
 
 def _turn_copy(copy_q: FloatArray, copy_v: FloatArray, extra: float, frame_time: float) -> None:
     """Turn the loop's copy (qpos ``copy_q``, qvel ``copy_v``, in place) by ``extra`` rad more over its
-    pass, evenly from its first frame (0) to its last (all of it), where ``|extra|`` is at least
-    :data:`LOOP_TURN_MATCH_DEG`: its root's travel turned frame by frame, its orientation turned about
-    the vertical, its linear velocity (world) turned and its angular velocity (local) given the added
-    yaw rate. The hinges are as captured."""
-    if abs(math.degrees(extra)) < LOOP_TURN_MATCH_DEG or len(copy_q) < 2:
+    pass, evenly from its first frame (0) to its last (all of it): its root's travel turned frame by
+    frame, its orientation turned about the vertical, its linear velocity (world) turned and its angular
+    velocity (local) given the added yaw rate. The hinges are as captured."""
+    if len(copy_q) < 2:
         return
     m = len(copy_q) - 1
     rate = extra / (m * frame_time)
